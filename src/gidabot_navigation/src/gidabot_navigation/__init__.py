@@ -1,0 +1,1 @@
+"""GidaBot navigation package."""

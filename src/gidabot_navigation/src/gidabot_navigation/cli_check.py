@@ -1,0 +1,61 @@
+"""``gidabot check``: validate a building, or tour files against a building.
+
+    gidabot check maps/faculty
+    gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
+
+Prints every problem (file, key or line, value) and exits 1 if there is any.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from gidabot_navigation.building import Building, load_building
+from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.tours import check_tour_file_name, parse_tour
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="gidabot check", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("paths", nargs="+", type=Path, help="building directory/YAML, or tour files")
+    parser.add_argument("--building", type=Path, help="building to check tours against (rooms, floors)")
+    args = parser.parse_args(argv)
+
+    building: Building | None = None
+    if args.building is not None:
+        try:
+            building = load_building(args.building)
+        except BuildingError as err:
+            print(f"building {args.building}: {err}")
+            return 1
+    failures = 0
+    for path in args.paths:
+        if path.is_dir() or path.suffix in (".yaml", ".yml"):
+            try:
+                b = load_building(path)
+            except BuildingError as err:
+                print(f"FAIL {path}: {err}")
+                failures += 1
+                continue
+            print(f"ok   {path}: building {b.id!r}: {len(b.floors)} floors, {len(b.locations)} locations, "
+                  f"{len(b.connectors)} connectors, {len(b.robots)} robots, {len(b.relay_pairs())} relays")
+            continue
+        try:
+            check_tour_file_name(path.name)
+            data = path.read_bytes()
+            tour = parse_tour(data, path.name, building, source=str(path))
+        except (TourError, TourNameError) as err:
+            print(f"FAIL {path}: {err}")
+            failures += 1
+            continue
+        except OSError as err:
+            print(f"FAIL {path}: cannot read: {err.strerror}")
+            failures += 1
+            continue
+        floors = sorted({g.floor for g in tour.goals})
+        note = "" if building else " (rooms not checked: pass --building)"
+        print(f"ok   {path}: tour {tour.display_name!r}: {len(tour.goals)} goals on floors "
+              f"{', '.join(f'{f:g}' for f in floors)}{note}")
+    return 1 if failures else 0

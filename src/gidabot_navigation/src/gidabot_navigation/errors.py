@@ -1,0 +1,55 @@
+"""The exception hierarchy of gidabot_navigation (ROS-free).
+
+Every error message names the bad value and what was expected; loaders that can
+find several problems at once collect them as :class:`Problem` records and raise
+one error listing all of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+class GidaBotError(Exception):
+    """Base class of every error raised by gidabot_navigation."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One problem found in a data file: where (file, key or line) and what."""
+
+    file: str
+    where: str
+    message: str
+
+    def __str__(self) -> str:
+        return f"{self.file}: {self.where}: {self.message}"
+
+
+class ProblemsError(GidaBotError):
+    """A data file has one or more problems; ``problems`` lists all of them."""
+
+    def __init__(self, problems: list[Problem]) -> None:
+        self.problems = list(problems)
+        lines = "\n".join(f"  - {p}" for p in self.problems)
+        super().__init__(f"{len(self.problems)} problem(s):\n{lines}")
+
+
+class MapError(GidaBotError):
+    """An occupancy map (map_server YAML + image) cannot be loaded."""
+
+
+class BuildingError(ProblemsError):
+    """A building description is invalid."""
+
+
+class TourError(ProblemsError):
+    """A tour file is invalid."""
+
+
+class TourNameError(GidaBotError):
+    """A tour file name is unsafe or malformed."""
+
+
+class PlanningError(GidaBotError):
+    """A path cannot be planned (start or goal blocked, no path)."""

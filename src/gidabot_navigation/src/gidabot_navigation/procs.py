@@ -1,0 +1,191 @@
+"""Process management for system tests, benchmarks, the demo and fault injection (ROS-free).
+
+Every process is started in its own session (process group) and stopped by
+group id, never by name: SIGINT, then SIGTERM, then SIGKILL after deadlines.
+Waiting is always on a condition with a deadline (:func:`wait_until`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import subprocess
+import time
+import xmlrpc.client
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gidabot_navigation.errors import GidaBotError
+
+
+class ProcessError(GidaBotError):
+    """A managed process could not be started or stopped, or a wait timed out."""
+
+
+def wait_until(predicate: Callable[[], bool], timeout: float, what: str, interval: float = 0.05) -> float:
+    """Poll ``predicate`` until true; return the seconds waited or raise :class:`ProcessError`."""
+    start = time.monotonic()
+    deadline = start + timeout
+    while True:
+        if predicate():
+            return time.monotonic() - start
+        if time.monotonic() >= deadline:
+            raise ProcessError(f"timed out after {timeout:g} s waiting for {what}")
+        time.sleep(interval)
+
+
+def free_port(host: str = "127.0.0.1") -> int:
+    """A TCP port that is free on ``host`` right now."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind((host, 0))
+        return int(sock.getsockname()[1])
+
+
+def master_pid(uri: str, timeout: float = 0.5) -> int | None:
+    """PID of the ROS master at ``uri``, or None if it does not answer within ``timeout``."""
+    old = socket.getdefaulttimeout()
+    socket.setdefaulttimeout(timeout)
+    try:
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/gidabot_probe")
+        return int(pid) if code == 1 else None
+    except (OSError, xmlrpc.client.Error):
+        return None
+    finally:
+        socket.setdefaulttimeout(old)
+
+
+def ros_env(master_uri: str, ip: str, base: Mapping[str, str] | None = None,
+            log_dir: Path | None = None, **extra: str) -> dict[str, str]:
+    """Environment of a process that belongs to the robot whose master is ``master_uri``."""
+    env = dict(os.environ if base is None else base)
+    env.update({"ROS_MASTER_URI": master_uri, "ROS_IP": ip, "PYTHONUNBUFFERED": "1"})
+    env.pop("ROS_HOSTNAME", None)
+    if log_dir is not None:
+        log_dir.mkdir(parents=True, exist_ok=True)
+        env["ROS_LOG_DIR"] = str(log_dir)
+        env["ROS_HOME"] = str(log_dir)
+    env.update(extra)
+    return env
+
+
+@dataclass
+class Managed:
+    name: str
+    argv: list[str]
+    popen: subprocess.Popen
+    log_path: Path | None
+    env: dict[str, str] = field(repr=False)
+    cwd: str | None = None
+
+
+class ProcessGroup:
+    """A set of named processes, each in its own session; ``close()`` stops them all.
+
+    Use as a context manager so that nothing is left running, whatever happens.
+    """
+
+    def __init__(self, log_dir: Path | None = None) -> None:
+        self.log_dir = log_dir
+        self._procs: dict[str, Managed] = {}
+
+    def __enter__(self) -> ProcessGroup:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def start(self, name: str, argv: Sequence[str], env: Mapping[str, str] | None = None,
+              cwd: str | Path | None = None) -> Managed:
+        """Start ``argv`` as ``name`` (which must not be running) in a new session."""
+        if name in self._procs and self._procs[name].popen.poll() is None:
+            raise ProcessError(f"process {name!r} is already running (pid {self._procs[name].popen.pid})")
+        log_path = None
+        out: int | object = subprocess.DEVNULL
+        if self.log_dir is not None:
+            self.log_dir.mkdir(parents=True, exist_ok=True)
+            log_path = self.log_dir / f"{name.replace('/', '_')}.log"
+            out = open(log_path, "ab")  # noqa: SIM115 - closed when the process is reaped
+        try:
+            popen = subprocess.Popen(list(argv), env=dict(env) if env is not None else None,
+                                     cwd=str(cwd) if cwd else None, stdin=subprocess.DEVNULL,
+                                     stdout=out, stderr=subprocess.STDOUT, start_new_session=True)
+        except OSError as err:
+            raise ProcessError(f"cannot start {name!r} ({argv[0]}): {err.strerror}") from err
+        finally:
+            if hasattr(out, "close"):
+                out.close()  # the child holds its own copy
+        managed = Managed(name, list(argv), popen, log_path, dict(env or os.environ),
+                          str(cwd) if cwd else None)
+        self._procs[name] = managed
+        return managed
+
+    def restart(self, name: str) -> Managed:
+        """Stop ``name`` if running and start it again with the same command and environment."""
+        old = self._procs[name]
+        self.stop(name)
+        return self.start(name, old.argv, old.env, old.cwd)
+
+    def get(self, name: str) -> Managed:
+        return self._procs[name]
+
+    def names(self) -> list[str]:
+        return list(self._procs)
+
+    def alive(self, name: str) -> bool:
+        proc = self._procs.get(name)
+        return proc is not None and proc.popen.poll() is None
+
+    def signal(self, name: str, sig: int) -> None:
+        """Send ``sig`` to the whole process group of ``name`` (e.g. SIGSTOP/SIGCONT)."""
+        proc = self._procs[name]
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(proc.popen.pid, sig)
+
+    def stop(self, name: str, grace: float = 5.0) -> int | None:
+        """Stop ``name``'s process group: SIGINT, SIGTERM, then SIGKILL; returns the exit code."""
+        proc = self._procs.get(name)
+        if proc is None:
+            return None
+        pgid = proc.popen.pid
+        for sig, wait in ((signal.SIGCONT, 0.0), (signal.SIGINT, grace), (signal.SIGTERM, 2.0),
+                          (signal.SIGKILL, 5.0)):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(pgid, sig)
+            if wait == 0.0:
+                continue
+            try:
+                proc.popen.wait(timeout=wait)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        # the leader is gone; make sure no member of its group survives it
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(pgid, signal.SIGKILL)
+        return proc.popen.returncode
+
+    def close(self) -> None:
+        """Stop every process, newest first."""
+        for name in reversed(list(self._procs)):
+            self.stop(name, grace=3.0)
+
+
+def start_master(group: ProcessGroup, name: str, ip: str, port: int | None = None,
+                 timeout: float = 15.0) -> str:
+    """Start a rosmaster on ``ip`` (a 127.x.y.z address) and wait until it answers; return its URI."""
+    port = port or free_port(ip)
+    uri = f"http://{ip}:{port}/"
+    env = ros_env(uri, ip, log_dir=group.log_dir / name if group.log_dir else None)
+    group.start(name, ["rosmaster", "--core", "-p", str(port), "-w", "3"], env)
+    wait_until(lambda: master_pid(uri) is not None, timeout, f"master {name} at {uri}")
+    return uri
+
+
+@contextlib.contextmanager
+def masters(ips: Sequence[str], log_dir: Path | None = None) -> Iterator[tuple[ProcessGroup, list[str]]]:
+    """Context: one fresh master per address; yields (group, uris) and stops everything after."""
+    with ProcessGroup(log_dir) as group:
+        uris = [start_master(group, f"master{i}", ip) for i, ip in enumerate(ips)]
+        yield group, uris
