@@ -19,10 +19,13 @@ lint() {
   run catkin_lint catkin_lint -W2 --strict --ignore missing_directory src
 }
 unit() {
-  run unit pytest -q -p no:cacheprovider -m "not system" src "$@"
+  run unit pytest_suite -q -p no:cacheprovider -m "not system" src "$@"
 }
+# pytest exits 5 when a selection holds no test: not a failure for a suite
+pytest_suite() { local rc=0; pytest "$@" || rc=$?; [ "$rc" -eq 5 ] && rc=0; return "$rc"; }
+
 system() {
-  run system pytest -q -p no:cacheprovider -m "system" tests src "$@"
+  run system pytest_suite -q -p no:cacheprovider -m "system" tests src "$@"
   local t
   for t in src/*/test/*.test; do
     [ -e "$t" ] || continue
