@@ -53,3 +53,19 @@ class TourNameError(GidaBotError):
 
 class PlanningError(GidaBotError):
     """A path cannot be planned (start or goal blocked, no path)."""
+
+
+class TourStoreError(GidaBotError):
+    """The tour store cannot do what was asked (directory unusable, a file in the way, unknown tour)."""
+
+
+class TourRejected(TourStoreError):
+    """A tour message (local edit or from another robot) is invalid; nothing stored was touched.
+
+    ``reason`` is a short category used for counters (e.g. ``"file_name"``, ``"content"``,
+    ``"oversized"``); the message names the bad value and what was expected.
+    """
+
+    def __init__(self, reason: str, message: str) -> None:
+        self.reason = reason
+        super().__init__(message)
