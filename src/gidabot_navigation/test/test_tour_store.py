@@ -455,3 +455,10 @@ def test_unknown_robot_or_language_at_construction(faculty, tmp_path) -> None:
         TourStore(tmp_path, faculty, "R2D2", wall_ns=FakeClock(), log=ListLog())
     with pytest.raises(TourStoreError, match="default language 'fr'"):
         TourStore(tmp_path, faculty, "Kbot", wall_ns=FakeClock(), log=ListLog(), default_language="fr")
+
+
+def test_lone_surrogates_are_rejected(store) -> None:
+    out = store.receive(remote("real_world.tour", ["0, 014, L\udcffab"], T0))
+    assert (out.status, out.reason) == ("rejected", "encoding")
+    out = store.receive(remote("real_world.tour", VISIT, T0, name="\udcff"))
+    assert (out.status, out.reason) == ("rejected", "encoding")

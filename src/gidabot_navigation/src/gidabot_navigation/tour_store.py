@@ -181,6 +181,14 @@ def _has_control(text: str) -> bool:
     return any(unicodedata.category(ch) in ("Cc", "Cf", "Zl", "Zp") for ch in text)
 
 
+def _encodable(text: str) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def _short(value: object, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -526,8 +534,11 @@ class TourStore:
             raise TourRejected("oversized", f"tour message of about {size} bytes is larger than the "
                                             f"{self.limits.max_message_bytes} bytes allowed")
         for attr in ("uid", "origin_robot", "editor_robot", "language", "tour_name", "file_name"):
-            if not isinstance(getattr(msg, attr), str):
-                raise TourRejected("field", f"{attr} must be a string, got {_short(getattr(msg, attr))}")
+            value = getattr(msg, attr)
+            if not isinstance(value, str):
+                raise TourRejected("field", f"{attr} must be a string, got {_short(value)}")
+            if not _encodable(value):
+                raise TourRejected("encoding", f"{attr} {_short(value)} is not valid UTF-8 text")
         try:
             name = check_tour_file_name(msg.file_name)
         except TourNameError as err:
@@ -565,6 +576,8 @@ class TourStore:
         if len(goals) > MAX_GOALS:
             raise TourRejected("content", f"tour {name}: {len(goals)} goals; a tour may have at most {MAX_GOALS}")
         for i, line in enumerate(goals, start=1):
+            if not _encodable(line):
+                raise TourRejected("encoding", f"tour {name}: goal {i} {_short(line)} is not valid UTF-8 text")
             if "\n" in line or "\r" in line:
                 raise TourRejected("content", f"tour {name}: goal {i} {_short(line)} holds a line break; "
                                               "each goal is one line 'floor, room number, room description'")
