@@ -13,6 +13,8 @@ import sys
 COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gidabot_navigation.cli_bench", "benchmarks: 'bench relay', 'bench sim' (--json)"),
     "check": ("gidabot_navigation.cli_check", "validate a building directory or tour files"),
+    "demo": ("gidabot_sim.demo", "run the simulated building through a tour, record it, print the tables"),
+    "report": ("gidabot_sim.report", "the paper's tables and path plots from a run folder's rosbags"),
 }
 
 

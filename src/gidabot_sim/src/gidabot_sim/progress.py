@@ -1,0 +1,100 @@
+"""Progress of a run, from the monitor's JSON lines (ROS-free)."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+PHASES = {
+    0: "accepted", 1: "on the way", 2: "goal reached", 3: "go to floor", 4: "going to meeting point",
+    5: "waiting for the visitor", 6: "unreachable", 7: "no robot on floor", 8: "cancelled here",
+    9: "cancelled elsewhere", 10: "timeout", 11: "partner offline", 12: "rejected", 13: "tour step done",
+    14: "tour finished",
+}
+GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED = 2, 13, 14
+FAILURES = {6: "unreachable", 8: "cancelled", 9: "cancelled", 10: "timeout", 11: "partner offline",
+            12: "rejected"}
+
+
+@dataclass
+class Progress:
+    """What happened so far: goals issued and completed, the latest phase, the end."""
+
+    total_goals: int
+    tour_mode: bool = True
+    goals: dict[str, dict] = field(default_factory=dict)        # goal uid -> monitor record
+    completed: set[str] = field(default_factory=set)
+    robot: str = ""
+    phase: str = "starting"
+    finished: bool = False
+    outcome: str = ""
+    first_sim: float | None = None     # sim time of the first goal
+    last_sim: float | None = None      # sim time of the end
+    first_wall: float | None = None
+    last_wall: float | None = None
+    events: int = 0
+    states: dict[str, str] = field(default_factory=dict)
+
+    def feed_line(self, line: str) -> bool:
+        """Take one JSON line; return True when the visible progress changed."""
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            return False
+        return self.feed(rec) if isinstance(rec, dict) else False
+
+    def feed(self, rec: dict) -> bool:
+        kind = rec.get("kind")
+        if kind == "status":
+            self.states[str(rec.get("robot"))] = str(rec.get("state"))
+            return False
+        if kind == "goal":
+            uid = str(rec.get("uid"))
+            if uid in self.goals:
+                return False
+            self.goals[uid] = rec
+            if self.first_sim is None:
+                self.first_sim, self.first_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
+            return True
+        if kind != "event":
+            return False
+        self.events += 1
+        phase = int(rec.get("phase", -1))
+        self.robot, self.phase = str(rec.get("robot", "")), PHASES.get(phase, f"phase {phase}")
+        uid = str(rec.get("goal_uid", ""))
+        if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and uid:
+            self.completed.add(uid)
+        if not self.finished:
+            if phase == TOUR_FINISHED or (phase == GOAL_REACHED and not self.tour_mode):
+                self._finish("completed", rec)
+            elif phase in FAILURES:
+                self._finish(f"{FAILURES[phase]} ({rec.get('robot')}: {rec.get('detail', '')})", rec)
+        return True
+
+    def _finish(self, outcome: str, rec: dict) -> None:
+        self.finished, self.outcome = True, outcome
+        self.last_sim, self.last_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
+
+    @property
+    def goal_index(self) -> int:
+        return len(self.goals)
+
+    def current_goal(self) -> str:
+        if not self.goals:
+            return ""
+        last = list(self.goals.values())[-1]
+        return str(last.get("goal_id", ""))
+
+    def line(self) -> str:
+        return (f"goal {self.goal_index} of {self.total_goals} ({self.current_goal() or '-'}), "
+                f"{len(self.completed)} done | {self.robot or '-'}: {self.phase}")
+
+    def sim_seconds(self) -> float:
+        if self.first_sim is None or self.last_sim is None:
+            return 0.0
+        return max(0.0, self.last_sim - self.first_sim)
+
+    def wall_seconds(self) -> float:
+        if self.first_wall is None or self.last_wall is None:
+            return 0.0
+        return max(0.0, self.last_wall - self.first_wall)

@@ -1,0 +1,263 @@
+"""``gidabot report <run folder>``: the paper's tables from a run's rosbags (no ROS needed).
+
+A run folder (written by ``gidabot demo``/``chaos``) holds ``run.json`` and one
+rosbag per robot (``<robot>.bag``, recorded on that robot's master). Bags are
+read with the ``rosbags`` library, which takes the message definitions from the
+bags themselves. Printed (``--json``: the same as one JSON object):
+
+* per robot, goal messages received and processed (paper Table 3): received =
+  distinct goals seen on ``/gidabot/goals`` on that robot's master; processed =
+  trips the robot accepted (its own ``NavEvent.ACCEPTED`` events);
+* per robot, time, distance and mean velocity while guiding the visitor (paper
+  Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
+  distance integrated over the robot's ``/gidabot/poses``; and the tour total;
+* one PNG per floor with the path each robot followed over the blueprint (Fig. 7).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+# NavEvent phases (gidabot_msgs/NavEvent.msg); kept here so the report needs no ROS
+ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR = 0, 1, 2, 3
+UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE = 6, 8, 9, 10, 11
+TOUR_STEP_DONE, TOUR_FINISHED = 13, 14
+LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
+            PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
+COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
+
+
+class ReportError(Exception):
+    """A run folder cannot be reported on (missing files, unreadable bags)."""
+
+
+@dataclass(frozen=True)
+class Event:
+    t: float            # s, header stamp (sim time)
+    robot: str
+    goal_uid: str
+    phase: int
+
+
+@dataclass(frozen=True)
+class PoseSample:
+    t: float
+    x: float
+    y: float
+
+
+@dataclass
+class RobotRecord:
+    """What one robot's bag says."""
+
+    name: str
+    floor: float
+    goal_uids: set[str] = field(default_factory=set)
+    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    poses: list[PoseSample] = field(default_factory=list)  # this robot's poses, time-ordered
+
+
+@dataclass
+class RobotRow:
+    name: str
+    floor: float
+    received: int
+    processed: int
+    time_s: float
+    distance_m: float
+    mean_velocity_mps: float
+
+
+def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+    """[start, end] sim-time intervals while the robot was guiding the visitor."""
+    intervals: list[tuple[float, float]] = []
+    start: float | None = None
+    for ev in sorted(events, key=lambda e: e.t):
+        if ev.phase == ON_THE_WAY and start is None:
+            start = ev.t
+        elif ev.phase in LEG_ENDS and start is not None:
+            intervals.append((start, ev.t))
+            start = None
+    return intervals
+
+
+def path_length(poses: list[PoseSample], intervals: list[tuple[float, float]] | None = None) -> float:
+    """Distance in m along the pose samples (only inside ``intervals`` if given)."""
+    total = 0.0
+    for a, b in zip(poses, poses[1:], strict=False):
+        if intervals is not None and not any(s <= a.t and b.t <= e for s, e in intervals):
+            continue
+        step = math.hypot(b.x - a.x, b.y - a.y)
+        if math.isfinite(step):
+            total += step
+    return total
+
+
+def robot_row(rec: RobotRecord) -> RobotRow:
+    intervals = guiding_intervals(rec.events)
+    time_s = sum(e - s for s, e in intervals)
+    dist = path_length(rec.poses, intervals)
+    processed = len({e.goal_uid for e in rec.events if e.phase == ACCEPTED})
+    return RobotRow(rec.name, rec.floor, len(rec.goal_uids), processed, round(time_s, 1), round(dist, 1),
+                    round(dist / time_s, 3) if time_s > 0 else 0.0)
+
+
+def analyse(records: list[RobotRecord], run: dict) -> dict:
+    """The report as a JSON-able dict (``robots`` and ``tour``)."""
+    rows = [robot_row(r) for r in records]
+    completed = {e.goal_uid for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid}
+    all_goals = set().union(*(r.goal_uids for r in records)) if records else set()
+    time_s = sum(r.time_s for r in rows)
+    dist = sum(r.distance_m for r in rows)
+    sim_s, wall_s = float(run.get("sim_s", 0.0)), float(run.get("wall_s", 0.0))
+    tour = {
+        "file": run.get("tour", ""),
+        "goals": int(run.get("goals", len(all_goals))),
+        "completed": len(completed),
+        "time_s": round(time_s, 1),
+        "distance_m": round(dist, 1),
+        "mean_velocity_mps": round(dist / time_s, 3) if time_s > 0 else 0.0,
+        "sim_s": round(sim_s, 1),
+        "wall_s": round(wall_s, 1),
+        "sim_to_wall": round(sim_s / wall_s, 2) if wall_s > 0 else 0.0,
+    }
+    return {"robots": [asdict(r) for r in rows], "tour": tour}
+
+
+def format_tables(report: dict) -> str:
+    lines = ["Goal messages per robot (paper Table 3) and guiding data (paper Table 5)", ""]
+    head = f"{'Robot':<12} {'Floor':>5} {'Received':>9} {'Processed':>10} {'Time (s)':>9} {'Dist. (m)':>10} " \
+           f"{'Mean vel. (m/s)':>16}"
+    lines += [head, "-" * len(head)]
+    for r in report["robots"]:
+        lines.append(f"{r['name']:<12} {r['floor']:>5g} {r['received']:>9} {r['processed']:>10} {r['time_s']:>9.1f} "
+                     f"{r['distance_m']:>10.1f} {r['mean_velocity_mps']:>16.2f}")
+    t = report["tour"]
+    lines.append(f"{'Tour':<12} {'':>5} {'':>9} {'':>10} {t['time_s']:>9.1f} {t['distance_m']:>10.1f} "
+                 f"{t['mean_velocity_mps']:>16.2f}")
+    lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
+                  f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
+                  f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+# Reading bags (rosbags, no ROS)
+# ---------------------------------------------------------------------------
+
+def _stamp(msg: object, fallback_ns: int) -> float:
+    header = getattr(msg, "header", None)
+    if header is not None:
+        t = header.stamp.sec + header.stamp.nanosec * 1e-9
+        if t > 0:
+            return t
+    return fallback_ns * 1e-9
+
+
+def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
+    """Extract goals, this robot's events and poses from one robot's bag."""
+    from rosbags.highlevel import AnyReader
+
+    rec = RobotRecord(name, floor)
+    try:
+        with AnyReader([path]) as reader:
+            wanted = [c for c in reader.connections
+                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses")]
+            for conn, t_ns, raw in reader.messages(connections=wanted):
+                msg = reader.deserialize(raw, conn.msgtype)
+                if conn.topic == "/gidabot/goals":
+                    rec.goal_uids.add(msg.uid)
+                elif conn.topic == "/gidabot/nav_events":
+                    if msg.robot == name:
+                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                elif msg.robot == name:
+                    p = msg.nav_pose.position
+                    rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
+    except Exception as err:  # rosbags raises several unrelated types for damaged bags
+        raise ReportError(f"{path}: cannot read bag: {err}") from err
+    rec.poses.sort(key=lambda p: p.t)
+    return rec
+
+
+def load_run(folder: Path) -> tuple[dict, list[RobotRecord]]:
+    run_file = folder / "run.json"
+    try:
+        run = json.loads(run_file.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise ReportError(f"{run_file}: cannot read ({err.strerror}); is {folder} a run folder?") from err
+    except json.JSONDecodeError as err:
+        raise ReportError(f"{run_file}: not valid JSON: {err}") from err
+    records = []
+    for robot in run.get("robots", []):
+        bag = folder / robot.get("bag", f"{robot['name']}.bag")
+        if not bag.exists():
+            raise ReportError(f"{bag}: missing bag of robot {robot['name']}")
+        records.append(read_robot_bag(bag, robot["name"], float(robot.get("floor", 0))))
+    return run, records
+
+
+def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path]:
+    """One PNG per floor: the path each robot followed over the floor's blueprint (paper Fig. 7)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from gidabot_navigation.building import load_building
+
+    building = load_building(run["building"])
+    written = []
+    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
+    for floor in building.floors:
+        img = Image.open(floor.blueprint_file)
+        fig, ax = plt.subplots(figsize=(img.width / 100, img.height / 100 + 0.6), dpi=100)
+        ax.imshow(img)
+        for i, rec in enumerate(records):
+            if rec.floor != floor.id or not rec.poses:
+                continue
+            uv = [floor.transform.to_pixel(p.x, p.y) for p in rec.poses]
+            colour = colours[i % len(colours)]
+            ax.plot([u for u, _ in uv], [v for _, v in uv], "-", color=colour, linewidth=2, label=rec.name)
+            ax.plot(*uv[0], "o", color=colour, markersize=8)
+            ax.plot(*uv[-1], "s", color=colour, markersize=8)
+        ax.set_title(f"{floor.names['en']} ({floor.label}): paths followed", fontsize=12)
+        ax.set_axis_off()
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper right")
+        out = folder / f"paths_floor{floor.label}.png"
+        fig.savefig(out, bbox_inches="tight")
+        plt.close(fig)
+        written.append(out)
+    return written
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="gidabot report", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path, help="run folder written by gidabot demo / chaos")
+    parser.add_argument("--json", action="store_true", help="print the tables as one JSON object")
+    parser.add_argument("--no-plots", action="store_true", help="do not write the per-floor path PNGs")
+    args = parser.parse_args(argv)
+    try:
+        run, records = load_run(args.run)
+        report = analyse(records, run)
+        if not args.no_plots:
+            report["plots"] = [str(p) for p in plot_paths(args.run, run, records)]
+    except ReportError as err:
+        print(f"gidabot report: {err}", file=sys.stderr)
+        return 1
+    (args.run / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(format_tables(report))
+        for p in report.get("plots", []):
+            print(f"wrote {p}")
+    return 0

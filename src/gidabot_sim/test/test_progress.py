@@ -1,0 +1,41 @@
+"""Progress of a run from monitor lines."""
+
+from __future__ import annotations
+
+import json
+
+from gidabot_sim.progress import Progress
+
+
+def line(**kw) -> str:
+    return json.dumps(kw)
+
+
+def test_tour_progress_and_end() -> None:
+    p = Progress(total_goals=2)
+    assert p.feed_line(line(kind="goal", uid="g1", goal_id="014", sim=100.0, wall=10.0))
+    assert not p.feed_line(line(kind="goal", uid="g1", goal_id="014", sim=100.0, wall=10.0))  # seen
+    p.feed_line(line(kind="event", robot="Tartalo", phase=1, goal_uid="g1", sim=101, wall=10.1))
+    assert p.line() == "goal 1 of 2 (014), 0 done | Tartalo: on the way"
+    p.feed_line(line(kind="event", robot="Tartalo", phase=13, goal_uid="g1", sim=150, wall=15))
+    p.feed_line(line(kind="goal", uid="g2", goal_id="008", sim=160.0, wall=16.0))
+    p.feed_line(line(kind="event", robot="Tartalo", phase=14, goal_uid="g2", sim=300, wall=30))
+    assert p.finished and p.outcome == "completed" and len(p.completed) == 2
+    assert p.sim_seconds() == 200 and p.wall_seconds() == 20
+
+
+def test_failure_ends_and_garbage_is_ignored() -> None:
+    p = Progress(total_goals=1, tour_mode=False)
+    assert not p.feed_line("not json")
+    assert not p.feed_line("[1, 2]")
+    p.feed_line(line(kind="goal", uid="g", goal_id="305", sim=0, wall=0))
+    p.feed_line(line(kind="event", robot="MariSorgin", phase=6, goal_uid="g", detail="no path", sim=5, wall=1))
+    assert p.finished and p.outcome.startswith("unreachable (MariSorgin")
+
+
+def test_single_target_done() -> None:
+    p = Progress(total_goals=1, tour_mode=False)
+    p.feed_line(line(kind="goal", uid="g", goal_id="305", sim=0, wall=0))
+    p.feed_line(line(kind="status", robot="Kbot", state="idle"))
+    p.feed_line(line(kind="event", robot="Kbot", phase=2, goal_uid="g", sim=50, wall=5))
+    assert p.finished and p.outcome == "completed" and p.states == {"Kbot": "idle"}

@@ -1,0 +1,94 @@
+"""Report: Table 3/5 numbers from rosbags written like `rosbag record` does, and path plots."""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+
+from gidabot_sim import report
+
+REPO = Path(__file__).resolve().parents[3]
+
+
+def _bag(path: Path, messages: list[tuple[str, object, float]]) -> None:
+    """Write a rosbag1 file the way rosbag record does (genpy serialisation, full msgdef)."""
+    from rosbags.rosbag1 import Writer
+
+    with Writer(path) as writer:
+        conns = {}
+        for topic, msg, t in messages:
+            if topic not in conns:
+                msgtype = msg._type.replace("/", "/msg/")
+                conns[topic] = writer.add_connection(topic, msgtype, msgdef=msg._full_text, md5sum=msg._md5sum)
+            buf = io.BytesIO()
+            msg.serialize(buf)
+            writer.write(conns[topic], int(t * 1e9), buf.getvalue())
+
+
+def _event(robot: str, uid: str, phase: int, t: float):
+    from gidabot_msgs.msg import NavEvent
+
+    ev = NavEvent(robot=robot, goal_uid=uid, phase=phase)
+    ev.header.stamp.secs, ev.header.stamp.nsecs = int(t), int((t % 1) * 1e9)
+    return ev
+
+
+def _pose(robot: str, x: float, y: float, t: float):
+    from gidabot_msgs.msg import NavPose
+
+    p = NavPose(robot=robot)
+    p.nav_pose.position.x, p.nav_pose.position.y = x, y
+    p.header.stamp.secs, p.header.stamp.nsecs = int(t), int((t % 1) * 1e9)
+    return p
+
+
+def test_tables_from_bags(tmp_path: Path) -> None:
+    pytest.importorskip("gidabot_msgs.msg")
+    from gidabot_msgs.msg import Goal
+
+    goals = [Goal(uid=f"Tartalo/v/{i}") for i in range(3)]
+    msgs = [("/gidabot/goals", g, 1.0 + i) for i, g in enumerate(goals)]
+    msgs += [
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ACCEPTED, 10.0), 10.0),
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 10.0), 10.0),
+        ("/gidabot/nav_events", _event("Kbot", "Tartalo/v/1", report.ACCEPTED, 10.5), 10.5),  # another robot's
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.GOAL_REACHED, 30.0), 30.0),
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", report.ACCEPTED, 31.0), 31.0),
+    ]
+    msgs += [("/gidabot/poses", _pose("Tartalo", 10.0 + k, 12.0, 10.0 + k), 10.0 + k) for k in range(21)]
+    msgs += [("/gidabot/poses", _pose("Tartalo", 40.0, 12.0, 40.0), 40.0)]   # moving alone: not guiding
+    msgs.sort(key=lambda m: m[2])
+    _bag(tmp_path / "Tartalo.bag", msgs)
+    run = {"building": str(REPO / "maps" / "faculty"), "tour": "t.tour", "goals": 3, "sim_s": 600.0, "wall_s": 60.0,
+           "robots": [{"name": "Tartalo", "floor": 0, "bag": "Tartalo.bag"}]}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+
+    assert report.main([str(tmp_path), "--json"]) == 0
+    out = json.loads((tmp_path / "report.json").read_text())
+    row = out["robots"][0]
+    assert (row["received"], row["processed"]) == (3, 2)
+    assert row["time_s"] == pytest.approx(20.0) and row["distance_m"] == pytest.approx(20.0)
+    assert row["mean_velocity_mps"] == pytest.approx(1.0)
+    assert out["tour"]["completed"] == 1 and out["tour"]["sim_to_wall"] == pytest.approx(10.0)
+    assert len(out["plots"]) == 4 and all(Path(p).stat().st_size > 10_000 for p in out["plots"])
+    assert "Tartalo" in report.format_tables(out)
+
+
+def test_guiding_intervals_and_length() -> None:
+    ev = [report.Event(0, "R", "a", report.ON_THE_WAY), report.Event(5, "R", "a", report.GO_TO_FLOOR),
+          report.Event(9, "R", "b", report.ON_THE_WAY), report.Event(12, "R", "b", report.CANCELLED_HERE)]
+    assert report.guiding_intervals(ev) == [(0, 5), (9, 12)]
+    poses = [report.PoseSample(t, float(t), 0.0) for t in range(13)]
+    assert report.path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)
+    assert report.path_length(poses + [report.PoseSample(13, float("nan"), 0.0)]) == pytest.approx(12.0)
+
+
+def test_missing_run_folder(tmp_path: Path, capsys) -> None:
+    assert report.main([str(tmp_path)]) == 1
+    assert "run.json: cannot read" in capsys.readouterr().err
+    (tmp_path / "run.json").write_text(json.dumps({"robots": [{"name": "Kbot"}]}))
+    assert report.main([str(tmp_path)]) == 1
+    assert "Kbot.bag: missing bag of robot Kbot" in capsys.readouterr().err

@@ -1,0 +1,86 @@
+"""Simulated visitor: leaves, walks, arrives, presses Continue, skips, finishes."""
+
+from __future__ import annotations
+
+from gidabot_sim import visitor as v
+
+
+def cfg(robot: str, floor: float, **kw) -> v.VisitorConfig:
+    return v.VisitorConfig(robot=robot, floor=floor, **kw)
+
+
+def test_only_start_floor_starts_the_tour() -> None:
+    t0 = v.VisitorCore(cfg("Tartalo", 0, tour_file="real_world.tour"))
+    t3 = v.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour"))
+    [cmd] = t0.start(0.0)
+    assert cmd.command == v.START_TOUR and cmd.tour_file == "real_world.tour" and cmd.way == "stairs"
+    assert t3.start(0.0) == [] and not t3.present
+    assert t0.start(1.0) == []  # once
+
+
+def test_single_target_request() -> None:
+    core = v.VisitorCore(cfg("Tartalo", 0, goal_id="014", way="lift", language="eu"))
+    [cmd] = core.start(0.0)
+    assert (cmd.command, cmd.goal_id, cmd.way, cmd.language) == (v.REQUEST, "014", "lift", "eu")
+    core.on_event(50.0, "e1", "Tartalo", v.GOAL_REACHED, "g1", 0, 0)
+    assert core.finished and core.outcome == "goal reached"
+
+
+def test_cross_floor_walk_then_continue() -> None:
+    up = v.VisitorCore(cfg("MariSorgin", 3, stairs_s_per_floor=20.0, think_s=2.0))
+    # the robot up there arrives first and waits
+    up.on_event(10.0, "e1", "MariSorgin", v.WAITING_VISITOR, "g1", 3, 3)
+    assert up.step(10.0) == []
+    # the start robot sends the visitor up three floors at t = 12
+    up.on_event(12.0, "e2", "Tartalo", v.GO_TO_FLOOR, "g1", 0, 3)
+    assert up.step(71.0) == []            # 12 + 60 s of stairs not over yet
+    assert up.step(72.0) == []            # arrived: Continue after thinking
+    [cmd] = up.step(74.0)
+    assert (cmd.command, cmd.goal_uid) == (v.CONTINUE, "g1") and up.present
+
+
+def test_visitor_late_robot_later() -> None:
+    core = v.VisitorCore(cfg("Kbot", 1, way="lift", lift_wait_s=25, lift_s_per_floor=5, think_s=0))
+    core.on_event(0.0, "e1", "Tartalo", v.GO_TO_FLOOR, "g", 0, 1)      # arrives at 30
+    core.on_event(40.0, "e2", "Kbot", v.WAITING_VISITOR, "g", 1, 1)    # robot gets there at 40
+    [cmd] = core.step(40.0)
+    assert cmd.command == v.CONTINUE
+
+
+def test_leaving_and_duplicates() -> None:
+    core = v.VisitorCore(cfg("Tartalo", 0))
+    assert core.present
+    core.on_event(5.0, "e1", "Tartalo", v.GO_TO_FLOOR, "g", 0, 2)
+    assert not core.present
+    core.on_event(5.0, "e2", "Galtxagorri", v.WAITING_VISITOR, "g", 2, 2)  # another floor's robot
+    assert core.step(1000.0) == []
+    other = v.VisitorCore(cfg("Galtxagorri", 2, think_s=0))
+    for _ in range(2):  # a duplicated event is handled once
+        other.on_event(5.0, "e1", "Tartalo", v.GO_TO_FLOOR, "g", 0, 2)
+        other.on_event(6.0, "e3", "Galtxagorri", v.WAITING_VISITOR, "g", 2, 2)
+    assert len(other.step(100.0)) == 1
+
+
+def test_tour_steps_continue_and_skip() -> None:
+    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", skips=((3, 5),), think_s=1.0))
+    core.on_event(10.0, "a", "Kbot", v.TOUR_STEP_DONE, "g2", 1, 1, tour_step=2)
+    [cmd] = core.step(11.0)
+    assert cmd.command == v.CONTINUE and cmd.tour_file == "t.tour"
+    core.on_event(20.0, "b", "Kbot", v.TOUR_STEP_DONE, "g3", 1, 1, tour_step=3)
+    [cmd] = core.step(21.0)
+    assert (cmd.command, cmd.tour_step) == (v.SKIP, 5)
+    core.on_event(30.0, "c", "Kbot", v.TOUR_FINISHED, "g5", 1, 1, tour_step=5)
+    assert core.finished and core.outcome == "tour finished"
+
+
+def test_failures_end_the_visit() -> None:
+    for phase in (v.UNREACHABLE, v.TIMEOUT, v.CANCELLED_ELSEWHERE, v.PARTNER_OFFLINE):
+        core = v.VisitorCore(cfg("Kbot", 1))
+        core.on_event(1.0, "x", "Tartalo", phase, "g", 0, 1)
+        assert core.finished
+
+
+def test_walk_time() -> None:
+    c = cfg("R", 0, stairs_s_per_floor=20, lift_wait_s=25, lift_s_per_floor=5)
+    assert c.walk_time(0, 3) == 60
+    assert v.VisitorConfig(robot="R", floor=0, way="lift").walk_time(3, 0) == 25 + 15
