@@ -53,3 +53,7 @@ class TourNameError(GidaBotError):
 
 class PlanningError(GidaBotError):
     """A path cannot be planned (start or goal blocked, no path)."""
+
+
+class ObstacleError(PlanningError):
+    """An obstacle's shape is invalid (not finite, not positive, absurdly large)."""
