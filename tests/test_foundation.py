@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -29,18 +30,19 @@ def test_four_masters_on_their_own_addresses(faculty_masters) -> None:
 
 
 def test_cli_check(tmp_path) -> None:
-    from conftest import FACULTY, REPO
+    repo = Path(__file__).resolve().parents[1]
+    faculty = repo / "maps" / "faculty"
 
-    ok = subprocess.run([str(REPO / "bin/gidabot"), "check", str(FACULTY)], capture_output=True, text=True,
+    ok = subprocess.run([str(repo / "bin/gidabot"), "check", str(faculty)], capture_output=True, text=True,
                         timeout=120)
     assert ok.returncode == 0, ok.stdout + ok.stderr
     broken = tmp_path / "broken"
     import shutil
 
-    shutil.copytree(FACULTY, broken)
+    shutil.copytree(faculty, broken)
     text = (broken / "building.yaml").read_text().replace("drive: synchro", "drive: hovercraft")
     (broken / "building.yaml").write_text(text)
-    bad = subprocess.run([str(REPO / "bin/gidabot"), "check", str(broken)], capture_output=True, text=True,
+    bad = subprocess.run([str(repo / "bin/gidabot"), "check", str(broken)], capture_output=True, text=True,
                          timeout=120)
     assert bad.returncode == 1
     assert f"{broken}/building.yaml: robots[3].drive: 'hovercraft' is not one of differential, synchro" in bad.stdout

@@ -5,9 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from conftest import FACULTY, REPO, robot_ip
 from probe import Probe
-from tour_system import T_NOW, TOUR, VISIT, dir_state, hostile, start_store, tour
+from tour_system import FACULTY, REPO, T_NOW, TOUR, VISIT, dir_state, hostile, robot_ip, start_store, tour
 
 from gidabot_navigation.procs import ProcessGroup, ros_env, start_master, wait_until
 

@@ -9,9 +9,15 @@ from pathlib import Path
 from gidabot_navigation.procs import ProcessGroup
 
 REPO = Path(__file__).resolve().parents[1]
+FACULTY = REPO / "maps" / "faculty"
 LAUNCH = REPO / "launch" / "tour_store.launch"
 T_NOW = time.time_ns()
 TOUR = "gidabot_msgs/Tour"
+
+
+def robot_ip(index: int) -> str:
+    """The loopback address of robot ``index`` (as in tests/conftest.py)."""
+    return f"127.0.0.{11 + index}"
 
 
 def start_store(procs: ProcessGroup, env: dict[str, str], robot: str, building: Path, tours_dir: Path,

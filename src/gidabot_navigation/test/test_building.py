@@ -50,9 +50,7 @@ def test_lookups_and_copies(faculty) -> None:
 def test_relocate_building(tmp_path: Path, faculty) -> None:
     from gidabot_navigation.building import relocate_building
 
-    from .conftest import FACULTY
-
-    out = relocate_building(FACULTY, tmp_path / "copy", {"Tartalo": "http://127.0.0.11:45678/"})
+    out = relocate_building(Path(__file__).resolve().parents[3] / "maps" / "faculty", tmp_path / "copy", {"Tartalo": "http://127.0.0.11:45678/"})
     moved = load_building(out)
     assert moved.robot("Tartalo").port == 45678 and moved.robot("Kbot").port == 11311
     assert [loc.id for loc in moved.locations] == [loc.id for loc in faculty.locations]

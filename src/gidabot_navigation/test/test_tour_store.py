@@ -9,6 +9,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from tour_support import T0, TOURS, FakeClock, ListLog, open_store, snapshot, tour_msg
 
 from gidabot_navigation.errors import TourRejected, TourStoreError
 from gidabot_navigation.safe_dir import SafeDir
@@ -21,9 +22,6 @@ from gidabot_navigation.tour_store import (
     TourStore,
     index_entries,
 )
-
-from .conftest import TOURS
-from .tour_support import T0, FakeClock, ListLog, open_store, snapshot, tour_msg
 
 VISIT = ["0, 014, Computer Technicians 1", "1, 101, Secretary's Office", "3, 305, RSAIT Lab"]
 VISIT_TEXT = b"Tour\n0, 014, Computer Technicians 1\n1, 101, Secretary's Office\n3, 305, RSAIT Lab\n"

@@ -12,12 +12,10 @@ import random
 from pathlib import Path
 
 import pytest
+from tour_support import T0, TOURS, ListLog, snapshot, tour_msg
 
 from gidabot_navigation.errors import TourRejected
 from gidabot_navigation.tour_store import NS, TourMessage, TourStore
-
-from .conftest import TOURS
-from .tour_support import T0, ListLog, snapshot, tour_msg
 
 ROBOTS = ["Tartalo", "Kbot", "Galtxagorri", "MariSorgin"]
 GOAL_SETS = [

@@ -17,7 +17,7 @@ from gidabot_navigation.tours import (
     tour_from_lines,
 )
 
-from .conftest import TOURS
+TOURS = Path(__file__).resolve().parents[3] / "tours"
 
 TABLE2 = [(0, "Student Council"), (3, "IXA Lab"), (2, "C. Rodriguez's Office"), (1, "Dean's Office"),
           (2, "J. Abascal's Office"), (3, "B. Sierra's Office"), (0, "Computer Technicians 1"),

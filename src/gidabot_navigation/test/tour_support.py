@@ -7,6 +7,8 @@ from pathlib import Path
 
 from gidabot_navigation.tour_store import TourMessage, TourStore
 
+REPO = Path(__file__).resolve().parents[3]
+TOURS = REPO / "tours"
 T0 = 1_700_000_000 * 1_000_000_000       # a wall-clock instant in ns
 
 

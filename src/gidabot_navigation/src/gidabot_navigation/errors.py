@@ -55,6 +55,10 @@ class PlanningError(GidaBotError):
     """A path cannot be planned (start or goal blocked, no path)."""
 
 
+class ObstacleError(PlanningError):
+    """An obstacle's shape is invalid (not finite, not positive, absurdly large)."""
+
+
 class TourStoreError(GidaBotError):
     """The tour store cannot do what was asked (directory unusable, a file in the way, unknown tour)."""
 
