@@ -17,7 +17,15 @@ def _server(ip: str) -> tuple[socket.socket, int]:
     srv = socket.socket()
     srv.bind((ip, 0))
     srv.listen(4)
-    threading.Thread(target=lambda: [srv.accept()[0].close() for _ in range(4)], daemon=True).start()
+
+    def serve() -> None:
+        while True:
+            try:
+                srv.accept()[0].close()
+            except OSError:  # closed at the end of the test
+                return
+
+    threading.Thread(target=serve, daemon=True).start()
     return srv, srv.getsockname()[1]
 
 
