@@ -1,6 +1,6 @@
 """Fixtures for system tests: several ROS masters on loopback, every process cleaned up.
 
-Each robot gets its own loopback address (127.0.0.11, .12, ...) and a free port,
+Each robot gets its own loopback address (127.N.0.11, .12, ... with N per test session) and a free port,
 so concurrent test runs never collide; the building file is relocated to those
 master URIs in a temporary directory.
 """
@@ -14,14 +14,15 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building import Building, load_building, relocate_building
-from gidabot_navigation.procs import ProcessGroup, ros_env, start_master
+from gidabot_navigation.procs import ProcessGroup, robot_address, ros_env, start_master
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"
 
 
 def robot_ip(index: int) -> str:
-    return f"127.0.0.{11 + index}"
+    """Loopback address of robot ``index`` for this test session (see procs.robot_address)."""
+    return robot_address(index)
 
 
 @dataclass
@@ -53,7 +54,7 @@ def procs(tmp_path: Path) -> Iterator[ProcessGroup]:
 
 @pytest.fixture
 def faculty_masters(tmp_path: Path, procs: ProcessGroup) -> SimBuilding:
-    """The faculty with a running master per robot (free ports on 127.0.0.11-14)."""
+    """The faculty with a running master per robot (free ports on 127.N.0.11-14)."""
     base = load_building(FACULTY)
     uris = {r.name: start_master(procs, f"master_{r.name}", robot_ip(i)) for i, r in enumerate(base.robots)}
     path = relocate_building(FACULTY, tmp_path / "building", uris)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.procs import master_pid
+from gidabot_navigation.procs import master_pid, robot_address
 
 pytestmark = pytest.mark.system
 
@@ -22,7 +22,8 @@ def test_messages_import_in_venv() -> None:
 
 def test_four_masters_on_their_own_addresses(faculty_masters) -> None:
     robots = faculty_masters.building.robots
-    assert [r.ip for r in robots] == ["127.0.0.11", "127.0.0.12", "127.0.0.13", "127.0.0.14"]
+    assert [r.ip for r in robots] == [robot_address(i) for i in range(4)]
+    assert len({r.ip for r in robots}) == 4
     pids = {master_pid(r.master_uri) for r in robots}
     assert None not in pids and len(pids) == 4
     faculty_masters.restart_master("Kbot")

@@ -6,7 +6,7 @@ import os
 import time
 from pathlib import Path
 
-from gidabot_navigation.procs import ProcessGroup
+from gidabot_navigation.procs import ProcessGroup, robot_address
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"
@@ -16,8 +16,8 @@ TOUR = "gidabot_msgs/Tour"
 
 
 def robot_ip(index: int) -> str:
-    """The loopback address of robot ``index`` (as in tests/conftest.py)."""
-    return f"127.0.0.{11 + index}"
+    """Loopback address of robot ``index`` for this test session (see procs.robot_address)."""
+    return robot_address(index)
 
 
 def start_store(procs: ProcessGroup, env: dict[str, str], robot: str, building: Path, tours_dir: Path,

@@ -44,6 +44,28 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(sock.getsockname()[1])
 
 
+def test_network() -> int:
+    """Second octet of the loopback network used by this process's tests and benchmarks.
+
+    ``GIDABOT_TEST_NET`` (1..254) if set, else derived from the process id, so
+    concurrent test sessions use disjoint addresses (and a link cut injected with
+    iptables in one session never touches another).
+    """
+    value = os.environ.get("GIDABOT_TEST_NET", "")
+    if value:
+        if not value.isdigit() or not 1 <= int(value) <= 254:
+            raise ProcessError(f"GIDABOT_TEST_NET={value!r}: expected a number 1..254 (127.N.0.x)")
+        return int(value)
+    return 20 + os.getpid() % 200
+
+
+def robot_address(index: int, net: int | None = None) -> str:
+    """Loopback address of robot ``index`` in tests and benchmarks: 127.<net>.0.<11 + index>."""
+    if not 0 <= index < 200:
+        raise ProcessError(f"robot index {index} out of range 0..199")
+    return f"127.{test_network() if net is None else net}.0.{11 + index}"
+
+
 def master_pid(uri: str, timeout: float = 0.5) -> int | None:
     """PID of the ROS master at ``uri``, or None if it does not answer within ``timeout``."""
     old = socket.getdefaulttimeout()
