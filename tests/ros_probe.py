@@ -8,14 +8,17 @@ Driven by JSON lines on stdin, one JSON reply line on stdout per command (see
     {"op": "pub", "topic": T, "type": "pkg/Type", "msg": {...}, "subs": 1, "latch": false}
                                                           publish once at least `subs` subscribers are connected
     {"op": "msgs", "topic": T, "since": 0}                 messages recorded on T (as dicts) from index `since`
+    {"op": "status"}                                       master watch: master_up, generation (re-registrations)
     {"op": "quit"}
 
-Messages are converted to and from plain dicts (times as float seconds).
+Messages are converted to and from plain dicts (times as float seconds). The probe keeps
+itself registered across master restarts (gidabot_navigation.master_watch.keep_registered).
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import threading
 import time
@@ -23,6 +26,8 @@ import time
 import genpy
 import roslib.message
 import rospy
+
+from gidabot_navigation.master_watch import keep_registered
 
 
 def to_dict(value: object) -> object:
@@ -54,7 +59,11 @@ def fill(msg: genpy.Message, data: dict) -> genpy.Message:
 
 
 def main() -> int:
+    # replies own the real stdout; everything else printed (rospy's log lines) goes to stderr
+    replies = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
     rospy.init_node("tour_probe", anonymous=True, disable_signals=True)
+    watch = keep_registered()
     lock = threading.Lock()
     recorded: dict[str, list] = {}
     subs: dict[str, rospy.Subscriber] = {}
@@ -65,8 +74,8 @@ def main() -> int:
             recorded[topic].append(to_dict(msg))
 
     def reply(obj: dict) -> None:
-        sys.stdout.write(json.dumps(obj) + "\n")
-        sys.stdout.flush()
+        replies.write(json.dumps(obj) + "\n")
+        replies.flush()
 
     for line in sys.stdin:
         if not line.strip():
@@ -100,6 +109,8 @@ def main() -> int:
                 with lock:
                     got = recorded.get(cmd["topic"], [])[int(cmd.get("since", 0)):]
                 reply({"ok": True, "msgs": got})
+            elif op == "status":
+                reply({"ok": True, "master_up": watch.up, "generation": watch.generation})
             elif op == "quit":
                 reply({"ok": True})
                 break
