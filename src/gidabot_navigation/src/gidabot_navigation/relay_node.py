@@ -1,0 +1,632 @@
+"""ROS adapter of one relay end: the ``relay_end`` node ``/gidabot_relay_<A>_<B>`` on one robot's master.
+
+The decisions live in :mod:`relay_link` (ROS-free). This module reads the parameters
+once, subscribes the shared topics as raw bytes, publishes what the peer sends with
+the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
+only hand bytes to the core and try a non-blocking send) and the master watch.
+Normally started by the relay supervisor (:mod:`relay_supervisor`), never by hand.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import io
+import os
+import selectors
+import socket
+import struct
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import genpy
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.master_watch import Event, MasterWatch, keep_registered
+from gidabot_navigation.relay_journal import Journal
+from gidabot_navigation.relay_link import (
+    EVENT,
+    STATE,
+    Action,
+    Close,
+    LinkConfig,
+    LinkCore,
+    RelayConfigError,
+    TopicSpec,
+    is_relay,
+    load_shared_topics,
+    read_secret,
+    relay_node_name,
+)
+
+EXIT_CONFIG = 2          # bad parameters: restarting will not help
+EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
+CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
+RETRY_INTERVAL = 0.25    # s between connect attempts
+RECV_BYTES = 1 << 18
+DEFAULT_TOPICS = Path(__file__).resolve().parents[2] / "config" / "shared_topics.yaml"
+
+
+class _RosLog:
+    def info(self, msg: str) -> None:
+        rospy.loginfo(msg)
+
+    def warning(self, msg: str) -> None:
+        rospy.logwarn(msg)
+
+    def error(self, msg: str) -> None:
+        rospy.logerr(msg)
+
+
+@dataclass(frozen=True)
+class Params:
+    robot_a: str
+    robot_b: str
+    side: str
+    link_host: str
+    link_port: int
+    bind_ip: str
+    topics_file: str
+    secret_file: str
+    state_dir: str
+    max_message_bytes: int
+    max_queue: int
+    max_inbound: int
+    heartbeat: float
+    link_timeout: float
+    state_rate: float
+    hold_grace: float
+    diagnostics_rate: float
+
+    @staticmethod
+    def read() -> Params:
+        def get(name: str, default: object = None) -> object:
+            value = rospy.get_param("~" + name, default)
+            if value is None:
+                raise RelayConfigError(f"~{name} is required")
+            return value
+
+        def number(name: str, default: float, integer: bool = False) -> float:
+            value = get(name, default)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0 \
+                    or (integer and int(value) != value):
+                raise RelayConfigError(f"~{name} must be a positive {'integer' if integer else 'number'}, "
+                                       f"got {value!r}")
+            return value
+
+        side = str(get("side"))
+        port = int(number("link_port", 1, integer=True))
+        if port > 65535:
+            raise RelayConfigError(f"~link_port {port} is not a TCP port")
+        host = str(get("link_host"))
+        _check_ip(host, "~link_host")
+        bind_ip = str(get("bind_ip", os.environ.get("ROS_IP", "")))
+        if bind_ip:
+            _check_ip(bind_ip, "~bind_ip")
+        return Params(robot_a=str(get("robot_a")), robot_b=str(get("robot_b")), side=side, link_host=host,
+                      link_port=port, bind_ip=bind_ip,
+                      topics_file=str(get("topics_file", "") or DEFAULT_TOPICS),
+                      secret_file=str(get("secret_file", "")), state_dir=str(get("state_dir")),
+                      max_message_bytes=int(number("max_message_bytes", 1 << 20, True)),
+                      max_queue=int(number("max_queue", 10000, True)),
+                      max_inbound=int(number("max_inbound", 10000, True)),
+                      heartbeat=float(number("heartbeat", 0.5)), link_timeout=float(number("link_timeout", 2.0)),
+                      state_rate=float(number("state_rate", 10.0)), hold_grace=float(number("hold_grace", 1.5)),
+                      diagnostics_rate=float(number("diagnostics_rate", 1.0)))
+
+
+def _check_ip(value: str, what: str) -> None:
+    try:
+        socket.inet_aton(value)
+    except OSError as err:
+        raise RelayConfigError(f"{what} {value!r} is not an IPv4 address (relays use IP addresses only)") from err
+    if value.count(".") != 3:
+        raise RelayConfigError(f"{what} {value!r} is not a dotted IPv4 address")
+
+
+def raw_class(cls: type) -> type:
+    """An AnyMsg subclass that publishes raw bytes under ``cls``'s type, md5 and definition."""
+    return type(f"Raw_{cls._type.replace('/', '_')}", (rospy.AnyMsg,),
+                {"_type": cls._type, "_md5sum": cls._md5sum, "_full_text": cls._full_text,
+                 "_has_header": False, "__slots__": ()})
+
+
+def make_validator(classes: dict[str, type]) -> Callable[[str, bytes], str | None]:
+    """validate(topic, payload): None if ``payload`` is exactly a well-formed message of the topic's type."""
+
+    def validate(topic: str, payload: bytes) -> str | None:
+        cls = classes[topic]
+        msg = cls()
+        try:
+            msg.deserialize(payload)
+            again = io.BytesIO()
+            msg.serialize(again)
+        except (genpy.DeserializationError, genpy.SerializationError, struct.error, ValueError, TypeError,
+                IndexError, UnicodeError) as err:
+            return f"not a valid {cls._type} ({len(payload)} bytes): {err}"
+        if again.getvalue() != payload:
+            return f"not a valid {cls._type} ({len(payload)} bytes): invalid UTF-8 or trailing bytes"
+        return None
+
+    return validate
+
+
+class _StateLatch(rospy.SubscribeListener):
+    """Gives a new subscriber of a state topic the latest value of every publisher (rospy's latch
+    holds only the last one published, which it sends itself right after this)."""
+
+    def __init__(self, node: RelayEndNode, topic: str) -> None:
+        self.node, self.topic = node, topic
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+        for msg in self.node.states_for_new_subscriber(self.topic):
+            peer_publish(msg)
+
+
+@dataclass
+class _Sock:
+    sock: socket.socket
+    outbuf: bytearray
+    connecting: bool = False
+    deadline: float = 0.0
+
+
+class RelayEndNode:
+    """One end of the relay between robots A and B, on this robot's master.
+
+    Node name: ``/gidabot_relay_<A>_<B>`` (the same on both masters; any node named
+    ``/gidabot_relay_*`` is a relay, and relays never forward what a relay published).
+
+    Subscribed topics (raw bytes, ``rospy.AnyMsg``): every shared topic of ``~topics_file``
+    (default ``config/shared_topics.yaml``): ``/gidabot/goals``, ``/gidabot/cancels``,
+    ``/gidabot/nav_events``, ``/gidabot/tours`` (events) and ``/gidabot/status``,
+    ``/gidabot/poses``, ``/gidabot/pending``, ``/gidabot/tour_index`` (states). Messages of
+    another type/md5, larger than ``~max_message_bytes``, malformed, or published by a relay
+    are not forwarded (counted).
+
+    Published topics: the same shared topics, with the messages of the other robot (events
+    queue 10000; states latched, every publisher's latest value given to late subscribers);
+    ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) at ``~diagnostics_rate``: status
+    ``relay <A>-<B>: <this robot>`` with connected, rtt_ms, queue_depth, forwarded, dropped,
+    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type and more.
+
+    Link: end ``b`` listens on ``~link_host``:``~link_port``; end ``a`` connects there from
+    ``~bind_ip``. Frames are authenticated with HMAC-SHA256 when ``~secret_file`` names a file.
+
+    Parameters:
+      - ``~robot_a``, ``~robot_b`` (str, required): the pair, in building order.
+      - ``~side`` (``a`` or ``b``, required): which robot's master this end is on.
+      - ``~link_host`` (IPv4, required), ``~link_port`` (int, required): end b's address.
+      - ``~bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
+      - ``~topics_file`` (path): the shared topics whitelist.
+      - ``~secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
+      - ``~state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
+      - ``~max_message_bytes`` (bytes, 1048576), ``~max_queue`` (events, 10000: unacknowledged
+        outbound), ``~max_inbound`` (events, 10000: received, not yet published).
+      - ``~heartbeat`` (s, 0.5), ``~link_timeout`` (s, 2.0): liveness, wall time.
+      - ``~state_rate`` (Hz, 10): max sends per (state topic, publisher).
+      - ``~hold_grace`` (s, 1.5): after this master restarted, events are held until the
+        subscribers seen before are back, or this long.
+      - ``~diagnostics_rate`` (Hz, 1).
+    """
+
+    def __init__(self, params: Params, watch: MasterWatch | None) -> None:
+        self.params = params
+        expected = rospy.get_name()
+        if expected != relay_node_name(params.robot_a, params.robot_b):
+            raise RelayConfigError(f"this end is named {expected}; the relay between {params.robot_a} and "
+                                   f"{params.robot_b} must be named {relay_node_name(params.robot_a, params.robot_b)}")
+        specs = load_shared_topics(params.topics_file)
+        self.specs = {s.name: s for s in specs}
+        classes = {s.name: _message_class(s) for s in specs}
+        secret = read_secret(params.secret_file) if params.secret_file else None
+        cfg = LinkConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
+                         md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
+                         max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
+                         max_inbound=params.max_inbound, heartbeat=params.heartbeat,
+                         link_timeout=params.link_timeout, state_rate=params.state_rate)
+        self.cfg = cfg
+        journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")
+        self.lock = threading.Lock()
+        self.core = LinkCore(cfg, journal, time.monotonic, _RosLog(), make_validator(classes))
+        self.raw = {n: raw_class(c) for n, c in classes.items()}
+        self._last_latched: dict[str, str] = {}
+        self.pubs: dict[str, rospy.Publisher] = {}
+        for s in specs:
+            if s.kind == STATE:
+                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=100, latch=True,
+                                                    subscriber_listener=_StateLatch(self, s.name))
+            else:
+                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=10000)
+        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
+        self.subs = [rospy.Subscriber(s.name, rospy.AnyMsg, self._on_local, callback_args=s.name)
+                     for s in specs]
+        # delivery hold across restarts of this end's master
+        self.expected_subs: dict[str, set[str]] = {s.name: set() for s in specs if s.kind == EVENT}
+        self.reopen_deadline: float | None = None
+        # I/O
+        self.sel = selectors.DefaultSelector()
+        self.socks: dict[int, _Sock] = {}
+        self._next_id = 1
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+        self.sel.register(self._wake_r, selectors.EVENT_READ, "wake")
+        self.listener: socket.socket | None = None
+        self._next_connect = 0.0
+        self._stop = threading.Event()
+        self._io_thread: threading.Thread | None = None
+        self.watch = watch
+        if watch is not None:
+            watch.add_listener(self._on_master_event)
+
+    # -- startup --------------------------------------------------------------------------
+    def listen(self) -> None:
+        """End b: bind the link port (raises OSError if it cannot)."""
+        if self.params.side != "b":
+            return
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            sock.bind((self.params.link_host, self.params.link_port))
+        except OSError:
+            sock.close()
+            raise
+        sock.listen(8)
+        sock.setblocking(False)
+        self.listener = sock
+        self.sel.register(sock, selectors.EVENT_READ, "listen")
+
+    # -- rospy callbacks (any thread): hand over and return --------------------------------
+    def _on_local(self, msg: rospy.AnyMsg, topic: str) -> None:
+        header = msg._connection_header or {}
+        payload = msg._buff if isinstance(msg._buff, bytes) else bytes(msg._buff)
+        with self.lock:
+            self._apply(self.core.local_message(topic, header.get("callerid", ""), header.get("type", ""),
+                                                header.get("md5sum", ""), payload))
+
+    def states_for_new_subscriber(self, topic: str) -> list[rospy.AnyMsg]:
+        with self.lock:
+            latest = self.core.latest_states(topic)
+            skip = self._last_latched.get(topic)
+        out = []
+        for m in latest:
+            if m.callerid != skip:
+                r = self.raw[topic]()
+                r._buff = m.payload
+                out.append(r)
+        return out
+
+    def _on_master_event(self, event: Event, watch: MasterWatch) -> None:
+        now = time.monotonic()
+        with self.lock:
+            if event is Event.DOWN:
+                self.core.set_master_up(False)
+                self.core.set_delivery_open(False)
+                self.reopen_deadline = None
+            elif event is Event.REREGISTER:
+                self.core.set_master_up(True)
+                self.core.set_delivery_open(False)
+                self.reopen_deadline = now + self.params.hold_grace
+        self._wake()
+
+    # -- actions (lock held) --------------------------------------------------------------
+    def _apply(self, actions: list[Action]) -> None:
+        """Carry out the core's actions: append and send at once (non-blocking); the I/O thread
+        sends what the socket could not take yet. Every send happens under the lock, in order."""
+        wake = False
+        for act in actions:
+            s = self.socks.get(act.conn)
+            if s is None:
+                continue
+            if isinstance(act, Close):
+                s.outbuf.clear()
+                self._close_sock(act.conn, notify=False)
+                continue
+            s.outbuf += act.data
+            self._flush(s)
+            if s.outbuf:
+                wake = True
+        if wake and threading.current_thread() is not self._io_thread:
+            self._wake()
+
+    def _flush(self, s: _Sock) -> None:
+        try:
+            while s.outbuf:
+                n = s.sock.send(s.outbuf)
+                if n <= 0:
+                    break
+                del s.outbuf[:n]
+        except (BlockingIOError, InterruptedError):
+            pass
+        except OSError:
+            s.outbuf.clear()        # the reader side will see the connection fail
+
+    def _wake(self) -> None:
+        with contextlib.suppress(BlockingIOError, OSError):
+            self._wake_w.send(b"\0")
+
+    def _close_sock(self, conn_id: int, notify: bool, reason: str = "closed") -> None:
+        s = self.socks.pop(conn_id, None)
+        if s is None:
+            return
+        with contextlib.suppress(KeyError, ValueError):
+            self.sel.unregister(s.sock)
+        with contextlib.suppress(OSError):
+            s.sock.close()
+        if notify:
+            self.core.connection_closed(conn_id, reason)
+
+    # -- the I/O thread -------------------------------------------------------------------
+    def run(self) -> None:
+        self._io_thread = threading.current_thread()
+        period = 1.0 / self.params.diagnostics_rate
+        next_diag = time.monotonic()
+        next_tick = time.monotonic()
+        try:
+            while not rospy.is_shutdown() and not self._stop.is_set():
+                now = time.monotonic()
+                with self.lock:
+                    timeout = min(self.core.next_tick_in(), max(0.0, next_tick - now), max(0.0, next_diag - now))
+                    self._update_interest()
+                if self.params.side == "a":
+                    self._maybe_connect(now)
+                    timeout = min(timeout, RETRY_INTERVAL)
+                for key, mask in self.sel.select(timeout):
+                    self._handle(key, mask)
+                now = time.monotonic()
+                self._check_connect_timeouts(now)
+                if now >= next_tick:
+                    next_tick = now + self.params.heartbeat / 2
+                    with self.lock:
+                        self._apply(self.core.tick())
+                        self._update_hold(now)
+                self._deliver()
+                if now >= next_diag:
+                    next_diag = max(next_diag + period, now)
+                    self._publish_diagnostics()
+        finally:
+            with self.lock:
+                self._apply(self.core.shutdown())
+                for cid in list(self.socks):
+                    self._close_sock(cid, notify=False)
+            if self.listener is not None:
+                self.listener.close()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake()
+
+    def _update_interest(self) -> None:
+        for cid, s in self.socks.items():
+            want = selectors.EVENT_WRITE if s.connecting else \
+                selectors.EVENT_READ | (selectors.EVENT_WRITE if s.outbuf else 0)
+            try:
+                key = self.sel.get_key(s.sock)
+                if key.events != want:
+                    self.sel.modify(s.sock, want, cid)
+            except KeyError:
+                self.sel.register(s.sock, want, cid)
+
+    def _handle(self, key: selectors.SelectorKey, mask: int) -> None:
+        if key.data == "wake":
+            with contextlib.suppress(BlockingIOError, OSError):
+                while self._wake_r.recv(4096):
+                    pass
+            return
+        if key.data == "listen":
+            self._accept()
+            return
+        cid = key.data
+        s = self.socks.get(cid)
+        if s is None:
+            return
+        if s.connecting:
+            self._finish_connect(cid, s)
+            return
+        if mask & selectors.EVENT_READ:
+            try:
+                data = s.sock.recv(RECV_BYTES)
+            except (BlockingIOError, InterruptedError):
+                data = None
+            except OSError as err:
+                with self.lock:
+                    self._close_sock(cid, notify=True, reason=f"receive error: {err.strerror}")
+                return
+            if data == b"":
+                with self.lock:
+                    self._close_sock(cid, notify=True, reason="connection closed by the other side")
+                return
+            if data:
+                with self.lock:
+                    self._apply(self.core.data_received(cid, data))
+        if mask & selectors.EVENT_WRITE:
+            with self.lock:
+                s = self.socks.get(cid)
+                if s is not None:
+                    self._flush(s)
+
+    def _accept(self) -> None:
+        assert self.listener is not None
+        while True:
+            try:
+                sock, _ = self.listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as err:
+                rospy.logwarn(f"{self.core.name}: accept failed: {err.strerror}")
+                return
+            self._add_sock(sock, initiator=False)
+
+    def _add_sock(self, sock: socket.socket, initiator: bool) -> None:
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        cid = self._next_id
+        self._next_id += 1
+        with self.lock:
+            self.socks[cid] = _Sock(sock, bytearray())
+            self.sel.register(sock, selectors.EVENT_READ, cid)
+            self._apply(self.core.connection_opened(cid, initiator))
+
+    def _maybe_connect(self, now: float) -> None:
+        with self.lock:
+            busy = self.core.active is not None or any(s.connecting for s in self.socks.values()) \
+                or bool(self.core.conns)
+        if busy or now < self._next_connect:
+            return
+        self._next_connect = now + RETRY_INTERVAL
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            if self.params.bind_ip:
+                sock.bind((self.params.bind_ip, 0))
+            sock.setblocking(False)
+            err = sock.connect_ex((self.params.link_host, self.params.link_port))
+        except OSError as e:
+            sock.close()
+            self.core.rlog.warning("connect", f"{self.core.name}: cannot connect to {self.params.link_host}:"
+                                              f"{self.params.link_port}: {e.strerror}")
+            return
+        if err not in (0, errno.EINPROGRESS):
+            sock.close()
+            return
+        cid = self._next_id
+        self._next_id += 1
+        with self.lock:
+            self.socks[cid] = _Sock(sock, bytearray(), connecting=True, deadline=now + CONNECT_TIMEOUT)
+            self.sel.register(sock, selectors.EVENT_WRITE, cid)
+
+    def _finish_connect(self, cid: int, s: _Sock) -> None:
+        err = s.sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+        with self.lock:
+            if err != 0:
+                self._close_sock(cid, notify=False)
+                return
+            s.connecting = False
+            s.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self.sel.modify(s.sock, selectors.EVENT_READ, cid)
+            self._apply(self.core.connection_opened(cid, True))
+
+    def _check_connect_timeouts(self, now: float) -> None:
+        with self.lock:
+            for cid, s in list(self.socks.items()):
+                if s.connecting and now > s.deadline:
+                    self._close_sock(cid, notify=False)
+
+    # -- deliveries (I/O thread only, so they stay in order) -------------------------------
+    def _deliver(self) -> None:
+        with self.lock:
+            deliveries = self.core.take_deliveries()
+        if not deliveries:
+            return
+        events = states = 0
+        for d in deliveries:
+            raw = self.raw[d.msg.topic]()
+            raw._buff = d.msg.payload
+            try:
+                if d.kind == STATE:
+                    with self.lock:
+                        self._last_latched[d.msg.topic] = d.msg.callerid
+                    self.pubs[d.msg.topic].publish(raw)
+                    states += 1
+                else:
+                    self.pubs[d.msg.topic].publish(raw)
+                    events += 1
+            except rospy.ROSException as err:       # shutting down
+                rospy.logwarn(f"{self.core.name}: cannot publish on {d.msg.topic}: {err}")
+                break
+        with self.lock:
+            self.core.delivered(events, states)
+
+    def _update_hold(self, now: float) -> None:
+        """Lock held. Track event subscribers; reopen delivery once the old ones are back."""
+        current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay(c.endpoint_id or "")}
+                   for t in self.expected_subs}
+        if self.core.delivery_open:
+            if self.core.master_up:
+                self.expected_subs = current
+            return
+        if self.reopen_deadline is None or not self.core.master_up:
+            return
+        missing = {t: sorted(self.expected_subs[t] - current[t]) for t in current}
+        missing = {t: m for t, m in missing.items() if m}
+        if missing and now < self.reopen_deadline:
+            return
+        held = len(self.core.state.pending_in)
+        why = "grace period over, still missing " + "; ".join(f"{t}: {', '.join(m)}" for t, m in missing.items()) \
+            if missing else "its subscribers are back"
+        rospy.loginfo(f"{self.core.name}: master is back and {why}; delivering {held} held event(s)")
+        self.core.set_delivery_open(True)
+        self.reopen_deadline = None
+
+    # -- diagnostics ----------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        with self.lock:
+            snap = self.core.snapshot()
+            down_since = self.core.link_down_since
+        status = DiagnosticStatus()
+        status.name = f"relay {self.cfg.robot_a}-{self.cfg.robot_b}: {self.cfg.robot}"
+        status.hardware_id = self.cfg.node_name
+        if not snap["connected"]:
+            status.level = DiagnosticStatus.ERROR
+            since = "" if down_since is None else f" for {time.monotonic() - down_since:.1f} s"
+            status.message = f"link to {self.cfg.peer_robot} down{since}; {snap['queue_depth']} event(s) queued"
+        elif snap["peer_master_up"] is False or not snap["master_up"] or not snap["delivery_open"]:
+            status.level = DiagnosticStatus.WARN
+            who = self.cfg.peer_robot if snap["peer_master_up"] is False else self.cfg.robot
+            status.message = f"connected; master of {who} down or restarting, events held"
+        else:
+            status.level = DiagnosticStatus.OK
+            status.message = f"connected to {self.cfg.peer_robot}, rtt {snap['rtt_ms']} ms"
+        snap["link_address"] = f"{self.params.link_host}:{self.params.link_port}"
+        snap["side"] = self.params.side
+        status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
+        arr = DiagnosticArray()
+        arr.header.stamp = rospy.Time.now()
+        arr.status = [status]
+        with contextlib.suppress(rospy.ROSException):
+            self.diag_pub.publish(arr)
+
+
+def _message_class(spec: TopicSpec) -> type:
+    import roslib.message
+
+    try:
+        cls = roslib.message.get_message_class(spec.type)
+    except (ImportError, ValueError, AttributeError) as err:
+        raise RelayConfigError(f"shared topic {spec.name}: cannot load message type {spec.type}: {err}") from err
+    if cls is None:
+        raise RelayConfigError(f"shared topic {spec.name}: unknown message type {spec.type} (is the workspace built?)")
+    return cls
+
+
+def main(argv: list[str] | None = None) -> int:
+    rospy.init_node("gidabot_relay", argv=argv if argv is not None else sys.argv)
+    try:
+        params = Params.read()
+    except (RelayConfigError, KeyError, ValueError) as err:
+        rospy.logfatal(f"relay end cannot start: {err}")
+        return EXIT_CONFIG
+    watch = keep_registered()
+    try:
+        node = RelayEndNode(params, watch)
+    except (GidaBotError, OSError) as err:
+        rospy.logfatal(f"relay end {rospy.get_name()} cannot start: {err}")
+        return EXIT_CONFIG
+    try:
+        node.listen()
+    except OSError as err:
+        rospy.logfatal(f"{node.core.name}: cannot listen on {params.link_host}:{params.link_port}: {err.strerror}")
+        node.core.journal.close()
+        return EXIT_PORT
+    rospy.loginfo(f"{node.core.name}: {'listening on' if params.side == 'b' else 'connecting to'} "
+                  f"{params.link_host}:{params.link_port}, {len(node.specs)} shared topics, "
+                  f"{'HMAC-SHA256' if node.cfg.secret else 'NO authentication'}")
+    rospy.on_shutdown(node.stop)
+    node.run()
+    return 0
