@@ -1,0 +1,34 @@
+"""The exception hierarchy of gidabot_sim (ROS-free).
+
+Every message names the bad value and what was expected. The simulator and the
+navigation stand-ins catch these at their ROS boundary: the input is logged,
+counted and dropped, the node keeps running.
+"""
+
+from __future__ import annotations
+
+from gidabot_navigation.errors import GidaBotError
+
+
+class SimError(GidaBotError):
+    """Base class of every error raised by gidabot_sim."""
+
+
+class SimConfigError(SimError):
+    """A simulator / stand-in parameter is invalid (not finite, out of range, unknown robot or floor)."""
+
+
+class PoseRejected(SimError):
+    """A pose cannot be used: not finite, outside the map, inside a wall, an obstacle or another robot."""
+
+
+class CommandRejected(SimError):
+    """A velocity command is not usable (NaN or infinite components)."""
+
+
+class ObstacleRejected(SimError):
+    """A run-time obstacle command is invalid (bad id, shape, size, action, or it overlaps a robot)."""
+
+
+class GoalRejected(SimError):
+    """A navigation goal is invalid (not finite, invalid quaternion, wrong frame)."""
