@@ -73,3 +73,23 @@ class TourRejected(TourStoreError):
     def __init__(self, reason: str, message: str) -> None:
         self.reason = reason
         super().__init__(message)
+
+
+class GuidingError(GidaBotError):
+    """Guiding (goal_manager / multirobot_navigation) cannot do what was asked."""
+
+
+class GoalRejected(GuidingError):
+    """A goal, cancel, event or visitor command is invalid; it was not acted upon.
+
+    ``reason`` is a short category used for counters (e.g. ``"floor"``, ``"location"``,
+    ``"not_finite"``, ``"too_long"``); the message names the bad value and what was expected.
+    """
+
+    def __init__(self, reason: str, message: str) -> None:
+        self.reason = reason
+        super().__init__(message)
+
+
+class NoRouteError(GuidingError):
+    """No connector or no path joins the start and the goal of a trip."""

@@ -1,0 +1,263 @@
+"""Test helpers for the guiding cores: a ROS-free building of goal managers and navigations.
+
+:class:`Bus` plays the relays and the local topics: every action of a core is queued
+and delivered (in order) to every robot's cores, as the shared topics would;
+:meth:`Bus.pump` delivers until nothing is left. move_base is replaced by a script:
+``MoveTo`` succeeds (the robot jumps to the target) unless the test says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from gidabot_navigation.building import Building
+from gidabot_navigation.goal_manager_core import GoalManagerConfig, GoalManagerCore
+from gidabot_navigation.guiding_types import (
+    CANCEL,
+    CONTINUE,
+    REQUEST,
+    SKIP,
+    START_TOUR,
+    CancelData,
+    CommandData,
+    MoveTo,
+    NavEventData,
+    SendCancel,
+    SendEvent,
+    SendGoal,
+    StopMoving,
+    Trip,
+)
+from gidabot_navigation.navigation_core import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.tour_mode import CatalogEntry
+from gidabot_navigation.tours import parse_tour
+
+
+class ListLog:
+    """A logger that keeps the lines."""
+
+    def __init__(self) -> None:
+        self.lines: list[tuple[str, str]] = []
+
+    def info(self, msg: str) -> None:
+        self.lines.append(("info", msg))
+
+    def warning(self, msg: str) -> None:
+        self.lines.append(("warning", msg))
+
+    def error(self, msg: str) -> None:
+        self.lines.append(("error", msg))
+
+
+def catalog_of(building: Building, *paths) -> list[CatalogEntry]:
+    """Catalog entries of tour files (pathlib paths)."""
+    entries = []
+    for p in paths:
+        tour = parse_tour(p.read_bytes(), p.name, building)
+        entries.append(CatalogEntry(p.name, tour.name, tuple(tour.goal_lines())))
+    return entries
+
+
+@dataclass
+class RobotCores:
+    name: str
+    gm: GoalManagerCore
+    nav: NavigationCore | None
+    moves: list[MoveTo] = field(default_factory=list)       # every move_base goal sent
+    stops: list[StopMoving] = field(default_factory=list)
+    active: MoveTo | None = None                           # the move_base goal running
+    pending_version: int = -1
+
+
+class Bus:
+    """Four (or any number of) robots' guiding cores linked like the relays link their masters."""
+
+    def __init__(self, building: Building, robots: list[str] | None = None, navigation: bool = True,
+                 auto_move: bool = True, continue_timeout: float = 300.0, partner_timeout: float = 120.0,
+                 catalog: list[CatalogEntry] | None = None) -> None:
+        self.building = building
+        self.now_ros = 100.0
+        self.now_wall = 1000.0
+        self.auto_move = auto_move
+        self.log = ListLog()
+        self.robots: dict[str, RobotCores] = {}
+        names = robots or [r.name for r in building.robots]
+        for name in names:
+            gm = GoalManagerCore(building, GoalManagerConfig(robot=name), self.log, self.now_wall, boot="t")
+            nav = None
+            if navigation:
+                nav = NavigationCore(building, NavigationConfig(robot=name, continue_timeout=continue_timeout,
+                                                                partner_timeout=partner_timeout),
+                                     self.log, self.now_wall, boot="t")
+                nav.on_move_base_available(True, self.now_ros)
+                home = building.robot(name).home
+                nav.on_pose(home.x, home.y, home.yaw)
+            self.robots[name] = RobotCores(name, gm, nav)
+            if catalog:
+                gm.on_catalog(catalog)
+                if nav:
+                    nav.on_catalog(catalog)
+        self.goals: list[Trip] = []
+        self.cancels: list[CancelData] = []
+        self.events: list[NavEventData] = []
+        self.queue: deque[Callable[[], None]] = deque()
+        self.deferred: deque[Callable[[], None]] = deque()
+        self.on_event: Callable[[NavEventData], None] | None = None
+        self.down: set[str] = set()          # robots whose deliveries are held back (link down)
+        self.held: list[tuple[str, Callable[[], None]]] = []
+        for r in self.robots.values():
+            self._sync_pending(r)
+
+    # -- delivery -------------------------------------------------------------------
+    def _to(self, robot: str, fn: Callable[[], None]) -> None:
+        if robot in self.down:
+            self.held.append((robot, fn))
+        else:
+            self.queue.append(fn)
+
+    def dispatch(self, sender: str, actions: list) -> None:
+        for act in actions:
+            if isinstance(act, SendGoal):
+                self.goals.append(act.trip)
+                for name, r in self.robots.items():
+                    self._to(name, lambda r=r, t=act.trip: self.run(r.name, r.gm.on_goal(t, self.now_ros,
+                                                                                          self.now_wall)))
+            elif isinstance(act, SendCancel):
+                self.cancels.append(act.cancel)
+                for name, r in self.robots.items():
+                    relay = name != sender
+                    self._to(name, lambda r=r, c=act.cancel, relay=relay: self._cancel(r, c, relay))
+            elif isinstance(act, SendEvent):
+                self.events.append(act.event)
+                if self.on_event is not None:
+                    self.on_event(act.event)
+                for name, r in self.robots.items():
+                    relay = name != sender
+                    self._to(name, lambda r=r, e=act.event, relay=relay: self._event(r, e, relay))
+            elif isinstance(act, MoveTo):
+                r = self.robots[sender]
+                r.moves.append(act)
+                r.active = act
+                if self.auto_move:
+                    self.queue.append(lambda r=r, m=act: self.finish_move(r.name, SUCCEEDED, m.token))
+            elif isinstance(act, StopMoving):
+                r = self.robots[sender]
+                r.stops.append(act)
+                if r.active is not None and r.active.token == act.token:
+                    r.active = None
+        self._sync_pending(self.robots[sender])
+
+    def _cancel(self, r: RobotCores, c: CancelData, relay: bool) -> None:
+        self.run(r.name, r.gm.on_cancel(c, self.now_ros, self.now_wall, from_relay=relay))
+        if r.nav:
+            self.run(r.name, r.nav.on_cancel(c, self.now_ros, self.now_wall, from_relay=relay))
+
+    def _event(self, r: RobotCores, e: NavEventData, relay: bool) -> None:
+        self.run(r.name, r.gm.on_nav_event(e, self.now_ros, self.now_wall, from_relay=relay))
+        if r.nav:
+            self.run(r.name, r.nav.on_nav_event(e, self.now_ros, self.now_wall, from_relay=relay))
+
+    def _sync_pending(self, r: RobotCores) -> None:
+        if r.nav is None or r.gm.version == r.pending_version:
+            return
+        r.pending_version = r.gm.version
+        snap = r.gm.pending(self.now_ros)
+        self.queue.append(lambda r=r, s=snap: self.run(r.name, r.nav.on_pending(s.goals, s.wait_new, self.now_ros,
+                                                                                  self.now_wall)))
+
+    def run(self, robot: str, actions: list) -> None:
+        self.dispatch(robot, actions)
+
+    def pump(self, limit: int = 100000) -> None:
+        """Deliver everything; then run what :meth:`soon` deferred (a visitor acting after a pause)."""
+        n = 0
+        while self.queue or self.deferred:
+            while self.queue:
+                self.queue.popleft()()
+                n += 1
+                assert n < limit, "the bus does not settle"
+            if self.deferred:
+                self.deferred.popleft()()
+
+    def soon(self, fn: Callable[[], None]) -> None:
+        """Run ``fn`` once every message under way has been delivered."""
+        self.deferred.append(fn)
+
+    def link_up(self, robot: str) -> None:
+        self.down.discard(robot)
+        held, self.held = [f for n, f in self.held if n == robot], [(n, f) for n, f in self.held if n != robot]
+        self.queue.extend(held)
+
+    # -- the outside world ----------------------------------------------------------
+    def finish_move(self, robot: str, status: str = SUCCEEDED, token: int | None = None, text: str = "") -> None:
+        r = self.robots[robot]
+        move = r.active
+        if move is None or (token is not None and move.token != token):
+            return
+        r.active = None
+        if status == SUCCEEDED and r.nav is not None:
+            r.nav.on_pose(move.x, move.y, move.yaw)
+            r.gm.on_pose(move.x, move.y, move.yaw)
+        self.run(robot, r.nav.on_move_base_result(move.token, status, text, self.now_ros, self.now_wall))
+
+    def abort(self, robot: str, text: str = "no path") -> None:
+        self.finish_move(robot, ABORTED, text=text)
+        self.pump()
+
+    def command(self, robot: str, command: int, **fields) -> None:
+        cmd = CommandData(command=command, uid=f"{robot}/v/cmd/{len(self.events)}", visitor_id="v", **fields)
+        r = self.robots[robot]
+        self.run(robot, r.gm.on_command(cmd, self.now_ros, self.now_wall))
+        if r.nav is not None and command == CONTINUE:
+            self.run(robot, r.nav.on_continue(cmd.goal_uid, self.now_ros, self.now_wall))
+        self.pump()
+
+    def request(self, robot: str, goal_id: str, way: str = "stairs") -> None:
+        self.command(robot, REQUEST, goal_id=goal_id, way=way, language="en")
+
+    def cont(self, robot: str, goal_uid: str = "") -> None:
+        self.command(robot, CONTINUE, goal_uid=goal_uid)
+
+    def cancel(self, robot: str, goal_uid: str = "") -> None:
+        self.command(robot, CANCEL, goal_uid=goal_uid)
+
+    def start_tour(self, robot: str, tour_file: str, way: str = "stairs") -> None:
+        self.command(robot, START_TOUR, tour_file=tour_file, way=way, language="en")
+
+    def skip(self, robot: str, tour_file: str, step: int, goal_uid: str = "") -> None:
+        self.command(robot, SKIP, tour_file=tour_file, tour_step=step, goal_uid=goal_uid)
+
+    def status_all(self, robots: list[str] | None = None) -> None:
+        """Every robot hears a status of each robot in ``robots`` (default: all) now (wall time)."""
+        for r in self.robots.values():
+            for name in robots or list(self.robots):
+                r.gm.on_status(name, self.now_wall)
+                if r.nav:
+                    r.nav.on_status(name, self.now_wall)
+
+    def tick(self, ros_dt: float = 0.0, wall_dt: float = 0.0) -> None:
+        self.now_ros += ros_dt
+        self.now_wall += wall_dt
+        for r in self.robots.values():
+            self.run(r.name, r.gm.tick(self.now_ros, self.now_wall))
+            if r.nav:
+                self.run(r.name, r.nav.tick(self.now_ros, self.now_wall))
+        self.pump()
+
+    # -- queries --------------------------------------------------------------------
+    def phases(self, robot: str | None = None, goal_uid: str | None = None) -> list[int]:
+        return [e.phase for e in self.events
+                if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)]
+
+    def last(self, robot: str, phase: int) -> NavEventData:
+        return [e for e in self.events if e.robot == robot and e.phase == phase][-1]
+
+    def queue_of(self, robot: str) -> list[str]:
+        return [t.uid for t in self.robots[robot].gm.queue]
+
+
+def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])
