@@ -41,7 +41,7 @@ import numpy as np
 
 from gidabot_navigation.errors import PlanningError
 from gidabot_navigation.geometry import Pose2D, wrap_angle
-from gidabot_navigation.occupancy import FREE
+from gidabot_navigation.occupancy import FREE, OccupancyMap
 from gidabot_navigation.planning import GridPlanner, Path, Shape
 from gidabot_sim.errors import GoalRejected, SimConfigError
 from gidabot_sim.kinematics import ZERO, Limits, Twist2D, clamp_velocity, integrate
@@ -75,6 +75,7 @@ class NavConfig:
     safety_time: float = 1.2             # s of motion checked against the costmap before each command
     pose_timeout: float = 5.0            # s without a pose estimate -> abort
     heading_gain: float = 2.0            # 1/s, turning-on-the-spot and final-heading gain
+    footprint_padding: float = 0.05      # m added to the robot's radius for planning (costmap_2d's padding)
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -135,6 +136,17 @@ class FollowedPath:
 
 class MoveBaseCore:
     """Plans and follows paths to one goal at a time (see the module docstring)."""
+
+    @classmethod
+    def for_robot(cls, grid: OccupancyMap, radius: float, limits: Limits, config: NavConfig | None = None,
+                  log: Logger | None = None, inflation_radius: float | None = None, cost_scaling: float = 3.0,
+                  goal_tolerance: float = 0.5) -> MoveBaseCore:
+        """A core with its planner: inscribed radius = ``radius`` + ``footprint_padding``."""
+        config = config or NavConfig()
+        padded = radius + config.footprint_padding
+        planner = GridPlanner(grid, padded, inflation_radius=max(inflation_radius or radius + 0.7, padded),
+                              cost_scaling=cost_scaling, goal_tolerance=goal_tolerance)
+        return cls(planner, limits, radius, config, log)
 
     def __init__(self, planner: GridPlanner, limits: Limits, radius: float, config: NavConfig | None = None,
                  log: Logger | None = None, static_planner: Callable[[], GridPlanner] | None = None) -> None:
@@ -415,14 +427,18 @@ class MoveBaseCore:
         return None
 
     def _trajectory_clear(self, pose: Pose2D, cmd: Twist2D) -> bool:
+        """True when moving at ``cmd`` for ``safety_time`` keeps the robot's disc off lethal cells (or at
+        least does not bring it closer). The costmap's clearance is measured between cell centres: the
+        edge of a lethal cell lies half a cell nearer."""
         dt = 0.1
+        margin = self.radius + 0.5 * self.planner.grid.resolution
         start = self.planner.clearance(pose.x, pose.y)
         p = pose
         steps = max(1, int(math.ceil(self.config.safety_time / dt)))
         for _ in range(steps):
             p = integrate(p, cmd, dt)
             c = self.planner.clearance(p.x, p.y)
-            if c < self.radius and c < start - 1e-6:
+            if c < margin and c < start - 1e-6:
                 return False
         return True
 

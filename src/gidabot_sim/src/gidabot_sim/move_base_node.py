@@ -20,7 +20,7 @@ from gidabot_msgs.msg import ObstacleArray
 from gidabot_navigation.building import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
-from gidabot_navigation.planning import GridPlanner, Path
+from gidabot_navigation.planning import Path
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.kinematics import ZERO, Limits, Twist2D
@@ -91,6 +91,7 @@ class MoveBaseNode:
       ``~xy_goal_tolerance`` (m, 0.25), ``~yaw_goal_tolerance`` (rad, 0.2), ``~controller_frequency`` (Hz, 10),
       ``~planner_patience`` (s, 5), ``~controller_patience`` (s, 15), ``~oscillation_timeout`` (s, 30),
       ``~oscillation_distance`` (m, 0.5), ``~lookahead`` (m, 0.8), ``~safety_time`` (s, 1.2),
+      ``~footprint_padding`` (m, 0.05: added to the radius for planning),
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
       ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false).
@@ -114,11 +115,10 @@ class MoveBaseNode:
 
         defaults = NavConfig()
         config = NavConfig(**{name: num(f"~{name}", value) for name, value in defaults.__dict__.items()})
-        planner = GridPlanner(floor.map, robot.radius,
-                              inflation_radius=num("~inflation_radius", robot.radius + 0.7),
-                              cost_scaling=num("~cost_scaling_factor", 3.0),
-                              goal_tolerance=num("~default_tolerance", 0.5))
-        self.core = MoveBaseCore(planner, Limits.of_robot(robot), robot.radius, config, _RosLog())
+        self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, _RosLog(),
+                                           inflation_radius=num("~inflation_radius", robot.radius + 0.7),
+                                           cost_scaling=num("~cost_scaling_factor", 3.0),
+                                           goal_tolerance=num("~default_tolerance", 0.5))
         self.spacing = num("~plan_point_spacing", floor.map.resolution)
         self.feedback_due = Periodic(num("~feedback_rate", 5.0))
         self.rate_hz = config.controller_frequency

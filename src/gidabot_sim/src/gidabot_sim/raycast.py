@@ -51,11 +51,25 @@ class RayCaster:
         self._padded = np.pad(self.dist, 1, constant_values=-1.0)
 
     def clearance(self, x: float, y: float) -> float:
-        """Distance (m) from the cell containing map point (x, y) to the nearest solid cell; 0 off the grid."""
-        col, row = self._to_cell(x, y)
-        if not (0 <= row < self.height and 0 <= col < self.width):
+        """Distance (m) from map point (x, y) to the nearest solid cell's edge; 0 off the grid or inside.
+
+        The distance field holds centre-to-centre distances; it is interpolated bilinearly at the
+        point and half a cell is taken off (the edge of a wall cell is half a cell before its centre),
+        which is exact for straight walls along the grid and within a few millimetres elsewhere.
+        """
+        lx, ly = self._local(x, y)
+        col, row = int(math.floor(lx)), int(math.floor(ly))
+        if not (0 <= row < self.height and 0 <= col < self.width) or self.solid[row, col]:
             return 0.0
-        return float(self.dist[row, col]) * self.resolution
+        fx, fy = lx - 0.5, ly - 0.5              # relative to cell centres
+        c0, r0 = int(math.floor(fx)), int(math.floor(fy))
+        ax, ay = fx - c0, fy - r0
+        c0, c1 = min(max(c0, 0), self.width - 1), min(max(c0 + 1, 0), self.width - 1)
+        r0, r1 = min(max(r0, 0), self.height - 1), min(max(r0 + 1, 0), self.height - 1)
+        d = self.dist
+        value = ((1 - ax) * (1 - ay) * d[r0, c0] + ax * (1 - ay) * d[r0, c1]
+                 + (1 - ax) * ay * d[r1, c0] + ax * ay * d[r1, c1])
+        return max(float(value) - 0.5, 0.0) * self.resolution
 
     def _to_cell(self, x: float, y: float) -> tuple[int, int]:
         lx, ly = self._local(x, y)
@@ -85,11 +99,11 @@ class RayCaster:
         t = np.zeros(n)
         hit_t = np.full(n, np.inf)
         idx = np.arange(n)
-        # per-ray constants for the exact boundary step (a zero component never reaches its boundary)
-        with np.errstate(divide="ignore"):
-            inv_x = np.where(dx != 0.0, 1.0 / np.where(dx != 0.0, dx, 1.0), 1e12)
-            inv_y = np.where(dy != 0.0, 1.0 / np.where(dy != 0.0, dy, 1.0), 1e12)
-        next_x, next_y = (dx > 0).astype(np.float64), (dy > 0).astype(np.float64)
+        # per-ray constants for the exact boundary step; a zero component is replaced by a tiny positive
+        # one, so its boundary is (practically) never the nearest
+        sx, sy = np.where(dx == 0.0, 1e-12, dx), np.where(dy == 0.0, 1e-12, dy)
+        inv_x, inv_y = 1.0 / sx, 1.0 / sy
+        next_x, next_y = (sx > 0).astype(np.float64), (sy > 0).astype(np.float64)
         pad = self._padded
         for _ in range(MAX_ITERATIONS):
             if idx.size == 0:

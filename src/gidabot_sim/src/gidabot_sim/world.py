@@ -197,7 +197,7 @@ class World:
         return cmd
 
     def clearance(self, x: float, y: float) -> float:
-        """Distance (m) from (x, y) to the nearest wall, unknown cell or obstacle; 0 off the map."""
+        """Distance (m) from (x, y) to the nearest edge of a wall, unknown cell or obstacle; 0 off the map."""
         return self.caster.clearance(x, y)
 
     def check_pose(self, index: int, pose: Pose2D, nudge: float = 0.5) -> Pose2D:
@@ -238,7 +238,7 @@ class World:
         r0, r1 = max(row - n, 0), min(row + n + 1, self.grid.height)
         c0, c1 = max(col - n, 0), min(col + n + 1, self.grid.width)
         rr, cc = np.mgrid[r0:r1, c0:c1]
-        ok = (self.caster.dist[r0:r1, c0:c1] * res >= radius) & ((rr - row) ** 2 + (cc - col) ** 2 <= n * n)
+        ok = ((self.caster.dist[r0:r1, c0:c1] - 0.5) * res >= radius) & ((rr - row) ** 2 + (cc - col) ** 2 <= n * n)
         if not ok.any():
             return None
         d2 = np.where(ok, (rr - row) ** 2 + (cc - col) ** 2, np.iinfo(np.int64).max)
