@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import http.client
 import io
 import os
 import selectors
@@ -19,6 +20,7 @@ import struct
 import sys
 import threading
 import time
+import xmlrpc.client
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +30,7 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.master_watch import Event, MasterWatch, keep_registered
+from gidabot_navigation.master_watch import Event, MasterWatch, keep_registered, proxy
 from gidabot_navigation.relay_journal import Journal
 from gidabot_navigation.relay_link import (
     EVENT,
@@ -47,6 +49,7 @@ from gidabot_navigation.relay_link import (
 
 EXIT_CONFIG = 2          # bad parameters: restarting will not help
 EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
+PARENT_ENV = "GIDABOT_RELAY_PARENT"   # set by the supervisor: exit when the parent is no longer this pid
 CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
 RETRY_INTERVAL = 0.25    # s between connect attempts
 RECV_BYTES = 1 << 18
@@ -85,40 +88,49 @@ class Params:
     diagnostics_rate: float
 
     @staticmethod
-    def read() -> Params:
-        def get(name: str, default: object = None) -> object:
-            value = rospy.get_param("~" + name, default)
-            if value is None:
-                raise RelayConfigError(f"~{name} is required")
-            return value
+    def parse(argv: list[str]) -> Params:
+        """The end's options (command line, never the parameter server: the end must start, and
+        queue, while its master is down). ROS remappings (``x:=y``) in ``argv`` are ignored."""
+        import argparse
 
-        def number(name: str, default: float, integer: bool = False) -> float:
-            value = get(name, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value > 0 \
-                    or (integer and int(value) != value):
-                raise RelayConfigError(f"~{name} must be a positive {'integer' if integer else 'number'}, "
-                                       f"got {value!r}")
-            return value
-
-        side = str(get("side"))
-        port = int(number("link_port", 1, integer=True))
-        if port > 65535:
-            raise RelayConfigError(f"~link_port {port} is not a TCP port")
-        host = str(get("link_host"))
-        _check_ip(host, "~link_host")
-        bind_ip = str(get("bind_ip", os.environ.get("ROS_IP", "")))
-        if bind_ip:
-            _check_ip(bind_ip, "~bind_ip")
-        return Params(robot_a=str(get("robot_a")), robot_b=str(get("robot_b")), side=side, link_host=host,
-                      link_port=port, bind_ip=bind_ip,
-                      topics_file=str(get("topics_file", "") or DEFAULT_TOPICS),
-                      secret_file=str(get("secret_file", "")), state_dir=str(get("state_dir")),
-                      max_message_bytes=int(number("max_message_bytes", 1 << 20, True)),
-                      max_queue=int(number("max_queue", 10000, True)),
-                      max_inbound=int(number("max_inbound", 10000, True)),
-                      heartbeat=float(number("heartbeat", 0.5)), link_timeout=float(number("link_timeout", 2.0)),
-                      state_rate=float(number("state_rate", 10.0)), hold_grace=float(number("hold_grace", 1.5)),
-                      diagnostics_rate=float(number("diagnostics_rate", 1.0)))
+        ap = argparse.ArgumentParser(prog="relay_end", description="one end of a GidaBot relay")
+        ap.add_argument("--robot_a", required=True)
+        ap.add_argument("--robot_b", required=True)
+        ap.add_argument("--side", required=True, choices=("a", "b"))
+        ap.add_argument("--link_host", required=True)
+        ap.add_argument("--link_port", required=True, type=int)
+        ap.add_argument("--bind_ip", default=os.environ.get("ROS_IP", ""))
+        ap.add_argument("--topics_file", default=str(DEFAULT_TOPICS))
+        ap.add_argument("--secret_file", default="")
+        ap.add_argument("--state_dir", required=True)
+        ap.add_argument("--max_message_bytes", type=int, default=1 << 20)
+        ap.add_argument("--max_queue", type=int, default=10000)
+        ap.add_argument("--max_inbound", type=int, default=10000)
+        ap.add_argument("--heartbeat", type=float, default=0.5)
+        ap.add_argument("--link_timeout", type=float, default=2.0)
+        ap.add_argument("--state_rate", type=float, default=10.0)
+        ap.add_argument("--hold_grace", type=float, default=1.5)
+        ap.add_argument("--diagnostics_rate", type=float, default=1.0)
+        args = [a for a in argv if ":=" not in a]
+        try:
+            ns = ap.parse_args(args)
+        except SystemExit as err:
+            raise RelayConfigError(f"bad relay_end options: {' '.join(args)}") from err
+        for name in ("max_message_bytes", "max_queue", "max_inbound", "heartbeat", "link_timeout",
+                     "state_rate", "hold_grace", "diagnostics_rate"):
+            value = getattr(ns, name)
+            if not value > 0 or value != value or value == float("inf"):
+                raise RelayConfigError(f"--{name} must be positive and finite, got {value!r}")
+        if not 0 < ns.link_port <= 65535:
+            raise RelayConfigError(f"--link_port {ns.link_port} is not a TCP port")
+        _check_ip(ns.link_host, "--link_host")
+        if ns.bind_ip:
+            _check_ip(ns.bind_ip, "--bind_ip")
+        for name in ("robot_a", "robot_b"):
+            value = getattr(ns, name)
+            if not value.replace("_", "").isalnum() or not value.isascii():
+                raise RelayConfigError(f"--{name} {value!r}: robot names are letters, digits and '_'")
+        return Params(**vars(ns))
 
 
 def _check_ip(value: str, what: str) -> None:
@@ -199,28 +211,29 @@ class RelayEndNode:
     Link: end ``b`` listens on ``~link_host``:``~link_port``; end ``a`` connects there from
     ``~bind_ip``. Frames are authenticated with HMAC-SHA256 when ``~secret_file`` names a file.
 
-    Parameters:
-      - ``~robot_a``, ``~robot_b`` (str, required): the pair, in building order.
-      - ``~side`` (``a`` or ``b``, required): which robot's master this end is on.
-      - ``~link_host`` (IPv4, required), ``~link_port`` (int, required): end b's address.
-      - ``~bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
-      - ``~topics_file`` (path): the shared topics whitelist.
-      - ``~secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
-      - ``~state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
-      - ``~max_message_bytes`` (bytes, 1048576), ``~max_queue`` (events, 10000: unacknowledged
-        outbound), ``~max_inbound`` (events, 10000: received, not yet published).
-      - ``~heartbeat`` (s, 0.5), ``~link_timeout`` (s, 2.0): liveness, wall time.
-      - ``~state_rate`` (Hz, 10): max sends per (state topic, publisher).
-      - ``~hold_grace`` (s, 1.5): after this master restarted, events are held until the
+    Options (command line, ``--name value``; not ``~params``, because an end must start and
+    queue while its master is down, and rospy uploads ``_param:=`` arguments to the master):
+      - ``--robot_a``, ``--robot_b`` (str, required): the pair, in building order.
+      - ``--side`` (``a`` or ``b``, required): which robot's master this end is on.
+      - ``--link_host`` (IPv4, required), ``--link_port`` (int, required): end b's address.
+      - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
+      - ``--topics_file`` (path): the shared topics whitelist.
+      - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
+      - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
+      - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
+        outbound), ``--max_inbound`` (events, 10000: received, not yet published).
+      - ``--heartbeat`` (s, 0.5), ``--link_timeout`` (s, 2.0): liveness, wall time.
+      - ``--state_rate`` (Hz, 10): max sends per (state topic, publisher).
+      - ``--hold_grace`` (s, 1.5): after this master restarted, events are held until the
         subscribers seen before are back, or this long.
-      - ``~diagnostics_rate`` (Hz, 1).
+      - ``--diagnostics_rate`` (Hz, 1).
     """
 
     def __init__(self, params: Params, watch: MasterWatch | None) -> None:
         self.params = params
-        expected = rospy.get_name()
-        if expected != relay_node_name(params.robot_a, params.robot_b):
-            raise RelayConfigError(f"this end is named {expected}; the relay between {params.robot_a} and "
+        name = rospy.get_name()
+        if name != relay_node_name(params.robot_a, params.robot_b):
+            raise RelayConfigError(f"this end is named {name} (remapped?); the relay between {params.robot_a} and "
                                    f"{params.robot_b} must be named {relay_node_name(params.robot_a, params.robot_b)}")
         specs = load_shared_topics(params.topics_file)
         self.specs = {s.name: s for s in specs}
@@ -249,7 +262,9 @@ class RelayEndNode:
                      for s in specs]
         # delivery hold across restarts of this end's master
         self.expected_subs: dict[str, set[str]] = {s.name: set() for s in specs if s.kind == EVENT}
-        self.reopen_deadline: float | None = None
+        # at start (journal replay) too: hold events until this master's subscribers are connected
+        self.core.set_delivery_open(False)
+        self.reopen_deadline: float | None = time.monotonic() + params.hold_grace
         # I/O
         self.sel = selectors.DefaultSelector()
         self.socks: dict[int, _Sock] = {}
@@ -369,8 +384,12 @@ class RelayEndNode:
         period = 1.0 / self.params.diagnostics_rate
         next_diag = time.monotonic()
         next_tick = time.monotonic()
+        parent = os.environ.get(PARENT_ENV, "")
         try:
             while not rospy.is_shutdown() and not self._stop.is_set():
+                if parent and str(os.getppid()) != parent:
+                    rospy.logerr(f"{self.core.name}: the relay supervisor (pid {parent}) is gone; exiting")
+                    break
                 now = time.monotonic()
                 with self.lock:
                     timeout = min(self.core.next_tick_in(), max(0.0, next_tick - now), max(0.0, next_diag - now))
@@ -386,7 +405,7 @@ class RelayEndNode:
                     next_tick = now + self.params.heartbeat / 2
                     with self.lock:
                         self._apply(self.core.tick())
-                        self._update_hold(now)
+                    self._update_hold(now)
                 self._deliver()
                 if now >= next_diag:
                     next_diag = max(next_diag + period, now)
@@ -544,25 +563,46 @@ class RelayEndNode:
             self.core.delivered(events, states)
 
     def _update_hold(self, now: float) -> None:
-        """Lock held. Track event subscribers; reopen delivery once the old ones are back."""
+        """Track event subscribers; reopen held delivery once every subscriber is connected.
+
+        "Every subscriber" = the non-relay subscribers connected before the hold, plus those
+        the master lists now; delivery reopens when all of them are connected to this end's
+        publishers, or when ``hold_grace`` is over (then it says who is missing)."""
         current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay(c.endpoint_id or "")}
                    for t in self.expected_subs}
-        if self.core.delivery_open:
-            if self.core.master_up:
+        with self.lock:
+            held, up, deadline = not self.core.delivery_open, self.core.master_up, self.reopen_deadline
+        if not held:
+            if up:
                 self.expected_subs = current
             return
-        if self.reopen_deadline is None or not self.core.master_up:
+        if deadline is None or not up:
             return
-        missing = {t: sorted(self.expected_subs[t] - current[t]) for t in current}
-        missing = {t: m for t, m in missing.items() if m}
-        if missing and now < self.reopen_deadline:
+        registered = self._registered_subscribers()
+        want = {t: {n for n in self.expected_subs[t] | registered.get(t, set()) if not is_relay(n)}
+                for t in current}
+        missing = {t: sorted(want[t] - current[t]) for t in current if want[t] - current[t]}
+        if missing and now < deadline:
             return
-        held = len(self.core.state.pending_in)
-        why = "grace period over, still missing " + "; ".join(f"{t}: {', '.join(m)}" for t, m in missing.items()) \
-            if missing else "its subscribers are back"
-        rospy.loginfo(f"{self.core.name}: master is back and {why}; delivering {held} held event(s)")
-        self.core.set_delivery_open(True)
-        self.reopen_deadline = None
+        with self.lock:
+            self.core.set_delivery_open(True)
+            self.reopen_deadline = None
+            held_events = len(self.core.state.pending_in)
+        why = ("grace period over, still missing " + "; ".join(f"{t}: {', '.join(m)}" for t, m in missing.items())
+               if missing else "every subscriber is connected")
+        rospy.loginfo(f"{self.core.name}: delivering {held_events} held event(s): {why}")
+
+    def _registered_subscribers(self) -> dict[str, set[str]]:
+        """Subscribers of the shared event topics registered with this end's master ({} if it does not answer)."""
+        if self.watch is None:
+            return {}
+        try:
+            code, _, state = proxy(self.watch.master_uri, 0.3).getSystemState(self.watch.caller_id)
+        except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError):
+            return {}
+        if code != 1:
+            return {}
+        return {topic: set(nodes) for topic, nodes in state[1] if topic in self.expected_subs}
 
     # -- diagnostics ----------------------------------------------------------------------
     def _publish_diagnostics(self) -> None:
@@ -606,12 +646,13 @@ def _message_class(spec: TopicSpec) -> type:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("gidabot_relay", argv=argv if argv is not None else sys.argv)
+    argv = list(sys.argv if argv is None else argv)
     try:
-        params = Params.read()
-    except (RelayConfigError, KeyError, ValueError) as err:
-        rospy.logfatal(f"relay end cannot start: {err}")
+        params = Params.parse(argv[1:])
+    except RelayConfigError as err:
+        print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
+    rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv)
     watch = keep_registered()
     try:
         node = RelayEndNode(params, watch)
