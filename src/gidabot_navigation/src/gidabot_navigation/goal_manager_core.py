@@ -73,6 +73,7 @@ from gidabot_navigation.guiding_types import (
 )
 from gidabot_navigation.liveness import PeerLiveness
 from gidabot_navigation.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
+from gidabot_navigation.tours import MAX_GOALS
 from gidabot_navigation.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role
 
 PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)
@@ -350,7 +351,8 @@ class GoalManagerCore:
 
         ``finishing``: a Continue after the last step ends the tour (TOUR_FINISHED) instead of a rejection.
         """
-        ctx = {"tour_file": tour_file, "tour_step": step, "language": cmd.language or (wait.language if wait else "")}
+        ctx = {"tour_file": tour_file, "tour_step": step if 0 <= step < MAX_GOALS else -1,
+               "language": cmd.language or (wait.language if wait else "")}
         tour = self.tours.get(tour_file)
         if tour is None:
             self.stats.inc("rejected_tour")

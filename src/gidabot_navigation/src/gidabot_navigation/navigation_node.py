@@ -62,6 +62,7 @@ from gidabot_navigation.navigation_core import (
 QUEUE_SIZE = 2000
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
+STATUS_WALL_PERIOD = 1.0   # wall s: a status at least this often, even when the sim clock is slow or stopped
 STATES = {GoalStatus.SUCCEEDED: SUCCEEDED, GoalStatus.ABORTED: ABORTED, GoalStatus.REJECTED: REJECTED_BY_SERVER,
           GoalStatus.PREEMPTED: PREEMPTED, GoalStatus.RECALLED: RECALLED, GoalStatus.LOST: LOST}
 STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if k.isupper() and isinstance(v, int)}
@@ -143,6 +144,7 @@ class NavigationNode:
         self.ignored_pending = 0
         self.client = actionlib.SimpleActionClient(params.move_base, MoveBaseAction)
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
+        self._status_wall = 0.0
         self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
         self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
         self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
@@ -198,6 +200,8 @@ class NavigationNode:
     def run(self) -> None:
         next_diag = time.monotonic() + 1.0
         while not rospy.is_shutdown():
+            if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
+                self.publish_status()      # liveness never depends on the (sim) clock running
             try:
                 kind, msg = self.inbox.get(timeout=0.2)
             except queue.Empty:
@@ -292,6 +296,7 @@ class NavigationNode:
 
     # -- outputs --------------------------------------------------------------------------
     def publish_status(self) -> None:
+        self._status_wall = time.monotonic()
         s = self.core.status(rospy.get_time())
         msg = RobotStatus()
         msg.header.stamp = rospy.Time.now()
