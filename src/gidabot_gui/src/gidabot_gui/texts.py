@@ -1,0 +1,237 @@
+"""Every sentence the GUI shows or speaks about trips (ROS-free).
+
+Texts are built from records (:class:`~gidabot_gui.flow.Notice`, wait estimates)
+each time they are shown, in the translator's current language, so a pop-up on
+screen is re-translated when the visitor switches language. Source strings are
+English; ``tools/update-translations.sh`` extracts them into the catalogs.
+Place and floor names come from the building file.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from gidabot_gui.flow import Notice
+from gidabot_gui.i18n import N_, Translator
+from gidabot_gui.model import WAY_LIFT, TourInfo, finite
+from gidabot_gui.places import floor_name, place_name
+from gidabot_gui.plans import RequestPlan, RobotWait
+from gidabot_navigation.building import Building
+
+
+@dataclass(frozen=True)
+class PopupText:
+    title: str
+    body: str
+    speech: str
+    tone: str       # info | success | warning | error | action
+    note: str = ""  # highlighted reminder (walk behind the robot)
+
+
+STATE_LABELS = {
+    "idle": N_("Ready"),
+    "guiding": N_("Guiding a visitor"),
+    "to_meeting": N_("Going to meet a visitor"),
+    "waiting": N_("Waiting for a visitor"),
+    "returning": N_("Going back home"),
+    "error": N_("Navigation problem"),
+}
+
+
+class Texts:
+    """Sentences in the translator's current language."""
+
+    def __init__(self, tr: Translator, building: Building, robot: str) -> None:
+        self.tr = tr
+        self.building = building
+        self.robot = robot
+        self.tours: dict[str, TourInfo] = {}
+
+    @property
+    def lang(self) -> str:
+        return self.tr.language
+
+    # ------------------------------------------------------------------ names
+    def place(self, place_id: str) -> str:
+        """A location as "name (room)", a connector by name; "" if unknown."""
+        loc = self.building.find_location(place_id)
+        if loc is not None:
+            name = loc.name(self.lang)
+            return name if loc.id in name else f"{name} ({loc.id})"
+        return place_name(self.building, place_id, self.lang)
+
+    def spoken_place(self, place_id: str) -> str:
+        return place_name(self.building, place_id, self.lang)
+
+    def floor(self, floor: float) -> str:
+        name = floor_name(self.building, floor, self.lang)
+        return name or self.tr._("floor {floor}").format(floor=_num(floor))
+
+    def state(self, state: str) -> str:
+        label = STATE_LABELS.get(state)
+        return self.tr._(label) if label else self.tr._("Unknown state")
+
+    def minutes(self, seconds: float | None) -> str:
+        """A wait as the visitor wants to read it."""
+        t = self.tr
+        if seconds is None or not math.isfinite(seconds):
+            return t._("wait unknown")
+        if seconds < 30:
+            return t._("can start now")
+        m = max(1, math.ceil(seconds / 60.0 - 1e-9))
+        return t.n_("about {n} minute", "about {n} minutes", m).format(n=m)
+
+    def wait_line(self, w: RobotWait) -> str:
+        t = self.tr
+        who = t._("{robot} (this robot)").format(robot=w.robot) if w.here else w.robot
+        if not w.known:
+            return t._("{who}: not available right now").format(who=who)
+        if w.num == 0 and (w.wait_s is None or w.wait_s < 30):
+            return t._("{who}: free, can start now").format(who=who)
+        pending = t.n_("{n} request before yours", "{n} requests before yours", w.num).format(n=w.num)
+        return t._("{who}: {pending}, {wait}").format(who=who, pending=pending, wait=self.minutes(w.wait_s))
+
+    # ------------------------------------------------------------------ confirmation
+    def confirm(self, plan: RequestPlan) -> PopupText:
+        t = self.tr
+        lines = [self.floor(plan.goal_floor), "", t._("Waiting time:")]
+        lines += ["• " + self.wait_line(w) for w in plan.waits]
+        if plan.changes_floor and not plan.robot_on_goal_floor:
+            lines += ["", t._("No robot serves {floor}: there you will have to find the place on your own.")
+                      .format(floor=self.floor(plan.goal_floor))]
+        return PopupText(self.place(plan.goal_id), "\n".join(lines), "", "action")
+
+    def confirm_tour(self, tour: TourInfo, waits: tuple[RobotWait, ...]) -> PopupText:
+        t = self.tr
+        floors = len(tour.floors)
+        stops = t.n_("{n} stop", "{n} stops", len(tour.goals)).format(n=len(tour.goals))
+        on = t.n_("on {n} floor", "on {n} floors", floors).format(n=floors)
+        lines = [f"{stops} {on}", "", t._("Waiting time:")] + ["• " + self.wait_line(w) for w in waits]
+        return PopupText(tour.title, "\n".join(lines), "", "action")
+
+    # ------------------------------------------------------------------ events
+    def _robot_on(self, floor: float) -> str:
+        r = self.building.robot_on(floor) if finite(floor) else None
+        return r.name if r is not None else ""
+
+    def _tour_stop(self, n: Notice) -> tuple[str, str]:
+        """(title, next stop sentence) of a tour step notice."""
+        t = self.tr
+        tour = self.tours.get(n.tour_file)
+        step = n.tour_step
+        if tour is None or step < 0:
+            return t._("Stop reached"), ""
+        title = t._("Stop {n} of {total}").format(n=step + 1, total=len(tour.goals))
+        if step + 1 < len(tour.goals):
+            _floor, room, desc = tour.goals[step + 1]
+            name = self.place(room) or desc
+            return title, t._("Next stop: {place}.").format(place=name)
+        return title, ""
+
+    def notice(self, n: Notice) -> PopupText:  # noqa: C901 - one branch per phase
+        t = self.tr
+        ev = n.event
+        goal = self.place(n.goal_id) if n.goal_id else ""
+        spoken_goal = self.spoken_place(n.goal_id) if n.goal_id else ""
+        target = ev.target_floor if ev is not None else math.nan
+        connector = self.place(ev.connector) if ev is not None and ev.connector else ""
+        way = ev.way if ev is not None else ""
+        kind = n.kind
+        if kind == "ON_THE_WAY":
+            behind = t._("Please walk behind me, not in front of me or beside me: I need to see the way clear.")
+            lines = [t._("Destination: {place}.").format(place=goal)] if goal else []
+            loc = self.building.find_location(n.goal_id)
+            if connector and loc is not None and loc.floor != self.building.robot(self.robot).floor:
+                lines.append(t._("First we go to: {connector}.").format(connector=connector))
+            speech = [t._("Follow me.")]
+            if spoken_goal:
+                speech.append(t._("Destination: {place}.").format(place=spoken_goal))
+            speech.append(t._("Please walk behind me."))
+            return PopupText(t._("Follow me"), "\n\n".join(lines), " ".join(speech), "info", note=behind)
+        if kind == "GO_TO_FLOOR":
+            floor = self.floor(target)
+            robot = self._robot_on(target)
+            go = (t._("Take the lift ({connector}) to: {floor}.") if way == WAY_LIFT else
+                  t._("Take the stairs ({connector}) to: {floor}.")).format(connector=connector or "-", floor=floor)
+            if not connector:
+                go = (t._("Take the lift to: {floor}.") if way == WAY_LIFT else
+                      t._("Take the stairs to: {floor}.")).format(floor=floor)
+            wait = (t._("{robot} will wait for you there and guide you on.").format(robot=robot) if robot else
+                    t._("Nobody can guide you there: find the place on your own."))
+            return PopupText(t._("Please change floors"), f"{go}\n\n{wait}", f"{go} {wait}", "action")
+        if kind == "WAITING_VISITOR":
+            hello = t._("Hello, I am {robot}.").format(robot=self.robot)
+            lines = [hello]
+            if goal:
+                lines.append(t._("I will take you to: {place}.").format(place=goal))
+            press = t._("Press Continue when you are here.")
+            lines.append(press)
+            return PopupText(t._("Welcome!"), "\n\n".join(lines), f"{hello} {press}", "action")
+        if kind == "GOING_TO_MEETING":
+            where = connector or goal
+            text = (t._("I am going to meet a visitor at: {place}.").format(place=where) if where else
+                    t._("I am going to meet a visitor."))
+            return PopupText(text, "", "", "info")
+        if kind == "GOAL_REACHED":
+            here = t._("This is: {place}.").format(place=goal) if goal else ""
+            thanks = t._("Thank you for your visit!")
+            return PopupText(t._("You have arrived"), "\n\n".join(x for x in (here, thanks) if x),
+                             " ".join(x for x in (t._("You have arrived."), thanks) if x), "success")
+        if kind == "TOUR_STEP_DONE":
+            title, nxt = self._tour_stop(n)
+            here = t._("This is: {place}.").format(place=goal) if goal else ""
+            press = t._("Press Continue to go on, or choose another stop from the list.")
+            body = "\n\n".join(x for x in (here, nxt, press) if x)
+            speech = " ".join(x for x in (here.replace(f" ({n.goal_id})", ""), press) if x)
+            return PopupText(title, body, speech, "success")
+        if kind == "TOUR_FINISHED":
+            here = t._("This is: {place}.").format(place=goal) if goal else ""
+            thanks = t._("Thank you for your visit!")
+            return PopupText(t._("The tour is over"), "\n\n".join(x for x in (here, thanks) if x),
+                             " ".join((t._("The tour is over."), thanks)), "success")
+        if kind == "UNREACHABLE":
+            body = (t._("The way to {place} is blocked, so I cannot help you with this destination.")
+                    .format(place=goal) if goal else
+                    t._("The way is blocked, so I cannot help you with this destination."))
+            ask = t._("Please ask the staff of the building.")
+            return PopupText(t._("Sorry, I cannot get there"), f"{body}\n\n{ask}",
+                             t._("Sorry, I cannot help you: the way is blocked."), "error")
+        if kind == "NO_ROBOT_ON_FLOOR":
+            floor = self.floor(target)
+            first = t._("No robot serves this floor: {floor}.").format(floor=floor)
+            go = (t._("Go there by the lift and look for the place on your own: {place}.") if way == WAY_LIFT else
+                  t._("Go there by the stairs and look for the place on your own: {place}.")).format(
+                place=goal or "-")
+            return PopupText(t._("No guide on that floor"), f"{first}\n\n{go}", f"{first} {go}", "warning")
+        if kind == "CANCELLED_HERE":
+            ready = t._("I am ready for a new destination.")
+            spoken = t._("Trip cancelled.")
+            return PopupText(t._("Trip cancelled"), ready, f"{spoken} {ready}", "info")
+        if kind == "CANCELLED_ELSEWHERE":
+            body = t._("The trip was cancelled at another robot.")
+            return PopupText(t._("Trip cancelled"), body, body, "warning")
+        if kind == "TIMEOUT":
+            body = t._("Nobody pressed Continue in time, so the request was dropped.")
+            return PopupText(t._("Request dropped"), body, body, "warning")
+        if kind == "PARTNER_OFFLINE":
+            robot = self._robot_on(target)
+            body = (t._("{robot} cannot be reached right now, so the trip was stopped.").format(robot=robot)
+                    if robot else t._("Another robot cannot be reached right now, so the trip was stopped."))
+            again = t._("Please try again later.")
+            return PopupText(t._("A guide is not available"), f"{body}\n\n{again}", f"{body} {again}", "error")
+        if kind == "REJECTED":
+            body = t._("Please choose another destination.")
+            spoken = t._("Sorry, I cannot take this request.")
+            return PopupText(t._("Sorry, I cannot take this request"), body, f"{spoken} {body}", "error")
+        if kind == "NO_ANSWER":
+            body = t._("The guiding system did not answer. Please try again in a moment.")
+            return PopupText(t._("No answer"), body, body, "error")
+        if kind == "BUSY":
+            body = t._("Finish or cancel the current trip first.")
+            return PopupText(t._("A trip is running"), body, body, "warning")
+        return PopupText(t._("Information"), "", "", "info")
+
+
+def _num(value: float) -> str:
+    return f"{value:g}" if finite(value) else "?"
