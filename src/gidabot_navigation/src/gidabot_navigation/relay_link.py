@@ -296,7 +296,9 @@ class LinkCore:
         self.conns: dict[int, _Conn] = {}
         self.active: _Conn | None = None
         self.master_up = True
+        self.master_down_since: float | None = None
         self.peer_master_up: bool | None = None
+        self.peer_master_down_since: float | None = None
         self.rtt: float | None = None
         self.delivery_open = True
         self._handed_out = 0
@@ -419,6 +421,7 @@ class LinkCore:
             self.active = None
             self.rtt = None
             self.peer_master_up = None
+            self.peer_master_down_since = None
             self.stats.link_losses += 1
             self.link_down_since = self.clock()
             self._handed_out = min(self._handed_out, len(self.state.pending_in))
@@ -551,11 +554,11 @@ class LinkCore:
             self._acked(seq)
         elif ftype is FrameType.PING:
             t, up = decode_ping(body)
-            self.peer_master_up = up
+            self._peer_master(up)
             out.append(self._frame(conn, FrameType.PONG, encode_ping(t, self.master_up)))
         elif ftype is FrameType.PONG:
             t, up = decode_ping(body, "PONG")
-            self.peer_master_up = up
+            self._peer_master(up)
             rtt = self.clock() - t
             if 0 <= rtt < 60:
                 self.rtt = rtt
@@ -648,7 +651,14 @@ class LinkCore:
 
     # -- time -----------------------------------------------------------------------------
     def set_master_up(self, up: bool) -> None:
+        if up != self.master_up:
+            self.master_down_since = None if up else self.clock()
         self.master_up = up
+
+    def _peer_master(self, up: bool) -> None:
+        if up is not self.peer_master_up:
+            self.peer_master_down_since = None if up else self.clock()
+        self.peer_master_up = up
 
     def tick(self) -> list[Action]:
         """Heartbeats, liveness, coalesced states, handshake timeouts, compaction."""
@@ -702,8 +712,16 @@ class LinkCore:
     # -- diagnostics ----------------------------------------------------------------------
     def snapshot(self) -> dict[str, object]:
         s = self.stats
+        now = self.clock()
+
+        def since(t: float | None) -> float | None:
+            return None if t is None else round(now - t, 3)
+
         return {
             "connected": self.active is not None,
+            "link_down_s": since(self.link_down_since),
+            "master_down_s": since(self.master_down_since),
+            "peer_master_down_s": since(self.peer_master_down_since),
             "master_up": self.master_up,
             "peer_master_up": self.peer_master_up,
             "rtt_ms": None if self.rtt is None else round(self.rtt * 1000, 3),

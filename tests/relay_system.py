@@ -1,0 +1,230 @@
+"""Helpers of the relay system tests: the faculty's 4 masters linked by relays.launch, one probe per robot.
+
+    mesh = RelayMesh(faculty_masters, tmp_path)     # secret file, roslaunch relays.launch per robot
+    mesh.start(subscribe=[GOALS])                   # probes subscribe first, then the relays start
+    mesh.publish("Tartalo", GOALS, GOAL, {"uid": "g1"})
+    mesh.wait_uid("Kbot", GOALS, "g1")
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import xmlrpc.client
+from collections.abc import Callable
+from pathlib import Path
+
+from probe import Probe
+
+from gidabot_navigation.procs import ProcessError, wait_until
+
+REPO = Path(__file__).resolve().parents[1]
+RELAYS_LAUNCH = REPO / "launch" / "relays.launch"
+GOALS, GOAL = "/gidabot/goals", "gidabot_msgs/Goal"
+DIAG, DIAG_T = "/diagnostics", "diagnostic_msgs/DiagnosticArray"
+SECRET = "relay-test-secret-0123456789"
+
+
+class RelayMesh:
+    """The relays of a SimBuilding (conftest.faculty_masters) and one probe per robot."""
+
+    def __init__(self, sim, tmp_path: Path, secret: bool = True) -> None:
+        self.sim = sim
+        self.tmp = tmp_path
+        self.robots = [r.name for r in sim.building.robots]
+        self.secret_file = ""
+        if secret:
+            path = tmp_path / "relay.secret"
+            path.write_text(SECRET + "\n")
+            path.chmod(0o600)
+            self.secret_file = str(path)
+        self.state_dir = tmp_path / "relay_state"
+        self.probes: dict[str, Probe] = {}
+        self.subscribed: dict[str, set[str]] = {r: set() for r in self.robots}
+
+    # -- processes ------------------------------------------------------------------------
+    def start(self, subscribe: list[tuple[str, str]] | None = None, timeout: float = 60.0) -> None:
+        for r in self.robots:
+            self.probes[r] = Probe(self.sim.env(r), self.sim.log_dir / f"probe_{r}.log", timeout=30)
+        for r in self.robots:
+            self.sub(r, DIAG, DIAG_T)
+            for topic, type_ in subscribe or []:
+                self.sub(r, topic, type_)
+        for r in self.robots:
+            self.start_relays(r)
+        self.wait_connected(timeout)
+
+    def sub(self, robot: str, topic: str, type_: str) -> None:
+        self.probes[robot].sub(topic, type_)
+        self.subscribed[robot].add(topic)
+
+    def start_relays(self, robot: str) -> None:
+        self.sim.procs.start(f"relays_{robot}", ["roslaunch", str(RELAYS_LAUNCH), f"building:={self.sim.path}",
+                                                 f"robot:={robot}", f"secret:={self.secret_file}",
+                                                 f"state_dir:={self.state_dir}"], self.sim.env(robot))
+
+    def close(self) -> None:
+        """Stop the relays of every robot at once (each takes ~2 s to stop its ends), then the probes."""
+        names = [f"relays_{r}" for r in self.robots if self.sim.procs.alive(f"relays_{r}")]
+        for name in names:
+            self.sim.procs.signal(name, signal.SIGINT)
+        for name in names:
+            self.sim.procs.stop(name)
+        for p in self.probes.values():
+            p.close()
+
+    def __enter__(self) -> RelayMesh:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- names ----------------------------------------------------------------------------
+    def pair(self, x: str, y: str) -> tuple[str, str]:
+        """The relay pair (a, b) of robots x and y, in building order."""
+        return (x, y) if self.robots.index(x) < self.robots.index(y) else (y, x)
+
+    def end_status_name(self, on: str, other: str) -> str:
+        a, b = self.pair(on, other)
+        return f"relay {a}-{b}: {on}"
+
+    def robot(self, name: str):
+        return self.sim.building.robot(name)
+
+    # -- diagnostics ----------------------------------------------------------------------
+    def diag(self, robot: str, name: str) -> dict[str, str] | None:
+        """Values of the latest status ``name`` published on ``robot``'s master (with level and message)."""
+        msgs = self.probes[robot].msgs(DIAG)
+        for msg in reversed(msgs):
+            for st in msg["status"]:
+                if st["name"] == name:
+                    values = {kv["key"]: kv["value"] for kv in st["values"]}
+                    values["_level"], values["_message"] = st["level"], st["message"]
+                    values["_stamp"] = msg["header"]["stamp"]
+                    return values
+        return None
+
+    def end_diag(self, on: str, other: str) -> dict[str, str] | None:
+        return self.diag(on, self.end_status_name(on, other))
+
+    def wait_end(self, on: str, other: str, predicate: Callable[[dict[str, str]], bool], timeout: float,
+                 what: str) -> float:
+        def ok() -> bool:
+            d = self.end_diag(on, other)
+            return d is not None and predicate(d)
+        return wait_until(ok, timeout, f"{what} (relay end of {on} towards {other})", interval=0.1)
+
+    def wait_connected(self, timeout: float = 60.0) -> None:
+        for r in self.robots:
+            for o in self.robots:
+                if o != r:
+                    self.wait_end(r, o, lambda d: d.get("connected") == "True" and d.get("delivery_open") == "True",
+                                  timeout, "link up")
+
+    def end_pid(self, owner: str, link_key: str) -> int:
+        """Pid of relay end ``link_key`` (e.g. "Tartalo_Kbot.b") from the supervisor of ``owner``."""
+        def current() -> int | None:
+            d = self.diag(owner, f"relay_supervisor: {owner}")
+            if not d or link_key not in d:
+                return None
+            word = d[link_key].split(",")[0].split()[1]
+            return int(word) if word.isdigit() else None
+        wait_until(lambda: current() is not None, 20, f"pid of relay end {link_key}")
+        return int(current())  # type: ignore[arg-type]
+
+    def link_address(self, owner: str, link_key: str) -> tuple[str, int]:
+        d = self.diag(owner, f"relay_supervisor: {owner}")
+        assert d is not None
+        host, port = d[link_key].rsplit("link ", 1)[1].split(":")
+        return host, int(port)
+
+    # -- messages -------------------------------------------------------------------------
+    def publish(self, robot: str, topic: str, type_: str, msg: dict) -> None:
+        """Publish once every relay end (and the probe itself, if subscribed) is connected."""
+        subs = len(self.robots) - 1 + (1 if topic in self.subscribed[robot] else 0)
+        self.probes[robot].pub(topic, type_, msg, subs=subs)
+
+    def uids(self, robot: str, topic: str = GOALS) -> list[str]:
+        return [m["uid"] for m in self.probes[robot].msgs(topic)]
+
+    def wait_uid(self, robot: str, topic: str, uid: str, timeout: float = 10.0) -> float:
+        return wait_until(lambda: uid in self.uids(robot, topic), timeout, f"{uid} on {topic} at {robot}",
+                          interval=0.02)
+
+    def assert_no_duplicates(self, topic: str = GOALS) -> None:
+        for r in self.robots:
+            got = self.uids(r, topic)
+            dups = sorted({u for u in got if got.count(u) > 1})
+            assert not dups, f"{r} received {dups} more than once on {topic}"
+
+    # -- master ---------------------------------------------------------------------------
+    def relay_nodes(self, robot: str) -> list[str]:
+        uri = self.robot(robot).master_uri
+        _, _, state = xmlrpc.client.ServerProxy(uri).getSystemState("/test")
+        nodes = {n for group in state for _, ns in group for n in ns}
+        return sorted(n for n in nodes if n.startswith("/gidabot_relay_"))
+
+
+def detection_delay(d: dict[str, str], since_key: str, t_fault_wall: float) -> float:
+    """Seconds from the fault (wall time) to the moment the relay noticed it.
+
+    ``d[since_key]`` is how long the condition had lasted when the diagnostics were stamped
+    (wall time: the relay tests do not use sim time), so the moment it began is exact to the ms."""
+    return float(d["_stamp"]) - float(d[since_key]) - t_fault_wall
+
+
+def wait_pid_gone(pid: int, timeout: float) -> None:
+    def gone() -> bool:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return True
+        try:                                 # a zombie (not reaped yet) counts as gone
+            with open(f"/proc/{pid}/stat") as f:
+                return f.read().split(")")[-1].split()[0] == "Z"
+        except OSError:
+            return True
+    wait_until(gone, timeout, f"process {pid} gone")
+
+
+SPOOF_PUBLISHER = r'''
+import sys, time, rospy, roslib.message
+node, topic, type_, mode, n = sys.argv[1:6]
+rospy.init_node(node, disable_signals=True)
+cls = roslib.message.get_message_class(type_)
+if mode == "garbage":            # right type and md5, bytes that are no such message
+    Raw = type("Raw", (rospy.AnyMsg,), {"_type": cls._type, "_md5sum": cls._md5sum,
+                                         "_full_text": cls._full_text, "__slots__": ()})
+    pub = rospy.Publisher(topic, Raw, queue_size=10)
+    msg = Raw(); msg._buff = b"\xff" * 7
+else:                            # a real message (under whatever name this node has)
+    pub = rospy.Publisher(topic, cls, queue_size=10)
+    msg = cls()
+    if hasattr(msg, "uid"):
+        msg.uid = mode
+    if hasattr(msg, "data"):
+        msg.data = mode
+deadline = time.monotonic() + 20
+while pub.get_num_connections() < int(n) and time.monotonic() < deadline:
+    time.sleep(0.02)
+pub.publish(msg)
+time.sleep(1.0)
+print("published", pub.get_num_connections(), flush=True)
+'''
+
+
+def spoof_publish(env: dict, node: str, topic: str, type_: str, mode: str, subs: int) -> str:
+    """Run a short-lived publisher (``mode``: "garbage" or a uid/data string); returns its output."""
+    proc = subprocess.run([sys.executable, "-c", SPOOF_PUBLISHER, node, topic, type_, mode, str(subs)], env=env,
+                          capture_output=True, text=True, timeout=60, start_new_session=True)
+    if proc.returncode != 0:
+        raise ProcessError(f"spoof publisher failed: {proc.stderr[-2000:]}")
+    return proc.stdout
+
+
+def settle(seconds: float) -> None:
+    """Let messages that should NOT arrive have their chance (negative checks only)."""
+    time.sleep(seconds)
