@@ -438,3 +438,27 @@ def test_a_link_outage_delays_but_never_loses_the_trip(faculty) -> None:
     bus.finish_move("MariSorgin")
     bus.pump()
     assert bus.phases("MariSorgin", uid)[-1] == GOAL_REACHED
+
+
+def test_two_visitors_at_one_robot_are_guided_in_turn(faculty) -> None:
+    bus = Bus(faculty, auto_move=False)
+    bus.status_all()
+    bus.request("Kbot", "104")            # anne
+    bus.request("Kbot", "113")            # bob, at the same spot, queued behind her
+    anne, bob = bus.queue_of("Kbot")
+    assert bus.phases("Kbot", anne) == [ACCEPTED, ON_THE_WAY] and bus.phases("Kbot", bob) == [ACCEPTED]
+    eta = bus.robots["Kbot"].gm.pending(bus.now_ros).eta
+    assert eta[1] > eta[0] > 0
+    bus.finish_move("Kbot")               # anne's goal reached
+    bus.pump()
+    assert bus.phases("Kbot", anne)[-1] == GOAL_REACHED
+    # the robot is at anne's goal, far from where bob asked: it comes back for him first
+    home = faculty.robot("Kbot").home
+    assert bus.phases("Kbot", bob) == [ACCEPTED, GOING_TO_MEETING]
+    assert (bus.robots["Kbot"].active.x, bus.robots["Kbot"].active.y) == (home.x, home.y)
+    bus.finish_move("Kbot")
+    bus.pump()
+    assert bus.phases("Kbot", bob)[-1] == ON_THE_WAY
+    bus.finish_move("Kbot")
+    bus.pump()
+    assert bus.phases("Kbot", bob)[-1] == GOAL_REACHED and bus.queue_of("Kbot") == []

@@ -2,7 +2,7 @@
 
 The logic lives in :mod:`gidabot_navigation.navigation_core` (ROS-free). Callbacks
 only enqueue; one loop owns the core, drives move_base (actionlib
-SimpleActionClient) and publishes the robot's status and pose.
+ActionClient, one goal handle per leg) and publishes the robot's status and pose.
 """
 
 from __future__ import annotations
@@ -62,6 +62,7 @@ from gidabot_navigation.navigation_core import (
 QUEUE_SIZE = 2000
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
+MAX_HANDLES = 16
 STATUS_WALL_PERIOD = 1.0   # wall s: a status at least this often, even when the sim clock is slow or stopped
 STATES = {GoalStatus.SUCCEEDED: SUCCEEDED, GoalStatus.ABORTED: ABORTED, GoalStatus.REJECTED: REJECTED_BY_SERVER,
           GoalStatus.PREEMPTED: PREEMPTED, GoalStatus.RECALLED: RECALLED, GoalStatus.LOST: LOST}
@@ -96,8 +97,10 @@ class NavigationNode:
     """Runs the head of this robot's pending list through move_base (paper Algorithm 1).
 
     Action client:
-      - ``move_base`` (move_base_msgs/MoveBaseAction; ``~move_base``): every leg (pick-up, guiding,
-        to the meeting point) is one goal in ``~frame_id``; ABORTED / REJECTED / LOST -> UNREACHABLE.
+      - ``move_base`` (move_base_msgs/MoveBaseAction; ``~move_base``; actionlib ActionClient, one
+        handle per leg): every leg (pick-up, guiding, to the meeting point) is one goal in
+        ``~frame_id``; ABORTED / REJECTED / LOST -> UNREACHABLE; a goal not acknowledged within 3 s
+        is sent again.
 
     Subscribed topics:
       - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): this robot's queue, only from the local
@@ -142,8 +145,9 @@ class NavigationNode:
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self.ignored_pending = 0
-        self.client = actionlib.SimpleActionClient(params.move_base, MoveBaseAction)
+        self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
+        self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
         self._status_wall = 0.0
         self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
         self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
@@ -193,8 +197,12 @@ class NavigationNode:
     def _on_battery(self, msg: BatteryState) -> None:
         self._enqueue(msg.percentage, "battery")
 
-    def _done(self, token: int, state: int, _result: object) -> None:
-        self._enqueue((token, STATES.get(state, ABORTED), f"goal status {STATE_NAMES.get(state, state)}"), "result")
+    def _transition(self, token: int, sends: int, gh: actionlib.ClientGoalHandle) -> None:
+        if gh.get_comm_state() != actionlib.CommState.DONE:
+            return
+        state = gh.get_terminal_state()
+        text = gh.get_goal_status_text() or f"goal status {STATE_NAMES.get(state, state)}"
+        self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self) -> None:
@@ -216,7 +224,7 @@ class NavigationNode:
                 next_diag = now_wall + 1.0
                 self.publish_diagnostics()
         if self._active is not None:
-            self.client.cancel_goal()
+            self._cancel(self._active[0])
 
     def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> None:
         core = self.core
@@ -232,7 +240,10 @@ class NavigationNode:
         elif kind == "continue":
             self.execute(core.on_continue(msg, now_ros, now_wall))
         elif kind == "result":
-            token, status, text = msg
+            token, sends, status, text = msg
+            if self._handles.get(token, (None, -1))[1] != sends:
+                return                      # a goal sent again, or stopped: its result is not the leg's
+            del self._handles[token]
             if self._active is not None and self._active[0] == token:
                 self._active = None
             self.execute(core.on_move_base_result(token, status, text, now_ros, now_wall))
@@ -259,9 +270,7 @@ class NavigationNode:
                 goal.target_pose.pose = Pose(Point(act.x, act.y, 0.0), quaternion(act.yaw))
                 self._send(act.token, goal, 1)
             elif isinstance(act, StopMoving):
-                if self._active is not None and self._active[0] == act.token:
-                    self.client.cancel_goal()
-                    self._active = None
+                self._cancel(act.token)
             elif isinstance(act, SendEvent):
                 self.events_pub.publish(event_to_msg(act.event))
             elif isinstance(act, SendCancel):
@@ -269,15 +278,29 @@ class NavigationNode:
 
     # -- move_base ------------------------------------------------------------------------
     def _send(self, token: int, goal: MoveBaseGoal, sends: int) -> None:
+        old = self._handles.get(token)
+        if old is not None:
+            old[0].cancel()
         self._active = (token, goal, time.monotonic(), sends)
-        self.client.send_goal(goal, done_cb=functools.partial(self._done, token))
+        gh = self.client.send_goal(goal, transition_cb=functools.partial(self._transition, token, sends))
+        self._handles[token] = (gh, sends)
+        while len(self._handles) > MAX_HANDLES:           # handles of goals whose server vanished
+            self._handles.pop(next(iter(self._handles)))
+
+    def _cancel(self, token: int) -> None:
+        """Cancel goal ``token``; its late result (PREEMPTED) is dropped."""
+        entry = self._handles.pop(token, None)
+        if entry is not None and entry[0].get_comm_state() != actionlib.CommState.DONE:
+            entry[0].cancel()
+        if self._active is not None and self._active[0] == token:
+            self._active = None
 
     def _check_ack(self, now_wall: float) -> None:
         """Send a goal again if move_base never acknowledged it (lost on a fresh connection)."""
         if self._active is None:
             return
         token, goal, sent, sends = self._active
-        gh = self.client.gh
+        gh = self._handles.get(token, (None, 0))[0]
         if gh is None or now_wall - sent < ACK_TIMEOUT:
             return
         if gh.get_comm_state() == actionlib.CommState.WAITING_FOR_GOAL_ACK and sends <= ACK_RETRIES \
@@ -287,7 +310,7 @@ class NavigationNode:
 
     def _server_up(self) -> bool:
         """The move_base action server is connected (non-blocking)."""
-        ac = self.client.action_client
+        ac = self.client
         status = ac.last_status_msg
         if status is None:
             return False
