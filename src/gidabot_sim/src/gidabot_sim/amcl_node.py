@@ -37,7 +37,8 @@ class AmclNode:
 
     Subscribes:
       ``base_pose_ground_truth`` (nav_msgs/Odometry, map frame): the simulator's true pose.
-      ``odom`` (nav_msgs/Odometry): odometry, paired by stamp for the ``map -> odom`` transform.
+      ``odom`` (nav_msgs/Odometry): odometry, paired by stamp for the ``map -> odom`` transform
+        (subscribed only while somebody listens to /tf).
       (``initialpose`` is handled by the simulator, which moves the simulated robot; the
       estimate follows the new ground truth at once.)
     Publishes:
@@ -75,8 +76,17 @@ class AmclNode:
         self.lock = threading.Lock()
         self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=5, latch=True)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
-        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+        self.odom_sub: rospy.Subscriber | None = None
         rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10)
+
+    def _follow_odom(self) -> None:
+        """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
+        wanted = self.tf_pub.get_num_connections() > 0
+        if wanted and self.odom_sub is None:
+            self.odom_sub = rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+        elif not wanted and self.odom_sub is not None:
+            self.odom_sub.unregister()
+            self.odom_sub = None
 
     def _on_odom(self, msg: Odometry) -> None:
         pose = _pose2d(msg)
@@ -89,6 +99,7 @@ class AmclNode:
         if truth is None:
             return
         t = msg.header.stamp.to_sec()
+        self._follow_odom()
         with self.lock:
             estimate = self.core.on_truth(t, truth)
             tf_due = self.tf_due.due(t) or estimate is not None

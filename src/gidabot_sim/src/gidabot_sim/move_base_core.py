@@ -46,6 +46,7 @@ from gidabot_navigation.planning import GridPlanner, Path, Shape
 from gidabot_sim.errors import GoalRejected, SimConfigError
 from gidabot_sim.kinematics import ZERO, Limits, Twist2D, clamp_velocity, integrate
 
+SAFETY_STEP = 0.2     # s between the points of a trajectory checked against the costmap (0.14 m at 0.7 m/s)
 SUCCEEDED = "succeeded"
 ABORTED = "aborted"
 
@@ -430,7 +431,7 @@ class MoveBaseCore:
         """True when moving at ``cmd`` for ``safety_time`` keeps the robot's disc off lethal cells (or at
         least does not bring it closer). The costmap's clearance is measured between cell centres: the
         edge of a lethal cell lies half a cell nearer."""
-        dt = 0.1
+        dt = SAFETY_STEP
         margin = self.radius + 0.5 * self.planner.grid.resolution
         start = self.planner.clearance(pose.x, pose.y)
         p = pose

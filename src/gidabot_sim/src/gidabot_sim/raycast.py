@@ -47,8 +47,9 @@ class RayCaster:
             self.dist = ndimage.distance_transform_edt(~self.solid).astype(np.float32)  # cells
         else:
             self.dist = np.full(self.solid.shape, np.float32(1e9))
-        # the field with a border of -1 around it: a ray off the grid reads -1 (no return)
-        self._padded = np.pad(self.dist, 1, constant_values=-1.0)
+        # the field with an extra row and column of -1: a ray off the grid reads -1 (no return); indices
+        # are clamped as unsigned numbers, so negative ones land on the extra row/column too
+        self._padded = np.pad(self.dist, ((0, 1), (0, 1)), constant_values=-1.0)
 
     def clearance(self, x: float, y: float) -> float:
         """Distance (m) from map point (x, y) to the nearest solid cell's edge; 0 off the grid or inside.
@@ -57,19 +58,21 @@ class RayCaster:
         point and half a cell is taken off (the edge of a wall cell is half a cell before its centre),
         which is exact for straight walls along the grid and within a few millimetres elsewhere.
         """
-        lx, ly = self._local(x, y)
-        col, row = int(math.floor(lx)), int(math.floor(ly))
-        if not (0 <= row < self.height and 0 <= col < self.width) or self.solid[row, col]:
+        dx, dy = x - self.origin[0], y - self.origin[1]
+        lx = (self._cos * dx + self._sin * dy) / self.resolution
+        ly = (-self._sin * dx + self._cos * dy) / self.resolution
+        col, row = math.floor(lx), math.floor(ly)
+        if not (0 <= row < self.height and 0 <= col < self.width) or self.solid.item(row, col):
             return 0.0
         fx, fy = lx - 0.5, ly - 0.5              # relative to cell centres
-        c0, r0 = int(math.floor(fx)), int(math.floor(fy))
+        c0, r0 = math.floor(fx), math.floor(fy)
         ax, ay = fx - c0, fy - r0
-        c0, c1 = min(max(c0, 0), self.width - 1), min(max(c0 + 1, 0), self.width - 1)
-        r0, r1 = min(max(r0, 0), self.height - 1), min(max(r0 + 1, 0), self.height - 1)
-        d = self.dist
-        value = ((1 - ax) * (1 - ay) * d[r0, c0] + ax * (1 - ay) * d[r0, c1]
-                 + (1 - ax) * ay * d[r1, c0] + ax * ay * d[r1, c1])
-        return max(float(value) - 0.5, 0.0) * self.resolution
+        c1, r1 = min(c0 + 1, self.width - 1), min(r0 + 1, self.height - 1)
+        c0, r0 = max(c0, 0), max(r0, 0)
+        item = self.dist.item
+        value = ((1 - ax) * (1 - ay) * item(r0, c0) + ax * (1 - ay) * item(r0, c1)
+                 + (1 - ax) * ay * item(r1, c0) + ax * ay * item(r1, c1))
+        return max(value - 0.5, 0.0) * self.resolution
 
     def _to_cell(self, x: float, y: float) -> tuple[int, int]:
         lx, ly = self._local(x, y)
@@ -105,15 +108,16 @@ class RayCaster:
         inv_x, inv_y = 1.0 / sx, 1.0 / sy
         next_x, next_y = (sx > 0).astype(np.float64), (sy > 0).astype(np.float64)
         pad = self._padded
+        max_col, max_row = np.uintp(self.width), np.uintp(self.height)
         for _ in range(MAX_ITERATIONS):
             if idx.size == 0:
                 break
             px = ox + t * dx
             py = oy + t * dy
             fx, fy = np.floor(px), np.floor(py)
-            # off the grid -> the border of -1 (no return); solid -> 0
-            d = pad[np.clip(fy, -1, self.height).astype(np.intp) + 1,
-                    np.clip(fx, -1, self.width).astype(np.intp) + 1]
+            # off the grid -> the extra row/column of -1 (no return); solid -> 0
+            d = pad[np.minimum(fy.astype(np.intp).view(np.uintp), max_row),
+                    np.minimum(fx.astype(np.intp).view(np.uintp), max_col)]
             # exact step: just past the next cell boundary (never skips a cell the ray crosses);
             # sphere step: no solid cell lies closer than d - SAFETY cells, so the segment is free
             step = np.maximum(np.minimum((fx + next_x - px) * inv_x, (fy + next_y - py) * inv_y), d - SAFETY)

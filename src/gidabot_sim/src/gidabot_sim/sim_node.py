@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 import rospy
+import rospy.impl.simtime
+import rospy.rostime
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
@@ -76,6 +78,8 @@ class SimParams:
     clock_step: float
     clock_rate_max: float
     odom_rate: float
+    truth_rate: float
+    rest_rate: float
     laser_rate: float
     battery_rate: float
     laser: LaserSpec
@@ -118,6 +122,8 @@ class SimParams:
             clock_step=_num("~clock_step", 0.05, 0.0, 10.0, strict=True),
             clock_rate_max=_num("~clock_rate_max", 100.0, 0.0, 1000.0, strict=True),
             odom_rate=_num("~odom_rate", 20.0, 0.0, 1000.0, strict=True),
+            truth_rate=_num("~truth_rate", 5.0, 0.0, 1000.0, strict=True),
+            rest_rate=_num("~rest_rate", 1.0, 0.0, 1000.0, strict=True),
             laser_rate=_num("~laser_rate", 10.0, 0.0, 1000.0, strict=True),
             battery_rate=_num("~battery_rate", 1.0, 0.0, 100.0, strict=True),
             laser=laser, laser_z=_num("~laser_z", 0.3, -5, 5), battery=battery,
@@ -151,8 +157,10 @@ class SimNode:
           (what the GUI's admin "Set location" sends); NaN/inf, a bad quaternion, another frame,
           off the map, inside a wall/obstacle/robot -> logged error, counted, ignored.
       Publishes:
-        ``odom`` (nav_msgs/Odometry, frame ``odom`` -> ``base_footprint``, body twist) at ``~odom_rate``;
-        ``base_pose_ground_truth`` (nav_msgs/Odometry, frame ``map``) at ``~odom_rate``;
+        ``odom`` (nav_msgs/Odometry, frame ``odom`` -> ``base_footprint``, body twist) at ``~odom_rate``
+          (``~rest_rate`` while the robot stands still without a command);
+        ``base_pose_ground_truth`` (nav_msgs/Odometry, frame ``map``) at ``~truth_rate`` (``~rest_rate`` at rest),
+          and at once after a relocation;
         ``base_scan`` (sensor_msgs/LaserScan, frame ``base_laser_link``, ``inf`` = no return) at
           ``~laser_rate``, only while somebody subscribes;
         ``battery`` (sensor_msgs/BatteryState, ``percentage`` 0..1) at ``~battery_rate``.
@@ -175,7 +183,8 @@ class SimNode:
       ``~speed`` (sim s per wall s, 1), ``~start_wall`` (s since the epoch, 0 = now);
       ``~physics_dt`` (s, 0.02), ``~cmd_timeout`` (s, 0.2), ``~max_catchup`` (s, 10: a longer stall of
         the process is skipped, not simulated); ``~clock_step`` (s, 0.05), ``~clock_rate_max`` (Hz, 100);
-      ``~odom_rate`` (Hz, 20), ``~laser_rate`` (Hz, 10), ``~battery_rate`` (Hz, 1) in sim time;
+      ``~odom_rate`` (Hz, 20), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
+        ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per /clock tick);
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 3 pi/2), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
@@ -209,7 +218,9 @@ class SimNode:
         self.stalls_seen = 0
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
-        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=10)
+        # /clock is published synchronously (no queue thread per subscriber): tiny messages, 100 per wall
+        # second, and a tick must not wait behind a queue
+        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
         self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
         self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
@@ -220,6 +231,8 @@ class SimNode:
         self.map_msg = ru.occupancy_grid(self.floor.map, 0.0)
         rospy.Service("static_map", GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.odom_due = Periodic(params.odom_rate)
+        self.truth_due = Periodic(params.truth_rate)
+        self.rest_due = Periodic(params.rest_rate)
         self.laser_due = Periodic(params.laser_rate)
         self.battery_due = Periodic(params.battery_rate)
         self.tf_due = Periodic(params.odom_rate)
@@ -259,6 +272,8 @@ class SimNode:
                       + ("" if (placed.x, placed.y) == (wanted.x, wanted.y) else
                          f" (asked ({wanted.x:.2f}, {wanted.y:.2f}): moved clear of a wall)"))
         self.odom_due.reset()
+        self.truth_due.reset()
+        self.rest_due.reset()
 
     def _obstacle(self, msg: Obstacle) -> None:
         ru.check_map_frame(msg.header.frame_id, f"obstacle {msg.id[:64]!r}", ObstacleRejected)
@@ -300,16 +315,16 @@ class SimNode:
 
     def _publish_sensors(self) -> None:
         t = self.world.time
-        odom_due, laser_due = self.odom_due.due(t), self.laser_due.due(t)
-        battery_due, tf_due = self.battery_due.due(t), self.tf_due.due(t)
+        odom_due, truth_due, rest_due = self.odom_due.due(t), self.truth_due.due(t), self.rest_due.due(t)
+        laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
         transforms = []
         for io, robot in zip(self.io, self.world.robots, strict=True):
-            if odom_due:
-                if io.odom.get_num_connections():
-                    io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom,
-                                                   robot.vel, t))
-                if io.truth.get_num_connections():
-                    io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
+            resting = self.world.at_rest(io.index)
+            if (rest_due if resting else odom_due) and io.odom.get_num_connections():
+                io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom,
+                                               robot.vel, t))
+            if (rest_due if resting else truth_due) and io.truth.get_num_connections():
+                io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
             if tf_due and self.tf_pub.get_num_connections():
                 transforms.append(ru.transform(io.frame["odom"], io.frame["base_footprint"], robot.odom, t))
             if laser_due and io.scan.get_num_connections():
@@ -388,9 +403,23 @@ class SimNode:
         self.diag_pub.publish(msg)
         d.update(wall=wall, sim=self.world.time)
 
+    def _stop_listening_to_own_clock(self) -> None:
+        """With /use_sim_time, rospy subscribed this node to /clock to drive rospy.Time; the simulator is
+        the clock, so it sets rospy's time itself at every tick (:meth:`_set_own_time`) instead of
+        receiving its own 100 messages per wall second. Uses rospy internals, so only when present."""
+        sub = getattr(rospy.impl.simtime, "_clock_sub", None)
+        self._own_time = getattr(rospy.rostime, "_set_rostime", None) if sub is not None else None
+        if sub is not None and self._own_time is not None:
+            sub.unregister()
+
+    def _set_own_time(self, now: Any) -> None:
+        if self._own_time is not None:
+            self._own_time(now)
+
     # -- main loop -----------------------------------------------------------------
     def run(self) -> None:
         """Tick on the wall clock until shutdown: events, physics to the clock, /clock, sensors."""
+        self._stop_listening_to_own_clock()
         started = False
         next_tick = time.time()
         while not rospy.is_shutdown():
@@ -411,7 +440,9 @@ class SimNode:
                               f"/clock every {self.period * 1000:.0f} ms wall")
             self._drain()
             self.world.advance_to(target)
-            self.clock_pub.publish(Clock(clock=ru.stamp(target)))
+            now = ru.stamp(target)
+            self.clock_pub.publish(Clock(clock=now))
+            self._set_own_time(now)
             self._publish_sensors()
             self._diagnostics(wall)
             next_tick += self.period

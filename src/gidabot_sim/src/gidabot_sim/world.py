@@ -196,6 +196,14 @@ class World:
         robot.cmd, robot.cmd_time = cmd, self.time
         return cmd
 
+    def at_rest(self, index: int) -> bool:
+        """True when robot ``index`` stands still and has no fresh non-zero command (sensors may slow down)."""
+        robot = self.robot(index)
+        if not robot.vel.is_zero():
+            return False
+        return (robot.cmd_time is None or robot.cmd.is_zero()
+                or self.time - robot.cmd_time > self.cmd_timeout + 1e-9)
+
     def clearance(self, x: float, y: float) -> float:
         """Distance (m) from (x, y) to the nearest edge of a wall, unknown cell or obstacle; 0 off the map."""
         return self.caster.clearance(x, y)
@@ -352,6 +360,8 @@ class World:
         after = self.clearance(new.x, new.y)
         if after < radius and after < self.clearance(robot.pose.x, robot.pose.y):
             return True
+        if len(self.robots) == 1:
+            return False
         for j, other in enumerate(self.robots):
             if j == index:
                 continue
