@@ -1,0 +1,199 @@
+#!/usr/bin/env python3
+"""The rostest of sim_navigation.test: MoveBaseAction semantics of the move_base stand-in on floor 1.
+
+Waits use wall-clock deadlines (the floor runs at 10x); the cases run in name order on one robot.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+import unittest
+
+import actionlib
+import rospy
+import rostest
+from actionlib_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseFeedback, MoveBaseGoal
+from nav_msgs.msg import Odometry
+from nav_msgs.srv import GetPlan, GetPlanRequest
+from std_srvs.srv import Empty
+
+from gidabot_msgs.msg import Obstacle
+from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
+from gidabot_sim.ros_util import pose_msg
+
+NAME = "sim_navigation"
+
+
+def wait_for(predicate, timeout: float, what: str) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout} s (wall) waiting for {what}")
+        time.sleep(0.02)
+
+
+def goal_msg(x: float, y: float, yaw: float) -> MoveBaseGoal:
+    goal = MoveBaseGoal()
+    goal.target_pose.header.frame_id = "map"
+    goal.target_pose.header.stamp = rospy.Time.now()
+    goal.target_pose.pose = pose_msg(Pose2D(x, y, yaw))
+    return goal
+
+
+class SimNavigation(unittest.TestCase):
+    lock = threading.Lock()
+    truth: Odometry | None = None
+    odom: Odometry | None = None
+    diag: dict[str, str] = {}
+    feedback: list[MoveBaseFeedback] = []
+
+    @classmethod
+    def setUpClass(cls) -> None:
+        rospy.init_node("sim_navigation_test")
+        rospy.Subscriber("base_pose_ground_truth", Odometry, cls._on_truth, queue_size=5)
+        rospy.Subscriber("odom", Odometry, cls._on_odom, queue_size=5)
+        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diag, queue_size=5)
+        cls.obstacles = rospy.Publisher("/sim/obstacle", Obstacle, queue_size=10)
+        cls.initialpose = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=5)
+        cls.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        deadline = time.monotonic() + 60
+        while not cls.client.wait_for_server(rospy.Duration(0.5)):
+            assert time.monotonic() < deadline, "no move_base action server"
+        rospy.wait_for_message("amcl_pose", PoseWithCovarianceStamped, timeout=60)
+        wait_for(lambda: cls.truth is not None and cls.obstacles.get_num_connections() > 0
+                 and cls.initialpose.get_num_connections() > 0, 30, "the simulator")
+
+    @classmethod
+    def _on_truth(cls, msg: Odometry) -> None:
+        with cls.lock:
+            cls.truth = msg
+
+    @classmethod
+    def _on_odom(cls, msg: Odometry) -> None:
+        with cls.lock:
+            cls.odom = msg
+
+    @classmethod
+    def _on_diag(cls, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.name.startswith("sim: "):
+                with cls.lock:
+                    cls.diag = {kv.key: kv.value for kv in status.values}
+
+    def pose(self) -> Pose2D:
+        with self.lock:
+            p = self.truth.pose.pose
+        return Pose2D(p.position.x, p.position.y,
+                      quaternion_to_yaw(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w))
+
+    def speed(self) -> float:
+        with self.lock:
+            t = self.odom.twist.twist
+        return math.hypot(t.linear.x, t.linear.y) + abs(t.angular.z)
+
+    def drive(self, x: float, y: float, yaw: float, timeout: float = 60.0) -> int:
+        self.client.send_goal(goal_msg(x, y, yaw))
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(timeout * 10)), "no result")
+        return self.client.get_state()
+
+    def obstacle(self, action: int, oid: str = "", **shape: float) -> None:
+        msg = Obstacle(action=action, id=oid, **shape)
+        msg.header.frame_id = "map"
+        self.obstacles.publish(msg)
+
+    # -- the cases, in name order ---------------------------------------------------------
+    def test_1_a_goal_on_the_floor_succeeds(self) -> None:
+        state = self.drive(40.0, 11.4, -math.pi / 2)
+        self.assertEqual(state, GoalStatus.SUCCEEDED, self.client.get_goal_status_text())
+        wait_for(lambda: self.speed() < 0.02, 10, "the robot to stand still")
+        p = self.pose()
+        self.assertLess(math.hypot(p.x - 40.0, p.y - 11.4), 0.4)
+        self.assertLess(abs(math.remainder(p.yaw + math.pi / 2, 2 * math.pi)), 0.3)
+
+    def test_2_a_goal_into_a_wall_aborts(self) -> None:
+        t0 = time.monotonic()
+        state = self.drive(30.0, 10.35, 0.0)          # the corridor's south wall
+        self.assertEqual(state, GoalStatus.ABORTED)
+        self.assertIn("inside a wall", self.client.get_goal_status_text())
+        self.assertLess(time.monotonic() - t0, 5.0)
+
+    def test_3_a_goal_behind_a_corridor_closed_while_driving_aborts(self) -> None:
+        start = self.pose()
+        self.client.send_goal(goal_msg(62.0, 12.0, 0.0))
+        wait_for(lambda: self.pose().x > start.x + 2.0, 30, "the robot to drive east")
+        door_x = self.pose().x + 5.0
+        self.obstacle(Obstacle.ADD, "closed_door", shape=Obstacle.RECTANGLE, x=door_x, y=12.0, width=0.2,
+                      height=3.6)
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(600)))
+        self.assertEqual(self.client.get_state(), GoalStatus.ABORTED, self.client.get_goal_status_text())
+        self.assertIn("Failed to find a valid plan", self.client.get_goal_status_text())
+        wait_for(lambda: self.speed() < 0.02, 10, "the robot to stop")
+        self.assertLess(self.pose().x, door_x - 0.1 - 0.3)
+        # and a new goal behind the door is refused too (after the planner's patience)
+        self.assertEqual(self.drive(62.0, 12.0, 0.0), GoalStatus.ABORTED)
+        self.obstacle(Obstacle.CLEAR)
+
+    def test_4_cancel_preempts_and_stops_the_robot(self) -> None:
+        start = self.pose()
+        self.client.send_goal(goal_msg(10.0, 12.0, math.pi))
+        wait_for(lambda: self.speed() > 0.3 and abs(self.pose().x - start.x) > 1.0, 30, "the robot to drive")
+        self.client.cancel_goal()
+        wait_for(lambda: self.client.get_state() == GoalStatus.PREEMPTED, 10, "PREEMPTED")
+        wait_for(lambda: self.speed() < 0.02, 5, "the robot to stop")      # 0.7 m/s at 0.6 m/s^2: ~1.2 s sim
+        stopped = self.pose()
+        time.sleep(0.5)                                                     # 5 s sim
+        self.assertLess(math.hypot(self.pose().x - stopped.x, self.pose().y - stopped.y), 0.01)
+
+    def test_5_a_new_goal_preempts_the_current_one(self) -> None:
+        client = actionlib.ActionClient("move_base", MoveBaseAction)
+        self.assertTrue(client.wait_for_server(rospy.Duration(50)))
+        first = client.send_goal(goal_msg(60.0, 12.0, 0.0))
+        wait_for(lambda: first.get_goal_status() == GoalStatus.ACTIVE, 10, "the first goal to run")
+        second = client.send_goal(goal_msg(35.5, 12.6, math.pi / 2))
+        wait_for(lambda: first.get_goal_status() == GoalStatus.PREEMPTED, 10, "the first goal PREEMPTED")
+        wait_for(lambda: second.get_goal_status() == GoalStatus.SUCCEEDED, 60, "the second goal SUCCEEDED")
+
+    def test_6_make_plan_and_clear_costmaps(self) -> None:
+        rospy.wait_for_service("move_base/make_plan", 10)
+        make_plan = rospy.ServiceProxy("move_base/make_plan", GetPlan)
+        req = GetPlanRequest()
+        req.goal.header.frame_id = "map"
+        req.goal.pose = pose_msg(Pose2D(60.0, 12.0, 0.0))
+        plan = make_plan(req).plan
+        self.assertGreater(len(plan.poses), 100)
+        length = sum(math.hypot(b.pose.position.x - a.pose.position.x, b.pose.position.y - a.pose.position.y)
+                     for a, b in zip(plan.poses, plan.poses[1:], strict=False))
+        p = self.pose()
+        self.assertAlmostEqual(length, math.hypot(60.0 - p.x, 12.0 - p.y), delta=1.5)
+        req.goal.pose = pose_msg(Pose2D(30.0, 10.35, 0.0))
+        self.assertEqual(make_plan(req).plan.poses, [])                       # no plan: empty
+        rospy.ServiceProxy("move_base/clear_costmaps", Empty)()
+
+    def test_7_initialpose_relocates_and_bad_ones_are_refused(self) -> None:
+        msg = PoseWithCovarianceStamped()
+        msg.header.frame_id = "map"
+        msg.pose.pose = pose_msg(Pose2D(20.0, 12.0, math.pi))
+        self.initialpose.publish(msg)
+        wait_for(lambda: math.hypot(self.pose().x - 20.0, self.pose().y - 12.0) < 0.01, 10, "the relocation")
+        amcl = rospy.wait_for_message("amcl_pose", PoseWithCovarianceStamped, timeout=10)
+        self.assertLess(math.hypot(amcl.pose.pose.position.x - 20.0, amcl.pose.pose.position.y - 12.0), 0.2)
+        self.assertEqual(amcl.header.frame_id, "map")
+        self.assertGreater(amcl.pose.covariance[0], 0.0)
+        for x, y in ((math.nan, 12.0), (30.0, 10.35), (500.0, 12.0)):
+            bad = PoseWithCovarianceStamped()
+            bad.header.frame_id = "map"
+            bad.pose.pose = pose_msg(Pose2D(20.0, 12.0, 0.0))
+            bad.pose.pose.position.x, bad.pose.pose.position.y = x, y
+            self.initialpose.publish(bad)
+        wait_for(lambda: self.diag.get("rejected_initialpose") == "3", 20, "3 rejected initial poses")
+        self.assertLess(math.hypot(self.pose().x - 20.0, self.pose().y - 12.0), 0.01)
+        self.assertEqual(self.drive(25.0, 12.0, 0.0), GoalStatus.SUCCEEDED)  # and it drives from there
+
+
+if __name__ == "__main__":
+    rostest.rosrun("gidabot_sim", NAME, SimNavigation)
