@@ -120,6 +120,7 @@ class GoalManagerNode:
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self._published_version = -1
+        self._latest_pose: tuple[float, float, float] | None = None
         self.goals_pub = rospy.Publisher(GOALS_TOPIC, Goal, queue_size=100)
         self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
         self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
@@ -131,8 +132,7 @@ class GoalManagerNode:
             rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
             rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
             rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._enqueue, callback_args="pose",
-                             queue_size=5),
+            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
 
@@ -146,6 +146,10 @@ class GoalManagerNode:
     def _on_status(self, msg: RobotStatus) -> None:
         self._enqueue(msg.robot, "status")
 
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        p = msg.pose.pose              # only the latest pose matters: one assignment, applied by the loop
+        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+
     # -- the loop that owns the core --------------------------------------------------------
     def run(self) -> None:
         period = self.params.pending_period
@@ -155,6 +159,9 @@ class GoalManagerNode:
                 kind, msg = self.inbox.get(timeout=max(0.01, min(0.5, next_pending - time.monotonic())))
             except queue.Empty:
                 kind, msg = "", None
+            pose = self._latest_pose          # never reset: no race with the callback
+            if pose is not None:
+                self.core.on_pose(*pose)
             if kind:
                 self.handle(kind, msg)
             now = time.monotonic()
@@ -178,9 +185,6 @@ class GoalManagerNode:
             self.execute(core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg)))
         elif kind == "status":
             core.on_status(msg, now_wall)
-        elif kind == "pose":
-            p = msg.pose.pose
-            core.on_pose(p.position.x, p.position.y, yaw_of(p.orientation))
         elif kind == "catalog":
             core.on_catalog(catalog_entries(msg))
 

@@ -149,6 +149,9 @@ class NavigationNode:
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
         self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
         self._status_wall = 0.0
+        self._latest_pose: tuple[float, float, float] | None = None
+        self._latest_odom: tuple[float, float] | None = None
+        self._latest_battery: float | None = None
         self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
         self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
         self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
@@ -160,10 +163,9 @@ class NavigationNode:
             rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
             rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
             rospy.Subscriber("visitor/command", VisitorCommand, self._on_command, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._enqueue, callback_args="pose",
-                             queue_size=5),
-            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=5),
-            rospy.Subscriber("battery", BatteryState, self._on_battery, queue_size=2),
+            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber("battery", BatteryState, self._on_battery, queue_size=1),
             rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
@@ -191,11 +193,25 @@ class NavigationNode:
         if msg.command == CONTINUE:
             self._enqueue(msg.goal_uid, "continue")
 
+    # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        p = msg.pose.pose
+        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+
     def _on_odom(self, msg: Odometry) -> None:
-        self._enqueue((msg.twist.twist.linear.x, msg.twist.twist.angular.z), "odom")
+        self._latest_odom = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
 
     def _on_battery(self, msg: BatteryState) -> None:
-        self._enqueue(msg.percentage, "battery")
+        self._latest_battery = msg.percentage
+
+    def _apply_latest(self) -> None:
+        pose, odom, battery = self._latest_pose, self._latest_odom, self._latest_battery   # never reset: no race
+        if pose is not None:
+            self.core.on_pose(*pose)
+        if odom is not None:
+            self.core.on_odom(*odom)
+        if battery is not None:
+            self.core.on_battery(battery)
 
     def _transition(self, token: int, sends: int, gh: actionlib.ClientGoalHandle) -> None:
         if gh.get_comm_state() != actionlib.CommState.DONE:
@@ -215,6 +231,7 @@ class NavigationNode:
             except queue.Empty:
                 kind, msg = "", None
             now_ros, now_wall = rospy.get_time(), time.monotonic()
+            self._apply_latest()
             self.core.on_move_base_available(self._server_up(), now_ros)
             if kind:
                 self.handle(kind, msg, now_ros, now_wall)
@@ -247,13 +264,6 @@ class NavigationNode:
             if self._active is not None and self._active[0] == token:
                 self._active = None
             self.execute(core.on_move_base_result(token, status, text, now_ros, now_wall))
-        elif kind == "pose":
-            p = msg.pose.pose
-            core.on_pose(p.position.x, p.position.y, yaw_of(p.orientation))
-        elif kind == "odom":
-            core.on_odom(*msg)
-        elif kind == "battery":
-            core.on_battery(msg)
         elif kind == "catalog":
             core.on_catalog(catalog_entries(msg))
         elif kind == "tick":
