@@ -317,3 +317,35 @@ def test_inbox_keeps_latest_state_and_every_event() -> None:
     assert out.states == [("status", 9), ("status", 1)]
     assert [r for _k, r in out.events] == [2, 3, 4] and out.dropped == 2
     assert not inbox.drain()
+
+
+def test_partner_lost_and_back_keep_the_trip(faculty) -> None:
+    flow = VisitorFlow(faculty, "Kbot", VID)
+    flow.request("223", "stairs", "en", 0.0)
+    uid = f"Kbot/{VID}/run1.1"
+    flow.on_event(ev(Phase.ON_THE_WAY, "p1", uid), 1.0)
+    n = flow.on_event(ev(Phase.PARTNER_LOST, "p2", uid, target_floor=2.0), 2.0)
+    assert n.kind == "PARTNER_LOST" and n.modal and not n.final and flow.busy
+    n = flow.on_event(ev(Phase.PARTNER_BACK, "p3", uid, target_floor=2.0), 3.0)
+    assert n.kind == "PARTNER_BACK" and flow.current.uid == uid
+
+
+def test_answers_without_goal_uid_end_the_request(faculty) -> None:
+    for phase in (Phase.PARTNER_OFFLINE, Phase.UNREACHABLE, Phase.REJECTED):
+        flow = VisitorFlow(faculty, "Kbot", VID)
+        flow.request("223", "lift", "en", 0.0)
+        n = flow.on_event(ev(phase, f"a{phase}", "", target_floor=2.0, location_id="223"), 1.0)
+        assert n.kind == phase.name and n.modal and n.final and not flow.busy
+
+
+def test_start_again_while_a_tour_waits_at_a_stop(faculty) -> None:
+    flow = VisitorFlow(faculty, "Tartalo", VID)
+    flow.start_tour(TOUR, "stairs", "en", 0.0)
+    g0 = f"Tartalo/{VID}/1"
+    flow.on_event(ev(Phase.TOUR_STEP_DONE, "s1", g0, robot="Tartalo", tour_file=TOUR.file_name, tour_step=0), 1.0)
+    assert flow.can_start_tour()
+    cmd = flow.start_tour(TOUR, "stairs", "en", 2.0)
+    assert cmd.command == Cmd.START_TOUR and flow.current.activity is Activity.PENDING
+    assert not flow.can_start_tour()
+    with pytest.raises(GuiError):
+        flow.start_tour(TOUR, "stairs", "en", 3.0)

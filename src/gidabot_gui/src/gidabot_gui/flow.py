@@ -175,10 +175,18 @@ class VisitorFlow:
                         way=way if changes_floor else "")
         return self._command(Cmd.REQUEST, language, goal_id=goal_id, way=way if changes_floor else "")
 
+    def can_start_tour(self) -> bool:
+        """Idle, or a tour waits at a stop here (Start again restarts it)."""
+        cur = self.current
+        return cur is None or cur.activity is Activity.STEP_DONE
+
     def start_tour(self, tour: TourInfo, way: str, language: str, now: float, start_id: str = "") -> Command:
         """Start (again) ``tour`` from its first stop."""
-        if self.busy:
+        if not self.can_start_tour():
             raise GuiError("a trip is already running at this robot; cancel it first")
+        cur = self.current
+        if cur is not None:                 # the tour waiting here is replaced (the goal manager restarts it)
+            self.trips.pop(cur.uid, None)
         if not tour.goals:
             raise GuiError(f"tour {tour.file_name} has no stops")
         self.mode = Mode.TOUR
@@ -259,8 +267,8 @@ class VisitorFlow:
             return True
         if pend.tour_file and ev.tour_file == pend.tour_file:
             return True
-        # an answer to an invalid request carries no goal uid
-        return not ev.goal_uid and ev.phase == Phase.REJECTED
+        # the answer to a request that made no goal (invalid, partner offline, no path) carries no goal uid
+        return not ev.goal_uid and ev.phase in (Phase.REJECTED, Phase.PARTNER_OFFLINE, Phase.UNREACHABLE)
 
     def on_event(self, ev: NavEventData, now: float) -> Notice | None:
         """A NavEvent seen on this master; returns what to tell the visitor (or None)."""
@@ -323,6 +331,10 @@ class VisitorFlow:
             if trip is not None and trip.activity is Activity.PENDING:
                 trip.activity = Activity.QUEUED
             return None
+        if phase in (Phase.PARTNER_LOST, Phase.PARTNER_BACK):
+            # not final: the trip waits for (or goes on with) a robot that was offline
+            facing = trip is not None and trip.activity in FACING
+            return notice(phase, modal=facing or not self.busy, actions=("ok",))
         if phase is Phase.GOING_TO_MEETING:
             if trip is not None and trip.activity in (Activity.QUEUED, Activity.PENDING) and not trip.local:
                 trip.activity = Activity.COMING

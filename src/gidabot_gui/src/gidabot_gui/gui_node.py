@@ -13,7 +13,9 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -147,6 +149,60 @@ def tour_edit_to_msg(e: TourEdit, robot: str, stamp: rospy.Time) -> Tour:
     return msg
 
 
+# ---------------------------------------------------------------------- callbacks (no master needed)
+class Receiver:
+    """The subscribers' callbacks: convert, hand over to the Qt thread through the inbox, return.
+
+    Messages that cannot be converted are counted and logged (throttled), never raised.
+    """
+
+    def __init__(self, robot: str, inbox: Inbox, log: Callable[[str], None]) -> None:
+        self.robot = robot
+        self.inbox = inbox
+        self.log = log
+        self.bad = 0
+
+    def _convert(self, what: str, fn: Callable[[Any], Any], msg: Any) -> Any:
+        try:
+            return fn(msg)
+        except (ValueError, TypeError, AttributeError, OverflowError) as err:
+            self.bad += 1
+            self.log(f"gui: unusable {what} message ignored ({err}); {self.bad} so far")
+            return None
+
+    def status(self, m: RobotStatus) -> None:
+        rec = self._convert("status", status_from_msg, m)
+        if rec is not None:
+            self.inbox.put_state("status", rec.robot, rec)
+
+    def pose(self, m: NavPose) -> None:
+        rec = self._convert("pose", pose_from_msg, m)
+        if rec is not None:
+            self.inbox.put_state("pose", rec.robot, rec)
+
+    def pending(self, m: PendingRequests) -> None:
+        rec = self._convert("pending", pending_from_msg, m)
+        if rec is not None:
+            self.inbox.put_state("pending", rec.robot, rec)
+
+    def nav_event(self, m: NavEvent) -> None:
+        if m.robot != self.robot:
+            return                      # only this robot's events become pop-ups
+        rec = self._convert("nav_event", event_from_msg, m)
+        if rec is not None:
+            self.inbox.put_event("nav_event", rec)
+
+    def catalog(self, m: TourCatalog) -> None:
+        rec = self._convert("catalog", catalog_from_msg, m)
+        if rec is not None:
+            self.inbox.put_state("catalog", "", rec)
+
+    def edit_result(self, m: TourEditResult) -> None:
+        rec = self._convert("edit_result", edit_result_from_msg, m)
+        if rec is not None:
+            self.inbox.put_event("edit_result", rec)
+
+
 # ---------------------------------------------------------------------- parameters
 @dataclass(frozen=True)
 class Params:
@@ -225,60 +281,19 @@ class GuiNode:
 
     def __init__(self, params: Params, inbox: Inbox) -> None:
         self.params = params
-        self.inbox = inbox
+        self.receiver = Receiver(params.robot, inbox, lambda m: rospy.logwarn_throttle(10.0, m))
         self.cmd_pub = rospy.Publisher("visitor/command", VisitorCommand, queue_size=20)
         self.pose_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=2)
         self.edit_pub = rospy.Publisher("tour_store/edit", Tour, queue_size=10)
-        self.bad = 0
+        r = self.receiver
         self.subs = [
-            rospy.Subscriber("/gidabot/status", RobotStatus, self._status, queue_size=100),
-            rospy.Subscriber("/gidabot/poses", NavPose, self._pose, queue_size=100),
-            rospy.Subscriber("/gidabot/pending", PendingRequests, self._pending, queue_size=50),
-            rospy.Subscriber("/gidabot/nav_events", NavEvent, self._nav_event, queue_size=200),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, self._catalog, queue_size=2),
-            rospy.Subscriber("tour_store/edit_result", TourEditResult, self._edit_result, queue_size=20),
+            rospy.Subscriber("/gidabot/status", RobotStatus, r.status, queue_size=100),
+            rospy.Subscriber("/gidabot/poses", NavPose, r.pose, queue_size=100),
+            rospy.Subscriber("/gidabot/pending", PendingRequests, r.pending, queue_size=50),
+            rospy.Subscriber("/gidabot/nav_events", NavEvent, r.nav_event, queue_size=200),
+            rospy.Subscriber("tour_store/catalog", TourCatalog, r.catalog, queue_size=2),
+            rospy.Subscriber("tour_store/edit_result", TourEditResult, r.edit_result, queue_size=20),
         ]
-
-    # callbacks: convert and enqueue, nothing else
-    def _guard(self, what: str, fn: object, msg: object) -> object | None:
-        try:
-            return fn(msg)  # type: ignore[operator]
-        except (ValueError, TypeError, AttributeError, OverflowError) as err:
-            self.bad += 1
-            rospy.logwarn_throttle(10.0, f"gui: unusable {what} message ignored ({err}); {self.bad} so far")
-            return None
-
-    def _status(self, m: RobotStatus) -> None:
-        rec = self._guard("status", status_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("status", rec.robot, rec)
-
-    def _pose(self, m: NavPose) -> None:
-        rec = self._guard("pose", pose_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("pose", rec.robot, rec)
-
-    def _pending(self, m: PendingRequests) -> None:
-        rec = self._guard("pending", pending_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("pending", rec.robot, rec)
-
-    def _nav_event(self, m: NavEvent) -> None:
-        if m.robot != self.params.robot:
-            return                      # only this robot's events become pop-ups
-        rec = self._guard("nav_event", event_from_msg, m)
-        if rec is not None:
-            self.inbox.put_event("nav_event", rec)
-
-    def _catalog(self, m: TourCatalog) -> None:
-        rec = self._guard("catalog", catalog_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("catalog", "", rec)
-
-    def _edit_result(self, m: TourEditResult) -> None:
-        rec = self._guard("edit_result", edit_result_from_msg, m)
-        if rec is not None:
-            self.inbox.put_event("edit_result", rec)
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)
     def send_command(self, cmd: Command) -> None:

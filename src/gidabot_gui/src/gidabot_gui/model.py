@@ -38,6 +38,8 @@ class Phase(IntEnum):
     REJECTED = 12
     TOUR_STEP_DONE = 13
     TOUR_FINISHED = 14
+    PARTNER_LOST = 15
+    PARTNER_BACK = 16
 
 
 class Cmd(IntEnum):

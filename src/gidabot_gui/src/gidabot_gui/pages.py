@@ -651,7 +651,9 @@ class InfoPage(Page):
         c.floor.setText(floor)
         c.state_text = state
         c.state.setText(state)
-        c.dot.setStyleSheet(f"color: {state_color};")
+        if c.dot.property("color") != state_color:
+            c.dot.setProperty("color", state_color)
+            c.dot.setStyleSheet(f"color: {state_color};")
         c.motion.setText(motion)
         c.battery.setValue(int(round(battery * 100)) if battery is not None else 0)
         low = battery is not None and battery < 0.2

@@ -61,7 +61,7 @@ class EspeakSpeaker(QObject):
         proc = QProcess(self)
         proc.setStandardOutputFile(QProcess.nullDevice())
         proc.setStandardErrorFile(QProcess.nullDevice())
-        proc.errorOccurred.connect(self._error)
+        proc.errorOccurred.connect(lambda err, p=proc: self._error(p, err))
         proc.finished.connect(lambda *_a, p=proc: self._finished(p))
         args = ["-v", VOICES.get(language, "en-gb"), "-s", str(self.rate), "--stdin"]
         if self.sink == "null":
@@ -72,9 +72,11 @@ class EspeakSpeaker(QObject):
         self.proc = proc
         self.spoken += 1
 
-    def _error(self, err: object) -> None:
+    def _error(self, proc: QProcess, err: object) -> None:
+        if proc is not self.proc:
+            return                 # a sentence we stopped on purpose
         self.failed += 1
-        self.log(f"speech: espeak-ng failed ({err})")
+        self.log(f"speech: espeak-ng failed ({err}: {proc.errorString()})")
 
     def _finished(self, proc: QProcess) -> None:
         if proc is self.proc:

@@ -220,6 +220,17 @@ class Texts:
                     if robot else t._("Another robot cannot be reached right now, so the trip was stopped."))
             again = t._("Please try again later.")
             return PopupText(t._("A guide is not available"), f"{body}\n\n{again}", f"{body} {again}", "error")
+        if kind == "PARTNER_LOST":
+            robot = self._robot_on(target)
+            body = (t._("{robot} cannot be reached right now. The trip waits for it: please wait a moment.")
+                    .format(robot=robot) if robot else
+                    t._("Another robot cannot be reached right now. The trip waits for it: please wait a moment."))
+            return PopupText(t._("Please wait"), body, body, "warning")
+        if kind == "PARTNER_BACK":
+            robot = self._robot_on(target)
+            body = (t._("{robot} is back. The trip goes on.").format(robot=robot) if robot else
+                    t._("The other robot is back. The trip goes on."))
+            return PopupText(t._("The trip goes on"), body, body, "success")
         if kind == "REJECTED":
             body = t._("Please choose another destination.")
             spoken = t._("Sorry, I cannot take this request.")

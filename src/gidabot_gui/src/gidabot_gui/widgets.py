@@ -74,7 +74,7 @@ class WrapButton(QPushButton):
         self.font_cap = 0                 # px; 0 = the style's font size
         self.marker = ""                  # colour of a dot in the top-right corner ("" = none)
         self.is_key = role == "key"       # a key of the on-screen keyboard (smaller touch target)
-        self._fit_cache: tuple | None = None
+        self._fit_cache: dict[tuple, tuple[QFont, bool]] = {}
         if role:
             self.setProperty("role", role)
         if icon is not None:
@@ -117,28 +117,31 @@ class WrapButton(QPushButton):
     def minimumSizeHint(self) -> QSize:  # noqa: N802 - Qt naming
         return QSize(self._icon_size() + 40, self.min_height)
 
-    def _text_layout(self) -> tuple[QFont, bool, QRect, int, int]:
+    def _text_layout(self, capped: bool = True) -> tuple[QFont, bool, QRect, int, int]:
         """(font, fits, text rect, flags, icon size) of the label in the current geometry."""
         pad_x, pad_y = 10, 4
         rect = self.rect().adjusted(pad_x, pad_y, -pad_x, -pad_y)
         ic = self._icon_size()
         font = QFont(self.font())
         font.setBold(self.bold)
-        if self.font_cap:
+        if self.font_cap and capped:
             font.setPixelSize(min(font.pixelSize() if font.pixelSize() > 0 else self.font_cap, self.font_cap))
         text_rect = QRect(rect)
         if ic:
             text_rect.setLeft(rect.left() + ic + 10)
         flags = WRAP | self.align
         key = (self._text, text_rect.width(), text_rect.height(), font.key(), flags, self.max_lines)
-        if self._fit_cache is None or self._fit_cache[0] != key:
-            f, ok = fit_font(font, text_rect, self._text, flags, self.max_lines)
-            self._fit_cache = (key, f, ok)
-        _k, f, ok = self._fit_cache
+        hit = self._fit_cache.get(key)
+        if hit is None:
+            if len(self._fit_cache) > 8:
+                self._fit_cache.clear()
+            hit = self._fit_cache[key] = fit_font(font, text_rect, self._text, flags, self.max_lines)
+        f, ok = hit
         return f, ok, text_rect, flags, ic
 
     def fitted_pixel_size(self) -> int:
-        return self._text_layout()[0].pixelSize()
+        """The font size the label would use on its own (without ``font_cap``)."""
+        return self._text_layout(capped=False)[0].pixelSize()
 
     def paintEvent(self, _event: object) -> None:  # noqa: N802 - Qt naming
         p = QStylePainter(self)
@@ -180,9 +183,6 @@ class WrapButton(QPushButton):
 
 def equalize_fonts(buttons: list[WrapButton]) -> None:
     """Give ``buttons`` one font size: the smallest any of them needs to fit (a tidy tab bar)."""
-    for b in buttons:
-        b.font_cap = 0
-        b._fit_cache = None
     sizes = [b.fitted_pixel_size() for b in buttons if b.isVisible() and b.width() > 0]
     if sizes:
         cap = min(sizes)
@@ -207,6 +207,8 @@ class FitLabel(QWidget):
         self.max_lines = max_lines
         self.clipped = False
         self.theme = Theme()
+        self._fit_key: tuple | None = None
+        self._fit: tuple[QFont, bool] = (QFont(), True)
         self.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Preferred)
 
     def setText(self, text: str) -> None:  # noqa: N802 - Qt naming
@@ -243,7 +245,11 @@ class FitLabel(QWidget):
         p = QPainter(self)
         p.setRenderHint(QPainter.TextAntialiasing)
         flags = WRAP | self.align
-        f, ok = fit_font(self._font(), self.rect(), self._text, flags, self.max_lines)
+        font = self._font()
+        key = (self._text, self.width(), self.height(), font.key(), flags, self.max_lines)
+        if self._fit_key != key:
+            self._fit_key, self._fit = key, fit_font(font, self.rect(), self._text, flags, self.max_lines)
+        f, ok = self._fit
         self.clipped = not ok
         p.setFont(f)
         p.setPen(QColor(self.color) if self.color else self.palette().windowText().color())

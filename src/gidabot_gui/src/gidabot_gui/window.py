@@ -64,7 +64,8 @@ EVENT_ICONS = {
     "ON_THE_WAY": "walk", "GO_TO_FLOOR": "stairs", "WAITING_VISITOR": "robot", "GOAL_REACHED": "flag",
     "TOUR_STEP_DONE": "flag", "TOUR_FINISHED": "check", "UNREACHABLE": "warning", "NO_ROBOT_ON_FLOOR": "warning",
     "CANCELLED_HERE": "close", "CANCELLED_ELSEWHERE": "close", "TIMEOUT": "warning", "PARTNER_OFFLINE": "warning",
-    "REJECTED": "warning", "NO_ANSWER": "warning", "BUSY": "info",
+    "REJECTED": "warning", "NO_ANSWER": "warning", "BUSY": "info", "PARTNER_LOST": "warning",
+    "PARTNER_BACK": "check",
 }
 STATE_COLORS = {"idle": "#2E7D32", "guiding": OTHER_ROBOT, "to_meeting": OTHER_ROBOT, "waiting": ACCENT,
                 "returning": OTHER_ROBOT, "error": DANGER}
@@ -507,7 +508,8 @@ class MainWindow(QWidget):
     def _update_tours_page(self) -> None:
         tour = self.flow.tour
         progress = (tour.file_name, set(tour.done), tour.running) if tour is not None else None
-        self.tours_page.set_progress(progress, self.flow.can_continue, self.flow.can_skip_to, self.flow.busy)
+        self.tours_page.set_progress(progress, self.flow.can_continue, self.flow.can_skip_to,
+                                     not self.flow.can_start_tour())
 
     def _update_info(self, now: float) -> None:
         t, lang = self.tr, self.tr.language
@@ -626,7 +628,7 @@ class MainWindow(QWidget):
         tour = next((x for x in self.tours if x.file_name == file_name), None)
         if tour is None:
             return
-        if self.flow.busy:
+        if not self.flow.can_start_tour():
             self.show_notice(Notice("BUSY"))
             return
 
