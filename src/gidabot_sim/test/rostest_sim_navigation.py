@@ -18,9 +18,11 @@ from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseFeedback, MoveBaseGoal
-from nav_msgs.msg import Odometry
-from nav_msgs.srv import GetPlan, GetPlanRequest
+from nav_msgs.msg import OccupancyGrid, Odometry
+from nav_msgs.srv import GetMap, GetPlan, GetPlanRequest
+from sensor_msgs.msg import BatteryState, LaserScan
 from std_srvs.srv import Empty
+from tf2_msgs.msg import TFMessage
 
 from gidabot_msgs.msg import Obstacle
 from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
@@ -193,6 +195,32 @@ class SimNavigation(unittest.TestCase):
         wait_for(lambda: self.diag.get("rejected_initialpose") == "3", 20, "3 rejected initial poses")
         self.assertLess(math.hypot(self.pose().x - 20.0, self.pose().y - 12.0), 0.01)
         self.assertEqual(self.drive(25.0, 12.0, 0.0), GoalStatus.SUCCEEDED)  # and it drives from there
+
+
+    def test_8_map_laser_battery_and_frames(self) -> None:
+        grid = rospy.wait_for_message("map", OccupancyGrid, timeout=10)      # latched, as map_server
+        self.assertEqual((grid.info.width, grid.info.height, grid.header.frame_id), (1480, 520, "map"))
+        self.assertAlmostEqual(grid.info.resolution, 0.05, places=6)
+        self.assertEqual((grid.info.origin.position.x, grid.info.origin.position.y), (-1.0, -1.0))
+        self.assertEqual(len(grid.data), 1480 * 520)
+        served = rospy.ServiceProxy("static_map", GetMap)().map
+        self.assertEqual(served.info.width, grid.info.width)
+        scan = rospy.wait_for_message("base_scan", LaserScan, timeout=10)
+        self.assertEqual((len(scan.ranges), scan.header.frame_id), (360, "base_laser_link"))
+        self.assertTrue(all(scan.range_min <= r <= scan.range_max or math.isinf(r) for r in scan.ranges))
+        self.assertGreater(sum(1 for r in scan.ranges if math.isfinite(r)), 300)
+        battery = rospy.wait_for_message("battery", BatteryState, timeout=10)
+        self.assertTrue(0.0 < battery.percentage < 1.0 and battery.present)
+        statics = rospy.wait_for_message("/tf_static", TFMessage, timeout=10)
+        pairs = {(t.header.frame_id, t.child_frame_id) for t in statics.transforms}
+        self.assertEqual(pairs, {("base_footprint", "base_link"), ("base_link", "base_laser_link")})
+        tf = rospy.wait_for_message("/tf", TFMessage, timeout=10)            # odom -> base and map -> odom
+        seen = {(t.header.frame_id, t.child_frame_id) for t in tf.transforms}
+        deadline = time.monotonic() + 10
+        while not {("odom", "base_footprint"), ("map", "odom")} <= seen and time.monotonic() < deadline:
+            seen |= {(t.header.frame_id, t.child_frame_id)
+                     for t in rospy.wait_for_message("/tf", TFMessage, timeout=10).transforms}
+        self.assertLessEqual({("odom", "base_footprint"), ("map", "odom")}, seen)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import queue
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -175,7 +176,7 @@ class SimNode:
       ``~obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
       ``~obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
-        wall seconds (speed, sim time, achieved factor, lag, counters of rejected input, stalls).
+        wall seconds (speed, sim time, achieved factor, lag, counters of rejected input, stalls, scans).
     Params:
       ``~building`` (str), ``~robot`` (str) or ``~robots`` (list of str): robots of the building file
         simulated here (their drive, limits, radius); ``~floor`` (default: the first robot's);
@@ -219,8 +220,10 @@ class SimNode:
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
         # /clock is published synchronously (no queue thread per subscriber): tiny messages, 100 per wall
-        # second, and a tick must not wait behind a queue
-        self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
+        # second, and a tick must not wait behind a queue (rospy warns about queue_size=None: intended)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SyntaxWarning)
+            self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
         self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
         self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
@@ -243,6 +246,7 @@ class SimNode:
         self.angles = params.laser.angles()
         self._diag = {"wall": time.time(), "sim": 0.0, "late_ticks": 0, "steps": 0}
         self.late_ticks = 0
+        self.scans = 0
 
     # -- callbacks: enqueue only -------------------------------------------------
     def enqueue(self, msg: Any, args: tuple[str, int]) -> None:
@@ -329,6 +333,7 @@ class SimNode:
                 transforms.append(ru.transform(io.frame["odom"], io.frame["base_footprint"], robot.odom, t))
             if laser_due and io.scan.get_num_connections():
                 io.scan.publish(self._scan(io, t))
+                self.scans += 1
             if battery_due:
                 io.battery.publish(self._battery(robot, t))
         if transforms:
@@ -386,7 +391,7 @@ class SimNode:
             "floor": self.floor.label, "speed": f"{self.p.speed:g}", "sim_time": f"{self.world.time:.2f}",
             "achieved_factor": f"{achieved:.2f}", "lag_s": f"{lag:.3f}", "late_ticks": str(self.late_ticks),
             "skipped_s": f"{self.world.skipped:.2f}", "obstacles": str(len(self.world.obstacles)),
-            "stalls": str(sum(r.stalls for r in self.world.robots)),
+            "stalls": str(sum(r.stalls for r in self.world.robots)), "laser_scans": str(self.scans),
         }
         for kind in ("cmd_vel", "initialpose", "obstacle"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
