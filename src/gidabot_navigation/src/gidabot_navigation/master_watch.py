@@ -129,10 +129,14 @@ def proxy(uri: str, timeout: float) -> xmlrpc.client.ServerProxy:
     return xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(timeout), allow_none=True)
 
 
-def get_master_pid(master_uri: str, caller_id: str, timeout: float) -> int | None:
-    """The master's pid, or None if it does not answer within ``timeout``."""
+def get_master_pid(master_uri: str, caller_id: str, timeout: float,
+                   server: xmlrpc.client.ServerProxy | None = None) -> int | None:
+    """The master's pid, or None if it does not answer within ``timeout``.
+
+    ``server`` (from :func:`proxy`) keeps its HTTP/1.1 connection between calls, which
+    spares the master a new connection and thread per poll."""
     try:
-        code, _, pid = proxy(master_uri, timeout).getPid(caller_id)
+        code, _, pid = (server or proxy(master_uri, timeout)).getPid(caller_id)
     except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError):
         return None
     return int(pid) if code == 1 else None
@@ -206,6 +210,7 @@ class MasterWatch:
     _lock: threading.Lock = field(default_factory=threading.Lock)
     _stop: threading.Event = field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
+    _server: xmlrpc.client.ServerProxy | None = None
 
     @property
     def up(self) -> bool:
@@ -233,7 +238,11 @@ class MasterWatch:
 
     def poll_once(self, now: float | None = None) -> Event:
         """One poll and what follows from it (the thread calls this every ``period``)."""
-        pid = get_master_pid(self.master_uri, self.caller_id, self.timeout)
+        if self._server is None:
+            self._server = proxy(self.master_uri, self.timeout)
+        pid = get_master_pid(self.master_uri, self.caller_id, self.timeout, self._server)
+        if pid is None:
+            self._server = None            # a fresh connection next time (the old one may be dead)
         now = time.monotonic() if now is None else now
         with self._lock:
             event = self.core.observe(pid, now)

@@ -250,6 +250,7 @@ class RelayEndNode:
         self.core = LinkCore(cfg, journal, time.monotonic, _RosLog(), make_validator(classes))
         self.raw = {n: raw_class(c) for n, c in classes.items()}
         self._last_latched: dict[str, str] = {}
+        self.pruned = 0                      # subscriptions to relay publishers closed
         self.pubs: dict[str, rospy.Publisher] = {}
         for s in specs:
             if s.kind == STATE:
@@ -406,6 +407,7 @@ class RelayEndNode:
                     with self.lock:
                         self._apply(self.core.tick())
                     self._update_hold(now)
+                    self._prune_relay_connections()
                 self._deliver()
                 if now >= next_diag:
                     next_diag = max(next_diag + period, now)
@@ -592,6 +594,19 @@ class RelayEndNode:
                if missing else "every subscriber is connected")
         rospy.loginfo(f"{self.core.name}: delivering {held_events} held event(s): {why}")
 
+    def _prune_relay_connections(self) -> None:
+        """Close this end's subscriptions to relay publishers (itself and the other relay ends on this
+        master): their messages are never forwarded, so receiving them only costs CPU. Messages that
+        arrive before the pruning are dropped by caller id anyway. rospy does not reconnect a closed
+        connection until the master's publisher list changes (then the next tick prunes it again)."""
+        for sub in self.subs:
+            for c in list(sub.impl.connections):
+                header = getattr(c, "header", None) or {}
+                if is_relay(str(header.get("callerid", ""))):
+                    with contextlib.suppress(Exception):     # rospy transport internals: best effort
+                        c.close()
+                    self.pruned += 1
+
     def _registered_subscribers(self) -> dict[str, set[str]]:
         """Subscribers of the shared event topics registered with this end's master ({} if it does not answer)."""
         if self.watch is None:
@@ -624,6 +639,7 @@ class RelayEndNode:
             status.level = DiagnosticStatus.OK
             status.message = f"connected to {self.cfg.peer_robot}, rtt {snap['rtt_ms']} ms"
         snap["link_address"] = f"{self.params.link_host}:{self.params.link_port}"
+        snap["pruned_relay_connections"] = self.pruned
         snap["side"] = self.params.side
         status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
         arr = DiagnosticArray()

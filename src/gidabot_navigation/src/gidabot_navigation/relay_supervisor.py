@@ -152,8 +152,9 @@ class ChildProcess:
     """One end process: its own process group, SIGTERM when the supervisor dies, restart with backoff."""
 
     def __init__(self, spec: EndSpec, opts: EndOptions, log: Callable[[str, str], None],
-                 base_env: Mapping[str, str] | None = None) -> None:
+                 base_env: Mapping[str, str] | None = None, output_dir: Path | None = None) -> None:
         self.spec = spec
+        self.output_dir = output_dir
         self.opts = opts
         self.log = log
         self.base_env = dict(os.environ if base_env is None else base_env)
@@ -173,15 +174,22 @@ class ChildProcess:
         setpriv = shutil.which("setpriv")
         if setpriv:
             argv = [setpriv, "--pdeathsig", "TERM", "--", *argv]
+        out = None
         try:
+            if self.output_dir is not None:
+                out = open(self.output_dir / f"{self.spec.key}.log", "ab")  # noqa: SIM115 - closed below
             self.popen = subprocess.Popen(argv, env=end_env(self.spec, self.base_env, os.getpid()),
-                                          stdin=subprocess.DEVNULL, start_new_session=True,
+                                          stdin=subprocess.DEVNULL, stdout=out,
+                                          stderr=subprocess.STDOUT if out else None, start_new_session=True,
                                           preexec_fn=None if setpriv else _pdeathsig)
         except OSError as err:
             self.popen = None
             self.next_start = now + self.backoff.next_delay(0.0)
             self.log("error", f"cannot start relay end {self.spec.key}: {err.strerror}")
             return
+        finally:
+            if out is not None:
+                out.close()
         self.started_at = now
         self.log("info", f"started relay end {self.spec.node_name} side {self.spec.side} on "
                          f"{self.spec.master_uri} (pid {self.popen.pid}, link {self.spec.link_host}:"
@@ -232,8 +240,10 @@ class Supervisor:
     """Keeps every planned end running (no rospy): call :meth:`step` periodically, :meth:`stop` at the end."""
 
     def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],
-                 new_port: Callable[[str], int] = free_port, base_env: Mapping[str, str] | None = None) -> None:
-        self.children = [ChildProcess(s, opts, log, base_env) for s in ends]
+                 new_port: Callable[[str], int] = free_port, base_env: Mapping[str, str] | None = None,
+                 output_dir: Path | None = None) -> None:
+        """``output_dir``: where each end's stdout/stderr goes (``<key>.log``); None = inherited."""
+        self.children = [ChildProcess(s, opts, log, base_env, output_dir) for s in ends]
         self.log = log
         self.new_port = new_port
 
