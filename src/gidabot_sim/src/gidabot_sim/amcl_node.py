@@ -13,15 +13,11 @@ from tf2_msgs.msg import TFMessage
 
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
+from gidabot_navigation.master_watch import keep_registered
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.localization import AmclConfig, AmclCore
 from gidabot_sim.simclock import Periodic
-
-try:  # provided by the relay component; the coordinator wires it where it is missing
-    from gidabot_navigation.master_watch import keep_registered
-except ImportError:  # pragma: no cover - depends on the checkout
-    keep_registered = None
 
 
 def _pose2d(msg: Odometry) -> Pose2D | None:
@@ -118,8 +114,7 @@ class AmclNode:
 
 def main() -> None:
     rospy.init_node("amcl")
-    if keep_registered is not None:
-        keep_registered()
+    keep_registered()     # re-register with a restarted master
     try:
         AmclNode()
     except (GidaBotError, OSError) as err:

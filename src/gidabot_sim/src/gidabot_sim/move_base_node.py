@@ -20,6 +20,7 @@ from gidabot_msgs.msg import ObstacleArray
 from gidabot_navigation.building import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
+from gidabot_navigation.master_watch import keep_registered
 from gidabot_navigation.planning import Path
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
@@ -28,11 +29,6 @@ from gidabot_sim.localization import PoseTracker
 from gidabot_sim.move_base_core import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.simclock import Periodic
 from gidabot_sim.world import obstacle_shape
-
-try:  # provided by the relay component; the coordinator wires it where it is missing
-    from gidabot_navigation.master_watch import keep_registered
-except ImportError:  # pragma: no cover - depends on the checkout
-    keep_registered = None
 
 
 class _RosLog:
@@ -299,8 +295,7 @@ class MoveBaseNode:
 
 def main() -> None:
     rospy.init_node("move_base")
-    if keep_registered is not None:
-        keep_registered()
+    keep_registered()     # re-register with a restarted master
     try:
         node = MoveBaseNode()
     except (GidaBotError, OSError) as err:

@@ -30,16 +30,12 @@ from gidabot_msgs.msg import Obstacle, ObstacleArray
 from gidabot_navigation.building import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.geometry import Pose2D
+from gidabot_navigation.master_watch import keep_registered
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.kinematics import Limits
 from gidabot_sim.simclock import Periodic, SimClock, tick_period
 from gidabot_sim.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
-
-try:  # provided by the relay component; the coordinator wires it where it is missing
-    from gidabot_navigation.master_watch import keep_registered
-except ImportError:  # pragma: no cover - depends on the checkout
-    keep_registered = None
 
 QUEUE_SIZE = 100
 
@@ -461,8 +457,7 @@ class SimNode:
 
 def main() -> None:
     rospy.init_node("sim")
-    if keep_registered is not None:
-        keep_registered()
+    keep_registered()     # re-register with a restarted master
     try:
         node = SimNode()
     except (GidaBotError, OSError) as err:
