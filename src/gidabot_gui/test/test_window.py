@@ -363,3 +363,20 @@ def test_mode_button_follows_the_mode(make_gui) -> None:
     assert w.mode_btn.property("mode") == "tour"
     gui.click(w.mode_btn)
     assert w.current_page == "floor:1"
+
+
+def test_tap_a_room_on_the_blueprint(make_gui, faculty) -> None:
+    gui = make_gui("Kbot")
+    gui.feed_all_status(faculty)
+    gui.nav("floor:2")
+    view = gui.window.floor_pages[2].view
+    m = view.mapping()
+    x, y = m.to_widget(*faculty.floor(2).transform.to_pixel(37.0, 8.5))     # inside room 223
+    QTest.mouseClick(view, Qt.LeftButton, pos=QPoint(round(x), round(y)))
+    gui.process()
+    assert gui.window.overlay.name == "confirm" and gui.window.overlay.title.text() == "M. Larrea's Office (223)"
+    gui.press("back")
+    x, y = m.to_widget(*faculty.floor(2).transform.to_pixel(-0.5, 25.0))    # outside the building
+    QTest.mouseClick(view, Qt.LeftButton, pos=QPoint(round(x), round(y)))
+    gui.process()
+    assert not gui.window.overlay.showing

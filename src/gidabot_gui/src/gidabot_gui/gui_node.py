@@ -12,6 +12,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -312,6 +313,8 @@ class GuiNode:
     def shutdown(self) -> None:
         for s in self.subs:
             s.unregister()
+        for p in (self.cmd_pub, self.pose_pub, self.edit_pub):
+            p.unregister()
 
 
 def _base36(n: int) -> str:
@@ -326,6 +329,13 @@ def _base36(n: int) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
+    stop_requested = threading.Event()
+
+    def on_signal(*_args: object) -> None:
+        stop_requested.set()          # the Qt loop polls it (Python handlers run between Qt events)
+
+    signal.signal(signal.SIGINT, on_signal)
+    signal.signal(signal.SIGTERM, on_signal)
     rospy.init_node("gui", argv=argv, disable_signals=True)
     try:
         from gidabot_navigation.master_watch import keep_registered
@@ -381,17 +391,12 @@ def main(argv: list[str] | None = None) -> int:
         window.resize(params.width, params.height)
         window.show()
 
-    def stop(*_args: object) -> None:
-        app.quit()
-
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
     watchdog = QTimer()
-    watchdog.timeout.connect(lambda: rospy.is_shutdown() and app.quit())   # also lets Python run signal handlers
+    watchdog.timeout.connect(lambda: (stop_requested.is_set() or rospy.is_shutdown()) and app.quit())
     watchdog.start(200)
     rospy.loginfo(f"gui: {params.robot} ready ({'admin mode available' if admin else 'visitor mode'}, "
                   f"language {params.language}, speech {'on' if params.speech else 'off'})")
-    rc = app.exec_()
+    rc = 0 if stop_requested.is_set() else app.exec_()
     speaker.stop()
     node.shutdown()
     rospy.signal_shutdown("gui closed")

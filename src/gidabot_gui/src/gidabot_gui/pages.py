@@ -267,6 +267,7 @@ class FloorPage(Page):
         self.view.theme = theme
         self.grid.row_height = theme.touch
         self.grid.spacing = theme.px(8)
+        self.grid.font_floor = theme.px(15)
         self.grid._relayout()
 
     def start_set_location(self) -> None:
@@ -290,7 +291,8 @@ class FloorPage(Page):
         self.pose_set.emit(u0, v0, u1, v1)
 
     def _tapped(self, x: float, y: float) -> None:
-        best, best_d = None, 2.5
+        """A tap on the blueprint picks the nearest location (stop poses are at the doors)."""
+        best, best_d = None, 4.5
         for loc in self.building.locations:
             if loc.floor == self.floor.id:
                 d = ((loc.pose.x - x) ** 2 + (loc.pose.y - y) ** 2) ** 0.5

@@ -173,19 +173,23 @@ class WrapButton(QPushButton):
         p.setFont(f)
         p.setPen(color)
         p.drawText(text_rect, flags, self._text)
-        if self.marker:
-            r = max(5, self.height() // 10)
+        if self.marker:               # a short bar under the label ("this robot's floor")
+            h = max(4, self.height() // 14)
+            w = max(24, self.width() // 3)
             p.setRenderHint(QPainter.Antialiasing)
             p.setPen(Qt.NoPen)
             p.setBrush(QColor(self.marker))
-            p.drawEllipse(self.width() - 2 * r - 6, 6, 2 * r, 2 * r)
+            p.drawRoundedRect((self.width() - w) // 2, self.height() - h - 3, w, h, h / 2, h / 2)
 
 
-def equalize_fonts(buttons: list[WrapButton]) -> None:
-    """Give ``buttons`` one font size: the smallest any of them needs to fit (a tidy tab bar)."""
+def equalize_fonts(buttons: list[WrapButton], floor: int = 0) -> None:
+    """Give ``buttons`` one font size: the smallest any of them needs to fit (a tidy tab bar).
+
+    With ``floor`` (px) the common size never goes below it; a button that needs less shrinks alone.
+    """
     sizes = [b.fitted_pixel_size() for b in buttons if b.isVisible() and b.width() > 0]
     if sizes:
-        cap = min(sizes)
+        cap = max(min(sizes), floor)
         for b in buttons:
             if b.font_cap != cap:
                 b.font_cap = cap
@@ -275,6 +279,7 @@ class ButtonGrid(QWidget):
         self.row_height = TOUCH
         self.spacing = 8
         self.available_height = 0
+        self.font_floor = 15
         self.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Preferred)
 
     def set_buttons(self, buttons: list[WrapButton]) -> None:
@@ -317,6 +322,9 @@ class ButtonGrid(QWidget):
 
     def resizeEvent(self, _event: object) -> None:  # noqa: N802 - Qt naming
         self._relayout()
+
+    def paintEvent(self, _event: object) -> None:  # noqa: N802 - Qt naming
+        equalize_fonts(self.buttons, floor=self.font_floor)     # children are painted after their parent
 
     def _relayout(self) -> None:
         if not self.buttons:

@@ -631,6 +631,8 @@ class MainWindow(QWidget):
         if not self.flow.can_start_tour():
             self.show_notice(Notice("BUSY"))
             return
+        self.flow.set_mode(Mode.TOUR)
+        self._update_header()
 
         def build() -> CardSpec:
             text = self.texts.confirm_tour(tour, tour_waits(self.fleet, self.robot.name, tour, self.clock()))
