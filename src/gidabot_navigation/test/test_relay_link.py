@@ -316,6 +316,25 @@ def test_inbound_bound_drops_the_oldest_held_event(tmp_path) -> None:
     assert w.b.stats.dropped == 2 and lb.has("inbound queue full")
 
 
+def test_queue_bounds_in_bytes_too(tmp_path) -> None:
+    w, la, _, _ = pair(tmp_path, max_queue_bytes=250)
+    for i in range(5):
+        w.local("a", G, b"%d" % i + b"." * 99)
+    assert len(w.a.state.outq) == 2 and w.a.snapshot()["queue_bytes"] == 200
+    assert la.has("250 bytes")
+    w.connect()
+    assert [p[:1] for p in w.payloads("b")] == [b"3", b"4"]
+    assert w.a.snapshot()["queue_bytes"] == 0
+
+
+def test_state_keys_are_bounded(tmp_path) -> None:
+    w, la, _, _ = pair(tmp_path, max_state_keys=2)
+    w.connect()
+    for node in ("/n1", "/n2", "/n3"):
+        w.local("a", S, b"x", callerid=node)
+    assert len(w.b.latest_states(S)) == 2 and w.a.stats.dropped == 1 and la.has("already 2")
+
+
 # -- states: latest value, coalescing, re-sent on reconnect --------------------------------------
 def test_states_are_coalesced_per_publisher_and_resent_on_reconnect(tmp_path) -> None:
     w, _, _, clock = pair(tmp_path, state_rate=10.0)

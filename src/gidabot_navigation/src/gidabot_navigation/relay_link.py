@@ -145,6 +145,8 @@ class LinkConfig:
     max_message_bytes: int = 1 << 20            # serialized ROS message
     max_queue: int = 10000                      # unacknowledged outbound events
     max_inbound: int = 10000                    # received events waiting to be published
+    max_queue_bytes: int = 64 << 20             # payload bytes of each of those two queues
+    max_state_keys: int = 1000                  # (state topic, publisher) pairs remembered per direction
     heartbeat: float = 0.5                      # s between PINGs
     link_timeout: float = 2.0                   # s without any frame: the connection is dead
     handshake_timeout: float = 3.0              # s for a new connection to authenticate
@@ -161,7 +163,8 @@ class LinkConfig:
         if self.heartbeat >= self.link_timeout:
             raise RelayConfigError(f"heartbeat {self.heartbeat} s must be shorter than link_timeout "
                                    f"{self.link_timeout} s")
-        for name in ("max_message_bytes", "max_queue", "max_inbound", "max_pending_connections"):
+        for name in ("max_message_bytes", "max_queue", "max_inbound", "max_queue_bytes", "max_state_keys",
+                     "max_pending_connections"):
             v = getattr(self, name)
             if not isinstance(v, int) or v < 1:
                 raise RelayConfigError(f"{name} must be a positive integer, got {v!r}")
@@ -293,6 +296,8 @@ class LinkCore:
             log.info(f"relay {cfg.link} ({cfg.robot}): journal holds {len(self.state.outq)} unacknowledged "
                      f"and {len(self.state.pending_in)} unpublished event(s); they will be delivered")
         self.stats = Stats()
+        self._out_bytes = sum(len(m.payload) for m in self.state.outq)
+        self._in_bytes = sum(len(m.payload) for _, m in self.state.pending_in)
         self.conns: dict[int, _Conn] = {}
         self.active: _Conn | None = None
         self.master_up = True
@@ -365,21 +370,29 @@ class LinkCore:
             return []
         self.state.next_seq = m.seq + 1
         self.state.outq.append(m)
+        self._out_bytes += len(m.payload)
         self.stats.forwarded_events += 1
-        if len(self.state.outq) > self.cfg.max_queue:
+        while len(self.state.outq) > 1 and (len(self.state.outq) > self.cfg.max_queue
+                                            or self._out_bytes > self.cfg.max_queue_bytes):
             old = self.state.outq.popleft()
+            self._out_bytes -= len(old.payload)
             self.stats.dropped += 1
-            self._journal_quiet(lambda: self.journal.out_done(old.seq))
-            self.rlog.warning("queue_out", f"{self.name}: outbound queue full ({self.cfg.max_queue} events "
-                                           f"unacknowledged by {self.cfg.peer_robot}); dropped the oldest event, "
-                                           f"seq {old.seq} on {old.topic} from {old.callerid} "
-                                           f"({self.stats.dropped} dropped so far)")
+            self._journal_quiet(lambda old=old: self.journal.out_done(old.seq))
+            self.rlog.warning("queue_out", f"{self.name}: outbound queue full ({self.cfg.max_queue} events or "
+                                           f"{self.cfg.max_queue_bytes} bytes unacknowledged by "
+                                           f"{self.cfg.peer_robot}); dropped the oldest event, seq {old.seq} on "
+                                           f"{old.topic} from {old.callerid} ({self.stats.dropped} dropped so far)")
         if self.active is not None:
             return [self._frame(self.active, FrameType.EVENT, encode_message(m, True))]
         return []
 
     def _local_state(self, m: Message) -> list[Action]:
         key = (m.topic, m.callerid)
+        if key not in self._out_states and len(self._out_states) >= self.cfg.max_state_keys:
+            self.stats.dropped += 1
+            self.rlog.warning("state_keys", f"{self.name}: already {self.cfg.max_state_keys} (state topic, "
+                                            f"publisher) pairs; state on {m.topic} from {m.callerid} dropped")
+            return []
         self._out_states[key] = m
         now = self.clock()
         if self.active is not None and now - self._state_sent.get(key, -math.inf) >= 1.0 / self.cfg.state_rate:
@@ -537,7 +550,7 @@ class LinkCore:
         if not st.outq or st.outq[0].seq > seq:
             return
         while st.outq and st.outq[0].seq <= seq:
-            st.outq.popleft()
+            self._out_bytes -= len(st.outq.popleft().payload)
         self._journal_quiet(lambda: self.journal.out_done(seq))
 
     def _active_frame(self, conn: _Conn, ftype: FrameType, body: bytes, out: list[Action]) -> bool:
@@ -603,19 +616,30 @@ class LinkCore:
             raise FrameRejected("malformed", f"cannot store event seq {m.seq}: {err}") from err
         st.in_last = m.seq
         st.pending_in.append((st.in_epoch, m))
-        if len(st.pending_in) > self.cfg.max_inbound:
+        self._in_bytes += len(m.payload)
+        while len(st.pending_in) > 1 and (len(st.pending_in) > self.cfg.max_inbound
+                                          or self._in_bytes > self.cfg.max_queue_bytes):
             _, old = st.pending_in.popleft()
+            self._in_bytes -= len(old.payload)
             self._handed_out = max(0, self._handed_out - 1)
             self.stats.dropped += 1
             self._journal_quiet(lambda: self.journal.in_done(1))
-            self.rlog.warning("queue_in", f"{self.name}: inbound queue full ({self.cfg.max_inbound} events waiting "
-                                          f"for this master); dropped the oldest, seq {old.seq} on {old.topic} "
-                                          f"from {old.callerid} ({self.stats.dropped} dropped so far)")
+            self.rlog.warning("queue_in", f"{self.name}: inbound queue full ({self.cfg.max_inbound} events or "
+                                          f"{self.cfg.max_queue_bytes} bytes waiting for this master); dropped "
+                                          f"the oldest, seq {old.seq} on {old.topic} from {old.callerid} "
+                                          f"({self.stats.dropped} dropped so far)")
         return True
 
     def _peer_state(self, m: Message) -> None:
         if self._check_peer_message(m, STATE):
-            self._in_states[(m.topic, m.callerid)] = m
+            key = (m.topic, m.callerid)
+            if key not in self._in_states and len(self._in_states) >= self.cfg.max_state_keys:
+                self.stats.dropped += 1
+                self.rlog.warning("state_keys", f"{self.name}: already {self.cfg.max_state_keys} (state topic, "
+                                                f"publisher) pairs from {self.cfg.peer_robot}; {m.topic} from "
+                                                f"{m.callerid} dropped")
+                return
+            self._in_states[key] = m
             self._state_deliveries.append(m)
 
     # -- deliveries -----------------------------------------------------------------------
@@ -639,7 +663,7 @@ class LinkCore:
         events = min(events, self._handed_out, len(self.state.pending_in))
         if events:
             for _ in range(events):
-                self.state.pending_in.popleft()
+                self._in_bytes -= len(self.state.pending_in.popleft()[1].payload)
             self._handed_out -= events
             self._journal_quiet(lambda: self.journal.in_done(events))
             self.stats.delivered_events += events
@@ -726,6 +750,7 @@ class LinkCore:
             "peer_master_up": self.peer_master_up,
             "rtt_ms": None if self.rtt is None else round(self.rtt * 1000, 3),
             "queue_depth": len(self.state.outq),
+            "queue_bytes": self._out_bytes,
             "inbound_pending": len(self.state.pending_in),
             "delivery_open": self.delivery_open,
             "forwarded": s.forwarded_events + s.forwarded_states,

@@ -81,6 +81,7 @@ class Params:
     max_message_bytes: int
     max_queue: int
     max_inbound: int
+    max_queue_bytes: int
     heartbeat: float
     link_timeout: float
     state_rate: float
@@ -106,6 +107,7 @@ class Params:
         ap.add_argument("--max_message_bytes", type=int, default=1 << 20)
         ap.add_argument("--max_queue", type=int, default=10000)
         ap.add_argument("--max_inbound", type=int, default=10000)
+        ap.add_argument("--max_queue_bytes", type=int, default=64 << 20)
         ap.add_argument("--heartbeat", type=float, default=0.5)
         ap.add_argument("--link_timeout", type=float, default=2.0)
         ap.add_argument("--state_rate", type=float, default=10.0)
@@ -116,7 +118,7 @@ class Params:
             ns = ap.parse_args(args)
         except SystemExit as err:
             raise RelayConfigError(f"bad relay_end options: {' '.join(args)}") from err
-        for name in ("max_message_bytes", "max_queue", "max_inbound", "heartbeat", "link_timeout",
+        for name in ("max_message_bytes", "max_queue", "max_inbound", "max_queue_bytes", "heartbeat", "link_timeout",
                      "state_rate", "hold_grace", "diagnostics_rate"):
             value = getattr(ns, name)
             if not value > 0 or value != value or value == float("inf"):
@@ -221,7 +223,8 @@ class RelayEndNode:
       - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
       - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
       - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
-        outbound), ``--max_inbound`` (events, 10000: received, not yet published).
+        outbound), ``--max_inbound`` (events, 10000: received, not yet published),
+        ``--max_queue_bytes`` (bytes, 67108864: payload bytes of each of those queues).
       - ``--heartbeat`` (s, 0.5), ``--link_timeout`` (s, 2.0): liveness, wall time.
       - ``--state_rate`` (Hz, 10): max sends per (state topic, publisher).
       - ``--hold_grace`` (s, 1.5): after this master restarted, events are held until the
@@ -242,7 +245,8 @@ class RelayEndNode:
         cfg = LinkConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
                          md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
                          max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
-                         max_inbound=params.max_inbound, heartbeat=params.heartbeat,
+                         max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
+                         heartbeat=params.heartbeat,
                          link_timeout=params.link_timeout, state_rate=params.state_rate)
         self.cfg = cfg
         journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")

@@ -152,9 +152,11 @@ class ChildProcess:
     """One end process: its own process group, SIGTERM when the supervisor dies, restart with backoff."""
 
     def __init__(self, spec: EndSpec, opts: EndOptions, log: Callable[[str, str], None],
-                 base_env: Mapping[str, str] | None = None, output_dir: Path | None = None) -> None:
+                 base_env: Mapping[str, str] | None = None, output_dir: Path | None = None,
+                 argv_for: Callable[[EndSpec, EndOptions], list[str]] = end_argv) -> None:
         self.spec = spec
         self.output_dir = output_dir
+        self.argv_for = argv_for
         self.opts = opts
         self.log = log
         self.base_env = dict(os.environ if base_env is None else base_env)
@@ -170,7 +172,7 @@ class ChildProcess:
         return self.popen.pid if self.popen is not None and self.popen.poll() is None else None
 
     def start(self, now: float) -> None:
-        argv = end_argv(self.spec, self.opts)
+        argv = self.argv_for(self.spec, self.opts)
         setpriv = shutil.which("setpriv")
         if setpriv:
             argv = [setpriv, "--pdeathsig", "TERM", "--", *argv]
@@ -241,9 +243,11 @@ class Supervisor:
 
     def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],
                  new_port: Callable[[str], int] = free_port, base_env: Mapping[str, str] | None = None,
-                 output_dir: Path | None = None) -> None:
-        """``output_dir``: where each end's stdout/stderr goes (``<key>.log``); None = inherited."""
-        self.children = [ChildProcess(s, opts, log, base_env, output_dir) for s in ends]
+                 output_dir: Path | None = None,
+                 argv_for: Callable[[EndSpec, EndOptions], list[str]] = end_argv) -> None:
+        """``output_dir``: where each end's stdout/stderr goes (``<key>.log``); None = inherited.
+        ``argv_for``: the command of an end (tests replace the relay end by a stand-in)."""
+        self.children = [ChildProcess(s, opts, log, base_env, output_dir, argv_for) for s in ends]
         self.log = log
         self.new_port = new_port
 
