@@ -151,7 +151,7 @@ class LinkConfig:
     link_timeout: float = 2.0                   # s without any frame: the connection is dead
     handshake_timeout: float = 3.0              # s for a new connection to authenticate
     state_rate: float = 10.0                    # Hz, max sends per (state topic, publisher)
-    max_pending_connections: int = 4            # connections not yet authenticated
+    max_pending_connections: int = 8            # connections not yet authenticated
 
     def __post_init__(self) -> None:
         if self.side not in ("a", "b"):
