@@ -147,6 +147,21 @@ def test_obstacles_block_robots_and_the_laser() -> None:
     world.add_obstacle("o0", Circle(9.0, 5.0, 0.02))                # replacing is fine
 
 
+def test_a_burst_of_obstacle_changes_updates_the_world_once() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    version = world.obstacle_version
+    for k in range(20):
+        world.add_obstacle(f"p{k}", Circle(4.0 + 0.2 * k, 5.0, 0.05), rebuild=False)
+    world.add_obstacle("door", Rectangle(6.0, 3.0, 0.1, 6.0), rebuild=False)
+    assert world.remove_obstacle("p0", rebuild=False)
+    assert world.scan(0)[180] == pytest.approx(9.95 - 2.1, abs=1e-6)   # not applied yet
+    assert world.rebuild() and not world.rebuild()
+    assert world.obstacle_version == version + 1
+    assert world.scan(0)[180] < 4.0
+    assert world.clear_obstacles(rebuild=False) == 20 and world.rebuild()
+
+
 def test_laser_noise_limits_and_geometry() -> None:
     world = World(hall(), dt=0.02, rng=np.random.default_rng(3))
     laser = LaserSpec(beams=181, fov=math.pi, noise=0.02, range_max=4.0)

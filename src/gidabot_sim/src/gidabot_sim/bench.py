@@ -174,7 +174,10 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
             if driver.poll() is None:
                 driver.kill()
             driver.wait(timeout=10)
-    return {"speed": speed, "robot": robot.name, **phases}
+    laser_cpu = phases.get("laser", {}).get("cpu_percent_of_one_core", {}).get("total", 0.0)
+    # extrapolation, not a measurement: the speed at which the three nodes would fill one core
+    capacity = round(speed * 100.0 / laser_cpu, 1) if laser_cpu > 0 else None
+    return {"speed": speed, "robot": robot.name, **phases, "one_core_capacity_factor_estimate": capacity}
 
 
 def _read_line(proc: subprocess.Popen, timeout: float) -> str:
@@ -279,6 +282,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  {text:30s}: sim {cpu['sim']:5.1f}, move_base {cpu['move_base']:5.1f}, amcl {cpu['amcl']:5.1f}, "
                   f"total {cpu['total']:5.1f} (clock factor {r['achieved_factor']}, laser {r['laser_hz_sim']} Hz"
                   + (f", goals {', '.join(r['goals'])})" if r["goals"] else ")"))
+        if ros.get("one_core_capacity_factor_estimate"):
+            print(f"  -> one core would carry this floor with its laser up to about "
+                  f"{ros['one_core_capacity_factor_estimate']}x (extrapolated from the CPU at {ros['speed']:g}x)")
     print("PASS" if report["pass"] else "FAIL")
     return 0
 

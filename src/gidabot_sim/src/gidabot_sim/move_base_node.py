@@ -201,11 +201,12 @@ class MoveBaseNode:
 
     # -- the control loop ------------------------------------------------------------------
     def _drain(self, now: float) -> None:
+        latest_obstacles = None
         while True:
             try:
                 kind, msg = self.events.get_nowait()
             except queue.Empty:
-                return
+                break
             if kind == "goal":
                 self._accept_goal(now)
             elif kind == "preempt":
@@ -214,7 +215,9 @@ class MoveBaseNode:
                     self.cmd_pub.publish(ru.twist_msg(ZERO))
                     self.server.set_preempted(MoveBaseResult(), "Goal cancelled")
             elif kind == "obstacles":
-                self._obstacles(msg)
+                latest_obstacles = msg           # each array is the whole set: only the newest matters
+        if latest_obstacles is not None:
+            self._obstacles(latest_obstacles)
 
     def _accept_goal(self, now: float) -> None:
         if not self.server.is_new_goal_available():

@@ -37,7 +37,7 @@ from gidabot_sim.kinematics import Limits
 from gidabot_sim.simclock import Periodic, SimClock, tick_period
 from gidabot_sim.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
 
-QUEUE_SIZE = 100
+MAX_EVENTS_PER_TICK = 200     # inputs applied per /clock tick; a flood waits for the next ticks
 
 
 def _num(name: str, default: float, low: float = 0.0, high: float = math.inf, strict: bool = False) -> float:
@@ -249,20 +249,24 @@ class SimNode:
         self.events.put((args[0], args[1], msg))
 
     def _drain(self) -> None:
-        while True:
+        """Apply the queued inputs (at most ``MAX_EVENTS_PER_TICK``; obstacle changes update the world once)."""
+        for _ in range(MAX_EVENTS_PER_TICK):
             try:
                 kind, index, msg = self.events.get_nowait()
             except queue.Empty:
-                return
+                break
             try:
                 if kind == "cmd_vel":
                     self.world.set_command(index, *ru.twist_of(msg))
                 elif kind == "initialpose":
+                    self.world.rebuild()         # check the pose against the obstacles as they are now
                     self._relocate(index, msg)
                 elif kind == "obstacle":
                     self._obstacle(msg)
             except (GidaBotError, ValueError, TypeError) as err:
                 self.log.reject(kind, str(err))
+        if self.world.rebuild():
+            self._publish_obstacles()
 
     def _relocate(self, index: int, msg: PoseWithCovarianceStamped) -> None:
         wanted = ru.initialpose_to_pose2d(msg)
@@ -279,17 +283,16 @@ class SimNode:
         ru.check_map_frame(msg.header.frame_id, f"obstacle {msg.id[:64]!r}", ObstacleRejected)
         if msg.action == Obstacle.ADD:
             shape = obstacle_shape(msg.shape, msg.x, msg.y, msg.yaw, msg.radius, msg.width, msg.height)
-            self.world.add_obstacle(msg.id, shape)
+            self.world.add_obstacle(msg.id, shape, rebuild=False)
             rospy.loginfo(f"sim: obstacle {msg.id!r} added: {shape}")
         elif msg.action == Obstacle.REMOVE:
-            if not self.world.remove_obstacle(msg.id):
+            if not self.world.remove_obstacle(msg.id, rebuild=False):
                 raise ObstacleRejected(f"obstacle {msg.id[:64]!r}: no such obstacle to remove")
             rospy.loginfo(f"sim: obstacle {msg.id!r} removed")
         elif msg.action == Obstacle.CLEAR:
-            rospy.loginfo(f"sim: {self.world.clear_obstacles()} obstacle(s) cleared")
+            rospy.loginfo(f"sim: {self.world.clear_obstacles(rebuild=False)} obstacle(s) cleared")
         else:
             raise ObstacleRejected(f"obstacle action {msg.action!r}: expected 0 (ADD), 1 (REMOVE) or 2 (CLEAR)")
-        self._publish_obstacles()
 
     # -- publishing ----------------------------------------------------------------
     def _publish_obstacles(self) -> None:

@@ -166,6 +166,7 @@ class World:
         self.skipped = 0.0                       # sim seconds skipped (not simulated) so far
         self._static = grid.cells != FREE        # occupied or unknown: solid
         self._obstacle_mask = np.zeros_like(self._static)
+        self._dirty = False
         self.caster = RayCaster(self._static, grid.resolution, (grid.origin_x, grid.origin_y, grid.origin_yaw))
 
     # -- robots ----------------------------------------------------------------
@@ -261,8 +262,12 @@ class World:
         return placed
 
     # -- obstacles -------------------------------------------------------------
-    def add_obstacle(self, obstacle_id: str, shape: Shape) -> None:
-        """Add (or replace) obstacle ``obstacle_id``; :class:`ObstacleRejected` if invalid or on a robot."""
+    def add_obstacle(self, obstacle_id: str, shape: Shape, rebuild: bool = True) -> None:
+        """Add (or replace) obstacle ``obstacle_id``; :class:`ObstacleRejected` if invalid or on a robot.
+
+        ``rebuild`` False defers the (tens of milliseconds) update of the solid mask to :meth:`rebuild`,
+        so a burst of changes costs one update.
+        """
         if not isinstance(obstacle_id, str) or not OBSTACLE_ID_RE.match(obstacle_id):
             raise ObstacleRejected(f"obstacle id {str(obstacle_id)[:80]!r}: expected 1..64 characters of "
                                    "letters, digits, '_', '-', '.', '/'")
@@ -275,22 +280,36 @@ class World:
                 raise ObstacleRejected(f"obstacle {obstacle_id!r} would overlap robot {robot.spec.name} at "
                                        f"({robot.pose.x:.2f}, {robot.pose.y:.2f})")
         self.obstacles[obstacle_id] = shape
-        self._rebuild()
+        self._dirty = True
+        if rebuild:
+            self.rebuild()
 
-    def remove_obstacle(self, obstacle_id: str) -> bool:
+    def remove_obstacle(self, obstacle_id: str, rebuild: bool = True) -> bool:
         """Remove obstacle ``obstacle_id``; False when there was none."""
         if self.obstacles.pop(obstacle_id, None) is None:
             return False
-        self._rebuild()
+        self._dirty = True
+        if rebuild:
+            self.rebuild()
         return True
 
-    def clear_obstacles(self) -> int:
+    def clear_obstacles(self, rebuild: bool = True) -> int:
         """Remove every obstacle; returns how many there were."""
         count = len(self.obstacles)
         if count:
             self.obstacles.clear()
-            self._rebuild()
+            self._dirty = True
+            if rebuild:
+                self.rebuild()
         return count
+
+    def rebuild(self) -> bool:
+        """Bring the solid mask (laser, collisions) up to date with the obstacles; True when it changed."""
+        if not self._dirty:
+            return False
+        self._rebuild()
+        self._dirty = False
+        return True
 
     def _rebuild(self) -> None:
         mask = np.zeros_like(self._static)
