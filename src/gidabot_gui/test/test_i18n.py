@@ -37,7 +37,7 @@ def test_catalogs_hold_every_string_of_the_code(tmp_path: Path) -> None:
                     "-o", str(fresh), *sorted(str(p) for p in SRC.glob("*.py"))], check=True)
     in_code = set(msgids(fresh.read_text(encoding="utf-8")))
     committed = set(msgids((PKG / "locale" / "gidabot_gui.pot").read_text(encoding="utf-8")))
-    assert in_code == committed, ("run src/gidabot_gui/tools/update-translations.sh; new: "
+    assert in_code == committed, ("run bash src/gidabot_gui/tools/update-translations.sh; new: "
                                   f"{sorted(in_code - committed)}, gone: {sorted(committed - in_code)}")
     for lang in ("eu", "es"):
         po = set(msgids((PKG / "locale" / lang / "LC_MESSAGES" / "gidabot_gui.po").read_text(encoding="utf-8")))

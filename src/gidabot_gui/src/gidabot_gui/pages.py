@@ -500,11 +500,16 @@ class ToursPage(Page):
 
     def set_progress(self, progress: tuple[str, set[int], int] | None, can_continue: bool,
                      can_skip: Callable[[int], bool], busy: bool) -> None:
+        """Called on every refresh: the stop list is rebuilt only when the tour's progress changed."""
+        changed = progress != self.progress
         self.progress = progress
         self.can_continue = can_continue
         self.can_skip = can_skip
         self.busy = busy
-        self._show_stops()
+        if changed:
+            self._show_stops()
+        else:
+            self.update_buttons()
 
     def _show_stops(self) -> None:
         tour = self.selected()

@@ -3,7 +3,7 @@
 Texts are built from records (:class:`~gidabot_gui.flow.Notice`, wait estimates)
 each time they are shown, in the translator's current language, so a pop-up on
 screen is re-translated when the visitor switches language. Source strings are
-English; ``tools/update-translations.sh`` extracts them into the catalogs.
+English; ``src/gidabot_gui/tools/update-translations.sh`` extracts them into the catalogs.
 Place and floor names come from the building file.
 """
 
