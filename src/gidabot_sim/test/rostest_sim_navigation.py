@@ -16,8 +16,14 @@ import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseWithCovarianceStamped
-from move_base_msgs.msg import MoveBaseAction, MoveBaseFeedback, MoveBaseGoal
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
+from move_base_msgs.msg import (
+    MoveBaseAction,
+    MoveBaseActionFeedback,
+    MoveBaseActionResult,
+    MoveBaseFeedback,
+    MoveBaseGoal,
+)
 from nav_msgs.msg import OccupancyGrid, Odometry
 from nav_msgs.srv import GetMap, GetPlan, GetPlanRequest
 from sensor_msgs.msg import BatteryState, LaserScan
@@ -221,6 +227,25 @@ class SimNavigation(unittest.TestCase):
             seen |= {(t.header.frame_id, t.child_frame_id)
                      for t in rospy.wait_for_message("/tf", TFMessage, timeout=10).transforms}
         self.assertLessEqual({("odom", "base_footprint"), ("map", "odom")}, seen)
+
+
+    def test_9_move_base_simple_goal_and_feedback(self) -> None:
+        results: list[MoveBaseActionResult] = []
+        feedback: list[MoveBaseActionFeedback] = []
+        subs = [rospy.Subscriber("move_base/result", MoveBaseActionResult, results.append),
+                rospy.Subscriber("move_base/feedback", MoveBaseActionFeedback, feedback.append)]
+        simple = rospy.Publisher("move_base_simple/goal", PoseStamped, queue_size=1)
+        wait_for(lambda: simple.get_num_connections() > 0 and all(s.get_num_connections() for s in subs), 10,
+                 "connections")
+        goal = PoseStamped()
+        goal.header.frame_id = "map"
+        goal.pose = pose_msg(Pose2D(28.0, 12.0, 0.0))
+        simple.publish(goal)
+        wait_for(lambda: any(r.status.status == GoalStatus.SUCCEEDED for r in results), 30, "SUCCEEDED")
+        self.assertTrue(feedback and feedback[-1].feedback.base_position.header.frame_id == "map")
+        self.assertLess(math.hypot(self.pose().x - 28.0, self.pose().y - 12.0), 0.4)
+        for sub in subs:
+            sub.unregister()
 
 
 if __name__ == "__main__":
