@@ -170,6 +170,8 @@ def test_switch_language_changes_everything_at_once(make_gui, faculty) -> None:
     gui.press("stairs")
     event(gui, Phase.ON_THE_WAY, "Kbot/gui-test/1", connector="stairs_west", location_id="stairs_west")
     assert "walk behind me" in w.overlay.note_text.text()
+    assert not w.overlay.geometry().intersects(w.header.geometry())      # the language button stays reachable
+    assert not w.overlay.geometry().intersects(w.bottom.geometry())      # and so does Cancel
     gui.click(w.lang_btn)
     assert w.overlay.name == "language"
     gui.press("lang:eu")

@@ -36,7 +36,8 @@ class CardSpec:
     icon: str = "info"
     buttons: list[Button] = field(default_factory=list)
     extra: QWidget | None = None      # a widget shown under the body (keyboard, list...)
-    wide: bool = False                # use the whole window (editors, search)
+    wide: bool = False                # the whole window down to the bottom bar (keyboards); else the header
+                                      # stays uncovered (language button) and the card sits in between
     full: bool = False                # cover the bottom bar too (admin tour editor)
     note: str = ""                    # a highlighted reminder under the body (walk behind the robot)
     note_icon: str = ""
@@ -46,7 +47,7 @@ class Overlay(QWidget):
     """Shows one card at a time; ``on_button(key)`` of the card's builder is called on a tap."""
 
     changed = pyqtSignal()             # a card was shown or closed
-    resized_for_full = pyqtSignal()    # the card needs the whole window (or no longer)
+    resized_for_full = pyqtSignal()    # the card needs another part of the window (see wide, full)
 
     def __init__(self, parent: QWidget) -> None:
         super().__init__(parent)
@@ -135,8 +136,8 @@ class Overlay(QWidget):
         self._builder = None
         self._on_button = None
         self._set_extra(None)
-        if self.full:
-            self.full = False
+        if self.full or self.wide:
+            self.full = self.wide = False
             self.resized_for_full.emit()
         self.hide()
         self.changed.emit()
@@ -188,8 +189,8 @@ class Overlay(QWidget):
         self.note_text.setText(spec.note)
         self.note.setVisible(bool(spec.note))
         if spec.note_icon:
-            self.note_icon.setPixmap(icon_pixmap(spec.note_icon, ACCENT, t.px(64)))
-            self.note_icon.setFixedSize(t.px(64), t.px(64))
+            self.note_icon.setPixmap(icon_pixmap(spec.note_icon, ACCENT, t.px(56)))
+            self.note_icon.setFixedSize(t.px(56), t.px(56))
         self.note_icon.setVisible(bool(spec.note_icon))
         self._set_extra(spec.extra)
         while self.button_row.count():
@@ -207,11 +208,10 @@ class Overlay(QWidget):
             btn.clicked.connect(lambda _=False, k=b.key: self.press(k))
             self.button_row.addWidget(btn)
             self.buttons[b.key] = btn
-        self.card.layout().setContentsMargins(t.px(22), t.px(16), t.px(22), t.px(16))
-        self.card.layout().setSpacing(t.px(12))
-        self.wide = spec.wide
-        if self.full != spec.full:
-            self.full = spec.full
+        self.card.layout().setContentsMargins(t.px(22), t.px(14), t.px(22), t.px(14))
+        self.card.layout().setSpacing(t.px(10))
+        if (self.full, self.wide) != (spec.full, spec.wide):
+            self.full, self.wide = spec.full, spec.wide
             self.resized_for_full.emit()
         self._place()
         QTimer.singleShot(0, self._place)      # again once the new widgets are polished
@@ -220,7 +220,7 @@ class Overlay(QWidget):
         if self.parentWidget() is None:
             return
         w, h = self.width(), self.height()
-        margin = self.theme.px(12)
+        margin = self.theme.px(8)
         if self.wide:
             self.card.setGeometry(QRect(margin, margin, w - 2 * margin, h - 2 * margin))
             return

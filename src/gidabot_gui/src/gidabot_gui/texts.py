@@ -148,7 +148,7 @@ class Texts:
             if spoken_goal:
                 speech.append(t._("Destination: {place}.").format(place=spoken_goal))
             speech.append(t._("Please walk behind me."))
-            return PopupText(t._("Follow me"), "\n\n".join(lines), " ".join(speech), "info", note=behind)
+            return PopupText(t._("Follow me"), "\n".join(lines), " ".join(speech), "info", note=behind)
         if kind == "GO_TO_FLOOR":
             floor = self.floor(target)
             robot = self._robot_on(target)

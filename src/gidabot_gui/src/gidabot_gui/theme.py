@@ -95,7 +95,7 @@ QPushButton[role="key"] {{ padding: 0px; border-radius: {self.px(6)}px; }}
 QPushButton[role="field"] {{ border-color: #B9B3A6; }}
 QFrame#card {{ background: {SURFACE}; border-radius: {self.px(16)}px; }}
 QFrame#note {{ background: #FFF4E8; border-left: {self.px(6)}px solid {ACCENT}; border-radius: {self.px(6)}px; }}
-QLabel#notetext {{ font-size: {fb}px; font-weight: bold; color: #7A3A0C; }}
+QLabel#notetext {{ font-size: {f}px; font-weight: bold; color: #7A3A0C; }}
 QFrame#robotcard {{ background: {SURFACE}; border: 2px solid {BORDER}; border-radius: {r}px; }}
 QFrame#robotcard[offline="true"] {{ background: #ECEAE5; }}
 QFrame#robotcard[here="true"] {{ border-color: {ACCENT}; }}

@@ -301,8 +301,10 @@ class MainWindow(QWidget):
         self._place_overlay()
 
     def _place_overlay(self) -> None:
+        """Pop-ups leave the header (language) and the bottom bar (Cancel) reachable; editors take more."""
+        top = 0 if (self.overlay.wide or self.overlay.full) else self.header.height()
         bottom = self.height() if self.overlay.full else self.bottom.y()
-        self.overlay.setGeometry(0, 0, self.width(), max(0, bottom))
+        self.overlay.setGeometry(0, top, self.width(), max(0, bottom - top))
 
     def showEvent(self, ev: Any) -> None:  # noqa: N802 - Qt naming
         super().showEvent(ev)
@@ -773,7 +775,7 @@ class MainWindow(QWidget):
         def submitted(password: str) -> None:
             assert self.config.admin is not None
             if self.config.admin.check(password, self.clock()):
-                self.overlay.close_card()
+                self.overlay.pop_card()
                 self.unlock_admin()
             else:
                 self.log("gui: wrong administrator password")
@@ -782,8 +784,8 @@ class MainWindow(QWidget):
                 self.overlay.retranslate()
 
         panel.submitted.connect(submitted)
-        panel.back.connect(self.overlay.close_card)
-        self.overlay.show_card("password", build, lambda _k: self.overlay.close_card())
+        panel.back.connect(self.overlay.pop_card)
+        self.overlay.push_card("password", build, lambda _k: self.overlay.pop_card())
         self.password_panel = panel
 
     def unlock_admin(self) -> None:
