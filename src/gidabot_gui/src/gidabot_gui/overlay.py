@@ -3,8 +3,9 @@
 Pop-ups are not separate windows (a kiosk has no window manager to speak of, and
 tests can grab them with the window). A card is built by a function called
 again on every language switch, so what is on screen is always in the language
-chosen. The backdrop covers the window down to the bottom bar, whose Cancel
-button stays reachable while a trip runs.
+chosen. The backdrop covers the page area only: the header (language button) and
+the bottom bar (Cancel while a trip runs) stay reachable; keyboards and editors
+(``wide``/``full`` cards) take more of the window.
 """
 
 from __future__ import annotations
