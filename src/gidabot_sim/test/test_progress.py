@@ -39,3 +39,18 @@ def test_single_target_done() -> None:
     p.feed_line(line(kind="status", robot="Kbot", state="idle"))
     p.feed_line(line(kind="event", robot="Kbot", phase=2, goal_uid="g", sim=50, wall=5))
     assert p.finished and p.outcome == "completed" and p.states == {"Kbot": "idle"}
+
+
+def test_start_up_then_goal_numbers_follow_the_tour_step() -> None:
+    p = Progress(total_goals=15, robots_total=4)
+    assert p.feed_line(line(kind="up", robot="Kbot", sim=0, wall=0))
+    assert not p.feed_line(line(kind="up", robot="Kbot", sim=0, wall=0))
+    assert p.line() == "starting: 1 of 4 robots up (Kbot)"
+    p.feed_line(line(kind="goal", uid="a", goal_id="002", tour_step=0, initial_floor=0, goal_floor=0, sim=1, wall=1))
+    p.feed_line(line(kind="goal", uid="b", goal_id="305", tour_step=1, initial_floor=0, goal_floor=3, sim=2, wall=2))
+    p.feed_line(line(kind="event", robot="MariSorgin", phase=4, goal_uid="b", sim=3, wall=3))
+    assert p.line() == "goal 2 of 15 (305 0->3), 0 done | MariSorgin: going to meeting point"
+    # a skip cancels the running step: not the end of the visit
+    p.feed_line(line(kind="event", robot="MariSorgin", phase=9, goal_uid="b", sim=4, wall=4))
+    p.feed_line(line(kind="event", robot="Tartalo", phase=15, goal_uid="b", sim=4, wall=4))
+    assert not p.finished and p.line().endswith("Tartalo: partner lost (waiting)")

@@ -84,3 +84,15 @@ def test_walk_time() -> None:
     c = cfg("R", 0, stairs_s_per_floor=20, lift_wait_s=25, lift_s_per_floor=5)
     assert c.walk_time(0, 3) == 60
     assert v.VisitorConfig(robot="R", floor=0, way="lift").walk_time(3, 0) == 25 + 15
+
+
+def test_arriving_on_another_floor_never_restarts_the_tour() -> None:
+    up = v.VisitorCore(cfg("MariSorgin", 3, tour_file="long_tour.tour", think_s=0.0))
+    up.on_event(10.0, "e1", "Tartalo", v.GO_TO_FLOOR, "g2", 0, 3)
+    up.on_event(20.0, "e2", "MariSorgin", v.WAITING_VISITOR, "g2", 3, 3)
+    [cmd] = up.step(70.0)
+    assert cmd.command == v.CONTINUE and up.present
+    up.on_event(90.0, "e3", "MariSorgin", v.TOUR_STEP_DONE, "g2", 3, 3, tour_step=1)
+    assert up.present
+    assert up.start(91.0) == []                       # present, but not the start floor
+    assert [c.command for c in up.step(91.0)] == [v.CONTINUE]

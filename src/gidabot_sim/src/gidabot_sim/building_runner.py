@@ -1,40 +1,156 @@
 """Run the whole simulated building on this one machine (a thin layer over the per-robot launches).
 
 Starts one master per robot on the robot's own loopback address (free ports, so
-runs never collide), then ``launch/robot.launch sim:=true`` per robot against its
-master, ``rosbag record`` of the shared topics per robot, and the progress
-monitor. Every process is in its own process group; :meth:`stop` (and leaving
-the ``with`` block) stops them all: recorders first so bags are closed properly.
+runs never collide), sets ``/use_sim_time`` on every master, then per robot a
+``rosbag record`` of the shared topics and ``launch/robot.launch sim:=true``
+against its master, and the progress monitor. Every process is in its own
+process group; :meth:`SimulatedBuilding.stop` (and leaving the ``with`` block)
+stops them all by process group: recorders first (SIGINT: the bag is closed and
+indexed), then the robots, the monitor and the masters.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import secrets
 import shutil
+import signal
 import subprocess
+import sys
 import time
+import xmlrpc.client
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from gidabot_navigation.building import Building, load_building, relocate_building
-from gidabot_navigation.procs import ProcessGroup, ros_env, start_master, wait_until
+from gidabot_navigation.procs import ProcessError, ProcessGroup, ros_env, start_master
+from gidabot_sim.errors import SimError
 
 REPO = Path(__file__).resolve().parents[4]
 ROBOT_LAUNCH = REPO / "launch" / "robot.launch"
+MONITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "monitor"
+# what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
 RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
-                   "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index")
+                   "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
+                   "/visitor/command", "/amcl_pose")
+
+
+class DemoError(SimError):
+    """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
+
+
+def rosbag_record_binary() -> str:
+    """Path of rosbag's ``record`` program (what ``rosbag record`` runs).
+
+    Started directly so that it is the leader of its process group: a SIGINT reaches it
+    once and it closes the bag before exiting (the ``rosbag`` Python wrapper exits at
+    once on SIGINT, and the group would be killed while the bag is being closed).
+    """
+    import roslib.packages
+
+    found = roslib.packages.find_node("rosbag", "record")
+    if not found:
+        raise DemoError("rosbag's record program was not found (Debian package ros-core / rosbag)")
+    return str(found[0])
+
+
+def write_secret(path: Path) -> Path:
+    """A fresh random relay secret (HMAC-SHA256 key, 32 bytes hex) in ``path``, mode 0600."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="ascii") as out:
+        out.write(secrets.token_hex(32) + "\n")
+    return path
+
+
+def set_param(master_uri: str, key: str, value: object) -> None:
+    """Set a parameter on a master (XML-RPC, no rospy in this process)."""
+    try:
+        code, msg, _ = xmlrpc.client.ServerProxy(master_uri).setParam("/gidabot_demo", key, value)
+    except (OSError, xmlrpc.client.Error) as err:
+        raise DemoError(f"cannot set {key} on the master {master_uri}: {err}") from err
+    if code != 1:
+        raise DemoError(f"cannot set {key} on the master {master_uri}: {msg}")
+
+
+@dataclass(frozen=True)
+class ProcInfo:
+    """One process, from ``/proc/<pid>/stat`` and its command line."""
+
+    pid: int
+    ppid: int
+    pgid: int
+    start: int              # start time (clock ticks since boot): tells a reused pid apart
+    cpu_s: float            # user + system CPU seconds so far
+    argv: tuple[str, ...]
+
+    @property
+    def label(self) -> str:
+        """The ROS node name (``__name:=``), else the program's name."""
+        for arg in self.argv:
+            if arg.startswith("__name:="):
+                return arg.split(":=", 1)[1]
+        prog = [a for a in self.argv if not a.startswith("-")]
+        if len(prog) >= 2 and Path(prog[0]).name.startswith("python"):
+            return Path(prog[1]).name if prog[1] != "-m" or len(prog) < 3 else prog[2].rsplit(".", 1)[-1]
+        return Path(prog[0]).name if prog else "?"
+
+
+def read_proc(pid: int) -> ProcInfo | None:
+    """``/proc/<pid>`` of a live process, or None (gone, or not readable)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    fields = stat[stat.rfind(")") + 2:].split()
+    if len(fields) < 20 or fields[0] == "Z":
+        return None
+    tick = os.sysconf("SC_CLK_TCK")
+    return ProcInfo(pid, int(fields[1]), int(fields[2]), int(fields[19]), (int(fields[11]) + int(fields[12])) / tick,
+                    tuple(a.decode(errors="replace") for a in argv if a))
+
+
+def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
+    """Every live process that is one of ``roots`` or descends from one (roslaunch starts each node in
+    a session of its own, so process groups alone do not find them)."""
+    procs = {}
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            info = read_proc(int(entry.name))
+            if info is not None:
+                procs[info.pid] = info
+    children: dict[int, list[int]] = {}
+    for info in procs.values():
+        children.setdefault(info.ppid, []).append(info.pid)
+    found: dict[int, ProcInfo] = {}
+    todo = [pid for pid in roots if pid in procs]
+    while todo:
+        pid = todo.pop()
+        if pid not in found:
+            found[pid] = procs[pid]
+            todo.extend(children.get(pid, []))
+    return found
 
 
 @dataclass
 class SimulatedBuilding:
+    """The simulated building's processes. ``addresses`` (one per robot, building order) replace
+    the building file's own master addresses (tests use a per-session loopback network)."""
+
     building_dir: Path
     run_dir: Path
     speed: float = 10.0
     gui: bool = False
     record: bool = True
-    relay_secret: str = ""
+    relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
     seed_tours: Path = REPO / "tours"
+    addresses: list[str] | None = None
     robot_args: dict[str, dict[str, str]] = field(default_factory=dict)   # per robot extra launch args
     common_args: dict[str, str] = field(default_factory=dict)
+    start_delay: float = 8.0                  # wall s from launching the robots to sim time 0
     building: Building | None = None
     building_file: Path | None = None
     monitor_file: Path | None = None
@@ -43,6 +159,10 @@ class SimulatedBuilding:
     def __post_init__(self) -> None:
         self.run_dir.mkdir(parents=True, exist_ok=True)
         self.procs = ProcessGroup(self.run_dir / "logs")
+        self._stopped = False
+        self._seen: dict[int, ProcInfo] = {}    # every process of the run seen by track()
+        self._root: dict[int, str] = {}         # pid -> the managed process it descends from
+        self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -51,28 +171,54 @@ class SimulatedBuilding:
         self.stop()
 
     # -- start ---------------------------------------------------------------
-    def start(self, start_delay: float = 6.0) -> None:
+    def start(self, cancelled: Callable[[], bool] = lambda: False) -> None:
+        """Masters, /use_sim_time, recorders, every robot's launch, the monitor. Raises DemoError.
+
+        ``cancelled`` is asked between two steps (a signal handler sets it): start-up stops
+        there with DemoError, and every process started so far is known to :meth:`stop`.
+        """
+        def check() -> None:
+            if cancelled():
+                raise DemoError("start-up interrupted")
+
         base = load_building(self.building_dir)
-        uris = {r.name: start_master(self.procs, f"master_{r.name}", r.ip) for r in base.robots}
+        if self.addresses is not None and len(self.addresses) != len(base.robots):
+            raise DemoError(f"{len(self.addresses)} addresses for {len(base.robots)} robots")
+        uris: dict[str, str] = {}
+        try:
+            for i, r in enumerate(base.robots):
+                ip = self.addresses[i] if self.addresses is not None else r.ip
+                check()
+                uris[r.name] = start_master(self.procs, f"master_{r.name}", ip)
+        except ProcessError as err:
+            raise DemoError(f"cannot start the masters: {err}") from err
         self.building_file = relocate_building(self.building_dir, self.run_dir / "building", uris)
         self.building = load_building(self.building_file)
-        self.start_wall = time.time() + start_delay
-        first = self.building.robots[0]
-        self.monitor_file = self.run_dir / "monitor.jsonl"
-        self.monitor_file.touch()
-        self.procs.start("monitor", ["rosrun", "gidabot_sim", "monitor", f"_out:={self.monitor_file}"],
-                         self.env(first.name))
+        for uri in uris.values():   # before any node starts: every node (and rosbag) runs on sim time
+            set_param(uri, "/use_sim_time", True)
+        if self.relay_secret is None:
+            self.relay_secret = write_secret(self.run_dir / "relay.secret")
+        self.start_wall = time.time() + self.start_delay
+        record = rosbag_record_binary() if self.record else ""
         for robot in self.building.robots:
+            check()
             if self.record:
-                self.procs.start(f"record_{robot.name}", ["rosbag", "record", "--lz4", "-O",
+                self.procs.start(f"record_{robot.name}", [record, "--quiet", "--min-space", "100M", "-O",
                                                           str(self.run_dir / f"{robot.name}.bag"),
                                                           *RECORDED_TOPICS], self.env(robot.name))
             self.launch_robot(robot.name)
+        check()
+        self.monitor_file = self.run_dir / "monitor.jsonl"
+        self.monitor_file.touch()
+        first = self.building.robots[0]
+        robots = "[" + ", ".join(r.name for r in self.building.robots) + "]"
+        self.procs.start("monitor", [sys.executable, str(MONITOR_NODE), f"_out:={self.monitor_file}",
+                                     f"_robots:={robots}"], self.env(first.name))
 
     def env(self, robot: str) -> dict[str, str]:
-        assert self.building is not None or robot
-        b = self.building or load_building(self.building_dir)
-        r = b.robot(robot)
+        if self.building is None:
+            raise DemoError("the building is not started")
+        r = self.building.robot(robot)
         return ros_env(r.master_uri, r.ip, log_dir=self.run_dir / "ros" / robot)
 
     def launch_args(self, robot: str) -> list[str]:
@@ -80,7 +226,7 @@ class SimulatedBuilding:
         args = {
             "building": str(self.building_file), "robot": robot, "sim": "true", "speed": f"{self.speed:g}",
             "start_wall": f"{self.start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
-            "seed_tours": str(self.seed_tours), "relay_secret": self.relay_secret,
+            "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),
         }
         args.update(self.common_args)
@@ -95,19 +241,73 @@ class SimulatedBuilding:
         self.procs.start(name, ["roslaunch", "--skip-log-check", str(ROBOT_LAUNCH), *self.launch_args(robot)],
                          self.env(robot))
 
+    def track(self) -> dict[int, ProcInfo]:
+        """Scan every process of the run (called now and then, and before :meth:`stop`): what is seen
+        here is stopped by :meth:`stop` even if its parent (a roslaunch) is killed before it."""
+        roots = {self.procs.get(n).popen.pid for n in self.procs.names() if self.procs.alive(n)}
+        tree = process_tree(roots)
+        self._seen.update(tree)
+        for info in tree.values():
+            self._root[info.pid] = self._owner(info, tree)
+        return tree
+
+    def _owner(self, info: ProcInfo, tree: dict[int, ProcInfo]) -> str:
+        leaders = {self.procs.get(n).popen.pid: n for n in self.procs.names()}
+        pid = info.pid
+        while pid in tree and pid not in leaders:
+            pid = tree[pid].ppid
+        return leaders.get(pid, "?")
+
+    def cpu_usage(self) -> list[dict[str, object]]:
+        """CPU seconds so far of every live process of the run: owner (robot_<R>, master_<R>,
+        record_<R>, monitor), node/program, pid; largest first."""
+        rows = [{"owner": self._root.get(info.pid, "?"), "process": info.label, "pid": info.pid,
+                 "cpu_s": round(info.cpu_s, 2)} for info in self.track().values()]
+        return sorted(rows, key=lambda r: -float(r["cpu_s"]))  # type: ignore[arg-type]
+
+    def leftovers(self) -> list[ProcInfo]:
+        """Processes of this run that are still alive (same pid and start time as when seen)."""
+        left = []
+        for pid, seen in self._seen.items():
+            now = read_proc(pid)
+            if now is not None and now.start == seen.start:
+                left.append(now)
+        return left
+
+    def dead(self) -> list[str]:
+        """Names of processes that should be running and are not (a failed launch, a dead master)."""
+        return [n for n in self.procs.names() if not self.procs.alive(n)]
+
+    def process_groups(self) -> dict[str, int]:
+        """name -> process group id of every process started (each is its group's leader)."""
+        return {n: self.procs.get(n).popen.pid for n in self.procs.names()}
+
     # -- stop ----------------------------------------------------------------
     def stop(self) -> None:
-        """Stop recorders (bags closed), then robots, monitor and masters."""
+        """Stop recorders (bags closed), then robots, monitor and masters. Idempotent."""
+        if self._stopped:
+            return
+        self._stopped = True
+        self.track()
         for name in self.procs.names():
             if name.startswith("record_"):
                 self.procs.stop(name, grace=15.0)
-        for name in self.procs.names():
-            if name.startswith("robot_"):
-                self.procs.stop(name, grace=20.0)
+        robots = [n for n in self.procs.names() if n.startswith("robot_")]
+        for name in robots:   # every robot shuts down at the same time, then each is waited for
+            if self.procs.alive(name):
+                self.procs.signal(name, signal.SIGINT)
+        for name in robots:
+            self.procs.stop(name, grace=20.0)
         self.procs.close()
+        for info in self.leftovers():   # a node whose roslaunch did not stop it (own session: own group)
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                if info.pgid == info.pid:
+                    os.killpg(info.pid, signal.SIGKILL)
+                else:
+                    os.kill(info.pid, signal.SIGKILL)
+            self.killed_leftovers.append(f"{info.label} (pid {info.pid})")
         for active in self.run_dir.glob("*.bag.active"):   # a recorder that had to be killed
             subprocess.run(["rosbag", "reindex", str(active)], capture_output=True, timeout=120, check=False)
             shutil.move(str(active), str(active.with_suffix("")))
-
-    def wait_for_file(self, path: Path, timeout: float) -> None:
-        wait_until(path.exists, timeout, f"{path}")
+            for orig in self.run_dir.glob("*.bag.orig.active"):   # reindex's backup
+                orig.unlink()

@@ -1,10 +1,11 @@
 """``gidabot demo``: the simulated Faculty of Informatics running a tour, unattended.
 
 Starts four masters (Tartalo floor 0, Kbot 1, Galtxagorri 2, MariSorgin 3), the six
-relays, a simulator per floor, every robot's nodes and a simulated visitor per
-floor; runs the tour (default: the paper's real-world tour, Table 4); shows
-progress; records one rosbag per robot; then prints the paper's tables and where
-it wrote them. Ctrl-C stops everything cleanly.
+relays (HMAC secret file), a simulator per floor, every robot's nodes and a
+simulated visitor per floor; runs the tour (default: the paper's real-world tour,
+Table 4); shows progress; records one rosbag per robot; then prints the paper's
+tables (3 and 5), sim time, wall time and where it wrote everything. Ctrl-C (or
+SIGTERM) stops everything cleanly and keeps the bags of the partial run.
 
     bin/gidabot demo                                   # Table 4 tour, headless
     bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
@@ -16,37 +17,62 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import signal
 import sys
 import time
+from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
+from typing import TextIO
 
-from gidabot_navigation.building import load_building
+from gidabot_navigation.building import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.procs import robot_address
 from gidabot_navigation.tours import check_tour_file_name, parse_tour
 from gidabot_sim import report
-from gidabot_sim.building_runner import REPO, SimulatedBuilding
+from gidabot_sim.building_runner import REPO, DemoError, SimulatedBuilding
 from gidabot_sim.progress import Progress
+
+DEFAULT_SPEED = 20.0
+# Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
+# time (2 Hz status, 5 Hz poses by default): at 20x that would be 40 + 100 messages per wall second per
+# robot, every one of them handled by three relay ends and the recorder on each master (they cost more
+# CPU than the rest of the building together). The relays forward at most 10 per second anyway; Table 5
+# distances come from each robot's own /amcl_pose (a sample every 0.1 m), not from /gidabot/poses.
+STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
+STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="gidabot demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty")
-    p.add_argument("--tour", type=Path, default=REPO / "tours" / "real_world.tour", help="tour file to run")
+    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty", help="building directory")
+    p.add_argument("--tour", type=Path, default=REPO / "tours" / "real_world.tour",
+                   help="tour file to run (default: tours/real_world.tour, the paper's Table 4)")
     p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
-    p.add_argument("--speed", type=float, default=10.0, help="sim seconds per wall second (default 10)")
+    p.add_argument("--start-floor", type=float, default=None,
+                   help="floor where the visitor starts (default: the tour's first floor, else 0)")
+    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
+                   help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
     p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
-    p.add_argument("--out", type=Path, default=REPO / "runs", help="output folder (a run folder is made inside)")
+    p.add_argument("--out", type=Path, default=REPO / "runs",
+                   help="output folder; the run goes to OUT/<date>-<time>-<tour>/ (default: runs/)")
     p.add_argument("--gui", action="store_true", help="open every robot's GUI (needs a display)")
-    p.add_argument("--timeout", type=float, default=900.0, help="wall seconds before giving up")
-    p.add_argument("--secret", default="gidabot-demo", help="relay shared secret (HMAC)")
-    p.add_argument("--json", action="store_true", help="print the final report as JSON")
+    p.add_argument("--timeout", type=float, default=900.0, help="wall seconds before giving up (default 900)")
+    p.add_argument("--secret", type=Path, default=None,
+                   help="FILE with the relays' shared secret (default: a fresh random one in the run folder)")
+    p.add_argument("--json", action="store_true",
+                   help="print the final report as one JSON object on stdout (progress goes to stderr)")
+    p.add_argument("--cpu", action="store_true",
+                   help="print the CPU seconds each process of the run used (also written to cpu.json)")
+    p.add_argument("--net", type=int, default=None, metavar="N",
+                   help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
     return p.parse_args(argv)
 
 
@@ -56,97 +82,193 @@ def _skips(values: list[str], goals: int) -> list[list[int]]:
         try:
             k, m = (int(x) for x in v.split(":"))
         except ValueError as err:
-            raise SystemExit(f"gidabot demo: --skip {v!r}: expected K:M, two step numbers") from err
+            raise DemoError(f"--skip {v!r}: expected K:M, two step numbers") from err
         if not (1 <= k < m <= goals):
-            raise SystemExit(f"gidabot demo: --skip {v!r}: need 1 <= K < M <= {goals}")
+            raise DemoError(f"--skip {v!r}: need 1 <= K < M <= {goals}")
         out.append([k - 1, m - 1])
     return out
 
 
-def _interrupt(signum: int, _frame: object) -> None:
-    raise KeyboardInterrupt(f"signal {signum}")
+class Signals:
+    """SIGINT/SIGTERM set a flag (checked at safe points) instead of raising anywhere."""
+
+    def __init__(self, log: Callable[[str], None]) -> None:
+        self.received: str = ""
+        self._log = log
+        self._old: dict[int, object] = {}
+
+    def __enter__(self) -> Signals:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)  # type: ignore[arg-type]
+
+    def _handle(self, signum: int, _frame: object) -> None:
+        name = signal.Signals(signum).name
+        if self.received:
+            self._log(f"gidabot demo: {name} again: still stopping everything, please wait")
+            return
+        self.received = name
+        self._log(f"\ngidabot demo: {name}: stopping everything (bags are closed first)")
+
+    def __bool__(self) -> bool:
+        return bool(self.received)
+
+
+def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float]:
+    """(label, number of goals, tour file name, start floor) of what the visitor does."""
+    if args.goal:
+        if building.find_location(args.goal) is None:
+            raise DemoError(f"--goal {args.goal!r} is not a location of {building.id}")
+        start = args.start_floor if args.start_floor is not None else building.robots[0].floor
+        return f"goal-{args.goal}", 1, "", float(start)
+    try:
+        check_tour_file_name(args.tour.name)
+        tour = parse_tour(args.tour.read_bytes(), args.tour.name, building, source=str(args.tour))
+    except (OSError, TourError, TourNameError) as err:
+        raise DemoError(f"{args.tour}: {err}") from err
+    start = args.start_floor if args.start_floor is not None else tour.goals[0].floor
+    return args.tour.stem, len(tour.goals), args.tour.name, float(start)
+
+
+def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
+    if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
+        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
+    if not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
+    if building.robot_on(start_floor) is None:
+        raise DemoError(f"start floor {start_floor:g} has no robot (robots: "
+                        f"{', '.join(f'{r.name} {r.floor:g}' for r in building.robots)})")
+    if args.secret is not None and not args.secret.is_file():
+        raise DemoError(f"--secret {args.secret}: not a file")
+    if args.net is not None and not 1 <= args.net <= 254:
+        raise DemoError(f"--net {args.net}: expected 1..254")
+    if args.gui and not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") != "offscreen":
+        raise DemoError("--gui needs a display (DISPLAY is not set)")
+
+
+def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
+    building = load_building(args.building)
+    label, total, tour_name, start_floor = _visit(args, building)
+    _validate(args, building, start_floor)
+    skips = _skips(args.skip, total)
+
+    wall_begin = time.time()
+    run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
+    seed = run_dir / "seed_tours"
+    shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+    if tour_name:
+        shutil.copy(args.tour, seed / tour_name)
+    visitor = {"visitor": "true", "visitor_tour": tour_name, "visitor_goal": args.goal or "",
+               "visitor_way": args.way, "visitor_skips": json.dumps(skips),
+               "visitor_start_floor": f"{start_floor:g}", "gui_fullscreen": "false",
+               "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
+               "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+    what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
+    print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
+          f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
+          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, speed {args.speed:g}x"
+          f"{', GUIs' if args.gui else ', headless'}\nrun folder: {run_dir}", file=out, flush=True)
+
+    addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
+                 else None)
+    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
+    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
+                            seed_tours=seed, addresses=addresses, common_args=visitor)
+    failure = ""
+    try:
+        sim.start(cancelled=lambda: bool(stop))
+        failure = _follow(sim, progress, args, wall_begin, out, stop)
+        if not stop and progress.finished:
+            time.sleep(2.0)  # the last poses and events reach the recorders
+        if args.cpu:
+            _cpu_table(sim, time.time() - wall_begin, out)
+    except DemoError as err:
+        failure = str(err)
+        print(f"gidabot demo: {err}", file=sys.stderr)
+    finally:
+        stop_begin = time.time()
+        sim.stop()
+        print(f"stopped every process in {time.time() - stop_begin:.1f} s"
+              + (f" (had to kill {', '.join(sim.killed_leftovers)})" if sim.killed_leftovers else ""),
+              file=out, flush=True)
+    total_wall = time.time() - wall_begin
+    outcome = (f"interrupted ({stop.received})" if stop else failure or progress.outcome or "not finished")
+    run = {
+        "building": "building/building.yaml", "tour": tour_name or f"goal {args.goal}", "goals": total,
+        "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
+        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1), "speed": args.speed,
+        "way": args.way, "start_floor": start_floor, "skips": skips,
+        "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
+    }
+    (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
+    ratio = run["sim_s"] / run["wall_s"] if run["wall_s"] > 0 else 0.0
+    print(f"\nOutcome: {outcome}; {run['completed']} of {total} goals done; tour: sim {run['sim_s']:.0f} s, "
+          f"wall {run['wall_s']:.0f} s, sim/wall {ratio:.1f}x; whole demo {total_wall:.0f} s wall "
+          f"(start-up and shut-down included)\n", file=out, flush=True)
+    code = EXIT_FAILED
+    if all((run_dir / f"{r.name}.bag").exists() for r in building.robots):
+        code = report.main([str(run_dir)] + (["--json"] if args.json else []))
+    else:
+        print(f"gidabot demo: no bags in {run_dir} (the run did not get that far)", file=out)
+    print(f"\nrun folder: {run_dir}  (bags, run.json, report.json, paths_floor*.png, logs/)", file=out, flush=True)
+    if stop:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if code == 0 and progress.outcome == "completed" else EXIT_FAILED
+
+
+def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace, wall_begin: float,
+            out: TextIO, stop: Signals) -> str:
+    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
+    assert sim.monitor_file is not None
+    shown = ""
+    deadline = wall_begin + args.timeout
+    next_track = 0.0
+    with open(sim.monitor_file, encoding="utf-8") as feed:
+        while not progress.finished and not stop:
+            line = feed.readline()
+            if line:
+                if progress.feed_line(line):
+                    text = progress.line()
+                    if text != shown:
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}", file=out, flush=True)
+                        shown = text
+                continue
+            if time.monotonic() >= next_track:   # know every node, so that stop() finds them all
+                sim.track()
+                next_track = time.monotonic() + 5.0
+            dead = sim.dead()
+            if dead:
+                return f"{', '.join(dead)} stopped unexpectedly (see {sim.run_dir / 'logs'})"
+            if time.time() > deadline:
+                return f"timed out after {args.timeout:g} s of wall time ({progress.line()})"
+            time.sleep(0.2)
+    return ""
+
+
+def _cpu_table(sim: SimulatedBuilding, wall: float, out: TextIO) -> None:
+    rows = sim.cpu_usage()
+    (sim.run_dir / "cpu.json").write_text(json.dumps({"wall_s": round(wall, 1), "processes": rows}, indent=2),
+                                          encoding="utf-8")
+    by_process: dict[str, float] = {}
+    for r in rows:
+        by_process[str(r["process"])] = by_process.get(str(r["process"]), 0.0) + float(r["cpu_s"])  # type: ignore
+    total = sum(by_process.values())
+    print(f"\nCPU used by the run's processes in {wall:.0f} s of wall time: {total:.0f} s "
+          f"({total / max(wall, 1e-9):.2f} cores); per kind of process (all robots):", file=out)
+    for name, cpu in sorted(by_process.items(), key=lambda kv: -kv[1]):
+        print(f"  {name:<34} {cpu:8.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %", file=out)
 
 
 def main(argv: list[str]) -> int:
     args = parse_args(argv)
-    try:
-        building = load_building(args.building)
-    except BuildingError as err:
-        print(f"gidabot demo: {err}", file=sys.stderr)
-        return 2
-    if args.gui and not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") != "offscreen":
-        print("gidabot demo: --gui needs a display (DISPLAY is not set)", file=sys.stderr)
-        return 2
-    if args.goal:
-        if building.find_location(args.goal) is None:
-            print(f"gidabot demo: --goal {args.goal!r} is not a location of {building.id}", file=sys.stderr)
-            return 2
-        label, total, tour_name = f"goal-{args.goal}", 1, ""
-    else:
+    out = sys.stderr if args.json else sys.stdout
+    with Signals(lambda text: print(text, file=out, flush=True)) as stop:
         try:
-            check_tour_file_name(args.tour.name)
-            tour = parse_tour(args.tour.read_bytes(), args.tour.name, building, source=str(args.tour))
-        except (OSError, TourError, TourNameError) as err:
-            print(f"gidabot demo: {args.tour}: {err}", file=sys.stderr)
-            return 2
-        label, total, tour_name = args.tour.stem, len(tour.goals), args.tour.name
-    skips = _skips(args.skip, total)
-
-    run_dir = args.out / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
-    seed = run_dir / "seed_tours"
-    shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
-    if tour_name and not (seed / tour_name).exists():
-        shutil.copy(args.tour, seed / tour_name)
-    start_floor = building.robots[0].floor
-    visitor = {"visitor": "true", "visitor_tour": tour_name, "visitor_goal": args.goal or "",
-               "visitor_way": args.way, "visitor_skips": json.dumps(skips)}
-    print(f"GidaBot demo: {building.name}: {len(building.robots)} robots, {len(building.relay_pairs())} relays; "
-          f"{'tour ' + tour_name if tour_name else 'goal ' + str(args.goal)} ({total} goals), "
-          f"speed {args.speed:g}x, by the {args.way}; output {run_dir}")
-
-    signal.signal(signal.SIGTERM, _interrupt)
-    progress = Progress(total_goals=total, tour_mode=bool(tour_name))
-    wall_start = time.time()
-    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
-                            seed_tours=seed, common_args=visitor)
-    interrupted = False
-    try:
-        sim.start()
-        assert sim.monitor_file is not None
-        with open(sim.monitor_file, encoding="utf-8") as feed:
-            shown = ""
-            deadline = wall_start + args.timeout
-            while not progress.finished and time.time() < deadline:
-                line = feed.readline()
-                if not line:
-                    time.sleep(0.2)
-                    continue
-                if progress.feed_line(line):
-                    text = progress.line()
-                    if text != shown:
-                        print(f"[{time.time() - wall_start:6.1f} s] {text}", flush=True)
-                        shown = text
-        if not progress.finished:
-            progress.outcome = f"timed out after {args.timeout:g} s of wall time"
-        time.sleep(2.0)  # let the last messages reach the recorders
-    except KeyboardInterrupt:
-        interrupted = True
-        print("\ngidabot demo: interrupted; stopping everything", flush=True)
-    finally:
-        sim.stop()
-    run = {
-        "building": str(sim.building_file or args.building), "tour": tour_name or f"goal {args.goal}",
-        "goals": total, "completed": len(progress.completed), "outcome": progress.outcome or "interrupted",
-        "sim_s": progress.sim_seconds(), "wall_s": progress.wall_seconds(), "speed": args.speed, "way": args.way,
-        "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
-        "start_floor": start_floor,
-    }
-    (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
-    if interrupted:
-        print(f"partial run in {run_dir}")
-        return 130
-    print(f"\nOutcome: {run['outcome']}; {run['completed']} of {total} goals; sim {run['sim_s']:.0f} s, "
-          f"wall {run['wall_s']:.0f} s, ratio {run['sim_s'] / max(run['wall_s'], 1e-9):.1f}x\n")
-    code = report.main([str(run_dir)] + (["--json"] if args.json else []))
-    print(f"\nrun folder: {run_dir} (bags, report.json, paths_floor*.png, logs/)")
-    return 0 if code == 0 and progress.outcome == "completed" else 1
+            return run_demo(args, out, stop)
+        except (DemoError, BuildingError) as err:
+            print(f"gidabot demo: {err}", file=sys.stderr)
+            return EXIT_USAGE

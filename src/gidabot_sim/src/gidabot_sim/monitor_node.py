@@ -2,9 +2,9 @@
 
 Runs on one robot's master (every shared event reaches every master through the
 relays) and appends one JSON object per line to ``~out``: every NavEvent, Goal
-and Cancel, and every robot's status at most once per second. ``gidabot demo``
-and ``gidabot chaos`` read this file to show progress; it is not part of a
-robot's stack.
+and Cancel. ``gidabot demo`` reads this file to show progress; it is not part of
+a robot's stack. It does not subscribe to the state topics (status, poses): at
+10x and more they are the bulk of the traffic, and the rosbags record them.
 """
 
 from __future__ import annotations
@@ -16,23 +16,27 @@ import time
 import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
+from gidabot_navigation.master_watch import keep_registered
 
 
 class MonitorNode:
-    """Subscribes /gidabot/nav_events, /gidabot/goals, /gidabot/cancels, /gidabot/status.
+    """Subscribes /gidabot/nav_events, /gidabot/goals, /gidabot/cancels, and /gidabot/status until every
+    robot of ``~robots`` was heard once (a line of kind ``up`` per robot).
 
-    Params: ~out (str) JSON-lines file to append to.
-    Every line has ``kind``, ``wall`` (s since epoch) and ``sim`` (ROS time, s).
+    Params: ~out (str) JSON-lines file to append to; ~robots (list of str, []) robots to wait for.
+    Every line has ``kind``, ``wall`` (s since epoch) and ``sim`` (ROS time, s: sim time, since the
+    building runner sets ``/use_sim_time`` on the master before it starts this node).
     """
 
     def __init__(self) -> None:
         self._file = open(rospy.get_param("~out"), "a", encoding="utf-8")  # noqa: SIM115 - closed on shutdown
         self._lock = threading.Lock()
-        self._last_status: dict[str, float] = {}
         rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=200)
         rospy.Subscriber("/gidabot/goals", Goal, self._on_goal, queue_size=200)
         rospy.Subscriber("/gidabot/cancels", Cancel, self._on_cancel, queue_size=200)
-        rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=200)
+        self._waiting = {str(r) for r in rospy.get_param("~robots", [])}
+        self._status_sub = (rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=20)
+                            if self._waiting else None)
         rospy.on_shutdown(self._file.close)
 
     def _write(self, kind: str, **data: object) -> None:
@@ -57,15 +61,19 @@ class MonitorNode:
         self._write("cancel", uid=m.uid, goal_uid=m.goal_uid, origin=m.origin_robot, reason=m.reason)
 
     def _on_status(self, m: RobotStatus) -> None:
-        now = time.monotonic()
-        if now - self._last_status.get(m.robot, 0.0) < 1.0:
-            return
-        self._last_status[m.robot] = now
-        self._write("status", robot=m.robot, floor=m.floor, state=m.state, pending=m.pending,
-                    x=m.nav_pose.position.x, y=m.nav_pose.position.y, battery=m.battery)
+        with self._lock:
+            if m.robot not in self._waiting:
+                return
+            self._waiting.discard(m.robot)
+            done = not self._waiting
+        self._write("up", robot=m.robot, floor=m.floor, state=m.state)
+        if done and self._status_sub is not None:
+            self._status_sub.unregister()   # 2 Hz of sim time per robot: not needed any more
+            self._status_sub = None
 
 
 def main() -> None:
     rospy.init_node("gidabot_monitor", anonymous=True)
+    keep_registered()
     MonitorNode()
     rospy.spin()

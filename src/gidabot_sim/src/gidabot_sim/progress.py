@@ -9,11 +9,12 @@ PHASES = {
     0: "accepted", 1: "on the way", 2: "goal reached", 3: "go to floor", 4: "going to meeting point",
     5: "waiting for the visitor", 6: "unreachable", 7: "no robot on floor", 8: "cancelled here",
     9: "cancelled elsewhere", 10: "timeout", 11: "partner offline", 12: "rejected", 13: "tour step done",
-    14: "tour finished",
+    14: "tour finished", 15: "partner lost (waiting)", 16: "partner back",
 }
-GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED = 2, 13, 14
-FAILURES = {6: "unreachable", 8: "cancelled", 9: "cancelled", 10: "timeout", 11: "partner offline",
-            12: "rejected"}
+ACCEPTED, GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED = 0, 2, 13, 14
+# phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
+# gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
+FAILURES = {6: "unreachable", 10: "timeout", 11: "partner offline", 12: "rejected"}
 
 
 @dataclass
@@ -22,6 +23,8 @@ class Progress:
 
     total_goals: int
     tour_mode: bool = True
+    robots_total: int = 0
+    robots_up: list[str] = field(default_factory=list)          # robots heard once, in order
     goals: dict[str, dict] = field(default_factory=dict)        # goal uid -> monitor record
     completed: set[str] = field(default_factory=set)
     robot: str = ""
@@ -45,6 +48,12 @@ class Progress:
 
     def feed(self, rec: dict) -> bool:
         kind = rec.get("kind")
+        if kind == "up":
+            robot = str(rec.get("robot", ""))
+            if robot in self.robots_up:
+                return False
+            self.robots_up.append(robot)
+            return True
         if kind == "status":
             self.states[str(rec.get("robot"))] = str(rec.get("state"))
             return False
@@ -53,6 +62,7 @@ class Progress:
             if uid in self.goals:
                 return False
             self.goals[uid] = rec
+            self.robot, self.phase = str(rec.get("origin", "")), "new goal"
             if self.first_sim is None:
                 self.first_sim, self.first_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
             return True
@@ -60,7 +70,8 @@ class Progress:
             return False
         self.events += 1
         phase = int(rec.get("phase", -1))
-        self.robot, self.phase = str(rec.get("robot", "")), PHASES.get(phase, f"phase {phase}")
+        if phase != ACCEPTED:   # every robot involved accepts: not worth a line
+            self.robot, self.phase = str(rec.get("robot", "")), PHASES.get(phase, f"phase {phase}")
         uid = str(rec.get("goal_uid", ""))
         if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and uid:
             self.completed.add(uid)
@@ -77,15 +88,26 @@ class Progress:
 
     @property
     def goal_index(self) -> int:
-        return len(self.goals)
+        """1-based number of the goal being run: its tour step + 1 in a tour, else goals seen."""
+        if not self.goals:
+            return 0
+        step = list(self.goals.values())[-1].get("tour_step", -1)
+        return int(step) + 1 if self.tour_mode and isinstance(step, int) and step >= 0 else len(self.goals)
 
     def current_goal(self) -> str:
         if not self.goals:
             return ""
         last = list(self.goals.values())[-1]
-        return str(last.get("goal_id", ""))
+        floors = ""
+        if "initial_floor" in last and "goal_floor" in last:
+            floors = f" {float(last['initial_floor']):g}->{float(last['goal_floor']):g}"
+        return f"{last.get('goal_id', '')}{floors}"
 
     def line(self) -> str:
+        if not self.goals and self.robots_total and not self.events:
+            up = len(self.robots_up)
+            return (f"starting: {up} of {self.robots_total} robots up" + (f" ({', '.join(self.robots_up)})"
+                                                                           if up else ""))
         return (f"goal {self.goal_index} of {self.total_goals} ({self.current_goal() or '-'}), "
                 f"{len(self.completed)} done | {self.robot or '-'}: {self.phase}")
 

@@ -10,8 +10,12 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   trips the robot accepted (its own ``NavEvent.ACCEPTED`` events);
 * per robot, time, distance and mean velocity while guiding the visitor (paper
   Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
-  distance integrated over the robot's ``/gidabot/poses``; and the tour total;
-* one PNG per floor with the path each robot followed over the blueprint (Fig. 7).
+  distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
+  a sample every 0.1 m, whatever the sim speed; bags without it: the robot's
+  ``/gidabot/poses``); and the tour total;
+* one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
+  thick while guiding the visitor, thin dashed while driving alone (to a meeting
+  point, back to the visitor), the tour's goals numbered by step.
 """
 
 from __future__ import annotations
@@ -52,6 +56,17 @@ class PoseSample:
     y: float
 
 
+@dataclass(frozen=True)
+class GoalInfo:
+    """Where a goal ends (for the plots)."""
+
+    goal_id: str
+    floor: float
+    x: float
+    y: float
+    tour_step: int
+
+
 @dataclass
 class RobotRecord:
     """What one robot's bag says."""
@@ -60,7 +75,14 @@ class RobotRecord:
     floor: float
     goal_uids: set[str] = field(default_factory=set)
     events: list[Event] = field(default_factory=list)      # events emitted by this robot
-    poses: list[PoseSample] = field(default_factory=list)  # this robot's poses, time-ordered
+    poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
+    local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
+    goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
+
+    @property
+    def track(self) -> list[PoseSample]:
+        """The robot's path: its own localisation if recorded, else its shared poses."""
+        return self.local_poses or self.poses
 
 
 @dataclass
@@ -102,7 +124,7 @@ def path_length(poses: list[PoseSample], intervals: list[tuple[float, float]] | 
 def robot_row(rec: RobotRecord) -> RobotRow:
     intervals = guiding_intervals(rec.events)
     time_s = sum(e - s for s, e in intervals)
-    dist = path_length(rec.poses, intervals)
+    dist = path_length(rec.track, intervals)
     processed = len({e.goal_uid for e in rec.events if e.phase == ACCEPTED})
     return RobotRow(rec.name, rec.floor, len(rec.goal_uids), processed, round(time_s, 1), round(dist, 1),
                     round(dist / time_s, 3) if time_s > 0 else 0.0)
@@ -168,11 +190,17 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses")]
+                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 msg = reader.deserialize(raw, conn.msgtype)
                 if conn.topic == "/gidabot/goals":
                     rec.goal_uids.add(msg.uid)
+                    gp = msg.goal_pose.position
+                    rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
+                                                  int(msg.tour_step))
+                elif conn.topic == "/amcl_pose":
+                    p = msg.pose.pose.position
+                    rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
                 elif conn.topic == "/gidabot/nav_events":
                     if msg.robot == name:
                         rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
@@ -182,6 +210,7 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
     except Exception as err:  # rosbags raises several unrelated types for damaged bags
         raise ReportError(f"{path}: cannot read bag: {err}") from err
     rec.poses.sort(key=lambda p: p.t)
+    rec.local_poses.sort(key=lambda p: p.t)
     return rec
 
 
@@ -211,31 +240,81 @@ def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path
     from PIL import Image
 
     from gidabot_navigation.building import load_building
+    from gidabot_navigation.errors import GidaBotError
 
-    building = load_building(run["building"])
+    building_file = Path(run.get("building", "building/building.yaml"))
+    if not building_file.is_absolute():   # relative to the run folder (folders can be moved)
+        building_file = folder / building_file
+    try:
+        building = load_building(building_file)
+    except GidaBotError as err:
+        raise ReportError(f"{building_file}: cannot load the run's building: {err}") from err
+    goals: dict[str, GoalInfo] = {}
+    for rec in records:
+        goals.update(rec.goals)
     written = []
     colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
     for floor in building.floors:
         img = Image.open(floor.blueprint_file)
-        fig, ax = plt.subplots(figsize=(img.width / 100, img.height / 100 + 0.6), dpi=100)
+        fig, ax = plt.subplots(figsize=(img.width / 100, img.height / 100 + 0.8), dpi=100)
         ax.imshow(img)
+        ax.set_xlim(-0.5, img.width - 0.5)
+        ax.set_ylim(img.height - 0.5, -0.5)
         for i, rec in enumerate(records):
-            if rec.floor != floor.id or not rec.poses:
+            track = rec.track
+            if rec.floor != floor.id or not track:
                 continue
-            uv = [floor.transform.to_pixel(p.x, p.y) for p in rec.poses]
             colour = colours[i % len(colours)]
-            ax.plot([u for u, _ in uv], [v for _, v in uv], "-", color=colour, linewidth=2, label=rec.name)
-            ax.plot(*uv[0], "o", color=colour, markersize=8)
-            ax.plot(*uv[-1], "s", color=colour, markersize=8)
-        ax.set_title(f"{floor.names['en']} ({floor.label}): paths followed", fontsize=12)
+            intervals = guiding_intervals(rec.events)
+            for guiding, part in _split(track, intervals):
+                uv = [floor.transform.to_pixel(p.x, p.y) for p in part]
+                ax.plot([u for u, _ in uv], [v for _, v in uv], "-" if guiding else "--", color=colour,
+                        linewidth=2.5 if guiding else 1.0, alpha=1.0 if guiding else 0.7)
+            start, end = floor.transform.to_pixel(track[0].x, track[0].y), \
+                floor.transform.to_pixel(track[-1].x, track[-1].y)
+            ax.plot(*start, "o", color=colour, markersize=8)
+            ax.plot(*end, "s", color=colour, markersize=8)
+            ax.plot([], [], "-", color=colour, linewidth=2.5,
+                    label=f"{rec.name}: guiding (thick), alone (dashed); o start, \u25a0 end")
+        marks: dict[tuple[float, float], list[str]] = {}
+        for g in goals.values():
+            if g.floor == floor.id:
+                label = str(g.tour_step + 1) if g.tour_step >= 0 else g.goal_id
+                key = (round(g.x, 1), round(g.y, 1))
+                if label not in marks.setdefault(key, []):
+                    marks[key].append(label)
+        for (x, y), labels in marks.items():
+            u, v = floor.transform.to_pixel(x, y)
+            ax.annotate(",".join(sorted(labels, key=lambda t: (len(t), t))), (u, v), xytext=(0, -14),
+                        textcoords="offset points", ha="center", va="center", fontsize=9, fontweight="bold",
+                        color="white", bbox={"boxstyle": "circle,pad=0.25", "fc": "#333333", "ec": "none"})
+        tour = run.get("tour", "")
+        ax.set_title(f"{floor.names['en']} (floor {floor.label}): paths followed"
+                     + (f" during {tour}; numbers: tour steps" if tour else ""), fontsize=12)
         ax.set_axis_off()
         if ax.get_legend_handles_labels()[0]:
-            ax.legend(loc="upper right")
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), frameon=False, fontsize=10)
         out = folder / f"paths_floor{floor.label}.png"
         fig.savefig(out, bbox_inches="tight")
         plt.close(fig)
         written.append(out)
     return written
+
+
+def _split(track: list[PoseSample], intervals: list[tuple[float, float]]) -> list[tuple[bool, list[PoseSample]]]:
+    """The track cut into consecutive parts inside / outside the guiding intervals (parts share ends)."""
+    def inside(t: float) -> bool:
+        return any(s <= t <= e for s, e in intervals)
+
+    parts: list[tuple[bool, list[PoseSample]]] = []
+    for sample in track:
+        state = inside(sample.t)
+        if parts and parts[-1][0] == state:
+            parts[-1][1].append(sample)
+        else:
+            prev = parts[-1][1][-1:] if parts else []
+            parts.append((state, prev + [sample]))
+    return parts
 
 
 def main(argv: list[str]) -> int:

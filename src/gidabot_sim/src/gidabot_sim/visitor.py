@@ -89,12 +89,21 @@ class VisitorCore:
     _handled: set[str] = field(default_factory=set)            # event uids already seen
 
     def __post_init__(self) -> None:
-        self.present = math.isclose(self.cfg.floor, self.cfg.start_floor)
+        self.present = self.on_start_floor
 
     # -- inputs ------------------------------------------------------------
+    @property
+    def on_start_floor(self) -> bool:
+        """This node plays the visitor's first floor (the only one that starts the visit)."""
+        return math.isclose(self.cfg.floor, self.cfg.start_floor)
+
     def start(self, now: float) -> list[Command]:
-        """Begin the visit (only the start floor's node does something)."""
-        if self.started or not self.present:
+        """Begin the visit: only the start floor's node does something, and only once.
+
+        (The visitor being *present* on a floor is not enough: it arrives on every floor of a
+        tour, and a START_TOUR there would restart the tour.)
+        """
+        if self.started or not self.on_start_floor:
             return []
         self.started = True
         c = self.cfg
