@@ -130,6 +130,21 @@ def test_obstacles_block_and_unblock() -> None:
     assert planner.plan((1.0, -1.0), (7.0, -1.0)).length == pytest.approx(path.length)
 
 
+def test_set_obstacles_replaces_them_all_at_once() -> None:
+    planner = GridPlanner(wall_with_gap((2.0, 3.5)), robot_radius=0.3)
+    version = planner.version
+    shapes = {f"p{k}": Circle(1.0 + 0.3 * k, 0.0, 0.05) for k in range(10)}
+    shapes["gap"] = Rectangle(4.1, 2.75, 0.6, 2.0)
+    assert planner.set_obstacles(shapes) and planner.version == version + 1
+    assert planner.obstacles == shapes and not planner.set_obstacles(dict(shapes))
+    with pytest.raises(PlanningError, match="not reachable"):
+        planner.plan((1.0, -1.0), (7.0, -1.0))
+    assert planner.set_obstacles({})
+    assert planner.plan((1.0, -1.0), (7.0, -1.0)).length > 9.0
+    with pytest.raises(ObstacleError):
+        planner.set_obstacles({"bad": (1.0, 2.0)})
+
+
 def test_a_person_in_the_way_is_walked_around() -> None:
     planner = GridPlanner(box_map(), robot_radius=0.3)
     planner.add_obstacle("person", Circle(3.0, 1.0, 0.3))

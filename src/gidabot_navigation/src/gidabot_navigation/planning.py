@@ -271,6 +271,17 @@ class GridPlanner:
         self._obstacles.clear()
         self._rebuild_obstacles()
 
+    def set_obstacles(self, obstacles: dict[str, Shape]) -> bool:
+        """Replace every obstacle by ``obstacles`` (id -> shape) with one costmap update; True if any changed."""
+        for obstacle_id, shape in obstacles.items():
+            if not isinstance(shape, (Circle, Rectangle)):
+                raise ObstacleError(f"obstacle {obstacle_id!r}: {shape!r} is not a Circle or Rectangle")
+        if obstacles == self._obstacles:
+            return False
+        self._obstacles = dict(obstacles)
+        self._rebuild_obstacles()
+        return True
+
     def set_sensor_marks(self, marks: np.ndarray) -> bool:
         """Replace the sensor-marked lethal cells (bool mask, grid shape). True when anything changed."""
         if marks.shape != self._static.shape:

@@ -211,14 +211,7 @@ class MoveBaseCore:
 
     def set_obstacles(self, obstacles: dict[str, Shape]) -> bool:
         """The run-time obstacles now known (all of them); re-plans the current goal when they changed."""
-        changed = False
-        for key in set(self._obstacles) - set(obstacles):
-            self.planner.remove_obstacle(key)
-            changed = True
-        for key, shape in obstacles.items():
-            if self._obstacles.get(key) != shape:
-                self.planner.add_obstacle(key, shape)
-                changed = True
+        changed = self.planner.set_obstacles(obstacles)
         self._obstacles = dict(obstacles)
         if changed and self.state in (State.FOLLOWING, State.PLANNING, State.ROTATING):
             self._need_plan = True
@@ -228,8 +221,7 @@ class MoveBaseCore:
         """move_base's ~clear_costmaps: reset the costmap to the static map; the obstacle layer (here the
         simulator's obstacle list, a perfect sensor) marks the known obstacles again at once."""
         self.planner.clear_obstacles()
-        for key, shape in self._obstacles.items():
-            self.planner.add_obstacle(key, shape)
+        self.planner.set_obstacles(self._obstacles)
         if self.state is not State.IDLE:
             self._need_plan = True
 
