@@ -197,21 +197,22 @@ class RelayEndNode:
     Node name: ``/gidabot_relay_<A>_<B>`` (the same on both masters; any node named
     ``/gidabot_relay_*`` is a relay, and relays never forward what a relay published).
 
-    Subscribed topics (raw bytes, ``rospy.AnyMsg``): every shared topic of ``~topics_file``
+    Subscribed topics (raw bytes, ``rospy.AnyMsg``): every shared topic of ``--topics_file``
     (default ``config/shared_topics.yaml``): ``/gidabot/goals``, ``/gidabot/cancels``,
     ``/gidabot/nav_events``, ``/gidabot/tours`` (events) and ``/gidabot/status``,
     ``/gidabot/poses``, ``/gidabot/pending``, ``/gidabot/tour_index`` (states). Messages of
-    another type/md5, larger than ``~max_message_bytes``, malformed, or published by a relay
-    are not forwarded (counted).
+    another type/md5, larger than ``--max_message_bytes``, malformed, or published by a relay
+    are not forwarded (counted); subscriptions to relay publishers are closed.
 
     Published topics: the same shared topics, with the messages of the other robot (events
     queue 10000; states latched, every publisher's latest value given to late subscribers);
-    ``/diagnostics`` (diagnostic_msgs/DiagnosticArray) at ``~diagnostics_rate``: status
+    ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, stamped with WALL time: relays never use
+    ROS time and do not subscribe ``/clock``) at ``--diagnostics_rate``: status
     ``relay <A>-<B>: <this robot>`` with connected, rtt_ms, queue_depth, forwarded, dropped,
-    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type and more.
+    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type and more (docs/relay.md).
 
-    Link: end ``b`` listens on ``~link_host``:``~link_port``; end ``a`` connects there from
-    ``~bind_ip``. Frames are authenticated with HMAC-SHA256 when ``~secret_file`` names a file.
+    Link: end ``b`` listens on ``--link_host``:``--link_port``; end ``a`` connects there from
+    ``--bind_ip``. Frames are authenticated with HMAC-SHA256 when ``--secret_file`` names a file.
 
     Options (command line, ``--name value``; not ``~params``, because an end must start and
     queue while its master is down, and rospy uploads ``_param:=`` arguments to the master):
@@ -672,7 +673,8 @@ def main(argv: list[str] | None = None) -> int:
     except RelayConfigError as err:
         print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
-    rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv)
+    # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
+    rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
     watch = keep_registered()
     try:
         node = RelayEndNode(params, watch)

@@ -306,7 +306,8 @@ class RelaySupervisorNode:
     ``/gidabot_relay_<this>_<other>`` (see :class:`gidabot_navigation.relay_node.RelayEndNode`).
 
     Published topics:
-      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray), 1 Hz: ``relay_supervisor: <robot>``
+      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, wall-time stamps: no ``/clock``), 1 Hz:
+        ``relay_supervisor: <robot>``
         with, per end (key ``<A>_<B>.<side>``), "pid P, restarts R, last exit E, link host:port".
 
     Parameters:
@@ -404,7 +405,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from gidabot_navigation.master_watch import keep_registered
 
-    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv)
+    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv, disable_rostime=True)
     keep_registered()
     try:
         node = RelaySupervisorNode()
