@@ -129,6 +129,12 @@ class SimNavigation(unittest.TestCase):
         self.assertEqual(state, GoalStatus.ABORTED)
         self.assertIn("inside a wall", self.client.get_goal_status_text())
         self.assertLess(time.monotonic() - t0, 5.0)
+        bad = goal_msg(35.0, 12.0, 0.0)
+        bad.target_pose.pose.orientation.w = 0.0                    # a zero quaternion, as move_base checks
+        self.client.send_goal(bad)
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(50)))
+        self.assertEqual(self.client.get_state(), GoalStatus.ABORTED)
+        self.assertIn("zero length", self.client.get_goal_status_text())
 
     def test_3_a_goal_behind_a_corridor_closed_while_driving_aborts(self) -> None:
         start = self.pose()

@@ -70,6 +70,7 @@ class AmclNode:
         self.global_frame = str(rospy.get_param("~global_frame_id", "map"))
         self.odom_frame = str(rospy.get_param("~odom_frame_id", "odom"))
         self.lock = threading.Lock()
+        self.rejected = ru.CountingLog(rospy.logerr)
         self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=5, latch=True)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
@@ -86,13 +87,16 @@ class AmclNode:
 
     def _on_odom(self, msg: Odometry) -> None:
         pose = _pose2d(msg)
-        if pose is not None:
+        if pose is None:
+            self.rejected.reject("odom", "amcl: ignoring odom with a non-finite pose")
+        else:
             with self.lock:
                 self.core.on_odom(msg.header.stamp.to_sec(), pose)
 
     def _on_truth(self, msg: Odometry) -> None:
         truth = _pose2d(msg)
         if truth is None:
+            self.rejected.reject("base_pose_ground_truth", "amcl: ignoring a non-finite ground-truth pose")
             return
         t = msg.header.stamp.to_sec()
         self._follow_odom()

@@ -126,6 +126,7 @@ class MoveBaseNode:
         self.events: queue.SimpleQueue = queue.SimpleQueue()
         self.wake = threading.Event()
         self.plans_published = 0
+        self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
         self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=5)
         self.goal_pub = rospy.Publisher("move_base/current_goal", PoseStamped, queue_size=2)
         self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
@@ -151,6 +152,7 @@ class MoveBaseNode:
         p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
         values = (p.x, p.y, q.x, q.y, q.z, q.w, v.linear.x, v.linear.y, v.angular.z)
         if not all(math.isfinite(x) for x in values):
+            self.rejected.reject("odom", f"move_base: ignoring odom with non-finite values {values!r}")
             return
         with self.tracker_lock:
             self.tracker.on_odom(msg.header.stamp.to_sec(), Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
@@ -160,7 +162,7 @@ class MoveBaseNode:
         try:
             pose = ru.pose2d_of(msg.pose.pose, "amcl_pose")
         except GidaBotError as err:
-            rospy.logwarn_throttle(10.0, f"move_base: ignoring amcl_pose: {err}")
+            self.rejected.reject("amcl_pose", f"move_base: ignoring amcl_pose: {err}")
             return
         with self.tracker_lock:
             self.tracker.on_estimate(msg.header.stamp.to_sec(), pose)
@@ -230,7 +232,7 @@ class MoveBaseNode:
             pose = ru.goal_to_pose2d(target.header.frame_id, target.pose)
             self.core.set_goal(pose, now)
         except GidaBotError as err:
-            rospy.logerr(f"move_base: aborting on goal: {err}")
+            self.rejected.reject("goal", f"move_base: aborting on goal: {err}")
             self.core.cancel()
             self.cmd_pub.publish(ru.twist_msg(ZERO))
             self.server.set_aborted(MoveBaseResult(), f"Aborting on goal because it was sent with an invalid "
