@@ -121,7 +121,7 @@ def main() -> None:
     keep_registered()     # re-register with a restarted master
     try:
         AmclNode()
-    except (GidaBotError, OSError) as err:
+    except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"amcl: cannot start: {err}")
         raise SystemExit(1) from err
     rospy.spin()

@@ -303,7 +303,7 @@ def main() -> None:
     keep_registered()     # re-register with a restarted master
     try:
         node = MoveBaseNode()
-    except (GidaBotError, OSError) as err:
+    except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"move_base: cannot start: {err}")
         raise SystemExit(1) from err
     node.run()

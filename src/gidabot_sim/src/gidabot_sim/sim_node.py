@@ -212,7 +212,6 @@ class SimNode:
                 raise SimConfigError(f"robot {robot.name}: initial pose: {err}") from err
         self.log = ru.CountingLog(rospy.logerr)
         self.events: queue.SimpleQueue = queue.SimpleQueue()
-        self.stalls_seen = 0
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
         # /clock is published synchronously (no queue thread per subscriber): tiny messages, 100 per wall
@@ -239,8 +238,7 @@ class SimNode:
         if params.start_wall == 0.0:     # "now": keep it, so a respawned simulator continues the same timeline
             rospy.set_param("~start_wall", self.clock.start_wall)
         self.period = tick_period(params.speed, params.clock_step, params.clock_rate_max)
-        self.angles = params.laser.angles()
-        self._diag = {"wall": time.time(), "sim": 0.0, "late_ticks": 0, "steps": 0}
+        self._diag = {"wall": time.time(), "sim": 0.0}
         self.late_ticks = 0
         self.scans = 0
 
@@ -463,7 +461,7 @@ def main() -> None:
     keep_registered()     # re-register with a restarted master
     try:
         node = SimNode()
-    except (GidaBotError, OSError) as err:
+    except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"sim: cannot start: {err}")
         raise SystemExit(1) from err
     node.run()
