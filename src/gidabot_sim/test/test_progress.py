@@ -54,3 +54,10 @@ def test_start_up_then_goal_numbers_follow_the_tour_step() -> None:
     p.feed_line(line(kind="event", robot="MariSorgin", phase=9, goal_uid="b", sim=4, wall=4))
     p.feed_line(line(kind="event", robot="Tartalo", phase=15, goal_uid="b", sim=4, wall=4))
     assert not p.finished and p.line().endswith("Tartalo: partner lost (waiting)")
+
+
+def test_an_unfinished_run_is_measured_up_to_its_newest_record() -> None:
+    p = Progress(total_goals=8)
+    p.feed_line(line(kind="goal", uid="a", goal_id="014", tour_step=0, sim=100.0, wall=10.0))
+    p.feed_line(line(kind="event", robot="Tartalo", phase=1, goal_uid="a", sim=160.0, wall=13.0))
+    assert not p.finished and p.sim_seconds() == 60.0 and p.wall_seconds() == 3.0

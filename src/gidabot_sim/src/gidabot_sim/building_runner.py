@@ -37,6 +37,9 @@ RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", 
                    "/visitor/command", "/amcl_pose")
 
 
+NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
+
+
 class DemoError(SimError):
     """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
 
@@ -163,6 +166,7 @@ class SimulatedBuilding:
         self._seen: dict[int, ProcInfo] = {}    # every process of the run seen by track()
         self._root: dict[int, str] = {}         # pid -> the managed process it descends from
         self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
+        self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -265,6 +269,33 @@ class SimulatedBuilding:
                  "cpu_s": round(info.cpu_s, 2)} for info in self.track().values()]
         return sorted(rows, key=lambda r: -float(r["cpu_s"]))  # type: ignore[arg-type]
 
+    def _hurry_nodes(self, owners: list[str], grace: float = NODE_GRACE) -> None:
+        """roslaunch stops its nodes one by one and gives each 15 s to obey SIGINT before SIGTERM:
+        a node still running ``grace`` s after the SIGINT gets SIGTERM (then SIGKILL) from here, by
+        its process group (roslaunch starts each node in a session of its own)."""
+        leaders = {self.procs.get(n).popen.pid for n in owners}
+
+        def stragglers() -> list[ProcInfo]:
+            return [info for info in self.leftovers()
+                    if self._root.get(info.pid) in owners and info.pid not in leaders and info.pgid == info.pid]
+
+        deadline = time.monotonic() + grace
+        while stragglers() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        for sig, wait in ((signal.SIGTERM, 2.0), (signal.SIGKILL, 1.0)):
+            late = stragglers()
+            if not late:
+                return
+            for info in late:
+                with contextlib.suppress(ProcessLookupError, PermissionError):
+                    os.killpg(info.pgid, sig)
+                note = f"{self._root.get(info.pid, '?')[len('robot_'):]}/{info.label} ({sig.name})"
+                if note not in self.forced:
+                    self.forced.append(note)
+            deadline = time.monotonic() + wait
+            while stragglers() and time.monotonic() < deadline:
+                time.sleep(0.1)
+
     def leftovers(self) -> list[ProcInfo]:
         """Processes of this run that are still alive (same pid and start time as when seen)."""
         left = []
@@ -296,6 +327,7 @@ class SimulatedBuilding:
         for name in robots:   # every robot shuts down at the same time, then each is waited for
             if self.procs.alive(name):
                 self.procs.signal(name, signal.SIGINT)
+        self._hurry_nodes(robots)
         for name in robots:
             self.procs.stop(name, grace=20.0)
         self.procs.close()

@@ -193,8 +193,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         stop_begin = time.time()
         sim.stop()
         print(f"stopped every process in {time.time() - stop_begin:.1f} s"
-              + (f" (had to kill {', '.join(sim.killed_leftovers)})" if sim.killed_leftovers else ""),
-              file=out, flush=True)
+              + (f"; ignored SIGINT: {', '.join(sim.forced)}" if sim.forced else "")
+              + (f"; left by their parents and killed: {', '.join(sim.killed_leftovers)}"
+                 if sim.killed_leftovers else ""), file=out, flush=True)
     total_wall = time.time() - wall_begin
     outcome = (f"interrupted ({stop.received})" if stop else failure or progress.outcome or "not finished")
     run = {

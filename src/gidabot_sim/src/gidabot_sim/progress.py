@@ -36,6 +36,8 @@ class Progress:
     first_wall: float | None = None
     last_wall: float | None = None
     events: int = 0
+    latest_sim: float | None = None    # the newest record (an unfinished run is measured up to it)
+    latest_wall: float | None = None
     states: dict[str, str] = field(default_factory=dict)
 
     def feed_line(self, line: str) -> bool:
@@ -48,6 +50,11 @@ class Progress:
 
     def feed(self, rec: dict) -> bool:
         kind = rec.get("kind")
+        if kind in ("goal", "event", "cancel"):
+            try:
+                self.latest_sim, self.latest_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
+            except (TypeError, ValueError):
+                pass
         if kind == "up":
             robot = str(rec.get("robot", ""))
             if robot in self.robots_up:
@@ -112,11 +119,14 @@ class Progress:
                 f"{len(self.completed)} done | {self.robot or '-'}: {self.phase}")
 
     def sim_seconds(self) -> float:
-        if self.first_sim is None or self.last_sim is None:
+        """Sim time from the first goal to the end (unfinished: to the newest record)."""
+        last = self.last_sim if self.last_sim is not None else self.latest_sim
+        if self.first_sim is None or last is None:
             return 0.0
-        return max(0.0, self.last_sim - self.first_sim)
+        return max(0.0, last - self.first_sim)
 
     def wall_seconds(self) -> float:
-        if self.first_wall is None or self.last_wall is None:
+        last = self.last_wall if self.last_wall is not None else self.latest_wall
+        if self.first_wall is None or last is None:
             return 0.0
-        return max(0.0, self.last_wall - self.first_wall)
+        return max(0.0, last - self.first_wall)
