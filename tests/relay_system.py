@@ -111,10 +111,12 @@ class RelayMesh:
         return self.diag(on, self.end_status_name(on, other))
 
     def wait_end(self, on: str, other: str, predicate: Callable[[dict[str, str]], bool], timeout: float,
-                 what: str) -> float:
+                 what: str, after: float = 0.0) -> float:
+        """Wait until the latest diagnostics of that end satisfy ``predicate``; with ``after`` (wall
+        time, e.g. the moment of a fault) only diagnostics stamped later count."""
         def ok() -> bool:
             d = self.end_diag(on, other)
-            return d is not None and predicate(d)
+            return d is not None and float(d["_stamp"]) > after and predicate(d)
         return wait_until(ok, timeout, f"{what} (relay end of {on} towards {other})", interval=0.1)
 
     def wait_connected(self, timeout: float = 60.0) -> None:
@@ -126,14 +128,18 @@ class RelayMesh:
 
     def end_pid(self, owner: str, link_key: str) -> int:
         """Pid of relay end ``link_key`` (e.g. "Tartalo_Kbot.b") from the supervisor of ``owner``."""
-        def current() -> int | None:
+        found: list[int] = []
+
+        def current() -> bool:
             d = self.diag(owner, f"relay_supervisor: {owner}")
             if not d or link_key not in d:
-                return None
+                return False
             word = d[link_key].split(",")[0].split()[1]
-            return int(word) if word.isdigit() else None
-        wait_until(lambda: current() is not None, 20, f"pid of relay end {link_key}")
-        return int(current())  # type: ignore[arg-type]
+            if word.isdigit():
+                found.append(int(word))
+            return bool(found)
+        wait_until(current, 20, f"pid of relay end {link_key}")
+        return found[-1]
 
     def link_address(self, owner: str, link_key: str) -> tuple[str, int]:
         d = self.diag(owner, f"relay_supervisor: {owner}")

@@ -94,10 +94,11 @@ def test_state_topics_are_latched_for_late_subscribers_and_resent_on_reconnect(m
     mesh.probes["Kbot"].wait(status[0], lambda m: m["robot"] == "Tartalo", 5, "latched status")
     # a relay end restarted from scratch still gets the latest state again on reconnect
     pid = mesh.end_pid("Tartalo", "Tartalo_Kbot.b")
+    t_kill = time.time()
     os.kill(pid, signal.SIGKILL)
     wait_until(lambda: mesh.end_pid("Tartalo", "Tartalo_Kbot.b") != pid, 15, "end restarted")
     mesh.wait_end("Kbot", "Tartalo", lambda d: d["connected"] == "True" and d["delivered_states"] == "1", 15,
-                  "state re-sent to the new end")
+                  "state re-sent to the new end", after=t_kill)
 
 
 def test_relays_launch_supervisor_death_takes_its_ends_and_roslaunch_brings_them_back(mesh) -> None:

@@ -515,8 +515,9 @@ class RelayEndNode:
             err = sock.connect_ex((self.params.link_host, self.params.link_port))
         except OSError as e:
             sock.close()
-            self.core.rlog.warning("connect", f"{self.core.name}: cannot connect to {self.params.link_host}:"
-                                              f"{self.params.link_port}: {e.strerror}")
+            with self.lock:
+                self.core.rlog.warning("connect", f"{self.core.name}: cannot connect to {self.params.link_host}:"
+                                                  f"{self.params.link_port} from {self.params.bind_ip}: {e.strerror}")
             return
         if err not in (0, errno.EINPROGRESS):
             sock.close()
