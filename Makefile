@@ -9,6 +9,7 @@ help:
 	@echo "make setup   install Debian ROS packages, the venv (pinned PyPI extras) and build (idempotent)"
 	@echo "make test    setup + build when needed, then lint, unit tests (no master) and system tests"
 	@echo "make demo    setup + build when needed, then run the simulated building (bin/gidabot demo)"
+	@echo "             options: make demo DEMO_ARGS='--tour tours/long_tour.tour --speed 10 --gui' (docs/demo.md)"
 	@echo "make lint    ruff + catkin_lint"
 	@echo "make clean   remove build/, devel/ (keeps the venv)"
 

@@ -92,3 +92,41 @@ def test_missing_run_folder(tmp_path: Path, capsys) -> None:
     (tmp_path / "run.json").write_text(json.dumps({"robots": [{"name": "Kbot"}]}))
     assert report.main([str(tmp_path)]) == 1
     assert "Kbot.bag: missing bag of robot Kbot" in capsys.readouterr().err
+
+
+def _amcl(x: float, y: float, t: float):
+    from geometry_msgs.msg import PoseWithCovarianceStamped
+
+    m = PoseWithCovarianceStamped()
+    m.header.frame_id = "map"
+    m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.orientation.w = x, y, 1.0
+    m.header.stamp.secs, m.header.stamp.nsecs = int(t), int(round((t % 1) * 1e9))
+    return m
+
+
+def test_distance_from_the_robots_own_localisation(tmp_path: Path) -> None:
+    """/amcl_pose (a sample every 0.1 m) wins over the coarse shared /gidabot/poses when the bag has it."""
+    pytest.importorskip("gidabot_msgs.msg")
+    from gidabot_msgs.msg import Goal
+
+    goal = Goal(uid="Kbot/v/0", goal_id="104", goal_floor=1.0, tour_step=0)
+    goal.goal_pose.position.x, goal.goal_pose.position.y = 30.0, 12.0
+    msgs = [("/gidabot/goals", goal, 1.0),
+            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", report.ON_THE_WAY, 10.0), 10.0),
+            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", report.TOUR_FINISHED, 30.0), 30.0)]
+    # an L-shaped drive: 5 m east then 5 m north, 0.1 m per amcl_pose; the shared poses cut the corner
+    path = [(20.0 + 0.1 * k, 10.0) for k in range(51)] + [(25.0, 10.0 + 0.1 * k) for k in range(1, 51)]
+    msgs += [("/amcl_pose", _amcl(x, y, 10.0 + 0.2 * k), 10.0 + 0.2 * k) for k, (x, y) in enumerate(path)]
+    msgs += [("/gidabot/poses", _pose("Kbot", 20.0, 10.0, 10.0), 10.0),
+             ("/gidabot/poses", _pose("Kbot", 25.0, 15.0, 29.9), 29.9)]
+    msgs.sort(key=lambda m: m[2])
+    _bag(tmp_path / "Kbot.bag", msgs)
+    run = {"tour": "t.tour", "goals": 1, "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}],
+           "building": str(REPO / "maps" / "faculty")}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    assert report.main([str(tmp_path), "--json"]) == 0
+    out = json.loads((tmp_path / "report.json").read_text())
+    assert out["robots"][0]["distance_m"] == pytest.approx(10.0, abs=0.05)
+    assert out["robots"][0]["time_s"] == pytest.approx(20.0)
+    assert out["tour"]["completed"] == 1 and out["run_folder"] == str(tmp_path.resolve())
+    assert (tmp_path / "paths_floor1.png").stat().st_size > 10_000

@@ -92,13 +92,15 @@ class ProcInfo:
     @property
     def label(self) -> str:
         """The ROS node name (``__name:=``), else the program's name."""
-        for arg in self.argv:
+        argv = self.argv
+        for arg in argv:
             if arg.startswith("__name:="):
                 return arg.split(":=", 1)[1]
-        prog = [a for a in self.argv if not a.startswith("-")]
-        if len(prog) >= 2 and Path(prog[0]).name.startswith("python"):
-            return Path(prog[1]).name if prog[1] != "-m" or len(prog) < 3 else prog[2].rsplit(".", 1)[-1]
-        return Path(prog[0]).name if prog else "?"
+        if len(argv) >= 2 and Path(argv[0]).name.startswith("python"):
+            if argv[1] == "-m" and len(argv) >= 3:
+                return argv[2].rsplit(".", 1)[-1]
+            return "python -c" if argv[1] == "-c" else Path(argv[1]).name
+        return Path(argv[0]).name if argv else "?"
 
 
 def read_proc(pid: int) -> ProcInfo | None:

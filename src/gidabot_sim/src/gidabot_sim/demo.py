@@ -24,6 +24,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
 from typing import TextIO
@@ -179,13 +180,14 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
                             seed_tours=seed, addresses=addresses, common_args=visitor)
     failure = ""
+    tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:
         sim.start(cancelled=lambda: bool(stop))
-        failure = _follow(sim, progress, args, wall_begin, out, stop)
+        failure = _follow(sim, progress, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
-            _cpu_table(sim, time.time() - wall_begin, out)
+            _cpu_table(sim, wall_begin, tour_cpu[0] if tour_cpu else None, out)
     except DemoError as err:
         failure = str(err)
         print(f"gidabot demo: {err}", file=sys.stderr)
@@ -222,7 +224,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
 
 
 def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace, wall_begin: float,
-            out: TextIO, stop: Signals) -> str:
+            out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
     """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
     assert sim.monitor_file is not None
     shown = ""
@@ -233,6 +235,8 @@ def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace
             line = feed.readline()
             if line:
                 if progress.feed_line(line):
+                    if tour_cpu is not None and not tour_cpu and progress.goals:
+                        tour_cpu.append(CpuSnapshot(time.time(), sim.cpu_usage()))
                     text = progress.line()
                     if text != shown:
                         print(f"[{time.time() - wall_begin:6.1f} s] {text}", file=out, flush=True)
@@ -250,18 +254,45 @@ def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace
     return ""
 
 
-def _cpu_table(sim: SimulatedBuilding, wall: float, out: TextIO) -> None:
-    rows = sim.cpu_usage()
-    (sim.run_dir / "cpu.json").write_text(json.dumps({"wall_s": round(wall, 1), "processes": rows}, indent=2),
-                                          encoding="utf-8")
-    by_process: dict[str, float] = {}
+@dataclass
+class CpuSnapshot:
+    wall: float
+    rows: list[dict[str, object]]
+
+
+def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = None) -> dict[str, float]:
+    """CPU seconds per kind of process (node name / program), all robots together; minus ``before`` (pid ->
+    CPU s at an earlier snapshot) when given."""
+    kinds: dict[str, float] = {}
     for r in rows:
-        by_process[str(r["process"])] = by_process.get(str(r["process"]), 0.0) + float(r["cpu_s"])  # type: ignore
-    total = sum(by_process.values())
-    print(f"\nCPU used by the run's processes in {wall:.0f} s of wall time: {total:.0f} s "
-          f"({total / max(wall, 1e-9):.2f} cores); per kind of process (all robots):", file=out)
-    for name, cpu in sorted(by_process.items(), key=lambda kv: -kv[1]):
-        print(f"  {name:<34} {cpu:8.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %", file=out)
+        cpu = float(r["cpu_s"]) - (before or {}).get(int(r["pid"]), 0.0)  # type: ignore[arg-type]
+        kinds[str(r["process"])] = kinds.get(str(r["process"]), 0.0) + cpu
+    return kinds
+
+
+def _cpu_table(sim: SimulatedBuilding, begin: float, tour_start: CpuSnapshot | None, out: TextIO) -> None:
+    """Print and save (cpu.json) what each kind of process cost: start-up, then the tour alone."""
+    end = CpuSnapshot(time.time(), sim.cpu_usage())
+    if tour_start is None:
+        phases = [("whole run", begin, end.wall, end.rows, None)]
+    else:
+        first = {int(r["pid"]): float(r["cpu_s"]) for r in tour_start.rows}  # type: ignore[arg-type]
+        phases = [("start-up", begin, tour_start.wall, tour_start.rows, None),
+                  ("tour", tour_start.wall, end.wall, end.rows, first)]
+    saved: dict[str, object] = {"processes": end.rows}
+    for name, t0, t1, rows, before in phases:
+        wall = max(t1 - t0, 1e-9)
+        kinds = sorted(_per_kind(rows, before).items(), key=lambda kv: -kv[1])
+        total = sum(cpu for _, cpu in kinds)
+        saved[name] = {"wall_s": round(wall, 1), "cpu_s": round(total, 1), "cores": round(total / wall, 2),
+                       "per_kind_cpu_s": {k: round(v, 1) for k, v in kinds}}
+        print(f"\nCPU of the run's processes, {name}: {total:.0f} s in {wall:.0f} s of wall time "
+              f"({total / wall:.2f} of {os.cpu_count()} cores); per kind of process (all robots together):",
+              file=out)
+        for kind, cpu in kinds:
+            print(f"  {kind:<26} {cpu:7.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %  {cpu / wall:5.2f} cores",
+                  file=out)
+    (sim.run_dir / "cpu.json").write_text(json.dumps(saved, indent=2), encoding="utf-8")
 
 
 def main(argv: list[str]) -> int:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 from dataclasses import dataclass, field
 
@@ -51,10 +52,8 @@ class Progress:
     def feed(self, rec: dict) -> bool:
         kind = rec.get("kind")
         if kind in ("goal", "event", "cancel"):
-            try:
+            with contextlib.suppress(TypeError, ValueError):
                 self.latest_sim, self.latest_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
-            except (TypeError, ValueError):
-                pass
         if kind == "up":
             robot = str(rec.get("robot", ""))
             if robot in self.robots_up:

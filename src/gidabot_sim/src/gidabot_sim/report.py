@@ -327,6 +327,7 @@ def main(argv: list[str]) -> int:
     try:
         run, records = load_run(args.run)
         report = analyse(records, run)
+        report["run_folder"] = str(args.run.resolve())
         if not args.no_plots:
             report["plots"] = [str(p) for p in plot_paths(args.run, run, records)]
     except ReportError as err:
