@@ -130,3 +130,25 @@ def test_distance_from_the_robots_own_localisation(tmp_path: Path) -> None:
     assert out["robots"][0]["time_s"] == pytest.approx(20.0)
     assert out["tour"]["completed"] == 1 and out["run_folder"] == str(tmp_path.resolve())
     assert (tmp_path / "paths_floor1.png").stat().st_size > 10_000
+
+
+def test_an_unreadable_message_is_skipped_and_counted(tmp_path: Path, capsys) -> None:
+    """A zero-length message (seen once from a relay end) must not cost the whole report."""
+    pytest.importorskip("gidabot_msgs.msg")
+    from rosbags.rosbag1 import Writer
+
+    from gidabot_msgs.msg import NavPose
+
+    good = _pose("Tartalo", 10.0, 12.0, 5.0)
+    buf = io.BytesIO()
+    good.serialize(buf)
+    with Writer(tmp_path / "Tartalo.bag") as writer:
+        conn = writer.add_connection("/gidabot/poses", "gidabot_msgs/msg/NavPose", msgdef=NavPose._full_text,
+                                     md5sum=NavPose._md5sum)
+        writer.write(conn, int(4e9), b"")
+        writer.write(conn, int(5e9), buf.getvalue())
+    run = {"goals": 0, "robots": [{"name": "Tartalo", "floor": 0}], "building": str(REPO / "maps" / "faculty")}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    assert report.main([str(tmp_path), "--no-plots"]) == 0
+    assert "Tartalo: /gidabot/poses: 1 message(s) in the bag could not be deserialised" in capsys.readouterr().out
+    assert json.loads((tmp_path / "report.json").read_text())["unreadable_messages"] == {"Tartalo: /gidabot/poses": 1}

@@ -31,7 +31,7 @@ from typing import TextIO
 
 from gidabot_navigation.building import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.procs import robot_address
+from gidabot_navigation.procs import ProcessError, robot_address
 from gidabot_navigation.tours import check_tour_file_name, parse_tour
 from gidabot_sim import report
 from gidabot_sim.building_runner import REPO, DemoError, SimulatedBuilding
@@ -44,6 +44,7 @@ DEFAULT_SPEED = 20.0
 # CPU than the rest of the building together). The relays forward at most 10 per second anyway; Table 5
 # distances come from each robot's own /amcl_pose (a sample every 0.1 m), not from /gidabot/poses.
 STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
+START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
 STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -65,7 +66,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--out", type=Path, default=REPO / "runs",
                    help="output folder; the run goes to OUT/<date>-<time>-<tour>/ (default: runs/)")
     p.add_argument("--gui", action="store_true", help="open every robot's GUI (needs a display)")
-    p.add_argument("--timeout", type=float, default=900.0, help="wall seconds before giving up (default 900)")
+    p.add_argument("--timeout", type=float, default=None,
+                   help="wall seconds before giving up (default: 120 + 300 s of sim time per goal / speed)")
     p.add_argument("--secret", type=Path, default=None,
                    help="FILE with the relays' shared secret (default: a fresh random one in the run folder)")
     p.add_argument("--json", action="store_true",
@@ -138,7 +140,7 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
-    if not (math.isfinite(args.timeout) and args.timeout > 0):
+    if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
     if building.robot_on(start_floor) is None:
         raise DemoError(f"start floor {start_floor:g} has no robot (robots: "
@@ -156,6 +158,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     label, total, tour_name, start_floor = _visit(args, building)
     _validate(args, building, start_floor)
     skips = _skips(args.skip, total)
+    if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
+        args.timeout = START_STOP_S + SIM_S_PER_GOAL * total / args.speed
 
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
@@ -188,7 +192,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
             _cpu_table(sim, wall_begin, tour_cpu[0] if tour_cpu else None, out)
-    except DemoError as err:
+    except (DemoError, ProcessError, OSError) as err:   # a process that cannot start, a full disk...
         failure = str(err)
         print(f"gidabot demo: {err}", file=sys.stderr)
     finally:
@@ -249,7 +253,7 @@ def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace
             if dead:
                 return f"{', '.join(dead)} stopped unexpectedly (see {sim.run_dir / 'logs'})"
             if time.time() > deadline:
-                return f"timed out after {args.timeout:g} s of wall time ({progress.line()})"
+                return f"timed out after {args.timeout:.0f} s of wall time ({progress.line()})"
             time.sleep(0.2)
     return ""
 

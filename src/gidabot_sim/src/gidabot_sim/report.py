@@ -78,6 +78,7 @@ class RobotRecord:
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
+    bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
 
     @property
     def track(self) -> list[PoseSample]:
@@ -149,7 +150,8 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
         "wall_s": round(wall_s, 1),
         "sim_to_wall": round(sim_s / wall_s, 2) if wall_s > 0 else 0.0,
     }
-    return {"robots": [asdict(r) for r in rows], "tour": tour}
+    unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
+    return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable}
 
 
 def format_tables(report: dict) -> str:
@@ -166,6 +168,8 @@ def format_tables(report: dict) -> str:
     lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    for where, n in report.get("unreadable_messages", {}).items():
+        lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
 
 
@@ -192,7 +196,11 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
             wanted = [c for c in reader.connections
                       if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
             for conn, t_ns, raw in reader.messages(connections=wanted):
-                msg = reader.deserialize(raw, conn.msgtype)
+                try:
+                    msg = reader.deserialize(raw, conn.msgtype)
+                except Exception:  # noqa: BLE001 - rosbags raises several types; one bad message is skipped
+                    rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
+                    continue
                 if conn.topic == "/gidabot/goals":
                     rec.goal_uids.add(msg.uid)
                     gp = msg.goal_pose.position
