@@ -65,6 +65,7 @@ class GoalInfo:
     x: float
     y: float
     tour_step: int
+    yaw: float = 0.0    # rad: the robot stops facing the door, so the room is that way
 
 
 @dataclass
@@ -203,9 +204,9 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
                     continue
                 if conn.topic == "/gidabot/goals":
                     rec.goal_uids.add(msg.uid)
-                    gp = msg.goal_pose.position
+                    gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
-                                                  int(msg.tour_step))
+                                                  int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
                 elif conn.topic == "/amcl_pose":
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
@@ -284,18 +285,18 @@ def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path
             ax.plot(*end, "s", color=colour, markersize=8)
             ax.plot([], [], "-", color=colour, linewidth=2.5,
                     label=f"{rec.name}: guiding (thick), alone (dashed); o start, \u25a0 end")
-        marks: dict[tuple[float, float], list[str]] = {}
+        marks: dict[tuple[float, float], list[str]] = {}   # label 1 m from the goal towards its door
         for g in goals.values():
             if g.floor == floor.id:
                 label = str(g.tour_step + 1) if g.tour_step >= 0 else g.goal_id
-                key = (round(g.x, 1), round(g.y, 1))
+                key = (round(g.x + math.cos(g.yaw), 1), round(g.y + math.sin(g.yaw), 1))
                 if label not in marks.setdefault(key, []):
                     marks[key].append(label)
         for (x, y), labels in marks.items():
             u, v = floor.transform.to_pixel(x, y)
-            ax.annotate(",".join(sorted(labels, key=lambda t: (len(t), t))), (u, v), xytext=(0, -14),
-                        textcoords="offset points", ha="center", va="center", fontsize=9, fontweight="bold",
-                        color="white", bbox={"boxstyle": "circle,pad=0.25", "fc": "#333333", "ec": "none"})
+            ax.annotate(",".join(sorted(labels, key=lambda t: (len(t), t))), (u, v), ha="center", va="center",
+                        fontsize=9, fontweight="bold", color="white",
+                        bbox={"boxstyle": "round,pad=0.25", "fc": "#333333", "ec": "none"})
         tour = run.get("tour", "")
         ax.set_title(f"{floor.names['en']} (floor {floor.label}): paths followed"
                      + (f" during {tour}; numbers: tour steps" if tour else ""), fontsize=12)
