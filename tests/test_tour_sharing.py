@@ -170,6 +170,40 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
 
 
 @pytest.mark.timeout(300)
+def test_master_restart_alone_catches_up_within_5_s(mesh: TourMesh) -> None:
+    """Only Kbot's master dies (SIGKILL) and comes back; its nodes keep running and re-register
+    (master_watch.keep_registered): the two edits and the delete made meanwhile reach it."""
+    down = "Kbot"
+    up = [r for r in ROBOTS if r != down]
+    assert mesh.edit("Galtxagorri", tour("m_changes.tour", VISIT, name="Changes"))["ok"]
+    assert mesh.edit("Galtxagorri", tour("m_goes_away.tour", VISIT, name="Goes away"))["ok"]
+    mesh.wait_same(10, "m_changes.tour and m_goes_away.tour everywhere")
+    pid = mesh.store_pid(down)
+
+    mesh.procs.signal(f"master_{down}", 9)
+    mesh.procs.stop(f"master_{down}")
+    new_goals = ["2, 223, M. Larrea's Office", "2, 274, K. Sarasola's Office"]
+    assert mesh.edit("Galtxagorri", tour("m_changes.tour", new_goals, name="Changed"))["ok"]
+    assert mesh.edit("Tartalo", tour("m_while_down.tour", VISIT, name="While down"))["ok"]
+    assert mesh.edit("MariSorgin", tour("m_goes_away.tour", [], deleted=True))["ok"]
+    mesh.wait_files(up, lambda f: f.get("m_changes.tour") == content("Changed", new_goals, "m_changes.tour")
+                    and "m_while_down.tour" in f and "m_goes_away.tour" not in f, 10, "the changes on the robots up")
+    target = mesh.files("Galtxagorri")
+
+    t0 = time.monotonic()
+    mesh.masters.restart_master(down)
+    t_master = time.monotonic() - t0
+    delays = mesh.wait_files([down], lambda f: f == target, 60, f"{down} caught up", t0)
+    print(f"\n[tours] {down}'s master back (nodes kept running): master up after {t_master:.2f} s, same tours as "
+          f"the others after {delays[down]:.2f} s")
+    assert delays[down] <= CATCH_UP_LIMIT, f"caught up {delays[down]:.2f} s after the master restarted"
+    # the store (kept running) is registered again: nodes that start now find it
+    wait_until(lambda: mesh.store_pid(down) == pid, 5, f"{down}'s tour store registered again", interval=0.1)
+    mesh.mesh.wait_connected(30)
+    mesh.wait_same(5)
+
+
+@pytest.mark.timeout(300)
 def test_robot_down_during_edits_catches_up_within_5_s(mesh: TourMesh) -> None:
     down = "Kbot"
     up = [r for r in ROBOTS if r != down]

@@ -23,6 +23,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building import LANGUAGES, load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
+from gidabot_navigation.master_watch import keep_registered
 from gidabot_navigation.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
 
 TOURS_TOPIC = "/gidabot/tours"
@@ -313,6 +314,7 @@ class TourStoreNode:
 
 def main(argv: list[str] | None = None) -> int:
     rospy.init_node("tour_store", argv=argv if argv is not None else sys.argv)
+    keep_registered()    # found again after its master restarts (docs/interfaces.md)
     try:
         node = TourStoreNode(Params.read())
     except (GidaBotError, OSError) as err:
