@@ -179,8 +179,16 @@ class _StateLatch(rospy.SubscribeListener):
         self.node, self.topic = node, topic
 
     def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+        # rospy calls this from the thread accepting the connection WITHOUT the publisher's lock,
+        # while the I/O thread may be publishing: both serialise into the publisher's one buffer,
+        # which produced empty/garbled messages. Publish under the lock Publisher.publish takes.
+        impl = self.node.pubs[self.topic].impl
         for msg in self.node.states_for_new_subscriber(self.topic):
-            peer_publish(msg)
+            impl.acquire()
+            try:
+                peer_publish(msg)
+            finally:
+                impl.release()
 
 
 @dataclass

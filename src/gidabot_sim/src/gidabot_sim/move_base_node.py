@@ -90,7 +90,9 @@ class MoveBaseNode:
       ``~footprint_padding`` (m, 0.05: added to the radius for planning),
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
-      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false).
+      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
+      ``~stall_threshold`` (s, 1: a longer gap between two control cycles means this process was starved
+      or frozen; that time is not held against the goal's patience timers).
       All times are sim time.
     """
 
