@@ -162,7 +162,7 @@ def test_cancel_on_the_start_floor_stops_the_partner(stack: SimStack) -> None:
     uid, since = stack.request("Tartalo", "311", way="stairs")
     stack.wait_event("Tartalo", ON_THE_WAY, uid, timeout=30, since=since)
     stack.wait_event("MariSorgin", GOING_TO_MEETING, uid, timeout=30)
-    goal = stack.rec["MariSorgin"].latest(GOALS, lambda m: m["uid"] == uid)
+    goal = stack.rec["MariSorgin"].wait(GOALS, lambda m: m["uid"] == uid, 10, "the goal at MariSorgin")
     meet = stack.meeting(goal["connector"], 3)
     start = (8.0, 12.0)
     wait_until(lambda: dist(stack.pose("MariSorgin"), start) > 1.0, 30, "MariSorgin driving to the meeting point")
@@ -188,9 +188,10 @@ def test_cancel_on_the_start_floor_stops_the_partner(stack: SimStack) -> None:
           f"MariSorgin stopped {dist(stopped_at, meet):.1f} m before the meeting point")
     assert dist(stopped_at, meet) > 5.0, "MariSorgin was at the meeting point already: nothing was stopped"
 
-    # it stays there (negative check: at 20x a driving robot would move metres in this time)
+    # it stays there (negative check: at 20x a robot still driving would cover ~10 m in this time;
+    # braking from 0.5 m/s at 0.4 m/s^2 takes ~0.3 m)
     time.sleep(1.0)
-    assert dist(stack.pose("MariSorgin"), stopped_at) < 0.3
+    assert dist(stack.pose("MariSorgin"), stopped_at) < 1.0
     for r in ("Tartalo", "MariSorgin"):
         late = [e["phase"] for e in stack.events(r, uid, r, since=n_t if r == "Tartalo" else n_m)]
         assert late == [CANCELLED_HERE if r == "Tartalo" else CANCELLED_ELSEWHERE], (r, late)
