@@ -13,6 +13,7 @@ from gidabot_navigation.master_watch import (
     MasterWatch,
     MasterWatchCore,
     MasterWatchError,
+    ParamKeeper,
     Registrations,
     get_master_pid,
     register_all,
@@ -104,6 +105,33 @@ class FakeMaster:
     def registerService(self, caller: str, service: str, service_uri: str, api: str) -> list:  # noqa: N802
         self.calls.append(("srv", caller, service, service_uri, api))
         return [1, "", 1]
+
+    # the parameter server: a flat dict of leaf keys, answered like rosmaster (subtrees as dicts)
+    params: dict
+
+    def getParam(self, caller: str, key: str) -> list:  # noqa: N802
+        params = getattr(self, "params", {})
+        if key in params:
+            return [1, "", params[key]]
+        tree: dict = {}
+        for k, v in params.items():
+            if k.startswith(key.rstrip("/") + "/"):
+                node = tree
+                parts = k[len(key.rstrip("/")) + 1:].split("/")
+                for part in parts[:-1]:
+                    node = node.setdefault(part, {})
+                node[parts[-1]] = v
+        return [1, "", tree] if tree else [-1, f"Parameter [{key}] is not set", 0]
+
+    def hasParam(self, caller: str, key: str) -> list:  # noqa: N802
+        return [1, "", self.getParam(caller, key)[0] == 1]
+
+    def setParam(self, caller: str, key: str, value: object) -> list:  # noqa: N802
+        self.calls.append(("set", caller, key, value))
+        if not hasattr(self, "params"):
+            self.params = {}
+        self.params[key] = value
+        return [1, "", 0]
 
 
 class FakeSlave:
@@ -205,3 +233,39 @@ def test_listener_errors_do_not_stop_the_watch(servers) -> None:
     master.pid += 1
     assert watch.poll_once(0.5) is Event.REREGISTER
     assert any(line.startswith("E ") and "boom" in line for line in log.lines)
+
+
+def test_param_keeper_restores_what_a_restarted_master_lost(servers) -> None:
+    from gidabot_navigation.master_watch import proxy
+
+    master, muri, _, _ = servers
+    master.params = {"/goal_manager/building": "/b/building.yaml", "/goal_manager/robot": "Kbot",
+                     "/goal_manager/wait/lift": 25.0, "/use_sim_time": True, "/other/x": 1}
+    keeper = ParamKeeper("/goal_manager")
+    assert keeper.take(proxy(muri, 2.0), "/goal_manager") == 4
+    assert keeper.remembered["/goal_manager/wait/lift"] == 25.0 and "/other/x" not in keeper.remembered
+    master.params = {"/goal_manager/robot": "Changed"}          # restarted: empty, one set again by someone
+    set_now = keeper.restore(proxy(muri, 2.0), "/goal_manager")
+    assert set_now == ["/goal_manager/building", "/goal_manager/wait/lift", "/use_sim_time"]
+    assert master.params["/goal_manager/robot"] == "Changed"    # never overwritten
+    assert master.params["/use_sim_time"] is True and keeper.restored == 3
+    assert keeper.restore(proxy(muri, 2.0), "/goal_manager") == []
+
+
+def test_watch_sets_parameters_again_before_reregistering(servers) -> None:
+    master, muri, _, suri = servers
+    master.params = {"/node/speed": 20.0, "/use_sim_time": True}
+    log = _Log()
+    watch = MasterWatch(master_uri=muri, caller_id="/node", node_uri=suri, registrations=lambda: REGS, log=log,
+                        params=ParamKeeper("/node"))
+    watch.remember_params()
+    watch.poll_once(0.0)
+    master.params["/node/start_wall"] = 1234.5                  # written by the node after start
+    watch.poll_once(100.0)                                      # a refresh is due: merged
+    master.params, master.calls = {}, []
+    master.pid += 1                                             # restarted, parameters gone
+    assert watch.poll_once(100.5) is Event.REREGISTER
+    kinds = [c[0] for c in master.calls]
+    assert kinds[:3] == ["set", "set", "set"] and "pub" in kinds[3:]
+    assert master.params == {"/node/speed": 20.0, "/node/start_wall": 1234.5, "/use_sim_time": True}
+    assert any("lost 3 parameter(s)" in line for line in log.lines)

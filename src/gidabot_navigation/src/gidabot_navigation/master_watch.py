@@ -14,6 +14,13 @@ Connections that already exist between nodes do not go through the master and
 survive its restart; what re-registration restores is *discovery*: nodes that
 start (or restart) after the master came back find this node's topics.
 
+A restarted master has also lost every parameter, so a node that roslaunch respawns
+afterwards (or that starts later) would miss its private parameters and
+``/use_sim_time``. :class:`ParamKeeper` remembers, at start, the parameters of the
+node's private namespace and ``/use_sim_time`` (and merges what appears there later,
+e.g. a value the node itself writes back); after a re-registration it sets again
+every remembered parameter the master does not have (never overwriting one it has).
+
 The decision logic is :class:`MasterWatchCore` (ROS-free, driven by explicit poll
 results so it is unit-tested without a master); :class:`MasterWatch` is the thread
 and the XML-RPC calls. Liveness is measured in monotonic wall time, never ROS time.
@@ -35,6 +42,8 @@ from gidabot_navigation.errors import GidaBotError
 DEFAULT_PERIOD = 0.5     # s between polls
 DEFAULT_TIMEOUT = 0.3    # s, socket timeout of one XML-RPC call
 DOWN_AFTER = 2           # consecutive failed polls before the master is declared down
+PARAM_REFRESH = 30.0     # s between merges of the node's parameters into the remembered set
+RESTORED_KEYS = ("/use_sim_time",)   # global parameters every node restores besides its private ones
 
 
 class MasterWatchError(GidaBotError):
@@ -186,6 +195,54 @@ def _check(reply: object, what: str, name: str) -> object:
     return value
 
 
+def _flatten(prefix: str, value: object, out: dict[str, object]) -> None:
+    """Leaf parameters of a parameter (sub)tree: ``{"/ns/a/b": value, ...}``."""
+    if isinstance(value, dict) and value:
+        for key, sub in value.items():
+            _flatten(f"{prefix.rstrip('/')}/{key}", sub, out)
+    else:
+        out[prefix] = value
+
+
+@dataclass
+class ParamKeeper:
+    """The parameters a node needs again from a restarted master (its private namespace and
+    ``keys``), remembered as leaf values; :meth:`restore` sets the missing ones.
+
+    Only XML-RPC calls on the master (``getParam``, ``hasParam``, ``setParam``), each
+    bounded by ``timeout``; never overwrites a parameter the master already has.
+    """
+
+    namespace: str                                   # e.g. "/goal_manager" (the node's private namespace)
+    keys: tuple[str, ...] = RESTORED_KEYS
+    remembered: dict[str, object] = field(default_factory=dict)
+    restored: int = 0                                # parameters set again so far
+
+    def take(self, master: xmlrpc.client.ServerProxy, caller_id: str) -> int:
+        """Merge what the master holds now into the remembered set; returns the number of leaves seen."""
+        found: dict[str, object] = {}
+        for key in (self.namespace, *self.keys):
+            code, _, value = master.getParam(caller_id, key)
+            if code == 1:
+                _flatten(key, value, found)
+        self.remembered.update(found)
+        return len(found)
+
+    def restore(self, master: xmlrpc.client.ServerProxy, caller_id: str) -> list[str]:
+        """Set every remembered parameter the master lacks; returns their names."""
+        set_now = []
+        for key, value in sorted(self.remembered.items()):
+            code, _, has = master.hasParam(caller_id, key)
+            if code == 1 and has:
+                continue
+            code, msg, _ = master.setParam(caller_id, key, value)
+            if code != 1:
+                raise MasterWatchError(f"master refused to set parameter {key}: {msg} (code {code})")
+            set_now.append(key)
+        self.restored += len(set_now)
+        return set_now
+
+
 Listener = Callable[[Event, "MasterWatch"], None]
 
 
@@ -196,6 +253,8 @@ class MasterWatch:
     ``registrations`` returns the node's current registrations, ``log`` receives
     messages; listeners are called from the watch thread with DOWN and REREGISTER
     events (after the re-registration succeeded), and must return quickly.
+    ``params`` (optional) is restored before every re-registration and refreshed
+    every ``param_refresh`` s while the master is up.
     """
 
     master_uri: str
@@ -211,6 +270,9 @@ class MasterWatch:
     _stop: threading.Event = field(default_factory=threading.Event)
     _thread: threading.Thread | None = None
     _server: xmlrpc.client.ServerProxy | None = None
+    params: ParamKeeper | None = None
+    param_refresh: float = PARAM_REFRESH
+    _next_refresh: float = 0.0
 
     @property
     def up(self) -> bool:
@@ -251,6 +313,7 @@ class MasterWatch:
                              f"({self.core.down_after} polls in a row); will re-register when it is back")
         elif event is Event.REREGISTER:
             try:
+                self._restore_params()
                 count = register_all(self.master_uri, self.caller_id, self.node_uri, self.registrations(),
                                      self.timeout)
             except MasterWatchError as err:
@@ -262,6 +325,8 @@ class MasterWatch:
                 self.core.registered()
             self.log.info(f"{self.caller_id}: master {self.master_uri} is back (pid {pid}); "
                           f"re-registered {count} publication(s), subscription(s) and service(s)")
+        elif pid is not None:
+            self._refresh_params(now)
         if event in (Event.DOWN, Event.REREGISTER):
             with self._lock:
                 listeners = list(self._listeners)
@@ -271,6 +336,36 @@ class MasterWatch:
                 except Exception as err:  # noqa: BLE001 - a listener must never kill the watch
                     self.log.error(f"{self.caller_id}: master watch listener failed: {err!r}")
         return event
+
+    def remember_params(self) -> None:
+        """Merge the node's parameters as the master holds them now (also done every ``param_refresh`` s)."""
+        if self.params is None:
+            return
+        try:
+            self.params.take(proxy(self.master_uri, self.timeout), self.caller_id)
+        except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError) as err:
+            self.log.warning(f"{self.caller_id}: cannot read its parameters from {self.master_uri}: {err}")
+
+    def _refresh_params(self, now: float) -> None:
+        with self._lock:
+            due = self.params is not None and not self.core.pending and now >= self._next_refresh
+            if due:
+                self._next_refresh = now + self.param_refresh
+        if due:
+            self.remember_params()
+
+    def _restore_params(self) -> None:
+        """Before re-registering: the parameters a restarted master lost (raises MasterWatchError)."""
+        if self.params is None:
+            return
+        try:
+            names = self.params.restore(proxy(self.master_uri, self.timeout), self.caller_id)
+        except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError) as err:
+            raise MasterWatchError(f"restoring the parameters of {self.caller_id} on {self.master_uri} "
+                                   f"failed: {err}") from err
+        if names:
+            self.log.info(f"{self.caller_id}: master {self.master_uri} had lost {len(names)} parameter(s) of "
+                          f"this node; set them again: {', '.join(names[:8])}{' ...' if len(names) > 8 else ''}")
 
     def _run(self) -> None:
         while not self._stop.is_set():
@@ -310,11 +405,13 @@ def rospy_registrations() -> Registrations:
 
 
 def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIMEOUT,
-                    log: Logger | None = None) -> MasterWatch:
+                    log: Logger | None = None, restore_keys: tuple[str, ...] = RESTORED_KEYS) -> MasterWatch:
     """Start the master watch of this rospy node (call once, right after ``rospy.init_node``).
 
     Returns the :class:`MasterWatch`: ``up`` tells whether the master answers,
     ``add_listener`` gets DOWN / REREGISTER events. Parameters in seconds (wall time).
+    The node's private parameters and ``restore_keys`` are remembered now and set again
+    on a restarted master that lost them (:class:`ParamKeeper`).
     """
     import rosgraph
     import rospy
@@ -329,5 +426,7 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
         raise MasterWatchError("this node has no slave API URI yet; call keep_registered() after rospy.init_node()")
     watch = MasterWatch(master_uri=rosgraph.get_master_uri(), caller_id=rospy.get_caller_id(), node_uri=node_uri,
                         registrations=rospy_registrations, log=log or _RospyLog(), period=period,
-                        timeout=timeout)
+                        timeout=timeout, params=ParamKeeper(rospy.get_name(), tuple(restore_keys)))
+    watch.remember_params()
+    watch._next_refresh = time.monotonic() + watch.param_refresh
     return watch.start()
