@@ -25,10 +25,20 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
 
 from gidabot_navigation.building import LANGUAGES, Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, NoRouteError
+from gidabot_navigation.guiding_state import (
+    REMEMBERED_UIDS,
+    GuidingStateError,
+    dataclass_from_dict,
+    number,
+    str_list,
+    trip_from_dict,
+    trip_to_dict,
+)
 from gidabot_navigation.guiding_types import (
     ACCEPTED,
     CANCEL,
@@ -138,6 +148,7 @@ class GoalManagerCore:
         self._cancels_seen = SeenSet()
         self._events_seen = SeenSet()
         self._cancelled = SeenSet()
+        self._commands_seen = SeenSet()                   # CommandData.key of the commands handled
         self._phase: dict[str, tuple[int, float]] = {}    # own navigation's progress per held goal
         self._releases: OrderedDict[str, float] = OrderedDict()
 
@@ -158,7 +169,12 @@ class GoalManagerCore:
             self.warn.warning("catalog", problem)
 
     def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
-        """A VisitorCommand from this robot's GUI (or the simulated visitor)."""
+        """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
+        stamp) is ignored."""
+        key = cmd.key
+        if key and not self._commands_seen.add(key):
+            self.stats.inc("duplicate_commands")
+            return []
         try:
             cmd = validate_command(cmd)
         except GoalRejected as err:
@@ -267,6 +283,51 @@ class GoalManagerCore:
     def tick(self, now_ros: float, now_wall: float) -> list[Action]:
         """Periodic housekeeping (nothing is time-driven in the goal manager yet)."""
         return []
+
+    # ------------------------------------------------------------------ restarts
+    def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
+        """What a restarted goal manager needs (JSON-able): the queue, the ``remember`` most recent
+        handled uids of each kind, the own navigation's progress, releases and the tour steps waiting."""
+        return {
+            "queue": [trip_to_dict(t) for t in self.queue],
+            "goals_seen": self._goals_seen.recent(remember), "cancels_seen": self._cancels_seen.recent(remember),
+            "events_seen": self._events_seen.recent(remember), "cancelled": self._cancelled.recent(remember),
+            "commands_seen": self._commands_seen.recent(remember),
+            "phase": {uid: [phase, since] for uid, (phase, since) in self._phase.items()},
+            "releases": [[uid, t] for uid, t in self._releases.items()][-remember:],
+            "waits": [asdict(w) for w in self.waits.all()],
+            "stats": dict(self.stats),
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Resume from :meth:`state` of a previous run (raises GuidingStateError, changing nothing, if damaged)."""
+        try:
+            self._load_state(state)
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as err:
+            raise GuidingStateError(f"goal manager state: {err!r}") from err
+
+    def _load_state(self, state: dict[str, Any]) -> None:
+        queue = [trip_from_dict(t) for t in state.get("queue", [])]
+        seen = {name: str_list(state.get(name, []), name) for name in
+                ("goals_seen", "cancels_seen", "events_seen", "cancelled", "commands_seen")}
+        phase_raw = state.get("phase", {})
+        if not isinstance(phase_raw, dict):
+            raise GuidingStateError("phase: expected an object")
+        phase = {str(uid): (int(number(v[0], "phase")), number(v[1], "phase since")) for uid, v in phase_raw.items()}
+        releases = [(str(r[0]), number(r[1], "release")) for r in state.get("releases", [])]
+        waits = [dataclass_from_dict(TourWait, w) for w in state.get("waits", [])]
+        self.queue = queue
+        for name, uids in seen.items():
+            getattr(self, f"_{name}").update(uids)
+        self._phase = {uid: p for uid, p in phase.items() if any(t.uid == uid for t in queue)}
+        for uid, t in releases:
+            self._releases[uid] = t
+        for w in waits:
+            self.waits.add(w)
+        stats = state.get("stats", {})
+        if isinstance(stats, dict):
+            self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
+        self.version += 1
 
     # ------------------------------------------------------------------ outputs
     def pending(self, now_ros: float) -> PendingSnapshot:

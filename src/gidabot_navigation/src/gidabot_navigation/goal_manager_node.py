@@ -11,6 +11,7 @@ import queue
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
@@ -42,10 +43,13 @@ from gidabot_navigation.guiding_ros import (
     trip_to_msg,
     yaw_of,
 )
+from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, GuidingStateError, StateFile, default_state_dir
 from gidabot_navigation.guiding_types import Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayPublisher
 from gidabot_navigation.trips import WaitModel
 
 QUEUE_SIZE = 2000
+DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
 
 
 @dataclass(frozen=True)
@@ -53,6 +57,9 @@ class Params:
     building: str
     cfg: GoalManagerConfig
     pending_period: float      # wall s between unchanged /gidabot/pending messages
+    state_dir: str = ""        # where the node's state survives a restart ("" = none)
+    state_max_age: float = DEFAULT_MAX_AGE
+    replay_window: float = DEFAULT_WINDOW
 
     @staticmethod
     def read() -> Params:
@@ -70,7 +77,10 @@ class Params:
                                 default_language=param_text("~default_language", "en"),
                                 offline_after=param_number("~offline_after", 5.0),
                                 max_queue=int(param_number("~max_queue", 50, minimum=1, strict=False)), wait=wait)
-        return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0))
+        state_dir = param_text("~state_dir", "") or default_state_dir(robot)
+        return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
+                      param_number("~state_max_age", DEFAULT_MAX_AGE),
+                      param_number("~replay_window", DEFAULT_WINDOW, strict=False))
 
 
 class GoalManagerNode:
@@ -89,7 +99,8 @@ class GoalManagerNode:
       - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped): where new trips start.
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the tours for tour mode.
 
-    Published topics:
+    Published topics (events: the last ``~replay_window`` s are sent again to a subscriber that connects
+    late, e.g. a restarted node; subscribers ignore uids they handled):
       - ``/gidabot/goals`` (gidabot_msgs/Goal, event): goals made here.
       - ``/gidabot/cancels`` (gidabot_msgs/Cancel, event): the visitor's cancels here.
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ACCEPTED, REJECTED, PARTNER_OFFLINE /
@@ -107,6 +118,10 @@ class GoalManagerNode:
       - ``~offline_after`` (wall s, 5.0): a robot without status this long is offline.
       - ``~max_queue`` (50): goals kept at most; further ones are refused and cancelled everywhere.
       - ``~pending_rate`` (Hz wall, 1.0).
+      - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``goal_manager.json`` there keeps
+        the queue, the handled uids and the tour steps waiting across a restart of this node (written
+        atomically after every change, before what it produced is published); ``~state_max_age``
+        (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
       - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
         ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
         ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
@@ -117,13 +132,26 @@ class GoalManagerNode:
         building = load_building(params.building)
         self.core = GoalManagerCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
+        self.store = StateFile(Path(params.state_dir) / "goal_manager.json", "goal_manager", self.robot, RosLog(),
+                               max_age=params.state_max_age) if params.state_dir else None
+        outbox: list[Action] = []
+        loaded = self.store.load() if self.store is not None else None
+        if loaded is not None:
+            try:
+                self.core.load_state(loaded[0])
+                outbox = loaded[1]
+                rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
+                              f"{len(outbox)} message(s) not yet published from {self.store.path}")
+            except GuidingStateError as err:
+                rospy.logerr(f"goal_manager of {self.robot}: {self.store.path} is unusable ({err}); starting empty")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self._published_version = -1
         self._latest_pose: tuple[float, float, float] | None = None
-        self.goals_pub = rospy.Publisher(GOALS_TOPIC, Goal, queue_size=100)
-        self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
-        self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
+        window = params.replay_window
+        self.goals_pub = ReplayPublisher(GOALS_TOPIC, Goal, queue_size=100, window=window)
+        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=window)
+        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=window)
         self.pending_pub = rospy.Publisher(PENDING_TOPIC, PendingRequests, queue_size=10, latch=True)
         self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
         self.subs = [
@@ -135,6 +163,7 @@ class GoalManagerNode:
             rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
+        self.execute(outbox)         # published before the crash or not: receivers ignore what they handled
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
@@ -163,30 +192,42 @@ class GoalManagerNode:
             if pose is not None:
                 self.core.on_pose(*pose)
             if kind:
-                self.handle(kind, msg)
+                self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
             now = time.monotonic()
-            self.execute(self.core.tick(rospy.get_time(), now))
+            self.commit(self.core.tick(rospy.get_time(), now), False)
             if self.core.version != self._published_version or now >= next_pending:
                 self.publish_pending()
                 if now >= next_pending:
                     next_pending = now + period
                     self.publish_diagnostics()
 
-    def handle(self, kind: str, msg: object) -> None:
+    def handle(self, kind: str, msg: object) -> list[Action]:
         now_ros, now_wall = rospy.get_time(), time.monotonic()
         core = self.core
         if kind == "command":
-            self.execute(core.on_command(command_from_msg(msg), now_ros, now_wall))
-        elif kind == "goal":
-            self.execute(core.on_goal(trip_from_msg(msg), now_ros, now_wall))
-        elif kind == "cancel":
-            self.execute(core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg)))
-        elif kind == "event":
-            self.execute(core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg)))
-        elif kind == "status":
+            return core.on_command(command_from_msg(msg), now_ros, now_wall)
+        if kind == "goal":
+            return core.on_goal(trip_from_msg(msg), now_ros, now_wall)
+        if kind == "cancel":
+            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "event":
+            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "status":
             core.on_status(msg, now_wall)
         elif kind == "catalog":
             core.on_catalog(catalog_entries(msg))
+        return []
+
+    def commit(self, actions: list[Action], changed: bool) -> None:
+        """Save the state (with ``actions`` as the outbox) when it may have changed, then publish; once
+        published, save again without them (so a restart publishes them again only if it came in between)."""
+        if self.store is None or not (changed or actions):
+            self.execute(actions)
+            return
+        self.store.save(self.core.state(), actions)
+        self.execute(actions)
+        if actions:
+            self.store.save(self.core.state(), [])
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -212,7 +253,10 @@ class GoalManagerNode:
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
         stats.update(queue_dropped=self.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
-                     plans=self.core.planner.plans)
+                     plans=self.core.planner.plans,
+                     state_saves=self.store.saves if self.store else 0,
+                     state_save_failures=self.store.failures if self.store else 0,
+                     replayed=sum(p.buffer.replayed for p in (self.goals_pub, self.cancels_pub, self.events_pub)))
         warn = bool(self.dropped)
         self.diag_pub.publish(diagnostics(f"guiding: goal_manager {self.robot}", self.robot, stats, warn,
                                           f"{len(self.core.queue)} pending, {stats.get('rejected', 0)} rejected"))

@@ -201,7 +201,10 @@ class CancelData:
 
 @dataclass(frozen=True)
 class CommandData:
-    """A gidabot_msgs/VisitorCommand."""
+    """A gidabot_msgs/VisitorCommand.
+
+    :attr:`key` identifies one button press: the uid *and* its stamp (a GUI that restarts
+    counts its command uids from 1 again; a replayed command has both the same)."""
 
     command: int
     uid: str = ""
@@ -213,6 +216,18 @@ class CommandData:
     tour_file: str = ""
     tour_step: int = -1
     stamp: float = 0.0
+
+    @property
+    def key(self) -> str:
+        return command_key(self.uid, self.stamp)
+
+
+def command_key(uid: object, stamp: object) -> str:
+    """The de-duplication key of a visitor command ("" = none: a command without uid is never a duplicate)."""
+    if not isinstance(uid, str) or not uid:
+        return ""
+    t = stamp if isinstance(stamp, (int, float)) and math.isfinite(stamp) else 0.0
+    return f"{uid[:MAX_UID]}@{t:.6f}"
 
 
 # -- actions the cores ask their adapters to carry out --------------------------------
@@ -324,6 +339,18 @@ class SeenSet:
 
     def discard(self, item: str) -> None:
         self._items.pop(item, None)
+
+    def recent(self, n: int) -> list[str]:
+        """The ``n`` most recently added ids, oldest first (what a restarted node must remember)."""
+        if n <= 0:
+            return []
+        items = list(self._items)
+        return items[-n:]
+
+    def update(self, items: Iterable[str]) -> None:
+        for item in items:
+            if isinstance(item, str):
+                self.add(item)
 
 
 class Counters(dict):

@@ -33,10 +33,19 @@ import math
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 from gidabot_navigation.building import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError
 from gidabot_navigation.geometry import Pose2D
+from gidabot_navigation.guiding_state import (
+    REMEMBERED_UIDS,
+    GuidingStateError,
+    number,
+    str_list,
+    trip_from_dict,
+    trip_to_dict,
+)
 from gidabot_navigation.guiding_types import (
     GO_TO_FLOOR,
     GOAL_REACHED,
@@ -134,6 +143,7 @@ class Leg:
     partner: str | None = None          # the other robot of a cross-floor trip
     partner_lost: float | None = None   # wall s since which the partner is offline (notice given)
     started: float = 0.0                # ROS s
+    resend: bool = False                # resumed after a restart: send the move_base goal again
 
 
 @dataclass(frozen=True)
@@ -189,6 +199,7 @@ class NavigationCore:
         self._cancels_seen = SeenSet()
         self._events_seen = SeenSet()
         self._early_continue: set[str] = set()
+        self._commands_seen = SeenSet()     # CommandData.key of the Continues handled
         self._releases: OrderedDict[str, tuple[str, float]] = OrderedDict()   # goal uid -> (robot, ROS s)
         self._eta_last = 0.0
         self._eta_at = 0.0
@@ -258,9 +269,14 @@ class NavigationCore:
         self._finish(leg.trip)
         return actions + self._advance(now_ros, now_wall)
 
-    def on_continue(self, goal_uid: str, now_ros: float, now_wall: float) -> list[Action]:
-        """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here)."""
+    def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "") -> list[Action]:
+        """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here).
+
+        ``key`` (:attr:`CommandData.key`): a Continue replayed to a restarted node is ignored."""
         if not isinstance(goal_uid, str):
+            return []
+        if key and not self._commands_seen.add(key):
+            self.stats.inc("duplicate_commands")
             return []
         leg = self.leg
         if leg is not None and leg.role is Role.GOAL and leg.stage in (Stage.TO_MEETING, Stage.WAITING) \
@@ -309,6 +325,13 @@ class NavigationCore:
         """Timeouts (Continue, partner offline, navigation lost) and starting the next trip."""
         actions: list[Action] = []
         leg = self.leg
+        if leg is not None and leg.resend and self.available:
+            leg.resend = False
+            if leg.moving:
+                self.log.info(f"{leg.trip.uid}: resuming the {leg.stage.value} leg after a restart")
+                self._next_move(leg, leg.stage, leg.target)
+                actions.append(self._move(leg))
+        leg = self.leg
         if leg is not None and leg.stage is Stage.WAITING and not leg.continued:
             start = self._timer_start(leg)
             if start is not None and now_ros - start >= self.cfg.continue_timeout:
@@ -322,6 +345,66 @@ class NavigationCore:
             actions += self._fail(leg, f"the navigation stack (move_base) is gone for "
                                        f"{now_ros - self._unavailable_since:.0f} s", now_ros)
         return actions + self._advance(now_ros, now_wall)
+
+    # ------------------------------------------------------------------ restarts
+    def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
+        """What a restarted navigation needs (JSON-able): the running leg, the handled uids, releases."""
+        leg = self.leg
+        return {
+            "queue": [trip_to_dict(t) for t in self.queue],
+            "leg": None if leg is None else {
+                "trip": trip_to_dict(leg.trip), "role": leg.role.value, "stage": leg.stage.value,
+                "target": [leg.target.x, leg.target.y, leg.target.yaw], "moving": leg.moving,
+                "arrived_at": leg.arrived_at, "continued": leg.continued, "partner": leg.partner,
+                "started": leg.started},
+            "token": self._token,
+            "finished": self._finished.recent(remember), "cancelled": self._cancelled.recent(remember),
+            "cancels_seen": self._cancels_seen.recent(remember), "events_seen": self._events_seen.recent(remember),
+            "commands_seen": self._commands_seen.recent(remember),
+            "early_continue": sorted(self._early_continue),
+            "releases": [[uid, r, t] for uid, (r, t) in self._releases.items()][-remember:],
+            "stats": dict(self.stats),
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Resume from :meth:`state` of a previous run: the leg goes on (its move_base goal is sent again
+        once move_base is there). Raises GuidingStateError, changing nothing, if the state is damaged."""
+        try:
+            self._load_state(state)
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as err:
+            raise GuidingStateError(f"navigation state: {err!r}") from err
+
+    def _load_state(self, state: dict[str, Any]) -> None:
+        queue = [trip_from_dict(t) for t in state.get("queue", [])]
+        raw = state.get("leg")
+        leg = None
+        if raw is not None:
+            x, y, yaw = (number(v, "leg target") for v in raw["target"])
+            arrived = raw.get("arrived_at")
+            arrived_at = None if arrived is None else number(arrived, "arrived")
+            leg = Leg(trip_from_dict(raw["trip"]), Role(raw["role"]), Stage(raw["stage"]), 0, Pose2D(x, y, yaw),
+                      moving=bool(raw.get("moving")), arrived_at=arrived_at,
+                      continued=bool(raw.get("continued")),
+                      partner=raw["partner"] if isinstance(raw.get("partner"), str) else None,
+                      started=number(raw.get("started", 0.0), "started"), resend=True)
+        seen = {name: str_list(state.get(name, []), name) for name in
+                ("finished", "cancelled", "cancels_seen", "events_seen", "commands_seen", "early_continue")}
+        releases = [(str(r[0]), str(r[1]), number(r[2], "release")) for r in state.get("releases", [])]
+        token = int(number(state.get("token", 0), "token"))
+        self.queue = queue
+        self._token = token
+        if leg is not None:
+            self._token += 1
+            leg.token = self._token
+        self.leg = leg
+        for name in ("finished", "cancelled", "cancels_seen", "events_seen", "commands_seen"):
+            getattr(self, f"_{name}").update(seen[name])
+        self._early_continue = set(seen["early_continue"])
+        for uid, robot, t in releases:
+            self._releases[uid] = (robot, t)
+        stats = state.get("stats", {})
+        if isinstance(stats, dict):
+            self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
 
     # ------------------------------------------------------------------ outputs
     def status(self, now_ros: float) -> StatusSnapshot:

@@ -12,6 +12,7 @@ import queue
 import sys
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import actionlib
 import rospy
@@ -47,7 +48,16 @@ from gidabot_navigation.guiding_ros import (
     trip_from_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding_types import CONTINUE, Action, MoveTo, SendCancel, SendEvent, StopMoving
+from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, GuidingStateError, StateFile, default_state_dir
+from gidabot_navigation.guiding_types import (
+    CONTINUE,
+    Action,
+    MoveTo,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    command_key,
+)
 from gidabot_navigation.navigation_core import (
     ABORTED,
     LOST,
@@ -58,8 +68,10 @@ from gidabot_navigation.navigation_core import (
     NavigationConfig,
     NavigationCore,
 )
+from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
+DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may change the state kept across restarts
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
 MAX_HANDLES = 16
@@ -78,6 +90,9 @@ class Params:
     move_base: str
     frame_id: str
     goal_manager: str
+    state_dir: str = ""
+    state_max_age: float = DEFAULT_MAX_AGE
+    replay_window: float = DEFAULT_WINDOW
 
     @staticmethod
     def read() -> Params:
@@ -90,7 +105,10 @@ class Params:
         return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", "move_base", required=True),
                       param_text("~frame_id", "map", required=True),
-                      param_text("~goal_manager", "/goal_manager", required=True))
+                      param_text("~goal_manager", "/goal_manager", required=True),
+                      param_text("~state_dir", "") or default_state_dir(cfg.robot),
+                      param_number("~state_max_age", DEFAULT_MAX_AGE),
+                      param_number("~replay_window", DEFAULT_WINDOW, strict=False))
 
 
 class NavigationNode:
@@ -115,7 +133,7 @@ class NavigationNode:
         ``battery`` (sensor_msgs/BatteryState): for the status.
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog): which tour step is the last.
 
-    Published topics:
+    Published topics (events: the last ``~replay_window`` s are sent again to a late subscriber):
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ON_THE_WAY, GO_TO_FLOOR,
         GOING_TO_MEETING, WAITING_VISITOR, GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED, UNREACHABLE,
         NO_ROBOT_ON_FLOOR, TIMEOUT, PARTNER_LOST, PARTNER_BACK, PARTNER_OFFLINE.
@@ -135,6 +153,9 @@ class NavigationNode:
       - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
       - ``~status_rate`` (Hz, 2), ``~pose_rate`` (Hz, 5), ROS time.
       - ``~move_base`` (move_base), ``~frame_id`` (map), ``~goal_manager`` (/goal_manager).
+      - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``multirobot_navigation.json``
+        there keeps the running leg and the handled uids across a restart (the leg goes on: its
+        move_base goal is sent again); ``~state_max_age`` (wall s, 600); ``~replay_window`` (wall s, 60).
     """
 
     def __init__(self, params: Params) -> None:
@@ -142,6 +163,21 @@ class NavigationNode:
         building = load_building(params.building)
         self.core = NavigationCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
+        self.store = StateFile(Path(params.state_dir) / "multirobot_navigation.json", "multirobot_navigation",
+                               self.robot, RosLog(), max_age=params.state_max_age) if params.state_dir else None
+        outbox: list[Action] = []
+        loaded = self.store.load() if self.store is not None else None
+        if loaded is not None:
+            try:
+                self.core.load_state(loaded[0])
+                outbox = loaded[1]
+                leg = self.core.leg
+                rospy.loginfo(f"multirobot_navigation of {self.robot}: resumed from {self.store.path}"
+                              + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
+                              + f"; {len(outbox)} message(s) not yet published")
+            except GuidingStateError as err:
+                rospy.logerr(f"multirobot_navigation of {self.robot}: {self.store.path} is unusable ({err}); "
+                             "starting empty")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self.ignored_pending = 0
@@ -149,11 +185,12 @@ class NavigationNode:
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
         self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
         self._status_wall = 0.0
+        self._pending_uids: tuple[str, ...] | None = None
         self._latest_pose: tuple[float, float, float] | None = None
         self._latest_odom: tuple[float, float] | None = None
         self._latest_battery: float | None = None
-        self.events_pub = rospy.Publisher(EVENTS_TOPIC, NavEvent, queue_size=200)
-        self.cancels_pub = rospy.Publisher(CANCELS_TOPIC, Cancel, queue_size=100)
+        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=params.replay_window)
+        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=params.replay_window)
         self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
         self.poses_pub = rospy.Publisher(POSES_TOPIC, NavPose, queue_size=10, latch=True)
         self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
@@ -170,6 +207,7 @@ class NavigationNode:
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
                        rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
+        self.execute(outbox)         # published before the crash or not: receivers ignore what they handled
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
@@ -191,7 +229,7 @@ class NavigationNode:
 
     def _on_command(self, msg: VisitorCommand) -> None:
         if msg.command == CONTINUE:
-            self._enqueue(msg.goal_uid, "continue")
+            self._enqueue((msg.goal_uid, command_key(msg.uid, msg.header.stamp.to_sec())), "continue")
 
     # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
@@ -234,8 +272,8 @@ class NavigationNode:
             self._apply_latest()
             self.core.on_move_base_available(self._server_up(), now_ros)
             if kind:
-                self.handle(kind, msg, now_ros, now_wall)
-            self.execute(self.core.tick(now_ros, now_wall))
+                self.commit(self.handle(kind, msg, now_ros, now_wall), self._changes_state(kind, msg))
+            self.commit(self.core.tick(now_ros, now_wall), False)
             self._check_ack(now_wall)
             if now_wall >= next_diag:
                 next_diag = now_wall + 1.0
@@ -243,33 +281,56 @@ class NavigationNode:
         if self._active is not None:
             self._cancel(self._active[0])
 
-    def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> None:
+    def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
         core = self.core
         if kind == "pending":
             eta_last = float(msg.eta[-1]) if msg.eta else 0.0
-            self.execute(core.on_pending([trip_from_msg(g) for g in msg.goals], eta_last, now_ros, now_wall))
-        elif kind == "cancel":
-            self.execute(core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg)))
-        elif kind == "event":
-            self.execute(core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg)))
-        elif kind == "status":
-            core.on_status(msg, now_wall)
-        elif kind == "continue":
-            self.execute(core.on_continue(msg, now_ros, now_wall))
-        elif kind == "result":
+            return core.on_pending([trip_from_msg(g) for g in msg.goals], eta_last, now_ros, now_wall)
+        if kind == "cancel":
+            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "event":
+            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "continue":
+            goal_uid, key = msg
+            return core.on_continue(goal_uid, now_ros, now_wall, key=key)
+        if kind == "result":
             token, sends, status, text = msg
             if self._handles.get(token, (None, -1))[1] != sends:
-                return                      # a goal sent again, or stopped: its result is not the leg's
+                return []                   # a goal sent again, or stopped: its result is not the leg's
             del self._handles[token]
             if self._active is not None and self._active[0] == token:
                 self._active = None
-            self.execute(core.on_move_base_result(token, status, text, now_ros, now_wall))
+            return core.on_move_base_result(token, status, text, now_ros, now_wall)
+        if kind == "status":
+            core.on_status(msg, now_wall)
         elif kind == "catalog":
             core.on_catalog(catalog_entries(msg))
         elif kind == "tick":
             self.publish_status()
         elif kind == "pose_tick":
             self.publish_pose()
+        return []
+
+    def _changes_state(self, kind: str, msg: object) -> bool:
+        """Whether an input may change the state kept across restarts (the 1 Hz unchanged pending does not)."""
+        if kind == "pending":
+            uids = tuple(g.uid for g in msg.goals)  # type: ignore[attr-defined]
+            if uids == self._pending_uids:
+                return False
+            self._pending_uids = uids
+        return kind in DURABLE_INPUTS
+
+    def commit(self, actions: list[Action], changed: bool) -> None:
+        """Save the state (the durable actions as the outbox) when it may have changed, then carry the
+        actions out; once published, save again without them."""
+        durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
+        if self.store is None or not (changed or actions):
+            self.execute(actions)
+            return
+        self.store.save(self.core.state(), durable)
+        self.execute(actions)
+        if durable:
+            self.store.save(self.core.state(), [])
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -353,6 +414,9 @@ class NavigationNode:
 
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
+        stats.update(state_saves=self.store.saves if self.store else 0,
+                     state_save_failures=self.store.failures if self.store else 0,
+                     replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
         stats.update(queue_dropped=self.dropped, ignored_pending=self.ignored_pending,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,

@@ -46,6 +46,7 @@ from gidabot_navigation.relay_link import (
     read_secret,
     relay_node_name,
 )
+from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 
 EXIT_CONFIG = 2          # bad parameters: restarting will not help
 EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
@@ -87,6 +88,8 @@ class Params:
     state_rate: float
     hold_grace: float
     diagnostics_rate: float
+    replay_window: float = DEFAULT_WINDOW
+    replay_limit: int = 500
 
     @staticmethod
     def parse(argv: list[str]) -> Params:
@@ -113,6 +116,8 @@ class Params:
         ap.add_argument("--state_rate", type=float, default=10.0)
         ap.add_argument("--hold_grace", type=float, default=1.5)
         ap.add_argument("--diagnostics_rate", type=float, default=1.0)
+        ap.add_argument("--replay_window", type=float, default=DEFAULT_WINDOW)
+        ap.add_argument("--replay_limit", type=int, default=500)
         args = [a for a in argv if ":=" not in a]
         try:
             ns = ap.parse_args(args)
@@ -123,6 +128,9 @@ class Params:
             value = getattr(ns, name)
             if not value > 0 or value != value or value == float("inf"):
                 raise RelayConfigError(f"--{name} must be positive and finite, got {value!r}")
+        if not (0 <= ns.replay_window < float("inf") and 0 <= ns.replay_limit <= ns.max_inbound):
+            raise RelayConfigError(f"--replay_window {ns.replay_window!r} s and --replay_limit {ns.replay_limit!r} "
+                                   f"must be >= 0 (the limit at most --max_inbound)")
         if not 0 < ns.link_port <= 65535:
             raise RelayConfigError(f"--link_port {ns.link_port} is not a TCP port")
         _check_ip(ns.link_host, "--link_host")
@@ -191,6 +199,17 @@ class _StateLatch(rospy.SubscribeListener):
                 impl.release()
 
 
+class _EventReplay(rospy.SubscribeListener):
+    """Gives a new (non-relay) subscriber of an event topic the events this end published in the last
+    ``--replay_window`` s: a node that was restarted gets what it missed (it ignores uids it handled)."""
+
+    def __init__(self, node: RelayEndNode, topic: str) -> None:
+        self.node, self.topic = node, topic
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+        replay_to_peer(self.node.replays[self.topic], self.node.pubs[self.topic].impl, peer_publish)
+
+
 @dataclass
 class _Sock:
     sock: socket.socket
@@ -238,6 +257,10 @@ class RelayEndNode:
       - ``--state_rate`` (Hz, 10): max sends per (state topic, publisher).
       - ``--hold_grace`` (s, 1.5): after this master restarted, events are held until the
         subscribers seen before are back, or this long.
+      - ``--replay_window`` (s, 60), ``--replay_limit`` (events, 500): a new subscriber that is not a
+        relay (e.g. a node that was restarted) gets the events this end published in the last
+        ``--replay_window`` s again (at most ``--replay_limit`` per topic); receivers ignore uids they
+        already handled (docs/interfaces.md).
       - ``--diagnostics_rate`` (Hz, 1).
     """
 
@@ -265,12 +288,15 @@ class RelayEndNode:
         self._last_latched: dict[str, str] = {}
         self.pruned = 0                      # subscriptions to relay publishers closed
         self.pubs: dict[str, rospy.Publisher] = {}
+        self.replays = {s.name: ReplayBuffer(params.replay_window, params.replay_limit) for s in specs
+                        if s.kind == EVENT}
         for s in specs:
             if s.kind == STATE:
                 self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=100, latch=True,
                                                     subscriber_listener=_StateLatch(self, s.name))
             else:
-                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=10000)
+                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=10000,
+                                                    subscriber_listener=_EventReplay(self, s.name))
         self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
         self.subs = [rospy.Subscriber(s.name, rospy.AnyMsg, self._on_local, callback_args=s.name)
                      for s in specs]
@@ -570,6 +596,7 @@ class RelayEndNode:
                     self.pubs[d.msg.topic].publish(raw)
                     states += 1
                 else:
+                    self.replays[d.msg.topic].add(raw)
                     self.pubs[d.msg.topic].publish(raw)
                     events += 1
             except rospy.ROSException as err:       # shutting down
@@ -655,6 +682,7 @@ class RelayEndNode:
         snap["link_address"] = f"{self.params.link_host}:{self.params.link_port}"
         snap["pruned_relay_connections"] = self.pruned
         snap["side"] = self.params.side
+        snap["replayed_events"] = sum(r.replayed for r in self.replays.values())
         status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
         arr = DiagnosticArray()
         arr.header.stamp = rospy.Time.now()

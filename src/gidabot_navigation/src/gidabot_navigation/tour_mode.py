@@ -93,6 +93,10 @@ class TourWaits:
     def latest(self) -> TourWait | None:
         return next(reversed(self._waits.values()), None)
 
+    def all(self) -> list[TourWait]:
+        """Every wait, oldest first."""
+        return list(self._waits.values())
+
     def pop(self, goal_uid: str) -> TourWait | None:
         return self._waits.pop(goal_uid, None)
 

@@ -1,0 +1,128 @@
+"""Recent events replayed to a subscriber that connects late ("latched events").
+
+A ROS subscriber sees only what is published after it connected. A node that is
+killed and respawned (or starts a few seconds after its peers) would therefore miss
+every event published while it was down: a goal, a Cancel, the visitor's Continue.
+Event publishers keep what they published in the last ``window`` wall seconds (at
+most ``limit`` messages) and send it again, on that connection only, to every new
+subscriber. Receivers already ignore event uids they have handled
+(docs/interfaces.md), so a replay only fills the gap; a node that restarts keeps
+its handled uids across the restart (guiding state, :mod:`guiding_state`).
+
+:class:`ReplayBuffer` is ROS-free; :class:`ReplayPublisher` wraps ``rospy.Publisher``.
+Subscribers that are relays (``/gidabot_relay_*``) get no replay: relays never
+forward what a relay published, and a relay end (re)connects to the other relays'
+publishers every time a master's publisher list changes.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+DEFAULT_WINDOW = 60.0     # wall s of events a late subscriber gets again
+RELAY_PREFIX = "/gidabot_relay_"
+
+
+class ReplayBuffer:
+    """The items added in the last ``window`` s (monotonic clock), at most ``limit`` (oldest dropped)."""
+
+    def __init__(self, window: float = DEFAULT_WINDOW, limit: int = 100,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        if not (window >= 0 and limit >= 0):
+            raise ValueError(f"replay window {window!r} s and limit {limit!r} must be >= 0")
+        self.window = float(window)
+        self.limit = int(limit)
+        self.clock = clock
+        self._items: deque[tuple[float, Any]] = deque()
+        self._lock = threading.Lock()
+        self.replayed = 0                  # items sent again to late subscribers
+
+    def add(self, item: Any) -> None:
+        if self.limit == 0 or self.window == 0:
+            return
+        now = self.clock()
+        with self._lock:
+            self._items.append((now, item))
+            self._trim(now)
+
+    def recent(self) -> list[Any]:
+        """What a subscriber connecting now gets, oldest first."""
+        now = self.clock()
+        with self._lock:
+            self._trim(now)
+            return [item for _, item in self._items]
+
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._items)
+
+    def _trim(self, now: float) -> None:
+        while self._items and (len(self._items) > self.limit or now - self._items[0][0] > self.window):
+            self._items.popleft()
+
+
+def peer_of(peer_publish: Callable[..., Any]) -> str:
+    """The caller id of the subscriber a rospy ``peer_publish`` callable sends to ("" if unknown).
+
+    rospy's ``publish_single`` closes over the new connection, whose ``endpoint_id`` is the
+    subscriber's caller id; this is best effort (an unknown peer gets the replay)."""
+    for cell in getattr(peer_publish, "__closure__", None) or ():
+        try:
+            endpoint = getattr(cell.cell_contents, "endpoint_id", None)
+        except (AttributeError, ValueError):     # an empty cell
+            continue
+        if isinstance(endpoint, str):
+            return endpoint
+    return ""
+
+
+def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., Any]) -> int:
+    """Send ``buffer``'s recent items through ``peer_publish`` under the publisher's lock (rospy's
+    ``peer_publish`` shares the publisher's serialisation buffer with ``publish``). Returns the count."""
+    if peer_of(peer_publish).startswith(RELAY_PREFIX):
+        return 0
+    sent = 0
+    for msg in buffer.recent():
+        impl.acquire()
+        try:
+            peer_publish(msg)
+        finally:
+            impl.release()
+        sent += 1
+    buffer.replayed += sent
+    return sent
+
+
+class ReplayPublisher:
+    """A ``rospy.Publisher`` whose recent messages are replayed to every new (non-relay) subscriber.
+
+    ``limit`` defaults to half the queue size, so a replay never overflows the new connection's queue.
+    """
+
+    def __init__(self, topic: str, data_class: type, queue_size: int, window: float = DEFAULT_WINDOW,
+                 limit: int | None = None, latch: bool = False) -> None:
+        import rospy
+
+        owner = self
+
+        class _Listener(rospy.SubscribeListener):
+            def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+                replay_to_peer(owner.buffer, owner.pub.impl, peer_publish)
+
+        self.buffer = ReplayBuffer(window, max(1, queue_size // 2) if limit is None else limit)
+        self.pub = rospy.Publisher(topic, data_class, queue_size=queue_size, latch=latch,
+                                   subscriber_listener=_Listener())
+
+    def publish(self, msg: Any) -> None:
+        self.buffer.add(msg)
+        self.pub.publish(msg)
+
+    def get_num_connections(self) -> int:
+        return int(self.pub.get_num_connections())
+
+    def unregister(self) -> None:
+        self.pub.unregister()
