@@ -152,3 +152,42 @@ def test_an_unreadable_message_is_skipped_and_counted(tmp_path: Path, capsys) ->
     assert report.main([str(tmp_path), "--no-plots"]) == 0
     assert "Tartalo: /gidabot/poses: 1 message(s) in the bag could not be deserialised" in capsys.readouterr().out
     assert json.loads((tmp_path / "report.json").read_text())["unreadable_messages"] == {"Tartalo: /gidabot/poses": 1}
+
+
+def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path: Path) -> None:
+    """After a master restart a robot's recording goes on in a new part; the parts overlap a little."""
+    pytest.importorskip("gidabot_msgs.msg")
+    from gidabot_msgs.msg import Goal
+
+    def goal(uid: str, **kw) -> Goal:
+        fields = {"origin_robot": "Tartalo", "initial_floor": 0.0, "goal_floor": 0.0, "goal_id": "008", **kw}
+        g = Goal(uid=uid, **fields)
+        g.goal_pose.orientation.w = 1.0
+        return g
+
+    ghost = goal("Ghost/v/1")
+    ghost.origin_robot = "Ghost"                          # no such robot
+    nan = goal("Tartalo/v/nan")
+    nan.initial_pose.x = float("nan")
+    hostile = [ghost, nan, goal("Tartalo/v/big", visitor_id="x" * 5000), goal("Tartalo/v/f", goal_floor=7.5),
+               goal("bad uid with spaces"), goal("Tartalo/v/room", goal_id="999")]
+    first = [("/gidabot/goals", goal("Tartalo/v/0"), 1.0),
+             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ACCEPTED, 2.0), 2.0),
+             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 3.0), 3.0)]
+    first += [("/gidabot/goals", h, 4.0) for h in hostile]
+    second = [("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 3.0), 3.0),  # again
+              ("/gidabot/goals", goal("Tartalo/v/1"), 5.0),
+              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", report.ACCEPTED, 6.0), 6.0),
+              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.GOAL_REACHED, 13.0), 13.0)]
+    _bag(tmp_path / "Tartalo.bag", first)
+    _bag(tmp_path / "Tartalo.1.bag", second)
+    run = {"tour": "t.tour", "goals": 2, "building": str(REPO / "maps" / "faculty"),
+           "robots": [{"name": "Tartalo", "floor": 0, "bag": "Tartalo.bag", "bags": ["Tartalo.bag", "Tartalo.1.bag"]}]}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0
+    out = json.loads((tmp_path / "report.json").read_text())
+    row = out["robots"][0]
+    assert (row["received"], row["processed"]) == (2, 2)
+    assert row["time_s"] == pytest.approx(10.0)           # one ON_THE_WAY (in both parts) -> GOAL_REACHED
+    assert out["rejected_goals"] == {"Tartalo": len(hostile)}
+    assert "were not goals" in report.format_tables(out)

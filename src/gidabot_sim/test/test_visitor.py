@@ -69,7 +69,7 @@ def test_tour_steps_continue_and_skip() -> None:
     core.on_event(20.0, "b", "Kbot", v.TOUR_STEP_DONE, "g3", 1, 1, tour_step=3)
     [cmd] = core.step(21.0)
     assert (cmd.command, cmd.tour_step) == (v.SKIP, 5)
-    core.on_event(30.0, "c", "Kbot", v.TOUR_FINISHED, "g5", 1, 1, tour_step=5)
+    core.on_event(30.0, "c", "Kbot", v.TOUR_FINISHED, "g5", 1, 1, tour_step=5, tour_file="t.tour")
     assert core.finished and core.outcome == "tour finished"
 
 
@@ -96,3 +96,40 @@ def test_arriving_on_another_floor_never_restarts_the_tour() -> None:
     assert up.present
     assert up.start(91.0) == []                       # present, but not the start floor
     assert [c.command for c in up.step(91.0)] == [v.CONTINUE]
+
+
+def test_answers_to_other_commands_do_not_end_the_visit() -> None:
+    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour"))
+    # somebody typed an unknown room, or a hostile tour file name, at Kbot's screen
+    core.on_event(1.0, "r1", "Kbot", v.REJECTED, "", 1, 1, tour_file="", location_id="999")
+    core.on_event(2.0, "r2", "Kbot", v.REJECTED, "", 1, 1, tour_file="../x.tour")
+    core.on_event(3.0, "r3", "Tartalo", v.UNREACHABLE, "Tartalo/x/1", 0, 1, tour_file="")
+    assert not core.finished
+    core.on_event(4.0, "r4", "Kbot", v.REJECTED, "", 1, 1, tour_file="t.tour")     # our START_TOUR refused
+    assert core.finished
+    single = v.VisitorCore(cfg("Tartalo", 0, goal_id="014"))
+    single.on_event(1.0, "s1", "Tartalo", v.REJECTED, "", 0, 0, tour_file="", location_id="zzz")
+    assert not single.finished
+    single.on_event(2.0, "s2", "Tartalo", v.UNREACHABLE, "", 0, 0, tour_file="", location_id="014")
+    assert single.finished
+
+
+def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None:
+    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", retry_s=30.0, retry_for_s=100.0))
+    core.on_event(10.0, "p1", "Kbot", v.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
+    assert not core.finished and core.step(39.0) == []
+    [cmd] = core.step(40.0)
+    assert (cmd.command, cmd.tour_file, cmd.tour_step) == (v.SKIP, "t.tour", 4) and core.retries == 1
+    core.on_event(41.0, "p2", "Kbot", v.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
+    core.on_event(42.0, "a1", "Kbot", v.ACCEPTED, "Kbot/v/1", 1, 3, tour_step=4, tour_file="t.tour")
+    core.on_event(200.0, "p3", "Kbot", v.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
+    assert not core.finished                          # the clock restarted at the accepted goal
+    core.on_event(301.0, "p4", "Kbot", v.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
+    assert core.finished and "gave up" in core.outcome
+    start = v.VisitorCore(cfg("Tartalo", 0, tour_file="t.tour", retry_s=5.0))
+    start.on_event(1.0, "q", "Tartalo", v.PARTNER_OFFLINE, "", 0, 1, tour_step=0, tour_file="t.tour")
+    assert [c.command for c in start.step(6.0)] == [v.START_TOUR]
+    # a partner that gave a trip up (with a goal) ends the visit
+    gone = v.VisitorCore(cfg("Kbot", 1))
+    gone.on_event(1.0, "o", "Tartalo", v.PARTNER_OFFLINE, "Tartalo/v/1", 0, 1)
+    assert gone.finished

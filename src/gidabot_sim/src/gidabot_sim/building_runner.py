@@ -3,15 +3,24 @@
 Starts one master per robot on the robot's own loopback address (free ports, so
 runs never collide), sets ``/use_sim_time`` on every master, then per robot a
 ``rosbag record`` of the shared topics and ``launch/robot.launch sim:=true``
-against its master, and the progress monitor. Every process is in its own
-process group; :meth:`SimulatedBuilding.stop` (and leaving the ``with`` block)
-stops them all by process group: recorders first (SIGINT: the bag is closed and
-indexed), then the robots, the monitor and the masters.
+against its master, the simulated visitor (one node per floor, started apart from
+the robots' launches: it plays a person, whom restarting a robot's nodes must not
+reset) and the progress monitor. Every process is in its own process group;
+:meth:`SimulatedBuilding.stop` (and leaving the ``with`` block) stops them all by
+process group: recorders first (SIGINT: the bag is closed and indexed), then the
+robots, the visitor, the monitor and the masters.
+
+A master can be stopped and started again (:meth:`stop_master`,
+:meth:`start_master_again`, fault injection): ``rosbag record`` never re-registers
+with a restarted master, so it would miss publishers that (re)start afterwards;
+that robot's recording then goes on in a new bag part (``<robot>.<n>.bag``; the
+old recorder is stopped a little later), and :attr:`bags` lists every part.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import secrets
 import shutil
@@ -31,6 +40,8 @@ from gidabot_sim.errors import SimError
 REPO = Path(__file__).resolve().parents[4]
 ROBOT_LAUNCH = REPO / "launch" / "robot.launch"
 MONITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "monitor"
+VISITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "visitor"
+RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
 RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
                    "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
@@ -156,6 +167,8 @@ class SimulatedBuilding:
     robot_args: dict[str, dict[str, str]] = field(default_factory=dict)   # per robot extra launch args
     common_args: dict[str, str] = field(default_factory=dict)
     start_delay: float = 8.0                  # wall s from launching the robots to sim time 0
+    visitor: dict[str, object] | None = None  # the simulated visitor's ~params (tour_file, goal_id, way, ...)
+    monitor: bool = True                      # the progress monitor (monitor.jsonl)
     building: Building | None = None
     building_file: Path | None = None
     monitor_file: Path | None = None
@@ -169,6 +182,8 @@ class SimulatedBuilding:
         self._root: dict[int, str] = {}         # pid -> the managed process it descends from
         self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
         self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
+        self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
+        self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -205,15 +220,17 @@ class SimulatedBuilding:
         if self.relay_secret is None:
             self.relay_secret = write_secret(self.run_dir / "relay.secret")
         self.start_wall = time.time() + self.start_delay
-        record = rosbag_record_binary() if self.record else ""
         for robot in self.building.robots:
             check()
             if self.record:
-                self.procs.start(f"record_{robot.name}", [record, "--quiet", "--min-space", "100M", "-O",
-                                                          str(self.run_dir / f"{robot.name}.bag"),
-                                                          *RECORDED_TOPICS], self.env(robot.name))
+                self.start_recorder(robot.name)
             self.launch_robot(robot.name)
         check()
+        if self.visitor is not None:
+            for robot in self.building.robots:
+                self.start_visitor(robot.name)
+        if not self.monitor:
+            return
         self.monitor_file = self.run_dir / "monitor.jsonl"
         self.monitor_file.touch()
         first = self.building.robots[0]
@@ -238,6 +255,62 @@ class SimulatedBuilding:
         args.update(self.common_args)
         args.update(self.robot_args.get(robot, {}))
         return [f"{k}:={v}" for k, v in args.items()]
+
+    def start_recorder(self, robot: str) -> Path:
+        """A ``rosbag record`` of the shared topics on ``robot``'s master, into its next bag part."""
+        parts = self.bags.setdefault(robot, [])
+        n = len(parts)
+        bag = self.run_dir / (f"{robot}.bag" if n == 0 else f"{robot}.{n}.bag")
+        name = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
+        self.procs.start(name, [rosbag_record_binary(), "--quiet", "--min-space", "100M", "-O", str(bag),
+                                *RECORDED_TOPICS], self.env(robot))
+        parts.append(bag)
+        return bag
+
+    def start_visitor(self, robot: str) -> None:
+        """The simulated visitor's node of ``robot``'s floor, as a process of its own (not in the robot's
+        launch: restarting the robot's nodes must not make the person forget where they are)."""
+        assert self.building_file is not None and self.visitor is not None
+        params = {"building": str(self.building_file), "robot": robot, **self.visitor}
+        argv = [sys.executable, str(VISITOR_NODE), "__name:=visitor",
+                *(f"_{k}:={json.dumps(v)}" for k, v in params.items())]   # JSON is YAML: types kept
+        self.procs.start(f"visitor_{robot}", argv, self.env(robot))
+
+    def stop_master(self, robot: str, crash: bool = False) -> None:
+        """Stop ``robot``'s master (``crash``: SIGKILL, else SIGINT); its nodes keep running."""
+        name = f"master_{robot}"
+        if crash:
+            self.procs.signal(name, signal.SIGKILL)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.procs.get(name).popen.wait(timeout=5.0)
+        else:
+            self.procs.stop(name, grace=5.0)
+
+    def start_master_again(self, robot: str, timeout: float = 15.0) -> float:
+        """Start ``robot``'s master again (same address and port) and wait until it answers; then its
+        recording goes on in a new bag part. Returns the monotonic time the master answered."""
+        from gidabot_navigation.procs import master_pid, wait_until
+
+        name = f"master_{robot}"
+        old = self.procs.get(name)
+        self.procs.start(name, old.argv, old.env, old.cwd)
+        uri = self.building.robot(robot).master_uri if self.building else ""
+        wait_until(lambda: master_pid(uri) is not None, timeout, f"master of {robot} back", interval=0.02)
+        up = time.monotonic()
+        set_param(uri, "/use_sim_time", True)
+        if self.record and self.bags.get(robot):
+            old_rec = f"record_{robot}" if len(self.bags[robot]) == 1 else f"record_{robot}.{len(self.bags[robot]) - 1}"
+            self.start_recorder(robot)
+            self.retired[old_rec] = up + RECORDER_OVERLAP
+        return up
+
+    def housekeeping(self) -> None:
+        """Stop the recorders a restarted master made obsolete, once their successors have run a while."""
+        now = time.monotonic()
+        for name, due in list(self.retired.items()):
+            if due is not None and now >= due and self.procs.alive(name):
+                self.procs.signal(name, signal.SIGINT)      # bag closed and indexed; reaped by stop()
+                self.retired[name] = float("inf")
 
     def launch_robot(self, robot: str) -> None:
         """(Re)start robot's whole stack (its roslaunch) against its master."""
@@ -309,7 +382,7 @@ class SimulatedBuilding:
 
     def dead(self) -> list[str]:
         """Names of processes that should be running and are not (a failed launch, a dead master)."""
-        return [n for n in self.procs.names() if not self.procs.alive(n)]
+        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired]
 
     def process_groups(self) -> dict[str, int]:
         """name -> process group id of every process started (each is its group's leader)."""

@@ -167,11 +167,11 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
     if tour_name:
         shutil.copy(args.tour, seed / tour_name)
-    visitor = {"visitor": "true", "visitor_tour": tour_name, "visitor_goal": args.goal or "",
-               "visitor_way": args.way, "visitor_skips": json.dumps(skips),
-               "visitor_start_floor": f"{start_floor:g}", "gui_fullscreen": "false",
-               "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
-               "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+    launch_args = {"gui_fullscreen": "false",
+                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+    visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
+               "start_floor": start_floor}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
@@ -182,7 +182,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                  else None)
     progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
-                            seed_tours=seed, addresses=addresses, common_args=visitor)
+                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:

@@ -1,13 +1,17 @@
 """``gidabot report <run folder>``: the paper's tables from a run's rosbags (no ROS needed).
 
 A run folder (written by ``gidabot demo``/``chaos``) holds ``run.json`` and one
-rosbag per robot (``<robot>.bag``, recorded on that robot's master). Bags are
+rosbag per robot (``<robot>.bag``, recorded on that robot's master; after a restart
+of its master the recording goes on in further parts, ``run.json`` lists them as
+``bags``, and every part is read: a message in two parts counts once). Bags are
 read with the ``rosbags`` library, which takes the message definitions from the
 bags themselves. Printed (``--json``: the same as one JSON object):
 
 * per robot, goal messages received and processed (paper Table 3): received =
   distinct goals seen on ``/gidabot/goals`` on that robot's master; processed =
-  trips the robot accepted (its own ``NavEvent.ACCEPTED`` events);
+  trips the robot accepted (its own ``NavEvent.ACCEPTED`` events). A message that is
+  not a well-formed goal (hostile input: a bad uid, NaN/inf numbers, an unknown floor,
+  robot or room, overlong text) is not counted (``rejected_goals``);
 * per robot, time, distance and mean velocity while guiding the visitor (paper
   Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
   distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
@@ -23,10 +27,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 # NavEvent phases (gidabot_msgs/NavEvent.msg); kept here so the report needs no ROS
 ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR = 0, 1, 2, 3
@@ -80,6 +86,7 @@ class RobotRecord:
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
     bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
+    rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
 
     @property
     def track(self) -> list[PoseSample]:
@@ -152,7 +159,9 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
         "sim_to_wall": round(sim_s / wall_s, 2) if wall_s > 0 else 0.0,
     }
     unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
-    return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable}
+    rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
+    return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
+            "rejected_goals": rejected}
 
 
 def format_tables(report: dict) -> str:
@@ -169,6 +178,8 @@ def format_tables(report: dict) -> str:
     lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    for robot, n in report.get("rejected_goals", {}).items():
+        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
@@ -187,11 +198,41 @@ def _stamp(msg: object, fallback_ns: int) -> float:
     return fallback_ns * 1e-9
 
 
-def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
-    """Extract goals, this robot's events and poses from one robot's bag."""
+_UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
+
+
+def plausible_goal(msg: Any, building: Any | None) -> bool:
+    """A goal message as a robot could have sent it: a valid uid, finite numbers, short printable text, and
+    (with the building) its floors, origin robot and goal location known ("" allowed for the last two)."""
+    try:
+        texts = (msg.origin_robot, msg.visitor_id, msg.way, msg.connector, msg.start_id, msg.goal_id,
+                 msg.language, msg.tour_file)
+        numbers = (msg.initial_floor, msg.goal_floor, msg.initial_pose.x, msg.initial_pose.y,
+                   msg.goal_pose.position.x, msg.goal_pose.position.y, msg.goal_pose.orientation.z,
+                   msg.goal_pose.orientation.w)
+        if not _UID.match(msg.uid):
+            return False
+    except (AttributeError, TypeError):
+        return False
+    if not all(isinstance(t, str) and len(t) <= 64 and t.isprintable() for t in texts):
+        return False
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in numbers):
+        return False
+    if building is None:
+        return True
+    if any(building.find_floor(f) is None for f in numbers[:2]):
+        return False
+    if texts[0] and building.find_robot(texts[0]) is None:
+        return False
+    return not (texts[5] and building.find_location(texts[5]) is None)
+
+
+def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None = None,
+                   building: Any | None = None) -> RobotRecord:
+    """Extract goals, this robot's events and poses from one robot's bag (added to ``rec``: bag parts)."""
     from rosbags.highlevel import AnyReader
 
-    rec = RobotRecord(name, floor)
+    rec = rec or RobotRecord(name, floor)
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
@@ -203,6 +244,9 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
                     rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
                     continue
                 if conn.topic == "/gidabot/goals":
+                    if not plausible_goal(msg, building):
+                        rec.rejected_goals += 1
+                        continue
                     rec.goal_uids.add(msg.uid)
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
@@ -218,8 +262,10 @@ def read_robot_bag(path: Path, name: str, floor: float) -> RobotRecord:
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
     except Exception as err:  # rosbags raises several unrelated types for damaged bags
         raise ReportError(f"{path}: cannot read bag: {err}") from err
-    rec.poses.sort(key=lambda p: p.t)
-    rec.local_poses.sort(key=lambda p: p.t)
+    # parts overlap (two recorders ran for a while): keep each event and sample once
+    rec.events = sorted(dict.fromkeys(rec.events), key=lambda e: e.t)
+    rec.poses = sorted(set(rec.poses), key=lambda p: p.t)
+    rec.local_poses = sorted(set(rec.local_poses), key=lambda p: p.t)
     return rec
 
 
@@ -231,13 +277,31 @@ def load_run(folder: Path) -> tuple[dict, list[RobotRecord]]:
         raise ReportError(f"{run_file}: cannot read ({err.strerror}); is {folder} a run folder?") from err
     except json.JSONDecodeError as err:
         raise ReportError(f"{run_file}: not valid JSON: {err}") from err
+    building = _run_building(folder, run)
     records = []
     for robot in run.get("robots", []):
-        bag = folder / robot.get("bag", f"{robot['name']}.bag")
-        if not bag.exists():
-            raise ReportError(f"{bag}: missing bag of robot {robot['name']}")
-        records.append(read_robot_bag(bag, robot["name"], float(robot.get("floor", 0))))
+        parts = robot.get("bags") or [robot.get("bag", f"{robot['name']}.bag")]
+        rec = RobotRecord(robot["name"], float(robot.get("floor", 0)))
+        for part in parts:
+            bag = folder / part
+            if not bag.exists():
+                raise ReportError(f"{bag}: missing bag of robot {robot['name']}")
+            read_robot_bag(bag, rec.name, rec.floor, rec, building)
+        records.append(rec)
     return run, records
+
+
+def _run_building(folder: Path, run: dict) -> Any | None:
+    """The run's building, to tell goals from hostile messages (None when it cannot be loaded)."""
+    from gidabot_navigation.building import load_building
+    from gidabot_navigation.errors import GidaBotError
+
+    path = Path(run.get("building", "building/building.yaml"))
+    path = path if path.is_absolute() else folder / path
+    try:
+        return load_building(path)
+    except (GidaBotError, OSError):
+        return None
 
 
 def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path]:

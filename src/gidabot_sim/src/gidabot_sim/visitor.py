@@ -13,7 +13,11 @@ events every robot broadcasts (``/gidabot/nav_events``):
 * ``TOUR_STEP_DONE`` from this floor's robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
-  ``TIMEOUT``, cancels: the visit is over (``finished``).
+  ``TIMEOUT``, cancels: the visit is over (``finished``) -- only events about this
+  visit (its tour, its goal), not the answer to somebody else's command at a screen;
+* ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
+  robot of the next floor is offline right now): like a person told so, the visitor
+  asks again after ``retry_s``, for at most ``retry_for_s``, then gives up.
 
 Time is passed in (sim seconds); :meth:`VisitorCore.step` returns the commands
 that are due, so tests need no clock.
@@ -25,7 +29,7 @@ import math
 from dataclasses import dataclass, field
 
 # gidabot_msgs/NavEvent phases
-GOAL_REACHED, GO_TO_FLOOR, WAITING_VISITOR = 2, 3, 5
+ACCEPTED, GOAL_REACHED, GO_TO_FLOOR, WAITING_VISITOR = 0, 2, 3, 5
 UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT = 6, 7, 8, 9, 10
 PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE, TOUR_FINISHED = 11, 12, 13, 14
 ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_FINISHED}
@@ -49,6 +53,8 @@ class VisitorConfig:
     goal_id: str = ""                # single target to request (on the start floor)
     skips: tuple[tuple[int, int], ...] = ()  # (after tour step k is done, go to step m) pairs
     visitor_id: str = "sim-visitor"
+    retry_s: float = 30.0            # s before asking again after "the robot on floor N is offline"
+    retry_for_s: float = 1800.0      # s of such refusals before giving up
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -87,6 +93,8 @@ class VisitorCore:
     waiting: set[str] = field(default_factory=set)             # goals whose robot here waits for us
     _due: list[_Due] = field(default_factory=list)
     _handled: set[str] = field(default_factory=set)            # event uids already seen
+    retries: int = 0                                           # requests asked again after a refusal
+    _refused_since: float | None = None                        # first refusal of the current request
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
@@ -115,14 +123,33 @@ class VisitorCore:
             return []
         return [cmd]
 
+    def concerns_visit(self, goal_uid: str, tour_file: str, location_id: str) -> bool:
+        """Whether an event is about this visit (its tour; in single-target mode its goal) rather than
+        the answer to another command at a screen (e.g. an invalid request typed there)."""
+        if self.cfg.tour_file:
+            return tour_file == self.cfg.tour_file
+        if goal_uid:
+            return True
+        return location_id in ("", self.cfg.goal_id)
+
     def on_event(self, now: float, uid: str, robot: str, phase: int, goal_uid: str,
-                 floor: float, target_floor: float, tour_step: int = -1) -> None:
-        """A NavEvent seen on this master (from any robot)."""
+                 floor: float, target_floor: float, tour_step: int = -1, tour_file: str | None = None,
+                 location_id: str = "") -> None:
+        """A NavEvent seen on this master (from any robot). ``tour_file`` None: not known (taken as this
+        visit's)."""
         if uid and uid in self._handled:
             return
         if uid:
             self._handled.add(uid)
         mine = robot == self.cfg.robot
+        ours = self.concerns_visit(goal_uid, self.cfg.tour_file if tour_file is None else tour_file, location_id)
+        if phase in ENDS and not ours:
+            return
+        if phase == PARTNER_OFFLINE and mine and not goal_uid and not self.finished:
+            self._refused(now, tour_step)
+            return
+        if phase == ACCEPTED and ours:
+            self._refused_since = None
         if phase == GO_TO_FLOOR:
             if mine:
                 self.present = False
@@ -148,6 +175,24 @@ class VisitorCore:
         elif phase in ENDS:
             self.finished = True
             self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+
+    def _refused(self, now: float, step: int) -> None:
+        """Our own request was refused (a robot it needs is offline): ask again later, or give up."""
+        if self._refused_since is None:
+            self._refused_since = now
+        if now - self._refused_since >= self.cfg.retry_for_s:
+            self.finished, self.outcome = True, f"phase {PARTNER_OFFLINE} (gave up after {self.retries} retries)"
+            return
+        c = self.cfg
+        if c.tour_file:
+            cmd = (Command(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
+                   Command(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
+        elif c.goal_id:
+            cmd = Command(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+        else:
+            return
+        self.retries += 1
+        self._due.append(_Due(now + c.retry_s, cmd))
 
     def step(self, now: float) -> list[Command]:
         """Commands due at ``now``."""

@@ -11,6 +11,7 @@ from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.master_watch import keep_registered
+from gidabot_navigation.replay import ReplayPublisher
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.visitor import Command, VisitorConfig, VisitorCore
 
@@ -37,7 +38,8 @@ class VisitorNode:
       /gidabot/status (gidabot_msgs/RobotStatus)    to start once every robot is up (then unsubscribed)
       tour_store/catalog (gidabot_msgs/TourCatalog) start floor, tour mode: start once the tour is stored here
     Publishes:
-      visitor/command (gidabot_msgs/VisitorCommand) Continue / skip / start, as the GUI would
+      visitor/command (gidabot_msgs/VisitorCommand) Continue / skip / start, as the GUI would (the last 60 s
+                                                    are sent again to a late subscriber: a restarted node)
     Params:
       ~building (str)             building.yaml path;  ~robot (str) this floor's robot
       ~start_floor (float, 0)     where the visitor starts (only that floor's node starts the visit)
@@ -48,6 +50,8 @@ class VisitorNode:
       ~think (float, 3.0 s)       time before pressing a button (sim time)
       ~stairs_s_per_floor (float, 20 s), ~lift_wait (float, 25 s), ~lift_s_per_floor (float, 5 s):
                                   walking time between floors (sim time)
+      ~retry (float, 30 s), ~retry_for (float, 1800 s): a request of this visitor refused with
+                                  PARTNER_OFFLINE is asked again after ~retry, for at most ~retry_for
       ~start_delay (float, 2.0 s) after every robot reported status (sim time)
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
     """
@@ -63,7 +67,8 @@ class VisitorNode:
             lift_s_per_floor=_float_param("~lift_s_per_floor", 5.0),
             think_s=_float_param("~think", 3.0),
             tour_file=str(rospy.get_param("~tour_file", "")), goal_id=str(rospy.get_param("~goal_id", "")),
-            skips=_skips_param(rospy.get_param("~skips", [])))
+            skips=_skips_param(rospy.get_param("~skips", [])),
+            retry_s=_float_param("~retry", 30.0), retry_for_s=_float_param("~retry_for", 1800.0))
         if self.cfg.way not in ("stairs", "lift"):
             raise SimConfigError(f"~way: {self.cfg.way!r} must be 'stairs' or 'lift'")
         self.robots = {r.name for r in building.robots}
@@ -78,7 +83,8 @@ class VisitorNode:
         # tour mode: wait until the tour store of this robot holds the tour (START_TOUR reads it there)
         self._tour_ready = not (self.cfg.tour_file and self.core.on_start_floor)
         self._seq = 0
-        self.pub = rospy.Publisher("visitor/command", VisitorCommand, queue_size=10)
+        # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
+        self.pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=50)
         rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=100)
         self._status_sub = rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=50)
         self._catalog_sub = None
@@ -89,7 +95,8 @@ class VisitorNode:
     def _on_event(self, msg: NavEvent) -> None:
         with self._lock:
             self.core.on_event(rospy.get_time(), msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor,
-                               msg.target_floor, msg.tour_step)
+                               msg.target_floor, msg.tour_step, tour_file=msg.tour_file,
+                               location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
         with self._lock:
