@@ -243,7 +243,8 @@ def test_torn_journal_tail_is_cut_off(tmp_path) -> None:
     w.a.journal.close()
     path = tmp_path / "a.journal"
     data = path.read_bytes()
-    path.write_bytes(data[:-5])                         # killed in the middle of the last write
+    digest_record = 4 + 4 + 1 + 4 + 16                  # each event's write ends with its digest ('H')
+    path.write_bytes(data[:-(digest_record + 5)])       # killed in the middle of the last write
     log = Log()
     a2 = make_core("a", Journal(path), clock, log)
     assert [m.payload for m in a2.state.outq] == [b"one"]
@@ -442,3 +443,32 @@ def test_link_config_validation() -> None:
         LinkConfig("A", "B", "a", topics, MD5, heartbeat=3.0)
     with pytest.raises(RelayConfigError, match="no md5"):
         LinkConfig("A", "B", "a", topics, {})
+
+
+def test_a_local_event_published_again_is_forwarded_once_even_after_a_restart(tmp_path) -> None:
+    """A restarted node publishes its unsent outbox again, and replays its recent events to a relay end
+    that (re)connects: the end forwards only what it has not forwarded before (digests in its journal)."""
+    clock = Clock()
+    w, _, _, _ = pair(tmp_path, clock=clock, header_topics=frozenset({G}))
+    w.connect()
+    w.local("a", G, b"\x01\x00\x00\x00goal-1")
+    w.local("a", G, b"\x02\x00\x00\x00goal-1")          # the same message again: only header.seq differs
+    w.local("a", G, b"\x03\x00\x00\x00goal-2")
+    assert w.payloads("b") == [b"\x01\x00\x00\x00goal-1", b"\x03\x00\x00\x00goal-2"]
+    assert w.a.stats.replays_ignored == 1
+    w.a.journal.compact_min_bytes = 1                   # compaction keeps the digests
+    w.a.journal.compact(w.a.state)
+    w.a.journal.close()
+    a2 = make_core("a", Journal(tmp_path / "a.journal"), clock, Log(), header_topics=frozenset({G}))
+    assert a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-2") == []
+    assert a2.stats.replays_ignored == 1
+    a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-3")
+    assert a2.stats.forwarded_events == 1
+
+
+def test_without_a_header_every_byte_counts(tmp_path) -> None:
+    w, _, _, _ = pair(tmp_path)
+    w.connect()
+    w.local("a", G, b"\x01\x00\x00\x00same")
+    w.local("a", G, b"\x02\x00\x00\x00same")
+    assert len(w.payloads("b")) == 2 and w.a.stats.replays_ignored == 0

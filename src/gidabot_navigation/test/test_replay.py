@@ -62,7 +62,7 @@ def publish_single_for(conn: Conn, impl: Impl, sent: list) -> object:
     return publish_single
 
 
-def test_replay_goes_to_a_late_subscriber_under_the_lock_but_never_to_a_relay() -> None:
+def test_replay_goes_to_a_late_subscriber_under_the_lock_and_to_relays_unless_a_relay_publishes() -> None:
     buf = ReplayBuffer(window=60.0, limit=10)
     for i in range(3):
         buf.add(f"event-{i}")
@@ -70,6 +70,8 @@ def test_replay_goes_to_a_late_subscriber_under_the_lock_but_never_to_a_relay() 
     assert peer_of(publish_single_for(Conn("/goal_manager"), impl, sent)) == "/goal_manager"
     assert replay_to_peer(buf, impl, publish_single_for(Conn("/goal_manager"), impl, sent)) == 3
     assert sent == [("/goal_manager", "event-0"), ("/goal_manager", "event-1"), ("/goal_manager", "event-2")]
-    assert replay_to_peer(buf, impl, publish_single_for(Conn("/gidabot_relay_Tartalo_Kbot"), impl, sent)) == 0
-    assert buf.replayed == 3 and not impl.lock.locked()
+    relay = Conn("/gidabot_relay_Tartalo_Kbot")
+    assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent), skip_relays=True) == 0
+    assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent)) == 3     # a node's events: forwarded
+    assert buf.replayed == 6 and not impl.lock.locked()
     assert peer_of(lambda data: None) == ""           # unknown peer: replayed to

@@ -15,18 +15,22 @@ process away from the same journal.
 
 Kinds: ``S`` snapshot (out epoch, next sequence, in epoch, in last), ``O`` outbound
 event, ``A`` outbound done up to seq (acknowledged or dropped), ``I`` inbound event,
-``P`` inbound epoch changed, ``D`` k inbound events published (or dropped) from the head.
+``P`` inbound epoch changed, ``D`` k inbound events published (or dropped) from the head,
+``H`` digests of local events already forwarded (kept by compaction: an event a restarted
+node or publisher sends again, e.g. replayed to this end when it reconnects, is not
+forwarded twice; :func:`event_digest`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import fcntl
+import hashlib
 import os
 import secrets
 import struct
 import zlib
-from collections import deque
+from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -35,6 +39,15 @@ from gidabot_navigation.relay_protocol import FrameRejected, Message, Reader, Wr
 
 REC = struct.Struct(">II")
 MAX_RECORD = 256 << 20
+DIGEST_BYTES = 16
+RECENT_DIGESTS = 4096        # local events remembered as forwarded (a replay covers the last minute)
+
+
+def event_digest(topic: str, payload: bytes, skip: int = 0) -> bytes:
+    """What identifies one local event: its topic and serialized message, without the first ``skip``
+    bytes (4 for a message starting with std_msgs/Header: rospy rewrites ``header.seq`` on every
+    publish, so the same message published again differs there only)."""
+    return hashlib.blake2b(topic.encode() + b"\0" + payload[skip:], digest_size=DIGEST_BYTES).digest()
 
 
 class JournalError(GidaBotError):
@@ -51,10 +64,17 @@ class JournalState:
     in_epoch: int = 0
     in_last: int = 0
     pending_in: deque[tuple[int, Message]] = field(default_factory=deque)  # (epoch, event) to publish
+    recent_out: OrderedDict[bytes, None] = field(default_factory=OrderedDict)  # digests of events forwarded
 
     def live_bytes(self) -> int:
         return (sum(len(m.payload) + 64 for m in self.outq)
-                + sum(len(m.payload) + 72 for _, m in self.pending_in))
+                + sum(len(m.payload) + 72 for _, m in self.pending_in) + DIGEST_BYTES * len(self.recent_out))
+
+    def remember_out(self, digest: bytes) -> None:
+        self.recent_out[digest] = None
+        self.recent_out.move_to_end(digest)
+        while len(self.recent_out) > RECENT_DIGESTS:
+            self.recent_out.popitem(last=False)
 
 
 def new_epoch() -> int:
@@ -104,6 +124,10 @@ def apply_record(state: JournalState, kind: bytes, payload: bytes) -> None:
     elif kind == b"D":
         for _ in range(min(r.u64(), len(state.pending_in))):
             state.pending_in.popleft()
+    elif kind == b"H":
+        blob = r.blob()
+        for i in range(0, len(blob) - DIGEST_BYTES + 1, DIGEST_BYTES):
+            state.remember_out(bytes(blob[i:i + DIGEST_BYTES]))
     else:
         raise FrameRejected("malformed", f"unknown journal record kind {kind!r}")
     r.end()
@@ -205,8 +229,12 @@ class Journal:
         return encode_record(b"S", Writer().u64(state.out_epoch).u64(state.next_seq).u64(state.in_epoch)
                              .u64(state.in_last).bytes())
 
-    def out_event(self, m: Message) -> None:
-        self.write(encode_record(b"O", _msg(Writer(), m).bytes()))
+    def out_event(self, m: Message, digest: bytes | None = None) -> None:
+        """An outbound event, and (same write) its digest as forwarded."""
+        record = encode_record(b"O", _msg(Writer(), m).bytes())
+        if digest is not None:
+            record += encode_record(b"H", Writer().blob(digest).bytes())
+        self.write(record)
 
     def out_done(self, seq: int) -> None:
         self.write(encode_record(b"A", Writer().u64(seq).bytes()))
@@ -220,6 +248,7 @@ class Journal:
     def in_done(self, count: int) -> None:
         self.write(encode_record(b"D", Writer().u64(count).bytes()))
 
+
     # -- compaction -----------------------------------------------------------------------
     def needs_compaction(self, state: JournalState) -> bool:
         return self.size > self.compact_min_bytes and self.size > 4 * state.live_bytes()
@@ -231,6 +260,8 @@ class Journal:
             self.compactions += 1
             return
         parts = [self._snapshot_record(state)]
+        if state.recent_out:
+            parts.append(encode_record(b"H", Writer().blob(b"".join(state.recent_out)).bytes()))
         parts += [encode_record(b"O", _msg(Writer(), m).bytes()) for m in state.outq]
         parts += [encode_record(b"I", _msg(Writer().u64(e), m).bytes()) for e, m in state.pending_in]
         data = b"".join(parts)

@@ -39,7 +39,7 @@ import yaml
 
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.master_watch import Logger
-from gidabot_navigation.relay_journal import Journal, JournalError, JournalState
+from gidabot_navigation.relay_journal import Journal, JournalError, JournalState, event_digest
 from gidabot_navigation.relay_protocol import (
     FRAME_OVERHEAD,
     NONCE_LEN,
@@ -152,6 +152,7 @@ class LinkConfig:
     handshake_timeout: float = 3.0              # s for a new connection to authenticate
     state_rate: float = 10.0                    # Hz, max sends per (state topic, publisher)
     max_pending_connections: int = 8            # connections not yet authenticated
+    header_topics: frozenset[str] = frozenset()  # event topics whose type starts with std_msgs/Header
 
     def __post_init__(self) -> None:
         if self.side not in ("a", "b"):
@@ -263,6 +264,7 @@ class Stats:
     delivered_states: int = 0       # peer states published here
     dropped: int = 0                # events dropped by a queue bound (outbound + inbound)
     duplicates_suppressed: int = 0  # peer events already received
+    replays_ignored: int = 0        # local events already forwarded, published again (a replay, a restart)
     ignored_relay: int = 0          # local messages published by a relay (never forwarded again)
     resent: int = 0                 # events sent again on a new connection
     connections: int = 0            # authenticated connections so far
@@ -359,16 +361,22 @@ class LinkCore:
             return []
         if spec.kind == STATE:
             return self._local_state(Message(topic, callerid, md5, payload))
-        return self._local_event(Message(topic, callerid, md5, payload, self.state.next_seq))
+        digest = event_digest(topic, payload, 4 if topic in self.cfg.header_topics else 0)
+        if digest in self.state.recent_out:
+            self.stats.replays_ignored += 1     # published again (replayed to this end, a restarted node)
+            return []
+        return self._local_event(Message(topic, callerid, md5, payload, self.state.next_seq), digest)
 
-    def _local_event(self, m: Message) -> list[Action]:
+    def _local_event(self, m: Message, digest: bytes | None = None) -> list[Action]:
         try:
-            self.journal.out_event(m)
+            self.journal.out_event(m, digest)
         except JournalError as err:
             self.stats.dropped += 1
             self.rlog.warning("journal", f"{self.name}: event on {m.topic} from {m.callerid} dropped: {err}")
             return []
         self.state.next_seq = m.seq + 1
+        if digest is not None:
+            self.state.remember_out(digest)
         self.state.outq.append(m)
         self._out_bytes += len(m.payload)
         self.stats.forwarded_events += 1
@@ -762,6 +770,7 @@ class LinkCore:
             "duplicates_suppressed": s.duplicates_suppressed,
             "resent": s.resent,
             "ignored_relay": s.ignored_relay,
+            "replays_ignored": s.replays_ignored,
             "connections": s.connections,
             "link_losses": s.link_losses,
             "rejected": sum(s.rejected.values()),

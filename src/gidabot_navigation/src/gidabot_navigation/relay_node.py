@@ -207,7 +207,8 @@ class _EventReplay(rospy.SubscribeListener):
         self.node, self.topic = node, topic
 
     def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
-        replay_to_peer(self.node.replays[self.topic], self.node.pubs[self.topic].impl, peer_publish)
+        # relays never forward what a relay published: no replay to the other relay ends of this master
+        replay_to_peer(self.node.replays[self.topic], self.node.pubs[self.topic].impl, peer_publish, skip_relays=True)
 
 
 @dataclass
@@ -279,7 +280,9 @@ class RelayEndNode:
                          max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
                          max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
                          heartbeat=params.heartbeat,
-                         link_timeout=params.link_timeout, state_rate=params.state_rate)
+                         link_timeout=params.link_timeout, state_rate=params.state_rate,
+                         header_topics=frozenset(s.name for s in specs
+                                                 if s.kind == EVENT and classes[s.name]._has_header))
         self.cfg = cfg
         journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")
         self.lock = threading.Lock()

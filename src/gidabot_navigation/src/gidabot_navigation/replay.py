@@ -10,9 +10,9 @@ subscriber. Receivers already ignore event uids they have handled
 its handled uids across the restart (guiding state, :mod:`guiding_state`).
 
 :class:`ReplayBuffer` is ROS-free; :class:`ReplayPublisher` wraps ``rospy.Publisher``.
-Subscribers that are relays (``/gidabot_relay_*``) get no replay: relays never
-forward what a relay published, and a relay end (re)connects to the other relays'
-publishers every time a master's publisher list changes.
+A node's events are replayed to relay ends too (a relay end that was down missed
+them; it forwards only what it has not forwarded before). A relay end's own event
+publishers replay to no relay: relays never forward what a relay published.
 """
 
 from __future__ import annotations
@@ -80,10 +80,14 @@ def peer_of(peer_publish: Callable[..., Any]) -> str:
     return ""
 
 
-def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., Any]) -> int:
+def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., Any], skip_relays: bool = False) -> int:
     """Send ``buffer``'s recent items through ``peer_publish`` under the publisher's lock (rospy's
-    ``peer_publish`` shares the publisher's serialisation buffer with ``publish``). Returns the count."""
-    if peer_of(peer_publish).startswith(RELAY_PREFIX):
+    ``peer_publish`` shares the publisher's serialisation buffer with ``publish``). Returns the count.
+
+    ``skip_relays`` (a relay's own publishers): no replay to a relay subscriber, which would never
+    forward it. A node's events are replayed to a relay end too: one that (re)started missed them, and
+    it forwards only those it has not forwarded before (digests in its journal)."""
+    if skip_relays and peer_of(peer_publish).startswith(RELAY_PREFIX):
         return 0
     sent = 0
     for msg in buffer.recent():
