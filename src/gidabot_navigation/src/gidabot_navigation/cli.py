@@ -12,6 +12,7 @@ import sys
 # subcommand -> (module, one-line help). Keep sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gidabot_navigation.cli_bench", "benchmarks: 'bench relay', 'bench sim' (--json)"),
+    "chaos": ("gidabot_sim.chaos", "run a tour while injecting faults (links, masters, nodes, hostile input); table"),
     "check": ("gidabot_navigation.cli_check", "validate a building directory or tour files"),
     "demo": ("gidabot_sim.demo", "run the simulated building through a tour, record it, print the tables"),
     "report": ("gidabot_sim.report", "the paper's tables and path plots from a run folder's rosbags"),
