@@ -185,6 +185,8 @@ def test_result_json_and_table(faculty) -> None:
     slow = _result(faculty, crashes=["Kbot/sim died (pid 1, exit code 1)"])
     slow.faults[0].recovery_s = 7.5
     assert "a recovery took 7.5 s" in slow.failures() and "1 node crash(es)" in slow.failures()
+    told = _result(faculty, partner_lost=2, partner_answered=1)
+    assert any("never followed" in f for f in told.failures())
     unrec = _result(faculty)
     unrec.faults[0].recovered, unrec.faults[0].recovery_s = False, None
     assert unrec.to_json()["max_recovery_s"] == "not recovered" and not unrec.to_json()["passed"]

@@ -711,6 +711,9 @@ class ChaosResult:
             out.append("Table 3 counts differ from the fault-free tour")
         if not self.tours_intact:
             out.append("a tour directory changed")
+        if self.partner_answered < self.partner_lost:
+            out.append(f"{self.partner_lost - self.partner_answered} 'partner lost' notice(s) never followed by "
+                       "'partner back' or the end of that robot's part")
         if self.node_crashes():
             out.append(f"{self.node_crashes()} node crash(es)")
         if not self.tour_completed:
