@@ -391,6 +391,20 @@ class ChaosRun:
         robots = [self.building.robot_on(f) for f in trip]
         return list(dict.fromkeys(r.name for r in robots if r is not None))
 
+    def busy_robot(self, robots: list[str], wait: float = 15.0) -> str | None:
+        """One of ``robots`` whose status says it is running a leg (driving, or waiting at a meeting point),
+        waiting up to ``wait`` s for one; None if none is."""
+        deadline = time.monotonic() + wait
+        while not self.over():
+            busy = [r for r in robots if self.probes[r].call("plan").get("state") in ("guiding", "to_meeting",
+                                                                                       "waiting")]
+            if busy:
+                return self.rng.choice(busy)
+            if time.monotonic() >= deadline:
+                return None
+            self.pause(0.3)
+        return None
+
     def aim(self, fault: cc.Fault) -> cc.Fault:
         """Faults marked ``active`` hit the trip under way (a link cut between its two robots, a node of a
         robot it needs) when there is one; otherwise they keep the robots the schedule chose."""
@@ -402,8 +416,10 @@ class ChaosRun:
             a, b = sorted(robots, key=order.index)
             return cc.Fault(fault.kind, a, b, fault.target, fault.duration, fault.gap, fault.crash, fault.active)
         if fault.kind in (cc.NODE_RESTART, cc.FREEZE) and robots:
-            return cc.Fault(fault.kind, self.rng.choice(robots), fault.other, fault.target, fault.duration,
-                            fault.gap, fault.crash, fault.active)
+            busy = self.busy_robot(robots)       # a robot driving or waiting for this trip, if one is soon
+            robot = busy or self.rng.choice(robots)
+            return cc.Fault(fault.kind, robot, fault.other, fault.target, fault.duration, fault.gap, fault.crash,
+                            fault.active)
         return cc.Fault(fault.kind, fault.robot, fault.other, fault.target, fault.duration, fault.gap, fault.crash)
 
     def inject(self, fault: cc.Fault) -> cc.FaultResult:

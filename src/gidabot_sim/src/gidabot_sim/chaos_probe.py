@@ -115,6 +115,13 @@ class ChaosProbeNode:
         ]
         self.status_cls = RobotStatus
         self.status_sub = rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=200)
+        # publishers of every hostile message, made now: when one is sent, every subscriber (the relays
+        # too, which carry it to the other robots) is connected already
+        from gidabot_sim.chaos_core import HOSTILE_MESSAGES
+
+        for h in HOSTILE_MESSAGES:
+            self._publisher(h.topic, h.type)
+        self._publisher("/sim/obstacle", "gidabot_msgs/Obstacle")
 
     # -- recording --------------------------------------------------------------------------
     def _write(self, kind: str, msg: Any, **data: Any) -> None:
@@ -223,7 +230,7 @@ class ChaosProbeNode:
             return {"ok": True, "status": self.diagnostics(float(cmd.get("wait", 2.5)))}
         raise ValueError(f"unknown op {op!r}")
 
-    def publish(self, topic: str, type_: str, data: dict[str, Any], wait: float) -> None:
+    def _publisher(self, topic: str, type_: str) -> tuple[Any, type]:
         import roslib.message
 
         cls = roslib.message.get_message_class(type_)
@@ -232,9 +239,24 @@ class ChaosProbeNode:
         key = f"{topic} {type_}"
         if key not in self.pubs:
             self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=10)
-        pub = self.pubs[key]
+        return self.pubs[key], cls
+
+    def _subscribers(self, topic: str) -> int:
+        """How many nodes the master lists as subscribers of ``topic`` (0 if it does not answer)."""
+        import rosgraph
+
+        try:
+            _, subs, _ = rosgraph.Master(self.rospy.get_name()).getSystemState()
+        except Exception:  # noqa: BLE001 - rosgraph raises several types; a master away means "unknown"
+            return 0
+        name = self.rospy.resolve_name(topic)
+        return next((len(nodes) for t, nodes in subs if t == name), 0)
+
+    def publish(self, topic: str, type_: str, data: dict[str, Any], wait: float) -> None:
+        pub, cls = self._publisher(topic, type_)
+        want = max(1, self._subscribers(topic))
         deadline = time.monotonic() + wait
-        while pub.get_num_connections() < 1 and time.monotonic() < deadline:
+        while pub.get_num_connections() < want and time.monotonic() < deadline:
             time.sleep(0.02)
         header = data.pop("header", None)
         msg = build_message(cls, data)
