@@ -211,3 +211,38 @@ def test_state_file_unwritable_is_reported_not_raised(tmp_path: Path) -> None:
 def test_continue_command_key_in_the_node_matches_the_core() -> None:
     cmd = CommandData(command=CONTINUE, uid="R/v/cmd/3", stamp=7.25)
     assert cmd.key == command_key("R/v/cmd/3", 7.25)
+
+
+def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is_done(faculty, tmp_path: Path) -> None:
+    """After a restart the visitor's Continue (replayed by the visitor node) may arrive before the
+    TOUR_STEP_DONE it answers (replayed by the navigation): it is applied once the step is done."""
+    from guiding_support import catalog_of
+
+    from gidabot_navigation.guiding_types import TOUR_STEP_DONE, NavEventData
+
+    tour = tmp_path / "two.tour"
+    tour.write_text("Tour: Two\n0, 008, A\n0, 014, B\n", encoding="utf-8")
+    catalog = catalog_of(faculty, tour)
+    bus = Bus(faculty, catalog=catalog, auto_move=False)
+    bus.status_all()
+    bus.start_tour("Tartalo", "two.tour")
+    first = bus.goals[0].uid
+    assert bus.phases("Tartalo", first)[-1] == ON_THE_WAY
+    gm = restart_goal_manager(bus, "Tartalo")
+    gm.on_catalog(catalog)
+    meeting = CommandData(command=CONTINUE, uid="Tartalo/v/cmd/8", visitor_id="v", goal_uid=first, stamp=150.0)
+    assert gm.on_command(meeting, bus.now_ros, bus.now_wall) == []        # pressed before the step was done
+    done = NavEventData(uid="Tartalo/event/nav.x.9", robot="Tartalo", floor=0.0, goal_uid=first,
+                        phase=TOUR_STEP_DONE, tour_file="two.tour", tour_step=0, stamp=200.0)
+    gm_copy = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t4")
+    gm_copy.load_state(roundtrip(gm.state()))
+    gm_copy.on_catalog(catalog)
+    assert gm_copy.on_nav_event(done, bus.now_ros, bus.now_wall) == []    # not a Continue after the step
+    cont = CommandData(command=CONTINUE, uid="Tartalo/v/cmd/9", visitor_id="v", goal_uid=first, stamp=203.0)
+    assert gm.on_command(cont, bus.now_ros, bus.now_wall) == []           # the step is not done yet here
+    gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t3")
+    gm2.load_state(roundtrip(gm.state()))                                  # and it survives another restart
+    gm2.on_catalog(catalog)
+    actions = gm2.on_nav_event(done, bus.now_ros, bus.now_wall)
+    [goal] = [a.trip for a in actions if isinstance(a, SendGoal)]
+    assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1

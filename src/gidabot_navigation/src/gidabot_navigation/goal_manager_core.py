@@ -149,6 +149,7 @@ class GoalManagerCore:
         self._events_seen = SeenSet()
         self._cancelled = SeenSet()
         self._commands_seen = SeenSet()                   # CommandData.key of the commands handled
+        self._early_continues: dict[str, CommandData] = {}  # goal uid -> a tour Continue that came before its step
         self._phase: dict[str, tuple[int, float]] = {}    # own navigation's progress per held goal
         self._releases: OrderedDict[str, float] = OrderedDict()
 
@@ -272,12 +273,16 @@ class GoalManagerCore:
                                     way=(trip.way if trip else ev.way) or self.cfg.default_way,
                                     language=trip.language if trip else ev.language,
                                     visitor_id=trip.visitor_id if trip else "", since=now_ros))
+        early = self._early_continues.pop(ev.goal_uid, None) if ev.final else None
         if ev.final:
             self._phase.pop(ev.goal_uid, None)
             if self._pop(ev.goal_uid) is not None:
                 self.stats.inc("finished")
         elif ev.phase in PROGRESS_PHASES and trip is not None:
             self._phase[ev.goal_uid] = (ev.phase, now_ros)
+        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and early.stamp >= ev.stamp > 0:
+            self.stats.inc("early_continues")
+            return self._continue(early, now_ros, now_wall)
         return []
 
     def tick(self, now_ros: float, now_wall: float) -> list[Action]:
@@ -296,6 +301,7 @@ class GoalManagerCore:
             "phase": {uid: [phase, since] for uid, (phase, since) in self._phase.items()},
             "releases": [[uid, t] for uid, t in self._releases.items()][-remember:],
             "waits": [asdict(w) for w in self.waits.all()],
+            "early_continues": [asdict(c) for c in self._early_continues.values()],
             "stats": dict(self.stats),
         }
 
@@ -316,6 +322,7 @@ class GoalManagerCore:
         phase = {str(uid): (int(number(v[0], "phase")), number(v[1], "phase since")) for uid, v in phase_raw.items()}
         releases = [(str(r[0]), number(r[1], "release")) for r in state.get("releases", [])]
         waits = [dataclass_from_dict(TourWait, w) for w in state.get("waits", [])]
+        early = [dataclass_from_dict(CommandData, c) for c in state.get("early_continues", [])]
         self.queue = queue
         for name, uids in seen.items():
             getattr(self, f"_{name}").update(uids)
@@ -324,6 +331,7 @@ class GoalManagerCore:
             self._releases[uid] = t
         for w in waits:
             self.waits.add(w)
+        self._early_continues = {c.goal_uid: c for c in early if any(t.uid == c.goal_uid for t in queue)}
         stats = state.get("stats", {})
         if isinstance(stats, dict):
             self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
@@ -390,6 +398,15 @@ class GoalManagerCore:
         else:
             wait = None if self._navigation_meets_visitor() else self.waits.latest()
         if wait is None:
+            trip = self._held(cmd.goal_uid) if cmd.goal_uid else None
+            if trip is not None and trip.tour_file:
+                # A Continue at this trip's meeting point (multirobot_navigation's), or the visitor's Continue
+                # after this tour step that overtook the step's TOUR_STEP_DONE (both replayed to this node
+                # after a restart, by different publishers): kept; if the step turns out to be done before
+                # the button was pressed (stamps), it is acted on then.
+                self._early_continues[trip.uid] = cmd
+                while len(self._early_continues) > 32:
+                    self._early_continues.pop(next(iter(self._early_continues)))
             return []          # a Continue at a meeting point: multirobot_navigation's
         return self._tour_step(wait.tour_file, wait.step + 1, cmd, wait, now_ros, now_wall, finishing=True)
 
