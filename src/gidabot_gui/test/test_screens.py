@@ -11,7 +11,8 @@ import pytest
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.model import NavEventData, PendingData, Phase, RobotStatusData, TourInfo
+from gidabot_gui.model import NavEventData, PendingData, RobotStatusData, TourInfo
+from gidabot_navigation.guiding_types import Phase
 
 LANGS = ("en", "eu", "es")
 PAGES = ("floor:0", "floor:1", "floor:2", "floor:3", "offices", "tours", "info")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from gidabot_navigation import guiding_types as gt
 from gidabot_sim import report
 
 REPO = Path(__file__).resolve().parents[3]
@@ -52,11 +53,11 @@ def test_tables_from_bags(tmp_path: Path) -> None:
     goals = [Goal(uid=f"Tartalo/v/{i}") for i in range(3)]
     msgs = [("/gidabot/goals", g, 1.0 + i) for i, g in enumerate(goals)]
     msgs += [
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ACCEPTED, 10.0), 10.0),
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 10.0), 10.0),
-        ("/gidabot/nav_events", _event("Kbot", "Tartalo/v/1", report.ACCEPTED, 10.5), 10.5),  # another robot's
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.GOAL_REACHED, 30.0), 30.0),
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", report.ACCEPTED, 31.0), 31.0),
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ACCEPTED, 10.0), 10.0),
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 10.0), 10.0),
+        ("/gidabot/nav_events", _event("Kbot", "Tartalo/v/1", gt.ACCEPTED, 10.5), 10.5),  # another robot's
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.GOAL_REACHED, 30.0), 30.0),
+        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", gt.ACCEPTED, 31.0), 31.0),
     ]
     msgs += [("/gidabot/poses", _pose("Tartalo", 10.0 + k, 12.0, 10.0 + k), 10.0 + k) for k in range(21)]
     msgs += [("/gidabot/poses", _pose("Tartalo", 40.0, 12.0, 40.0), 40.0)]   # moving alone: not guiding
@@ -78,8 +79,8 @@ def test_tables_from_bags(tmp_path: Path) -> None:
 
 
 def test_guiding_intervals_and_length() -> None:
-    ev = [report.Event(0, "R", "a", report.ON_THE_WAY), report.Event(5, "R", "a", report.GO_TO_FLOOR),
-          report.Event(9, "R", "b", report.ON_THE_WAY), report.Event(12, "R", "b", report.CANCELLED_HERE)]
+    ev = [report.Event(0, "R", "a", gt.ON_THE_WAY), report.Event(5, "R", "a", gt.GO_TO_FLOOR),
+          report.Event(9, "R", "b", gt.ON_THE_WAY), report.Event(12, "R", "b", gt.CANCELLED_HERE)]
     assert report.guiding_intervals(ev) == [(0, 5), (9, 12)]
     poses = [report.PoseSample(t, float(t), 0.0) for t in range(13)]
     assert report.path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)
@@ -112,8 +113,8 @@ def test_distance_from_the_robots_own_localisation(tmp_path: Path) -> None:
     goal = Goal(uid="Kbot/v/0", goal_id="104", goal_floor=1.0, tour_step=0)
     goal.goal_pose.position.x, goal.goal_pose.position.y = 30.0, 12.0
     msgs = [("/gidabot/goals", goal, 1.0),
-            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", report.ON_THE_WAY, 10.0), 10.0),
-            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", report.TOUR_FINISHED, 30.0), 30.0)]
+            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", gt.ON_THE_WAY, 10.0), 10.0),
+            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", gt.TOUR_FINISHED, 30.0), 30.0)]
     # an L-shaped drive: 5 m east then 5 m north, 0.1 m per amcl_pose; the shared poses cut the corner
     path = [(20.0 + 0.1 * k, 10.0) for k in range(51)] + [(25.0, 10.0 + 0.1 * k) for k in range(1, 51)]
     msgs += [("/amcl_pose", _amcl(x, y, 10.0 + 0.2 * k), 10.0 + 0.2 * k) for k, (x, y) in enumerate(path)]
@@ -172,13 +173,13 @@ def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path:
     hostile = [ghost, nan, goal("Tartalo/v/big", visitor_id="x" * 5000), goal("Tartalo/v/f", goal_floor=7.5),
                goal("bad uid with spaces"), goal("Tartalo/v/room", goal_id="999")]
     first = [("/gidabot/goals", goal("Tartalo/v/0"), 1.0),
-             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ACCEPTED, 2.0), 2.0),
-             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 3.0), 3.0)]
+             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ACCEPTED, 2.0), 2.0),
+             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 3.0), 3.0)]
     first += [("/gidabot/goals", h, 4.0) for h in hostile]
-    second = [("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.ON_THE_WAY, 3.0), 3.0),  # again
+    second = [("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 3.0), 3.0),  # again
               ("/gidabot/goals", goal("Tartalo/v/1"), 5.0),
-              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", report.ACCEPTED, 6.0), 6.0),
-              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", report.GOAL_REACHED, 13.0), 13.0)]
+              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", gt.ACCEPTED, 6.0), 6.0),
+              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.GOAL_REACHED, 13.0), 13.0)]
     _bag(tmp_path / "Tartalo.bag", first)
     _bag(tmp_path / "Tartalo.1.bag", second)
     run = {"tour": "t.tour", "goals": 2, "building": str(REPO / "maps" / "faculty"),

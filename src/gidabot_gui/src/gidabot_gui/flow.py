@@ -24,8 +24,9 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from gidabot_gui.errors import GuiError
-from gidabot_gui.model import Cmd, Command, NavEventData, Phase, TourInfo, clip
+from gidabot_gui.model import Command, NavEventData, TourInfo, clip
 from gidabot_navigation.building import Building
+from gidabot_navigation.guiding_types import Cmd, Phase
 
 REQUEST_TIMEOUT = 20.0   # s (wall) without any event for a request before "no answer"
 SEEN_UIDS = 2000         # event uids remembered for de-duplication

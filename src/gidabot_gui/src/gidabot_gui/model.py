@@ -11,45 +11,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import IntEnum
 
 from gidabot_navigation.building import Building, Robot
 from gidabot_navigation.tours import Tour as TourFile
 
 MAX_TEXT = 256          # longer strings from other nodes are cut (hostile or broken input)
 OFFLINE_AFTER = 5.0     # s (wall) without a status before a robot is shown offline
-
-
-class Phase(IntEnum):
-    """gidabot_msgs/NavEvent phases (same numbers)."""
-
-    ACCEPTED = 0
-    ON_THE_WAY = 1
-    GOAL_REACHED = 2
-    GO_TO_FLOOR = 3
-    GOING_TO_MEETING = 4
-    WAITING_VISITOR = 5
-    UNREACHABLE = 6
-    NO_ROBOT_ON_FLOOR = 7
-    CANCELLED_HERE = 8
-    CANCELLED_ELSEWHERE = 9
-    TIMEOUT = 10
-    PARTNER_OFFLINE = 11
-    REJECTED = 12
-    TOUR_STEP_DONE = 13
-    TOUR_FINISHED = 14
-    PARTNER_LOST = 15
-    PARTNER_BACK = 16
-
-
-class Cmd(IntEnum):
-    """gidabot_msgs/VisitorCommand commands (same numbers)."""
-
-    REQUEST = 0
-    CONTINUE = 1
-    CANCEL = 2
-    START_TOUR = 3
-    SKIP = 4
 
 
 WAY_LIFT = "lift"

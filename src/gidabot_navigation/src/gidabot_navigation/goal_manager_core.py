@@ -66,9 +66,7 @@ from gidabot_navigation.guiding_types import (
     CancelData,
     CommandData,
     Counters,
-    Logger,
     NavEventData,
-    RateLimitedLog,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -82,6 +80,7 @@ from gidabot_navigation.guiding_types import (
     validate_trip,
 )
 from gidabot_navigation.liveness import PeerLiveness
+from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
 from gidabot_navigation.tours import MAX_GOALS
 from gidabot_navigation.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role

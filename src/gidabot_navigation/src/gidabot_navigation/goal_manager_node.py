@@ -27,7 +27,6 @@ from gidabot_navigation.guiding_ros import (
     GOALS_TOPIC,
     PENDING_TOPIC,
     STATUS_TOPIC,
-    RosLog,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -43,9 +42,10 @@ from gidabot_navigation.guiding_ros import (
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, GuidingStateError, StateFile, default_state_dir
+from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding_types import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayPublisher
+from gidabot_navigation.ros_log import RosLog
 from gidabot_navigation.trips import WaitModel
 
 QUEUE_SIZE = 2000
@@ -134,16 +134,10 @@ class GoalManagerNode:
         self.robot = self.core.me
         self.store = StateFile(Path(params.state_dir) / "goal_manager.json", "goal_manager", self.robot, RosLog(),
                                max_age=params.state_max_age) if params.state_dir else None
-        outbox: list[Action] = []
-        loaded = self.store.load() if self.store is not None else None
-        if loaded is not None:
-            try:
-                self.core.load_state(loaded[0])
-                outbox = loaded[1]
-                rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
-                              f"{len(outbox)} message(s) not yet published from {self.store.path}")
-            except GuidingStateError as err:
-                rospy.logerr(f"goal_manager of {self.robot}: {self.store.path} is unusable ({err}); starting empty")
+        outbox = self.store.resume(self.core.load_state) if self.store is not None else None
+        if outbox is not None:
+            rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
+                          f"{len(outbox)} message(s) not yet published from {self.params.state_dir}")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self._published_version = -1
@@ -163,7 +157,7 @@ class GoalManagerNode:
             rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
-        self.execute(outbox)         # published before the crash or not: receivers ignore what they handled
+        self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
@@ -223,11 +217,8 @@ class GoalManagerNode:
         published, save again without them (so a restart publishes them again only if it came in between)."""
         if self.store is None or not (changed or actions):
             self.execute(actions)
-            return
-        self.store.save(self.core.state(), actions)
-        self.execute(actions)
-        if actions:
-            self.store.save(self.core.state(), [])
+        else:
+            self.store.commit(self.core.state, actions, actions, self.execute)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:

@@ -25,18 +25,6 @@ POSES_TOPIC = "/gidabot/poses"
 PENDING_TOPIC = "/gidabot/pending"
 
 
-class RosLog:
-    """The cores' logger: rospy's (rosout)."""
-
-    def info(self, msg: str) -> None:
-        rospy.loginfo(msg)
-
-    def warning(self, msg: str) -> None:
-        rospy.logwarn(msg)
-
-    def error(self, msg: str) -> None:
-        rospy.logerr(msg)
-
 
 def sender(msg: object) -> str:
     """The node that published ``msg`` (its callerid), "" if unknown."""

@@ -23,6 +23,7 @@ import math
 import os
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
@@ -31,13 +32,13 @@ from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding_types import (
     Action,
     CancelData,
-    Logger,
     NavEventData,
     SendCancel,
     SendEvent,
     SendGoal,
     Trip,
 )
+from gidabot_navigation.logs import Logger
 
 FORMAT = 1
 REMEMBERED_UIDS = 500        # most recent handled uids kept per set (replays cover the last minute)
@@ -214,3 +215,25 @@ class StateFile:
                     os.unlink(tmp)
         self.saves += 1
         return True
+
+    def resume(self, load_state: Callable[[dict[str, Any]], None]) -> list[Action] | None:
+        """Load the previous run's state into a core (``load_state`` raises GuidingStateError when it
+        cannot use it); the outbox to publish again, or None when nothing was resumed (logged why)."""
+        loaded = self.load()
+        if loaded is None:
+            return None
+        try:
+            load_state(loaded[0])
+        except GuidingStateError as err:
+            self.log.error(f"{self.node}: its state {self.path} is unusable ({err}); starting empty")
+            return None
+        return loaded[1]
+
+    def commit(self, state: Callable[[], dict[str, Any]], actions: list[Action], durable: list[Action],
+               execute: Callable[[list[Action]], None]) -> None:
+        """Save ``state()`` with the ``durable`` actions as the outbox *before* carrying out ``actions``,
+        then save again without them: a restart in between publishes them again (same uids), never loses them."""
+        self.save(state(), durable)
+        execute(actions)
+        if durable:
+            self.save(state(), [])

@@ -20,30 +20,39 @@ import time
 from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import Protocol
+from enum import IntEnum
 
 from gidabot_navigation.building import LANGUAGES, Building, format_floor
 from gidabot_navigation.errors import GoalRejected, TourNameError
 from gidabot_navigation.tours import MAX_GOALS, check_tour_file_name
 
+
 # -- gidabot_msgs/NavEvent phases ---------------------------------------------------
-ACCEPTED = 0
-ON_THE_WAY = 1
-GOAL_REACHED = 2
-GO_TO_FLOOR = 3
-GOING_TO_MEETING = 4
-WAITING_VISITOR = 5
-UNREACHABLE = 6
-NO_ROBOT_ON_FLOOR = 7
-CANCELLED_HERE = 8
-CANCELLED_ELSEWHERE = 9
-TIMEOUT = 10
-PARTNER_OFFLINE = 11
-REJECTED = 12
-TOUR_STEP_DONE = 13
-TOUR_FINISHED = 14
-PARTNER_LOST = 15
-PARTNER_BACK = 16
+class Phase(IntEnum):
+    """gidabot_msgs/NavEvent phases (same numbers); the module constants below are their ints."""
+
+    ACCEPTED = 0
+    ON_THE_WAY = 1
+    GOAL_REACHED = 2
+    GO_TO_FLOOR = 3
+    GOING_TO_MEETING = 4
+    WAITING_VISITOR = 5
+    UNREACHABLE = 6
+    NO_ROBOT_ON_FLOOR = 7
+    CANCELLED_HERE = 8
+    CANCELLED_ELSEWHERE = 9
+    TIMEOUT = 10
+    PARTNER_OFFLINE = 11
+    REJECTED = 12
+    TOUR_STEP_DONE = 13
+    TOUR_FINISHED = 14
+    PARTNER_LOST = 15
+    PARTNER_BACK = 16
+
+
+(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
+ NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
+ TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
 
 PHASE_NAMES = {
     ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
@@ -61,11 +70,17 @@ FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FL
 RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
 
 # -- gidabot_msgs/VisitorCommand commands -------------------------------------------
-REQUEST = 0
-CONTINUE = 1
-CANCEL = 2
-START_TOUR = 3
-SKIP = 4
+class Cmd(IntEnum):
+    """gidabot_msgs/VisitorCommand commands (same numbers); the module constants below are their ints."""
+
+    REQUEST = 0
+    CONTINUE = 1
+    CANCEL = 2
+    START_TOUR = 3
+    SKIP = 4
+
+
+REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = (int(c) for c in Cmd)
 COMMAND_NAMES = {REQUEST: "request", CONTINUE: "continue", CANCEL: "cancel", START_TOUR: "start tour",
                  SKIP: "skip"}
 
@@ -102,13 +117,6 @@ _ID_RE = re.compile(r"^[A-Za-z0-9_.:@+-]{1,64}$")
 START_ROBOT = "robot"     # Goal.start_id when the trip starts at the robot's pose
 POSE_TOLERANCE = 1.0      # m: a goal_pose this far from its location's pose means the buildings differ
 
-
-class Logger(Protocol):
-    """What the cores log through (rospy's logger in the nodes, a list in tests)."""
-
-    def info(self, msg: str) -> None: ...
-    def warning(self, msg: str) -> None: ...
-    def error(self, msg: str) -> None: ...
 
 
 def same_floor(a: float, b: float) -> bool:
@@ -359,27 +367,6 @@ class Counters(dict):
     def inc(self, key: str, n: int = 1) -> None:
         self[key] = self.get(key, 0) + n
 
-
-class RateLimitedLog:
-    """Logs at most ``per_minute`` lines per key and minute (wall time), then counts the rest."""
-
-    def __init__(self, log: object, per_minute: int = 10, clock: object = time.monotonic) -> None:
-        self.log = log
-        self.per_minute = per_minute
-        self.clock = clock
-        self._window: dict[str, tuple[float, int]] = {}
-
-    def warning(self, key: str, msg: str) -> None:
-        now = self.clock()  # type: ignore[operator]
-        start, n = self._window.get(key, (now, 0))
-        if now - start >= 60.0:
-            if n > self.per_minute:
-                self.log.warning(f"{n - self.per_minute} more '{key}' warnings in the last minute")  # type: ignore[attr-defined]
-            start, n = now, 0
-        n += 1
-        self._window[key] = (start, n)
-        if n <= self.per_minute:
-            self.log.warning(msg)  # type: ignore[attr-defined]
 
 
 # ---------------------------------------------------------------------------

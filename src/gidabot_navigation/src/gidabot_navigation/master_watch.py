@@ -35,9 +35,9 @@ import time
 import xmlrpc.client
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Protocol
 
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.logs import Logger
 
 DEFAULT_PERIOD = 0.5     # s between polls
 DEFAULT_TIMEOUT = 0.3    # s, socket timeout of one XML-RPC call
@@ -112,11 +112,6 @@ class MasterWatchCore:
     def registration_failed(self) -> None:
         self.pending = True
 
-
-class Logger(Protocol):
-    def info(self, msg: str) -> None: ...
-    def warning(self, msg: str) -> None: ...
-    def error(self, msg: str) -> None: ...
 
 
 class _TimeoutTransport(xmlrpc.client.Transport):
@@ -377,22 +372,6 @@ class MasterWatch:
             self._stop.wait(max(0.0, self.period - (time.monotonic() - start)))
 
 
-class _RospyLog:
-    def info(self, msg: str) -> None:
-        import rospy
-
-        rospy.loginfo(msg)
-
-    def warning(self, msg: str) -> None:
-        import rospy
-
-        rospy.logwarn(msg)
-
-    def error(self, msg: str) -> None:
-        import rospy
-
-        rospy.logerr(msg)
-
 
 def rospy_registrations() -> Registrations:
     """The current publications, subscriptions and services of this rospy node."""
@@ -417,6 +396,8 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
     import rospy
     import rospy.core
 
+    from gidabot_navigation.ros_log import RosLog
+
     if not rospy.core.is_initialized():
         raise MasterWatchError("keep_registered() must be called after rospy.init_node()")
     if not period > 0 or not timeout > 0:
@@ -425,7 +406,7 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
     if not node_uri:
         raise MasterWatchError("this node has no slave API URI yet; call keep_registered() after rospy.init_node()")
     watch = MasterWatch(master_uri=rosgraph.get_master_uri(), caller_id=rospy.get_caller_id(), node_uri=node_uri,
-                        registrations=rospy_registrations, log=log or _RospyLog(), period=period,
+                        registrations=rospy_registrations, log=log or RosLog(), period=period,
                         timeout=timeout, params=ParamKeeper(rospy.get_name(), tuple(restore_keys)))
     watch.remember_params()
     watch._next_refresh = time.monotonic() + watch.param_refresh

@@ -72,10 +72,8 @@ from gidabot_navigation.guiding_types import (
     Action,
     CancelData,
     Counters,
-    Logger,
     MoveTo,
     NavEventData,
-    RateLimitedLog,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -86,6 +84,7 @@ from gidabot_navigation.guiding_types import (
     validate_event,
 )
 from gidabot_navigation.liveness import PeerLiveness
+from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tour_mode import CatalogEntry, TourBook
 from gidabot_navigation.trips import Role, partner_of, role
 

@@ -32,7 +32,6 @@ from gidabot_navigation.guiding_ros import (
     PENDING_TOPIC,
     POSES_TOPIC,
     STATUS_TOPIC,
-    RosLog,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -48,7 +47,7 @@ from gidabot_navigation.guiding_ros import (
     trip_from_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, GuidingStateError, StateFile, default_state_dir
+from gidabot_navigation.guiding_state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding_types import (
     CONTINUE,
     Action,
@@ -69,6 +68,7 @@ from gidabot_navigation.navigation_core import (
     NavigationCore,
 )
 from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayPublisher
+from gidabot_navigation.ros_log import RosLog
 
 QUEUE_SIZE = 2000
 DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may change the state kept across restarts
@@ -165,19 +165,12 @@ class NavigationNode:
         self.robot = self.core.me
         self.store = StateFile(Path(params.state_dir) / "multirobot_navigation.json", "multirobot_navigation",
                                self.robot, RosLog(), max_age=params.state_max_age) if params.state_dir else None
-        outbox: list[Action] = []
-        loaded = self.store.load() if self.store is not None else None
-        if loaded is not None:
-            try:
-                self.core.load_state(loaded[0])
-                outbox = loaded[1]
-                leg = self.core.leg
-                rospy.loginfo(f"multirobot_navigation of {self.robot}: resumed from {self.store.path}"
-                              + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
-                              + f"; {len(outbox)} message(s) not yet published")
-            except GuidingStateError as err:
-                rospy.logerr(f"multirobot_navigation of {self.robot}: {self.store.path} is unusable ({err}); "
-                             "starting empty")
+        outbox = self.store.resume(self.core.load_state) if self.store is not None else None
+        if outbox is not None:
+            leg = self.core.leg
+            rospy.loginfo(f"multirobot_navigation of {self.robot}: resumed from {self.params.state_dir}"
+                          + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
+                          + f"; {len(outbox)} message(s) not yet published")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
         self.ignored_pending = 0
@@ -207,7 +200,7 @@ class NavigationNode:
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
                        rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
-        self.execute(outbox)         # published before the crash or not: receivers ignore what they handled
+        self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
@@ -326,11 +319,8 @@ class NavigationNode:
         durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
         if self.store is None or not (changed or actions):
             self.execute(actions)
-            return
-        self.store.save(self.core.state(), durable)
-        self.execute(actions)
-        if durable:
-            self.store.save(self.core.state(), [])
+        else:
+            self.store.commit(self.core.state, actions, durable, self.execute)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:

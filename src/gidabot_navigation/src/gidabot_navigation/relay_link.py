@@ -38,7 +38,7 @@ from pathlib import Path
 import yaml
 
 from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.master_watch import Logger
+from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.relay_journal import Journal, JournalError, JournalState, event_digest
 from gidabot_navigation.relay_protocol import (
     FRAME_OVERHEAD,
@@ -214,24 +214,6 @@ class Delivery:
     msg: Message
 
 
-class RateLimitedLog:
-    """At most one line per key per ``period`` s; suppressed lines are counted and summarised."""
-
-    def __init__(self, log: Logger, clock: Callable[[], float], period: float = 5.0) -> None:
-        self.log, self.clock, self.period = log, clock, period
-        self._last: dict[str, float] = {}
-        self._suppressed: dict[str, int] = {}
-
-    def warning(self, key: str, msg: str) -> None:
-        now = self.clock()
-        last = self._last.get(key)
-        if last is not None and now - last < self.period:
-            self._suppressed[key] = self._suppressed.get(key, 0) + 1
-            return
-        extra = self._suppressed.pop(key, 0)
-        self._last[key] = now
-        self.log.warning(msg + (f" ({extra} similar message(s) suppressed)" if extra else ""))
-
 
 class Phase(Enum):
     WAIT_HELLO = "wait_hello"      # a: sent HELLO, waiting for b's; b: waiting for a's HELLO
@@ -285,7 +267,7 @@ class LinkCore:
         self.journal = journal
         self.clock = clock
         self.log = log
-        self.rlog = RateLimitedLog(log, clock)
+        self.rlog = RateLimitedLog(log, clock, burst=1, window=5.0)
         self.validate = validate or (lambda topic, payload: None)
         self.topics = {t.name: t for t in cfg.topics}
         self.key_hello = hello_key(cfg.secret) if cfg.secret else None

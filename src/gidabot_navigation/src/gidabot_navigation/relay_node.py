@@ -47,6 +47,7 @@ from gidabot_navigation.relay_link import (
     relay_node_name,
 )
 from gidabot_navigation.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
+from gidabot_navigation.ros_log import RosLog
 
 EXIT_CONFIG = 2          # bad parameters: restarting will not help
 EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
@@ -56,16 +57,6 @@ RETRY_INTERVAL = 0.25    # s between connect attempts
 RECV_BYTES = 1 << 18
 DEFAULT_TOPICS = Path(__file__).resolve().parents[2] / "config" / "shared_topics.yaml"
 
-
-class _RosLog:
-    def info(self, msg: str) -> None:
-        rospy.loginfo(msg)
-
-    def warning(self, msg: str) -> None:
-        rospy.logwarn(msg)
-
-    def error(self, msg: str) -> None:
-        rospy.logerr(msg)
 
 
 @dataclass(frozen=True)
@@ -286,7 +277,7 @@ class RelayEndNode:
         self.cfg = cfg
         journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")
         self.lock = threading.Lock()
-        self.core = LinkCore(cfg, journal, time.monotonic, _RosLog(), make_validator(classes))
+        self.core = LinkCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes))
         self.raw = {n: raw_class(c) for n, c in classes.items()}
         self._last_latched: dict[str, str] = {}
         self.pruned = 0                      # subscriptions to relay publishers closed

@@ -47,10 +47,10 @@ from collections import Counter, OrderedDict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Protocol
 
 from gidabot_navigation.building import LANGUAGES, Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError, TourRejected, TourStoreError
+from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.safe_dir import Entry, SafeDir, sha256
 from gidabot_navigation.tours import (
     MAX_GOALS,
@@ -71,11 +71,6 @@ SEED_VERSION = 1                # version of the initial tours (editor ""): olde
 FLOOR_TOLERANCE = 1e-3
 NS = 1_000_000_000
 
-
-class Logger(Protocol):
-    def info(self, msg: str) -> None: ...
-    def warning(self, msg: str) -> None: ...
-    def error(self, msg: str) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -211,28 +206,6 @@ def make_record(file_name: str, version: int, editor: str, origin: str, language
                       sha256(content.encode("utf-8")), tour=tour)
 
 
-class _LogLimiter:
-    """At most ``burst`` messages per ``window`` ns per category; tells how many were suppressed."""
-
-    def __init__(self, log: Logger, clock: Callable[[], int], burst: int = 10, window: float = 60.0) -> None:
-        self.log, self.clock, self.burst, self.window = log, clock, burst, int(window * NS)
-        self._state: dict[str, tuple[int, int, int]] = {}   # category -> (window start, count, suppressed)
-
-    def warning(self, category: str, text: str) -> None:
-        now = self.clock()
-        start, count, suppressed = self._state.get(category, (now, 0, 0))
-        if now - start >= self.window:
-            if suppressed:
-                self.log.warning(f"{suppressed} more '{category}' warning(s) suppressed in the last "
-                                 f"{self.window // NS} s")
-            start, count, suppressed = now, 0, 0
-        if count < self.burst:
-            self.log.warning(text)
-            count += 1
-        else:
-            suppressed += 1
-        self._state[category] = (start, count, suppressed)
-
 
 class TourStore:
     """One robot's tour directory plus the sharing rule; see the module docstring.
@@ -261,7 +234,7 @@ class TourStore:
         self.counters: Counter[str] = Counter()
         self.records: dict[str, TourRecord] = {}
         self.last_rejection = ""
-        self._warn = _LogLimiter(log, wall_ns)
+        self._warn = RateLimitedLog(log, lambda: wall_ns() / NS)
         self._seen: OrderedDict[str, None] = OrderedDict()
         self._sent: dict[tuple[str, str], tuple[tuple, float]] = {}
         self.peers: dict[str, list[IndexEntry]] = {}

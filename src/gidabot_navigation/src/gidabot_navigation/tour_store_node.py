@@ -24,24 +24,13 @@ from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building import LANGUAGES, load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
 from gidabot_navigation.master_watch import keep_registered
+from gidabot_navigation.ros_log import RosLog
 from gidabot_navigation.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
 
 TOURS_TOPIC = "/gidabot/tours"
 INDEX_TOPIC = "/gidabot/tour_index"
 QUEUE_SIZE = 1000
 
-
-class _RosLog:
-    """The store's logger: rospy's (rosout)."""
-
-    def info(self, msg: str) -> None:
-        rospy.loginfo(msg)
-
-    def warning(self, msg: str) -> None:
-        rospy.logwarn(msg)
-
-    def error(self, msg: str) -> None:
-        rospy.logerr(msg)
 
 
 @dataclass(frozen=True)
@@ -164,7 +153,7 @@ class TourStoreNode:
         self.params = params
         building = load_building(params.building)
         self.robot = params.robot
-        self.store = TourStore(params.tours_dir, building, params.robot, wall_ns=time.time_ns, log=_RosLog(),
+        self.store = TourStore(params.tours_dir, building, params.robot, wall_ns=time.time_ns, log=RosLog(),
                                seed_dir=params.seed_dir or None, default_language=params.default_language,
                                limits=params.limits)
         self.store.open()

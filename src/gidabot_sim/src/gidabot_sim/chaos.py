@@ -42,6 +42,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, TextIO
 
+from gidabot_navigation import guiding_types as gt
 from gidabot_navigation.building import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.procs import ProcessError, robot_address
@@ -182,13 +183,13 @@ class TourWatch:
                     or r.get("c") not in cc.GUIDING_CALLERS or r.get("tour_file") != self.tour_file:
                 continue
             phase = r.get("phase")
-            if phase in (cc.TOUR_STEP_DONE, cc.TOUR_FINISHED):
+            if phase in (gt.TOUR_STEP_DONE, gt.TOUR_FINISHED):
                 self.done.add(str(r.get("goal_uid")))
                 self.last_step_done = max(self.last_step_done, int(r.get("tour_step", -1)))
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
-            if phase == cc.TOUR_FINISHED and r.get("tour_step") == self.last_step:
+            if phase == gt.TOUR_FINISHED and r.get("tour_step") == self.last_step:
                 self.finished = True
-            elif phase in (cc.UNREACHABLE, cc.TIMEOUT) or (phase == cc.PARTNER_OFFLINE and r.get("goal_uid")):
+            elif phase in (gt.UNREACHABLE, gt.TIMEOUT) or (phase == gt.PARTNER_OFFLINE and r.get("goal_uid")):
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
 
@@ -488,7 +489,8 @@ class ChaosRun:
         else:
             raise ChaosError(f"the relay supervisor of {f.robot} did not start its ends again within 60 s")
         res.cleared = _now()
-        res.detail = f"ends of {', '.join(pairs)} restarted {res.cleared - res.injected:.1f} s after the kill"
+        res.detail = (f"its relay ends of the links with {', '.join(pairs)} restarted "
+                      f"{res.cleared - res.injected:.1f} s after the kill")
         times = [self.link_recovered(f.robot, o, res.cleared) for o in pairs]
         self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
 

@@ -42,6 +42,21 @@ from typing import Any
 
 from gidabot_navigation.building import Building
 from gidabot_navigation.errors import PlanningError
+from gidabot_navigation.guiding_types import (
+    ACCEPTED,
+    CANCELLED_ELSEWHERE,
+    CANCELLED_HERE,
+    FINAL_PHASES,
+    GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
+    PARTNER_BACK,
+    PARTNER_LOST,
+    PARTNER_OFFLINE,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+)
 from gidabot_navigation.tours import Tour
 
 # -- fault kinds ------------------------------------------------------------------------
@@ -60,12 +75,6 @@ GUIDING_NODES = ("goal_manager", "multirobot_navigation")
 FREEZE_TARGETS = ("goal_manager", "multirobot_navigation", "master", "sim", "move_base")
 
 # -- NavEvent phases (gidabot_msgs/NavEvent.msg) ----------------------------------------
-ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR = 0, 1, 2, 3
-UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED = \
-    6, 7, 8, 9, 10, 11, 12
-TOUR_STEP_DONE, TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK = 13, 14, 15, 16
-FINAL = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE,
-                   TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE, TOUR_FINISHED})
 COMPLETIONS = frozenset({GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED})
 VISIBLE_FAILURES = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, CANCELLED_HERE, CANCELLED_ELSEWHERE})
 GUIDING_CALLERS = ("/goal_manager", "/multirobot_navigation")
@@ -421,7 +430,7 @@ class Bookkeeping:
                 robot, phase = str(ev.get("robot")), int(ev.get("phase", -1))
                 if phase == ACCEPTED:
                     accepted_by[robot].add(str(ev.get("uid")))
-                if phase in FINAL:
+                if phase in FINAL_PHASES:
                     finals[robot].add(str(ev.get("uid")))
                 if phase in COMPLETIONS and goal_robot is not None and robot == goal_robot.name:
                     fate.completed = True
@@ -482,7 +491,7 @@ class Bookkeeping:
                 if phase != PARTNER_LOST:
                     continue
                 lost += 1
-                if any(p == PARTNER_BACK or p in FINAL for _, p in items[i + 1:]):
+                if any(p == PARTNER_BACK or p in FINAL_PHASES for _, p in items[i + 1:]):
                     answered += 1
                 else:
                     open_.append(f"{robot} {goal}")

@@ -22,6 +22,7 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.master_watch import keep_registered
 from gidabot_navigation.planning import Path
+from gidabot_navigation.ros_log import RosLog
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.kinematics import ZERO, Limits, Twist2D
@@ -29,14 +30,6 @@ from gidabot_sim.localization import PoseTracker
 from gidabot_sim.move_base_core import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.simclock import Periodic
 from gidabot_sim.world import obstacle_shape
-
-
-class _RosLog:
-    def info(self, msg: str) -> None:
-        rospy.loginfo(msg)
-
-    def warning(self, msg: str) -> None:
-        rospy.logwarn(msg)
 
 
 def path_msg(path: Path, goal_yaw: float, spacing: float, t: float) -> PathMsg:
@@ -113,7 +106,7 @@ class MoveBaseNode:
 
         defaults = NavConfig()
         config = NavConfig(**{name: num(f"~{name}", value) for name, value in defaults.__dict__.items()})
-        self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, _RosLog(),
+        self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
                                            inflation_radius=num("~inflation_radius", robot.radius + 0.7),
                                            cost_scaling=num("~cost_scaling_factor", 3.0),
                                            goal_tolerance=num("~default_tolerance", 0.5))

@@ -6,16 +6,21 @@ import contextlib
 import json
 from dataclasses import dataclass, field
 
-PHASES = {
-    0: "accepted", 1: "on the way", 2: "goal reached", 3: "go to floor", 4: "going to meeting point",
-    5: "waiting for the visitor", 6: "unreachable", 7: "no robot on floor", 8: "cancelled here",
-    9: "cancelled elsewhere", 10: "timeout", 11: "partner offline", 12: "rejected", 13: "tour step done",
-    14: "tour finished", 15: "partner lost (waiting)", 16: "partner back",
-}
-ACCEPTED, GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED = 0, 2, 13, 14
+from gidabot_navigation.guiding_types import (
+    ACCEPTED,
+    GOAL_REACHED,
+    PARTNER_OFFLINE,
+    PHASE_NAMES,
+    REJECTED,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+)
+
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
-FAILURES = {6: "unreachable", 10: "timeout", 11: "partner offline", 12: "rejected"}
+FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
 
 
 @dataclass
@@ -77,7 +82,7 @@ class Progress:
         self.events += 1
         phase = int(rec.get("phase", -1))
         if phase != ACCEPTED:   # every robot involved accepts: not worth a line
-            self.robot, self.phase = str(rec.get("robot", "")), PHASES.get(phase, f"phase {phase}")
+            self.robot, self.phase = str(rec.get("robot", "")), PHASE_NAMES.get(phase, f"phase {phase}")
         uid = str(rec.get("goal_uid", ""))
         if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and uid:
             self.completed.add(uid)

@@ -34,10 +34,20 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-# NavEvent phases (gidabot_msgs/NavEvent.msg); kept here so the report needs no ROS
-ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR = 0, 1, 2, 3
-UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE = 6, 8, 9, 10, 11
-TOUR_STEP_DONE, TOUR_FINISHED = 13, 14
+from gidabot_navigation.guiding_types import (
+    ACCEPTED,
+    CANCELLED_ELSEWHERE,
+    CANCELLED_HERE,
+    GO_TO_FLOOR,
+    GOAL_REACHED,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+)
+
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
 COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
