@@ -13,17 +13,16 @@ from gidabot_gui.flow import Activity, Mode, VisitorFlow
 from gidabot_gui.i18n import Translator
 from gidabot_gui.inbox import Inbox
 from gidabot_gui.model import (
-    Cmd,
     Fleet,
     NavEventData,
     PendingData,
-    Phase,
     PoseData,
     RobotStatusData,
     TourInfo,
 )
 from gidabot_gui.plans import plan_request, tour_ways
 from gidabot_gui.texts import Texts
+from gidabot_navigation.guiding_types import Cmd, Phase
 
 VID = "gui-test"
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",
