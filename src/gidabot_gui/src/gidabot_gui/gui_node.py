@@ -49,10 +49,12 @@ from gidabot_msgs.msg import (
 )
 from gidabot_navigation.building import load_building
 from gidabot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
+from gidabot_navigation.replay import ReplayPublisher
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
 MAX_TOUR_GOALS = 100
+COMMAND_REPLAY_S = 10.0   # wall s of visitor commands replayed to a late subscriber
 
 
 # ---------------------------------------------------------------------- conversions (no master needed)
@@ -263,7 +265,8 @@ class GuiNode:
       - ``tour_store/edit_result`` (gidabot_msgs/TourEditResult): outcome of admin tour edits.
 
     Published topics:
-      - ``visitor/command`` (gidabot_msgs/VisitorCommand): REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP.
+      - ``visitor/command`` (gidabot_msgs/VisitorCommand): REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP;
+        the commands of the last 10 s are sent again to a subscriber that connects late.
       - ``initialpose`` (geometry_msgs/PoseWithCovarianceStamped, frame ``map``): admin Set location.
       - ``tour_store/edit`` (gidabot_msgs/Tour): admin create / edit / delete (``deleted: true``).
 
@@ -283,7 +286,11 @@ class GuiNode:
     def __init__(self, params: Params, inbox: Inbox) -> None:
         self.params = params
         self.receiver = Receiver(params.robot, inbox, lambda m: rospy.logwarn_throttle(10.0, m))
-        self.cmd_pub = rospy.Publisher("visitor/command", VisitorCommand, queue_size=20)
+        # a guiding node that connects late (starting, or respawned) still gets the commands of the last
+        # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
+        # request the visitor was told got no answer is never acted on later.
+        self.cmd_pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=20,
+                                       window=min(COMMAND_REPLAY_S, params.request_timeout / 2))
         self.pose_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=2)
         self.edit_pub = rospy.Publisher("tour_store/edit", Tour, queue_size=10)
         r = self.receiver
