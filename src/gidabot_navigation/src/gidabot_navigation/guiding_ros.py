@@ -25,7 +25,6 @@ POSES_TOPIC = "/gidabot/poses"
 PENDING_TOPIC = "/gidabot/pending"
 
 
-
 def sender(msg: object) -> str:
     """The node that published ``msg`` (its callerid), "" if unknown."""
     header = getattr(msg, "_connection_header", None) or {}

@@ -118,7 +118,6 @@ START_ROBOT = "robot"     # Goal.start_id when the trip starts at the robot's po
 POSE_TOLERANCE = 1.0      # m: a goal_pose this far from its location's pose means the buildings differ
 
 
-
 def same_floor(a: float, b: float) -> bool:
     """True when two floor numbers are the same floor (float32 rounding tolerated)."""
     return math.isfinite(a) and math.isfinite(b) and abs(a - b) < 1e-3
@@ -366,7 +365,6 @@ class Counters(dict):
 
     def inc(self, key: str, n: int = 1) -> None:
         self[key] = self.get(key, 0) + n
-
 
 
 # ---------------------------------------------------------------------------

@@ -113,7 +113,6 @@ class MasterWatchCore:
         self.pending = True
 
 
-
 class _TimeoutTransport(xmlrpc.client.Transport):
     """XML-RPC transport with a per-connection socket timeout (never the process-wide default,
     which rospy itself changes while connecting topics)."""
@@ -370,7 +369,6 @@ class MasterWatch:
             except Exception as err:  # noqa: BLE001 - the watch thread must survive anything
                 self.log.error(f"{self.caller_id}: master watch poll failed: {err!r}")
             self._stop.wait(max(0.0, self.period - (time.monotonic() - start)))
-
 
 
 def rospy_registrations() -> Registrations:

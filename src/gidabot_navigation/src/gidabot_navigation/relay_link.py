@@ -214,7 +214,6 @@ class Delivery:
     msg: Message
 
 
-
 class Phase(Enum):
     WAIT_HELLO = "wait_hello"      # a: sent HELLO, waiting for b's; b: waiting for a's HELLO
     WAIT_READY = "wait_ready"      # b: answered HELLO, waiting for a's READY

@@ -58,7 +58,6 @@ RECV_BYTES = 1 << 18
 DEFAULT_TOPICS = Path(__file__).resolve().parents[2] / "config" / "shared_topics.yaml"
 
 
-
 @dataclass(frozen=True)
 class Params:
     robot_a: str

@@ -72,7 +72,6 @@ FLOOR_TOLERANCE = 1e-3
 NS = 1_000_000_000
 
 
-
 @dataclass(frozen=True)
 class Limits:
     """Bounds on what the store accepts (all overridable by ~params of the node)."""
@@ -204,7 +203,6 @@ def make_record(file_name: str, version: int, editor: str, origin: str, language
     content = format_tour(tour)
     return TourRecord(file_name, version, editor, origin, False, language, content,
                       sha256(content.encode("utf-8")), tour=tour)
-
 
 
 class TourStore:

@@ -32,7 +32,6 @@ INDEX_TOPIC = "/gidabot/tour_index"
 QUEUE_SIZE = 1000
 
 
-
 @dataclass(frozen=True)
 class Params:
     building: str
