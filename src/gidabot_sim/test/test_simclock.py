@@ -7,7 +7,7 @@ import math
 import pytest
 
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.simclock import Periodic, SimClock, tick_period
+from gidabot_sim.simclock import Periodic, SimClock, next_cycle, tick_period
 
 
 def test_floors_with_the_same_start_and_speed_agree() -> None:
@@ -46,3 +46,10 @@ def test_periodic_fires_on_period_boundaries_and_skips_missed_ones() -> None:
     assert p.due(5.12)
     with pytest.raises(SimConfigError):
         Periodic(0.0)
+
+
+def test_next_cycle_keeps_the_period_and_skips_what_a_stall_missed() -> None:
+    assert next_cycle(10.0, 0.1, 10.03) == pytest.approx(10.1)       # on time: one period later
+    assert next_cycle(10.0, 0.1, 10.15) == pytest.approx(10.1)       # a little late: catch up at once
+    assert next_cycle(10.0, 0.1, 12.0) == pytest.approx(12.1)        # stalled: missed cycles skipped
+    assert next_cycle(10.0, 0.1, 3.0) == pytest.approx(3.1)          # time jumped back: re-anchored

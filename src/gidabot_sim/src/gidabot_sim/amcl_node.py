@@ -16,6 +16,7 @@ from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.master_watch import keep_registered
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.exit_guard import rospy_exit_guard
 from gidabot_sim.localization import AmclConfig, AmclCore
 from gidabot_sim.simclock import Periodic
 
@@ -48,6 +49,7 @@ class AmclNode:
       ``~noise_tau`` (s, 3): its correlation time; ``~update_min_d`` (m, 0.1), ``~update_min_a`` (rad, 0.1);
       ``~tf_rate`` (Hz sim, 10), ``~transform_tolerance`` (s, 0.1); ``~global_frame_id`` (map),
       ``~odom_frame_id`` (odom); ``~seed`` (int, -1 = random).
+    Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_sim.exit_guard`).
     """
 
     def __init__(self) -> None:
@@ -118,10 +120,11 @@ class AmclNode:
 
 def main() -> None:
     rospy.init_node("amcl")
+    guard = rospy_exit_guard("amcl")     # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         AmclNode()
     except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"amcl: cannot start: {err}")
         raise SystemExit(1) from err
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)

@@ -5,10 +5,12 @@ from __future__ import annotations
 import math
 import queue
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import actionlib
 import rospy
+import rospy.rostime
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import Odometry
@@ -25,10 +27,11 @@ from gidabot_navigation.planning import Path
 from gidabot_navigation.ros_log import RosLog
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_sim.kinematics import ZERO, Limits, Twist2D
 from gidabot_sim.localization import PoseTracker
 from gidabot_sim.move_base_core import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
-from gidabot_sim.simclock import Periodic
+from gidabot_sim.simclock import Periodic, next_cycle
 from gidabot_sim.world import obstacle_shape
 
 
@@ -87,6 +90,7 @@ class MoveBaseNode:
       ``~stall_threshold`` (s, 1: a longer gap between two control cycles means this process was starved
       or frozen; that time is not held against the goal's patience timers).
       All times are sim time.
+    Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_sim.exit_guard`).
     """
 
     def __init__(self) -> None:
@@ -276,29 +280,53 @@ class MoveBaseNode:
             if self.plan_pub.get_num_connections():
                 self.plan_pub.publish(path_msg(path.plan, goal.yaw, self.spacing, now))
 
-    def run(self) -> None:
-        rate = rospy.Rate(self.rate_hz)
-        while not rospy.is_shutdown():
+    def run(self, guard: ExitGuard) -> None:
+        """The control loop at ``~controller_frequency`` (ROS time) until shutdown. Stops at the first
+        signal (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only
+        then closes the topics (see :mod:`gidabot_sim.exit_guard`)."""
+        guard.set_wake(self.wake.set)
+        try:
+            self._loop(lambda: rospy.is_shutdown() or guard.requested)
+        except rospy.ROSException:
+            if not guard.requested:    # a topic closed under a publish blocked past the guard's wait
+                raise
+        finally:
+            guard.loop_stopped()
+
+    def _loop(self, stop: Callable[[], bool]) -> None:
+        period = 1.0 / self.rate_hz
+        due = rospy.get_time()
+        while not stop():
             if self.core.state is State.IDLE and self.events.empty():
                 self.wake.wait(0.5)           # idle: sleep until a goal (or an obstacle update) arrives
                 self.wake.clear()
                 if self.events.empty():
                     continue
             self._cycle()
-            try:
-                rate.sleep()
-            except rospy.ROSTimeMovedBackwardsException:
-                rate = rospy.Rate(self.rate_hz)
-            except rospy.ROSInterruptException:
+            due = next_cycle(due, period, rospy.get_time())
+            self._sleep_until(due, period, stop)
+
+    @staticmethod
+    def _sleep_until(t: float, period: float, stop: Callable[[], bool]) -> None:
+        """rospy.Rate.sleep in ROS time, but ending within 50 ms wall of ``stop()`` (rospy's sleep only
+        notices a shutdown, and every 0.5 s while the clock stands still) and at a jump back in time."""
+        cond = rospy.rostime.get_rostime_cond()       # notified at every /clock message
+        while not stop():
+            now = rospy.get_time()
+            if now >= t or now < t - 2 * period:
                 return
+            with cond:
+                cond.wait(min(0.05, t - now))
 
 
 def main() -> None:
     rospy.init_node("move_base")
+    guard = rospy_exit_guard("move_base", main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         node = MoveBaseNode()
     except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"move_base: cannot start: {err}")
         raise SystemExit(1) from err
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)    # the shutdown runs in the guard's thread, never in this one

@@ -33,6 +33,7 @@ from gidabot_navigation.geometry import Pose2D
 from gidabot_navigation.master_watch import keep_registered
 from gidabot_sim import ros_util as ru
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
+from gidabot_sim.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_sim.kinematics import Limits
 from gidabot_sim.simclock import Periodic, SimClock, tick_period
 from gidabot_sim.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
@@ -186,6 +187,8 @@ class SimNode:
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1).
+    Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM, whatever state the master
+      and the subscribers are in (:mod:`gidabot_sim.exit_guard`).
     """
 
     def __init__(self) -> None:
@@ -419,12 +422,25 @@ class SimNode:
             self._own_time(now)
 
     # -- main loop -----------------------------------------------------------------
-    def run(self) -> None:
-        """Tick on the wall clock until shutdown: events, physics to the clock, /clock, sensors."""
+    def run(self, guard: ExitGuard) -> None:
+        """Tick on the wall clock until shutdown: events, physics to the clock, /clock, sensors.
+
+        Stops at the first signal (``guard.requested``, checked every tick, i.e. every <= 0.2 s wall) and
+        tells the guard, which only then closes the topics (rospy's own handler closed them from inside
+        this loop, possibly in the middle of a publish: see :mod:`gidabot_sim.exit_guard`)."""
+        try:
+            self._loop(guard)
+        except rospy.ROSException:
+            if not guard.requested:    # a topic closed under a publish blocked past the guard's wait
+                raise
+        finally:
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         self._stop_listening_to_own_clock()
         started = False
         next_tick = time.time()
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             wall = time.time()
             target = self.clock.sim_time(wall)
             if target < 0.0:
@@ -458,10 +474,12 @@ class SimNode:
 
 def main() -> None:
     rospy.init_node("sim")
+    guard = rospy_exit_guard("sim", main_loop=True)    # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         node = SimNode()
     except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
         rospy.logfatal(f"sim: cannot start: {err}")
         raise SystemExit(1) from err
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)    # the shutdown runs in the guard's thread, never in this one

@@ -79,3 +79,13 @@ class Periodic:
 
     def reset(self) -> None:
         self.next = 0.0
+
+
+def next_cycle(due: float, period: float, now: float) -> float:
+    """When the next cycle of a ``period`` loop is due, after the one due at ``due`` ran at ``now``
+    (rospy.Rate's rule): one period later, but re-anchored at ``now`` when the loop fell more than a
+    period behind (missed cycles are skipped, not run back to back) or time jumped back."""
+    nxt = due + period
+    if nxt < now - period or nxt > now + period:
+        return now + period
+    return nxt
