@@ -167,9 +167,12 @@ def test_a_second_signal_exits_at_once(make_guard) -> None:
     frozen = threading.Event()
     fake_exit = FakeExit()
     try:
-        make_guard(lambda _r: frozen.wait(), exit=fake_exit, grace=30.0)
+        guard = make_guard(lambda _r: frozen.wait(), exit=fake_exit, grace=30.0)
         kill_self(signal.SIGINT)
-        time.sleep(0.05)
+        deadline = time.monotonic() + 1.0
+        while not guard.requested and time.monotonic() < deadline:     # the first one was handled
+            time.sleep(0.005)
+        assert guard.requested
         sent = kill_self(signal.SIGTERM)
         assert fake_exit.called.wait(1.0)
         assert fake_exit.calls[0][0] - sent < 0.5

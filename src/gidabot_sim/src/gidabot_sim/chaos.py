@@ -457,18 +457,23 @@ class ChaosRun:
         res.cleared = _now()
         self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
 
+    def _stop_for(self, pgid: int, duration: float, res: cc.FaultResult) -> None:
+        """SIGSTOP the process group ``pgid`` for ``duration`` s, then SIGCONT (also when interrupted);
+        ``res`` gets the injection and clearing times."""
+        res.injected = _now()
+        os.killpg(pgid, signal.SIGSTOP)
+        try:
+            self.pause(duration)
+        finally:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(pgid, signal.SIGCONT)
+        res.cleared = _now()
+
     def _cut_relay_end(self, f: cc.Fault, res: cc.FaultResult) -> None:
         pid = self.relay_end_pid(f.robot, f.other, f.target)
         if pid is None:
             raise ChaosError(f"relay end {f.robot}_{f.other}.{f.target} not found")
-        res.injected = _now()
-        os.killpg(pid, signal.SIGSTOP)
-        try:
-            self.pause(f.duration)
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(pid, signal.SIGCONT)
-        res.cleared = _now()
+        self._stop_for(pid, f.duration, res)
         res.detail = f"pid {pid}"
         self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
 
@@ -531,14 +536,7 @@ class ChaosRun:
             pgid = self.sim.procs.get(f"master_{f.robot}").popen.pid
         else:
             pgid = self.node_pid(f.robot, f.target)
-        res.injected = _now()
-        os.killpg(pgid, signal.SIGSTOP)
-        try:
-            self.pause(f.duration)
-        finally:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(pgid, signal.SIGCONT)
-        res.cleared = _now()
+        self._stop_for(pgid, f.duration, res)
         others = [r for r in self.probes if r != f.robot]
         if f.target == "goal_manager":
             self._recovery(res, self.first_everywhere("pending", f.robot, others, res.cleared))
