@@ -13,8 +13,8 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.building import Building, load_building, relocate_building
-from gidabot_navigation.procs import ProcessGroup, robot_address, ros_env, start_master
+from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"
@@ -40,7 +40,7 @@ class SimBuilding:
 
     def restart_master(self, robot: str) -> None:
         self.procs.restart(f"master_{robot}")
-        from gidabot_navigation.procs import master_pid, wait_until
+        from gidabot_sim.runner.procs import master_pid, wait_until
 
         uri = self.building.robot(robot).master_uri
         wait_until(lambda: master_pid(uri) is not None, 15.0, f"master of {robot} back")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from probe import Probe
 
-from gidabot_navigation.procs import ProcessError, wait_until
+from gidabot_sim.runner.procs import ProcessError, wait_until
 
 REPO = Path(__file__).resolve().parents[1]
 RELAYS_LAUNCH = REPO / "launch" / "relays.launch"

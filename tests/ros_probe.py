@@ -12,7 +12,7 @@ Driven by JSON lines on stdin, one JSON reply line on stdout per command (see
     {"op": "quit"}
 
 Messages are converted to and from plain dicts (times as float seconds). The probe keeps
-itself registered across master restarts (gidabot_navigation.master_watch.keep_registered).
+itself registered across master restarts (gidabot_navigation.ros.master_watch.keep_registered).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ import genpy
 import roslib.message
 import rospy
 
-from gidabot_navigation.master_watch import keep_registered
+from gidabot_navigation.ros.master_watch import keep_registered
 
 
 def to_dict(value: object) -> object:

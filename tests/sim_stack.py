@@ -5,7 +5,7 @@
         uid = stack.request("Tartalo", "305", way="stairs")
         stack.wait_event("Tartalo", phase=GOAL_REACHED, goal_uid=uid, timeout=60)
 
-The building is `gidabot_sim.building_runner.SimulatedBuilding` (the scaffolding of `gidabot demo`):
+The building is `gidabot_sim.runner.building_runner.SimulatedBuilding` (the scaffolding of `gidabot demo`):
 one master per robot on this test session's loopback addresses (`procs.robot_address`), the building
 relocated to them, `launch/robot.launch sim:=true gui:=false` per robot, every process in its own
 process group and stopped by group (and by process tree) when the stack closes. One
@@ -22,9 +22,9 @@ from pathlib import Path
 
 from probe import Probe, ProbeError
 
-from gidabot_navigation.building import Building
-from gidabot_navigation.procs import robot_address, wait_until
-from gidabot_sim.building_runner import SimulatedBuilding
+from gidabot_navigation.building.model import Building
+from gidabot_sim.runner.building_runner import SimulatedBuilding
+from gidabot_sim.runner.procs import robot_address, wait_until
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"

@@ -23,8 +23,8 @@ from pathlib import Path
 from relay_system import RelayMesh
 from tour_system import FACULTY, TOUR, start_store
 
-from gidabot_navigation.building import Building, load_building, relocate_building
-from gidabot_navigation.procs import (
+from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_sim.runner.procs import (
     ProcessError,
     ProcessGroup,
     master_pid,

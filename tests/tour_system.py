@@ -6,7 +6,7 @@ import os
 import time
 from pathlib import Path
 
-from gidabot_navigation.procs import ProcessGroup, robot_address
+from gidabot_sim.runner.procs import ProcessGroup, robot_address
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"

@@ -1,4 +1,4 @@
-"""How long the sim, move_base and amcl stand-ins take to exit on SIGINT (gidabot_sim.exit_guard).
+"""How long the sim, move_base and amcl stand-ins take to exit on SIGINT (gidabot_navigation.ros.exit_guard).
 
 Starts them on one master (plus two probe subscribers), SIGINTs all three at once as roslaunch does,
 under a chosen condition (plain, a frozen subscriber, a restarted or a frozen master), and prints
@@ -21,8 +21,8 @@ REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 from probe import Probe  # noqa: E402
 
-from gidabot_navigation.building import load_building, relocate_building  # noqa: E402
-from gidabot_navigation.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until  # noqa: E402
+from gidabot_navigation.building.model import load_building, relocate_building  # noqa: E402
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until  # noqa: E402
 
 FACULTY = REPO / "maps" / "faculty"
 NODES = REPO / "src" / "gidabot_sim" / "nodes"

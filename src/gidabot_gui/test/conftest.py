@@ -29,7 +29,7 @@ SHOTS = Path(os.environ.get("GIDABOT_SCREENSHOT_DIR", REPO / "docs" / "screensho
 
 @pytest.fixture(scope="session")
 def faculty():
-    from gidabot_navigation.building import load_building
+    from gidabot_navigation.building.model import load_building
 
     return load_building(FACULTY)
 
@@ -280,7 +280,7 @@ def big_building(tmp_path_factory: pytest.TempPathFactory):
     """The faculty grown to 8 floors and 8 robots (for the 10 Hz x 8 robots test)."""
     import yaml
 
-    from gidabot_navigation.building import load_building
+    from gidabot_navigation.building.model import load_building
 
     dest = tmp_path_factory.mktemp("big") / "faculty8"
     shutil.copytree(FACULTY, dest)

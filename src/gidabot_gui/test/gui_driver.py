@@ -30,7 +30,7 @@ def main() -> int:
     from gidabot_gui.inbox import Inbox
     from gidabot_gui.speech import NullSpeaker
     from gidabot_gui.window import GuiConfig, MainWindow
-    from gidabot_navigation.building import load_building
+    from gidabot_navigation.building.model import load_building
 
     rospy.init_node("gui", disable_signals=True)
     app = QApplication(sys.argv[:1])

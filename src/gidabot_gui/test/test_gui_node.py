@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from probe import Probe
 
-from gidabot_navigation.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
 REPO = Path(__file__).resolve().parents[3]

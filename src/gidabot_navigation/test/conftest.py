@@ -14,7 +14,7 @@ TOURS = REPO / "tours"
 
 @pytest.fixture(scope="session")
 def faculty():
-    from gidabot_navigation.building import load_building
+    from gidabot_navigation.building.model import load_building
 
     return load_building(FACULTY)
 

@@ -13,9 +13,9 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from gidabot_navigation.building import Building
-from gidabot_navigation.goal_manager_core import GoalManagerConfig, GoalManagerCore
-from gidabot_navigation.guiding_types import (
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
+from gidabot_navigation.guiding.messages import (
     CANCEL,
     CONTINUE,
     REQUEST,
@@ -31,9 +31,9 @@ from gidabot_navigation.guiding_types import (
     StopMoving,
     Trip,
 )
-from gidabot_navigation.navigation_core import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.tour_mode import CatalogEntry
-from gidabot_navigation.tours import parse_tour
+from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.guiding.tour_mode import CatalogEntry
+from gidabot_navigation.tours.tour_file import parse_tour
 
 
 class ListLog:

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gidabot_navigation.relay_journal import Journal
-from gidabot_navigation.relay_link import Close, LinkConfig, LinkCore, Send, TopicSpec
+from gidabot_navigation.relay.end import Close, LinkConfig, LinkCore, Send, TopicSpec
+from gidabot_navigation.relay.journal import Journal
 
 TOPICS = (TopicSpec("/gidabot/goals", "gidabot_msgs/Goal", "event"),
           TopicSpec("/gidabot/cancels", "gidabot_msgs/Cancel", "event"),

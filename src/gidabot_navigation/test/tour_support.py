@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from gidabot_navigation.tour_store import TourMessage, TourStore
+from gidabot_navigation.tours.tour_store import TourMessage, TourStore
 
 REPO = Path(__file__).resolve().parents[3]
 TOURS = REPO / "tours"

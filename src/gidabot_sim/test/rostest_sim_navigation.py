@@ -31,8 +31,8 @@ from std_srvs.srv import Empty
 from tf2_msgs.msg import TFMessage
 
 from gidabot_msgs.msg import Obstacle
-from gidabot_navigation.geometry import Pose2D, quaternion_to_yaw
-from gidabot_sim.ros_util import pose_msg
+from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
+from gidabot_sim.ros.convert import pose_msg
 
 NAME = "sim_navigation"
 

@@ -17,10 +17,10 @@ from dataclasses import dataclass
 
 from gidabot_gui.errors import ConfigError, TourEditError
 from gidabot_gui.model import InitialPose, TourEdit
-from gidabot_navigation.building import Building, format_floor
+from gidabot_navigation.building.geometry import BlueprintTransform
+from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError
-from gidabot_navigation.geometry import BlueprintTransform
-from gidabot_navigation.tours import MAX_FILE_NAME, TOUR_SUFFIX, TourGoal, tour_from_lines
+from gidabot_navigation.tours.tour_file import MAX_FILE_NAME, TOUR_SUFFIX, TourGoal, tour_from_lines
 
 MAX_FAILURES = 5
 LOCKOUT = 30.0          # s

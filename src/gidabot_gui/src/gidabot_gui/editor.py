@@ -20,7 +20,7 @@ from gidabot_gui.i18n import LANGUAGE_NAMES, LANGUAGES, Translator
 from gidabot_gui.pages import KEY, MAIN, RowDelegate, fold, make_list, row
 from gidabot_gui.theme import DANGER, MUTED, Theme, icon
 from gidabot_gui.widgets import FitLabel, Keyboard, WrapButton
-from gidabot_navigation.building import Building
+from gidabot_navigation.building.model import Building
 
 
 class _FocusWatch(QObject):

@@ -1,7 +1,7 @@
 """One floor's blueprint with the robots on it (and, in admin mode, Set location).
 
 Map metres -> blueprint pixels by the building's
-:class:`~gidabot_navigation.geometry.BlueprintTransform`; blueprint pixels ->
+:class:`~gidabot_navigation.building.geometry.BlueprintTransform`; blueprint pixels ->
 widget pixels by :class:`ViewMapping` (the blueprint is scaled to fit, centred).
 """
 
@@ -15,7 +15,7 @@ from PyQt5.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainter, QPainterP
 from PyQt5.QtWidgets import QSizePolicy, QWidget
 
 from gidabot_gui.theme import ACCENT, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
-from gidabot_navigation.building import Floor
+from gidabot_navigation.building.model import Floor
 
 
 @dataclass(frozen=True)

@@ -47,9 +47,9 @@ from gidabot_msgs.msg import (
     TourEditResult,
     VisitorCommand,
 )
-from gidabot_navigation.building import load_building
-from gidabot_navigation.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.replay import ReplayPublisher
+from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.ros.replay import ReplayPublisher
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
@@ -345,9 +345,9 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, on_signal)
     rospy.init_node("gui", argv=argv, disable_signals=True)
     try:
-        from gidabot_navigation.master_watch import keep_registered
+        from gidabot_navigation.ros.master_watch import keep_registered
     except ImportError:
-        rospy.logwarn("gui: gidabot_navigation.master_watch is missing: the GUI will not survive a master restart")
+        rospy.logwarn("gui: gidabot_navigation.ros.master_watch is missing: the GUI will not survive a master restart")
     else:
         keep_registered()
     try:

@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from gidabot_navigation.building import Building, Robot
-from gidabot_navigation.tours import Tour as TourFile
+from gidabot_navigation.building.model import Building, Robot
+from gidabot_navigation.tours.tour_file import Tour as TourFile
 
 MAX_TEXT = 256          # longer strings from other nodes are cut (hostile or broken input)
 OFFLINE_AFTER = 5.0     # s (wall) without a status before a robot is shown offline

@@ -34,7 +34,7 @@ from gidabot_gui.floor_view import FloorView
 from gidabot_gui.i18n import Translator
 from gidabot_gui.theme import ACCENT, BORDER, MUTED, OFFLINE, OTHER_ROBOT, PRIMARY, TEXT, Theme, icon
 from gidabot_gui.widgets import WRAP, ButtonGrid, FitLabel, WrapButton, fit_font, touch_scroll
-from gidabot_navigation.building import Building, Floor, Location
+from gidabot_navigation.building.model import Building, Floor, Location
 
 KEY, BADGE, MAIN, SIDE, STATE = (Qt.UserRole + i for i in range(5))
 

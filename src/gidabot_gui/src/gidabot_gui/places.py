@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gidabot_navigation.building import Building
+from gidabot_navigation.building.model import Building
 
 NEAR = 2.5   # m: closer than this the robot is "at" the place, else "near" it
 

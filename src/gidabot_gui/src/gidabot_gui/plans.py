@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from gidabot_gui.model import WAY_LIFT, WAY_STAIRS, Fleet, TourInfo
-from gidabot_navigation.building import Building
+from gidabot_navigation.building.model import Building
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from gidabot_gui.i18n import N_, Translator
 from gidabot_gui.model import WAY_LIFT, TourInfo, finite
 from gidabot_gui.places import floor_name, place_name
 from gidabot_gui.plans import RequestPlan, RobotWait
-from gidabot_navigation.building import Building
+from gidabot_navigation.building.model import Building
 
 
 @dataclass(frozen=True)

@@ -58,7 +58,7 @@ from gidabot_gui.speech import NullSpeaker, Speaker
 from gidabot_gui.texts import Texts
 from gidabot_gui.theme import ACCENT, DANGER, HEADER_TEXT, MUTED, OFFLINE, OTHER_ROBOT, Theme, icon
 from gidabot_gui.widgets import FitLabel, WrapButton, equalize_fonts
-from gidabot_navigation.building import Building
+from gidabot_navigation.building.model import Building
 
 EVENT_ICONS = {
     "ON_THE_WAY": "walk", "GO_TO_FLOOR": "stairs", "WAITING_VISITOR": "robot", "GOAL_REACHED": "flag",

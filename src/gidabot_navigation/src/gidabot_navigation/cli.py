@@ -1,42 +1,67 @@
-"""``bin/gidabot``: the one entry point for people.
+"""``gidabot check`` (also ``python -m gidabot_navigation.cli``): validate a building, or tour files against one.
 
-Each subcommand lives in its own module with a ``main(argv) -> int``; modules are
-imported only when their subcommand runs, so ``check`` works without ROS running.
+    gidabot check maps/faculty
+    gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
+
+Prints every problem (file, key or line, value) and exits 1 if there is any.
 """
 
 from __future__ import annotations
 
-import importlib
-import sys
+import argparse
+from pathlib import Path
 
-# subcommand -> (module, one-line help). Keep sorted.
-COMMANDS: dict[str, tuple[str, str]] = {
-    "bench": ("gidabot_navigation.cli_bench", "benchmarks: 'bench relay', 'bench sim' (--json)"),
-    "chaos": ("gidabot_sim.chaos", "run a tour while injecting faults (links, masters, nodes, hostile input); table"),
-    "check": ("gidabot_navigation.cli_check", "validate a building directory or tour files"),
-    "demo": ("gidabot_sim.demo", "run the simulated building through a tour, record it, print the tables"),
-    "report": ("gidabot_sim.report", "the paper's tables and path plots from a run folder's rosbags"),
-}
+from gidabot_navigation.building.model import Building, load_building
+from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 
 
-def usage() -> str:
-    lines = ["usage: gidabot <command> [options]   (gidabot <command> --help for its options)", "", "commands:"]
-    lines += [f"  {name:<8} {text}" for name, (_, text) in sorted(COMMANDS.items())]
-    return "\n".join(lines)
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="gidabot check", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("paths", nargs="+", type=Path, help="building directory/YAML, or tour files")
+    parser.add_argument("--building", type=Path, help="building to check tours against (rooms, floors)")
+    args = parser.parse_args(argv)
 
-
-def main(argv: list[str] | None = None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
-    if not argv or argv[0] in ("-h", "--help", "help"):
-        print(usage())
-        return 0
-    name, rest = argv[0], argv[1:]
-    if name not in COMMANDS:
-        print(f"gidabot: unknown command {name!r}\n\n{usage()}", file=sys.stderr)
-        return 2
-    module = importlib.import_module(COMMANDS[name][0])
-    return int(module.main(rest) or 0)
+    building: Building | None = None
+    if args.building is not None:
+        try:
+            building = load_building(args.building)
+        except BuildingError as err:
+            print(f"building {args.building}: {err}")
+            return 1
+    failures = 0
+    for path in args.paths:
+        if path.is_dir() or path.suffix in (".yaml", ".yml"):
+            try:
+                b = load_building(path)
+            except BuildingError as err:
+                print(f"FAIL {path}: {err}")
+                failures += 1
+                continue
+            print(f"ok   {path}: building {b.id!r}: {len(b.floors)} floors, {len(b.locations)} locations, "
+                  f"{len(b.connectors)} connectors, {len(b.robots)} robots, {len(b.relay_pairs())} relays")
+            continue
+        try:
+            check_tour_file_name(path.name)
+            data = path.read_bytes()
+            tour = parse_tour(data, path.name, building, source=str(path))
+        except (TourError, TourNameError) as err:
+            print(f"FAIL {path}: {err}")
+            failures += 1
+            continue
+        except OSError as err:
+            print(f"FAIL {path}: cannot read: {err.strerror}")
+            failures += 1
+            continue
+        floors = sorted({g.floor for g in tour.goals})
+        note = "" if building else " (rooms not checked: pass --building)"
+        print(f"ok   {path}: tour {tour.display_name!r}: {len(tour.goals)} goals on floors "
+              f"{', '.join(f'{f:g}' for f in floors)}{note}")
+    return 1 if failures else 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    import sys
+
+    sys.exit(main(sys.argv[1:]))

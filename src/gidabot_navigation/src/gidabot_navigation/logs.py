@@ -1,6 +1,6 @@
 """Logging the cores share (ROS-free): the logger protocol and a per-key rate limiter.
 
-The nodes pass rospy's logger (:class:`gidabot_navigation.ros_log.RosLog`), tests a list.
+The nodes pass rospy's logger (:class:`gidabot_navigation.ros.log.RosLog`), tests a list.
 """
 
 from __future__ import annotations

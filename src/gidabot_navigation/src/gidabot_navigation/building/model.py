@@ -1,0 +1,557 @@
+"""The building model (ROS-free): floors, locations, connectors and robots.
+
+One YAML file per building, ``maps/<building>/building.yaml``; its format is
+documented in ``docs/building-format.md``. :func:`load_building` validates
+everything and raises one :class:`BuildingError` listing every problem with
+file, key and value, so a new building needs only data files, no code.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from urllib.parse import urlparse
+
+import yaml
+
+from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
+from gidabot_navigation.building.occupancy import OccupancyMap, load_map
+from gidabot_navigation.errors import BuildingError, MapError, Problem
+
+LANGUAGES = ("eu", "en", "es")
+CONNECTOR_KINDS = ("lift", "stairs")
+DRIVE_TYPES = ("differential", "synchro")
+CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
+FLOOR_TOLERANCE = 1e-3
+_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$")
+_ROBOT_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
+
+
+def format_floor(floor: float) -> str:
+    """'0' for 0.0, '0.5' for 0.5: how floors are written in files and shown."""
+    return str(int(floor)) if float(floor).is_integer() else f"{floor:g}"
+
+
+@dataclass(frozen=True)
+class Floor:
+    id: float
+    names: dict[str, str]
+    map_file: Path
+    blueprint_file: Path
+    transform: BlueprintTransform
+    map: OccupancyMap = field(repr=False, compare=False)
+
+    @property
+    def label(self) -> str:
+        return format_floor(self.id)
+
+
+@dataclass(frozen=True)
+class Location:
+    id: str
+    floor: float
+    pose: Pose2D
+    names: dict[str, str]
+    category: str
+    featured: bool = False
+
+    def name(self, language: str) -> str:
+        return self.names.get(language) or self.names["en"]
+
+
+@dataclass(frozen=True)
+class Connector:
+    id: str
+    kind: str                       # "lift" or "stairs"
+    names: dict[str, str]
+    meeting: dict[float, Pose2D]    # floor id -> meeting pose on that floor
+
+    def name(self, language: str) -> str:
+        return self.names.get(language) or self.names["en"]
+
+
+@dataclass(frozen=True)
+class Robot:
+    name: str
+    floor: float
+    master_uri: str
+    drive: str                 # "differential" or "synchro"
+    max_linear: float          # m/s
+    max_angular: float         # rad/s
+    max_linear_accel: float    # m/s^2
+    max_angular_accel: float   # rad/s^2
+    radius: float              # m
+    home: Pose2D
+
+    @property
+    def ip(self) -> str:
+        """IP address of the robot's master (ROS_IP of its nodes)."""
+        return urlparse(self.master_uri).hostname or ""
+
+    @property
+    def port(self) -> int:
+        return urlparse(self.master_uri).port or 11311
+
+
+@dataclass(frozen=True)
+class Building:
+    id: str
+    name: str
+    path: Path
+    floors: tuple[Floor, ...]
+    locations: tuple[Location, ...]
+    connectors: tuple[Connector, ...]
+    robots: tuple[Robot, ...]
+
+    # -- lookups --------------------------------------------------------
+    def floor_ids(self) -> list[float]:
+        return [f.id for f in self.floors]
+
+    def find_floor(self, value: float) -> Floor | None:
+        """The floor whose id is ``value`` (within float32 rounding), or None."""
+        if not isinstance(value, (int, float)) or not math.isfinite(value):
+            return None
+        for f in self.floors:
+            if abs(f.id - value) < FLOOR_TOLERANCE:
+                return f
+        return None
+
+    def floor(self, value: float) -> Floor:
+        found = self.find_floor(value)
+        if found is None:
+            raise KeyError(f"unknown floor {value!r}; the building has floors "
+                           f"{', '.join(f.label for f in self.floors)}")
+        return found
+
+    def find_location(self, location_id: str) -> Location | None:
+        return next((loc for loc in self.locations if loc.id == location_id), None)
+
+    def location(self, location_id: str) -> Location:
+        found = self.find_location(location_id)
+        if found is None:
+            raise KeyError(f"unknown location {location_id!r}")
+        return found
+
+    def locations_on(self, floor: float) -> list[Location]:
+        f = self.floor(floor)
+        return [loc for loc in self.locations if loc.floor == f.id]
+
+    def find_connector(self, connector_id: str) -> Connector | None:
+        return next((c for c in self.connectors if c.id == connector_id), None)
+
+    def connectors_between(self, a: float, b: float, kind: str | None = None) -> list[Connector]:
+        """Connectors of ``kind`` (any if None) that serve both floors."""
+        fa, fb = self.floor(a).id, self.floor(b).id
+        return [c for c in self.connectors
+                if fa in c.meeting and fb in c.meeting and (kind is None or c.kind == kind)]
+
+    def find_robot(self, name: str) -> Robot | None:
+        return next((r for r in self.robots if r.name == name), None)
+
+    def robot(self, name: str) -> Robot:
+        found = self.find_robot(name)
+        if found is None:
+            raise KeyError(f"unknown robot {name!r}; the building has "
+                           f"{', '.join(r.name for r in self.robots)}")
+        return found
+
+    def robot_on(self, floor: float) -> Robot | None:
+        """The robot serving ``floor``, or None (the visitor finds the place alone)."""
+        f = self.find_floor(floor)
+        if f is None:
+            return None
+        return next((r for r in self.robots if r.floor == f.id), None)
+
+    def relay_pairs(self) -> list[tuple[Robot, Robot]]:
+        """Every pair (a, b) with a before b in the robot list: n(n-1)/2 relays, a starts each."""
+        return [(a, b) for i, a in enumerate(self.robots) for b in self.robots[i + 1:]]
+
+    def with_master_uris(self, uris: dict[str, str]) -> Building:
+        """A copy whose robots use the given master URIs (tests and the simulated building)."""
+        robots = tuple(_replace_robot(r, uris.get(r.name, r.master_uri)) for r in self.robots)
+        return Building(self.id, self.name, self.path, self.floors, self.locations,
+                        self.connectors, robots)
+
+
+def relocate_building(src: str | Path, dest_dir: str | Path, master_uris: dict[str, str]) -> Path:
+    """Write a copy of building ``src`` into ``dest_dir`` with other master URIs; return its path.
+
+    Map and blueprint paths become absolute so the copy needs no other file. Used by
+    tests, benchmarks and the demo to run a building on free loopback ports.
+    """
+    src_path = Path(src)
+    if src_path.is_dir():
+        src_path = src_path / "building.yaml"
+    doc = yaml.safe_load(src_path.read_text(encoding="utf-8"))
+    for floor in doc.get("floors", []):
+        for key in ("map", "blueprint"):
+            if isinstance(floor.get(key), str):
+                floor[key] = str((src_path.parent / floor[key]).resolve())
+    for robot in doc.get("robots", []):
+        if robot.get("name") in master_uris:
+            robot["master_uri"] = master_uris[robot["name"]]
+    dest = Path(dest_dir)
+    dest.mkdir(parents=True, exist_ok=True)
+    out = dest / "building.yaml"
+    out.write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True), encoding="utf-8")
+    return out
+
+
+def _replace_robot(robot: Robot, uri: str) -> Robot:
+    from dataclasses import replace
+
+    return replace(robot, master_uri=uri)
+
+
+# ---------------------------------------------------------------------------
+# Loading and validation
+# ---------------------------------------------------------------------------
+
+class _Checker:
+    """Collects problems while reading one building file."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self.problems: list[Problem] = []
+
+    def problem(self, where: str, message: str) -> None:
+        self.problems.append(Problem(str(self.path), where, message))
+
+    def mapping(self, value: object, where: str) -> dict:
+        if isinstance(value, dict):
+            return value
+        self.problem(where, f"expected a mapping, got {_show(value)}")
+        return {}
+
+    def seq(self, value: object, where: str) -> list:
+        if isinstance(value, list):
+            return value
+        self.problem(where, f"expected a list, got {_show(value)}")
+        return []
+
+    def keys(self, doc: dict, where: str, required: tuple[str, ...], optional: tuple[str, ...] = ()) -> bool:
+        ok = True
+        for key in required:
+            if key not in doc:
+                self.problem(f"{where}.{key}" if where else key, "is missing")
+                ok = False
+        for key in doc:
+            if key not in required and key not in optional:
+                allowed = ", ".join(required + optional)
+                self.problem(f"{where}.{key}" if where else str(key), f"unknown key (expected one of: {allowed})")
+        return ok
+
+    def number(self, value: object, where: str, positive: bool = False) -> float | None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.problem(where, f"{_show(value)} is not a number")
+            return None
+        number = float(value)
+        if not math.isfinite(number):
+            self.problem(where, f"{_show(value)} is not a finite number")
+            return None
+        if positive and number <= 0:
+            self.problem(where, f"{_show(value)} must be > 0")
+            return None
+        return number
+
+    def text(self, value: object, where: str) -> str | None:
+        if not isinstance(value, str) or not value.strip():
+            self.problem(where, f"{_show(value)} must be a non-empty string")
+            return None
+        return value
+
+    def names(self, value: object, where: str) -> dict[str, str]:
+        doc = self.mapping(value, where)
+        out: dict[str, str] = {}
+        for lang in LANGUAGES:
+            if lang not in doc:
+                self.problem(f"{where}.{lang}", "is missing (names are needed in eu, en and es)")
+                continue
+            name = self.text(doc[lang], f"{where}.{lang}")
+            if name is not None:
+                out[lang] = name
+        for lang in doc:
+            if lang not in LANGUAGES:
+                self.problem(f"{where}.{lang}", f"unknown language (expected {', '.join(LANGUAGES)})")
+        return out
+
+    def pose(self, value: object, where: str) -> Pose2D | None:
+        if not isinstance(value, list) or len(value) != 3:
+            self.problem(where, f"{_show(value)} must be a list [x, y, yaw] (m, m, rad)")
+            return None
+        nums = [self.number(v, f"{where}[{i}]") for i, v in enumerate(value)]
+        if any(n is None for n in nums):
+            return None
+        return Pose2D(*nums)  # type: ignore[arg-type]
+
+    def file(self, value: object, where: str) -> Path | None:
+        name = self.text(value, where)
+        if name is None:
+            return None
+        path = Path(name)
+        if not path.is_absolute():
+            path = self.path.parent / path
+        if not path.is_file():
+            self.problem(where, f"{name!r}: file not found ({path})")
+            return None
+        return path
+
+
+def _show(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def load_building(path: str | Path) -> Building:
+    """Load and validate ``building.yaml`` (or a directory holding one).
+
+    Raises :class:`BuildingError` listing every problem found.
+    """
+    path = Path(path)
+    if path.is_dir():
+        path = path / "building.yaml"
+    chk = _Checker(path)
+    try:
+        raw = path.read_text(encoding="utf-8")
+    except OSError as err:
+        raise BuildingError([Problem(str(path), "file", f"cannot read: {err.strerror}")]) from err
+    except UnicodeDecodeError as err:
+        raise BuildingError([Problem(str(path), "file", f"not UTF-8 text: {err}")]) from err
+    try:
+        doc = yaml.safe_load(raw)
+    except yaml.YAMLError as err:
+        raise BuildingError([Problem(str(path), "file", f"not valid YAML: {err}")]) from err
+    doc = chk.mapping(doc, "(top level)")
+    chk.keys(doc, "", ("id", "name", "floors", "locations", "connectors", "robots"))
+    building_id = chk.text(doc.get("id", "x"), "id") or ""
+    building_name = chk.text(doc.get("name", "x"), "name") or ""
+
+    floors = _load_floors(chk, doc.get("floors", []))
+    by_floor = {f.id: f for f in floors}
+    locations = _load_locations(chk, doc.get("locations", []), by_floor)
+    connectors = _load_connectors(chk, doc.get("connectors", []), by_floor, {loc.id for loc in locations})
+    robots = _load_robots(chk, doc.get("robots", []), by_floor)
+
+    if chk.problems:
+        raise BuildingError(chk.problems)
+    return Building(building_id, building_name, path, tuple(floors), tuple(locations),
+                    tuple(connectors), tuple(robots))
+
+
+def _in_free_space(chk: _Checker, floor: Floor, pose: Pose2D, where: str, what: str) -> None:
+    grid = floor.map
+    if not grid.contains(pose.x, pose.y):
+        w, h = grid.size_m
+        x0, y0 = grid.origin_x, grid.origin_y
+        chk.problem(where, f"({pose.x:g}, {pose.y:g}) is outside the map of floor {floor.label} "
+                           f"(x {x0:g}..{x0 + w:g}, y {y0:g}..{y0 + h:g} m)")
+    elif not grid.is_free(pose.x, pose.y):
+        chk.problem(where, f"({pose.x:g}, {pose.y:g}) is inside a wall or unknown space on floor "
+                           f"{floor.label}; {what} must be in free space")
+
+
+def _load_floors(chk: _Checker, value: object) -> list[Floor]:
+    floors: list[Floor] = []
+    for i, item in enumerate(chk.seq(value, "floors")):
+        where = f"floors[{i}]"
+        doc = chk.mapping(item, where)
+        if not chk.keys(doc, where, ("id", "names", "map", "blueprint", "blueprint_transform")):
+            continue
+        fid = chk.number(doc["id"], f"{where}.id")
+        names = chk.names(doc["names"], f"{where}.names")
+        map_file = chk.file(doc["map"], f"{where}.map")
+        blueprint = chk.file(doc["blueprint"], f"{where}.blueprint")
+        tdoc = chk.mapping(doc["blueprint_transform"], f"{where}.blueprint_transform")
+        transform = None
+        if chk.keys(tdoc, f"{where}.blueprint_transform", ("scale", "origin_px"), ("rotation",)):
+            scale = chk.number(tdoc["scale"], f"{where}.blueprint_transform.scale", positive=True)
+            origin = tdoc["origin_px"]
+            rot = chk.number(tdoc.get("rotation", 0.0), f"{where}.blueprint_transform.rotation")
+            if not (isinstance(origin, list) and len(origin) == 2):
+                chk.problem(f"{where}.blueprint_transform.origin_px", f"{_show(origin)} must be [u, v] pixels")
+            else:
+                u = chk.number(origin[0], f"{where}.blueprint_transform.origin_px[0]")
+                v = chk.number(origin[1], f"{where}.blueprint_transform.origin_px[1]")
+                if None not in (scale, u, v, rot):
+                    transform = BlueprintTransform(scale, u, v, rot)  # type: ignore[arg-type]
+        if fid is not None and any(abs(f.id - fid) < FLOOR_TOLERANCE for f in floors):
+            chk.problem(f"{where}.id", f"duplicate floor id {format_floor(fid)}")
+            continue
+        grid = None
+        if map_file is not None:
+            try:
+                grid = load_map(map_file)
+            except MapError as err:
+                chk.problem(f"{where}.map", str(err))
+        if None in (fid, map_file, blueprint, transform, grid) or len(names) != len(LANGUAGES):
+            continue
+        floors.append(Floor(fid, names, map_file, blueprint, transform, grid))  # type: ignore[arg-type]
+    if not floors and not chk.problems:
+        chk.problem("floors", "a building needs at least one floor")
+    return floors
+
+
+def _floor_ref(chk: _Checker, value: object, where: str, by_floor: dict[float, Floor]) -> Floor | None:
+    number = chk.number(value, where)
+    if number is None:
+        return None
+    for fid, floor in by_floor.items():
+        if abs(fid - number) < FLOOR_TOLERANCE:
+            return floor
+    known = ", ".join(format_floor(f) for f in by_floor) or "none"
+    chk.problem(where, f"unknown floor {_show(value)} (floors: {known})")
+    return None
+
+
+def _load_locations(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> list[Location]:
+    locations: list[Location] = []
+    seen: set[str] = set()
+    for i, item in enumerate(chk.seq(value, "locations")):
+        where = f"locations[{i}]"
+        doc = chk.mapping(item, where)
+        if not chk.keys(doc, where, ("id", "floor", "pose", "names", "category"), ("featured",)):
+            continue
+        lid = doc["id"]
+        if not isinstance(lid, str) or not _ID_RE.match(lid):
+            chk.problem(f"{where}.id", f"{_show(lid)} must be a string of letters, digits, '_', '.', '-' "
+                                       "(quote room numbers: '014')")
+            continue
+        if lid in seen:
+            chk.problem(f"{where}.id", f"duplicate location id {lid!r}")
+            continue
+        seen.add(lid)
+        floor = _floor_ref(chk, doc["floor"], f"{where}.floor", by_floor)
+        pose = chk.pose(doc["pose"], f"{where}.pose")
+        names = chk.names(doc["names"], f"{where}.names")
+        category = doc["category"]
+        if category not in CATEGORIES:
+            chk.problem(f"{where}.category", f"{_show(category)} is not one of {', '.join(CATEGORIES)}")
+        featured = doc.get("featured", False)
+        if not isinstance(featured, bool):
+            chk.problem(f"{where}.featured", f"{_show(featured)} must be true or false")
+        if floor is None or pose is None:
+            continue
+        _in_free_space(chk, floor, pose, f"{where}.pose", f"location {lid}")
+        locations.append(Location(lid, floor.id, pose, names, str(category), bool(featured)))
+    return locations
+
+
+def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
+                     location_ids: set[str]) -> list[Connector]:
+    connectors: list[Connector] = []
+    for i, item in enumerate(chk.seq(value, "connectors")):
+        where = f"connectors[{i}]"
+        doc = chk.mapping(item, where)
+        if not chk.keys(doc, where, ("id", "kind", "names", "meeting"), ("serves",)):
+            continue
+        cid = doc["id"]
+        if not isinstance(cid, str) or not _ID_RE.match(cid):
+            chk.problem(f"{where}.id", f"{_show(cid)} must be a string of letters, digits, '_', '.', '-'")
+            continue
+        if any(c.id == cid for c in connectors) or cid in location_ids:
+            chk.problem(f"{where}.id", f"duplicate id {cid!r} (connector ids must differ from every other id)")
+            continue
+        kind = doc["kind"]
+        if kind not in CONNECTOR_KINDS:
+            chk.problem(f"{where}.kind", f"{_show(kind)} is not one of {', '.join(CONNECTOR_KINDS)}")
+        names = chk.names(doc["names"], f"{where}.names")
+        meeting: dict[float, Pose2D] = {}
+        for j, m in enumerate(chk.seq(doc["meeting"], f"{where}.meeting")):
+            mwhere = f"{where}.meeting[{j}]"
+            mdoc = chk.mapping(m, mwhere)
+            if not chk.keys(mdoc, mwhere, ("floor", "pose")):
+                continue
+            floor = _floor_ref(chk, mdoc["floor"], f"{mwhere}.floor", by_floor)
+            pose = chk.pose(mdoc["pose"], f"{mwhere}.pose")
+            if floor is None or pose is None:
+                continue
+            if floor.id in meeting:
+                chk.problem(f"{mwhere}.floor", f"floor {floor.label} listed twice for connector {cid}")
+                continue
+            _in_free_space(chk, floor, pose, f"{mwhere}.pose", f"the meeting point of {cid}")
+            meeting[floor.id] = pose
+        serves_raw = doc.get("serves")
+        serves = list(by_floor) if serves_raw is None else [
+            f.id for j, v in enumerate(chk.seq(serves_raw, f"{where}.serves"))
+            if (f := _floor_ref(chk, v, f"{where}.serves[{j}]", by_floor)) is not None]
+        for fid in serves:
+            if fid not in meeting:
+                chk.problem(f"{where}.meeting", f"connector {cid} serves floor {format_floor(fid)} "
+                                                "but has no meeting pose there")
+        if kind in CONNECTOR_KINDS and len(names) == len(LANGUAGES):
+            connectors.append(Connector(cid, str(kind), names, meeting))
+    if len(by_floor) > 1:
+        for fid in by_floor:
+            if not any(fid in c.meeting for c in connectors):
+                chk.problem("connectors", f"no lift or staircase reaches floor {format_floor(fid)}")
+    return connectors
+
+
+def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> list[Robot]:
+    robots: list[Robot] = []
+    uris: dict[str, str] = {}
+    for i, item in enumerate(chk.seq(value, "robots")):
+        where = f"robots[{i}]"
+        doc = chk.mapping(item, where)
+        required = ("name", "floor", "master_uri", "drive", "max_linear", "max_angular",
+                    "max_linear_accel", "max_angular_accel", "radius", "home")
+        if not chk.keys(doc, where, required):
+            continue
+        name = doc["name"]
+        if not isinstance(name, str) or not _ROBOT_RE.match(name):
+            chk.problem(f"{where}.name", f"{_show(name)} must start with a letter and hold only "
+                                         "letters, digits and '_' (it names ROS nodes)")
+            continue
+        if any(r.name == name for r in robots):
+            chk.problem(f"{where}.name", f"duplicate robot name {name!r}")
+            continue
+        floor = _floor_ref(chk, doc["floor"], f"{where}.floor", by_floor)
+        uri = _master_uri(chk, doc["master_uri"], f"{where}.master_uri")
+        if uri is not None:
+            if uri in uris:
+                chk.problem(f"{where}.master_uri", f"{uri!r} is also the master of robot {uris[uri]}; "
+                                                   "every robot needs its own master")
+            uris[uri] = name
+        drive = doc["drive"]
+        if drive not in DRIVE_TYPES:
+            chk.problem(f"{where}.drive", f"{_show(drive)} is not one of {', '.join(DRIVE_TYPES)}")
+        nums = {k: chk.number(doc[k], f"{where}.{k}", positive=True)
+                for k in ("max_linear", "max_angular", "max_linear_accel", "max_angular_accel", "radius")}
+        home = chk.pose(doc["home"], f"{where}.home")
+        if floor is not None and any(r.floor == floor.id for r in robots):
+            other = next(r.name for r in robots if r.floor == floor.id)
+            chk.problem(f"{where}.floor", f"floor {floor.label} already has robot {other}; "
+                                          "guiding uses one robot per floor")
+            continue
+        if floor is not None and home is not None:
+            _in_free_space(chk, floor, home, f"{where}.home", f"the home pose of {name}")
+        if floor is None or uri is None or home is None or drive not in DRIVE_TYPES or None in nums.values():
+            continue
+        robots.append(Robot(name=name, floor=floor.id, master_uri=uri, drive=drive, home=home,
+                            **nums))  # type: ignore[arg-type]
+    return robots
+
+
+def _master_uri(chk: _Checker, value: object, where: str) -> str | None:
+    text = chk.text(value, where)
+    if text is None:
+        return None
+    parsed = urlparse(text)
+    try:
+        port = parsed.port
+    except ValueError:
+        port = None
+    host = parsed.hostname or ""
+    try:
+        ipaddress.ip_address(host)
+        is_ip = True
+    except ValueError:
+        is_ip = False
+    if parsed.scheme != "http" or not is_ip or port is None or parsed.path not in ("", "/"):
+        chk.problem(where, f"{text!r} must be http://<IP address>:<port>/ "
+                           "(IP addresses only: no host names, no multicast discovery)")
+        return None
+    return f"http://{host}:{port}/"

@@ -1,0 +1,557 @@
+"""The goal manager (ROS-free core): the FIFO of pending requests of one robot (paper section 6.2).
+
+Driven by explicit events, each returning the actions for the adapter
+(:class:`~gidabot_navigation.guiding.messages.SendGoal`, ``SendCancel``, ``SendEvent``):
+
+* :meth:`GoalManagerCore.on_command` — the visitor at this robot: REQUEST a goal,
+  CONTINUE after a tour step done here, CANCEL, START_TOUR, SKIP. A request becomes a
+  :class:`Trip` (uid, this robot's floor and pose, the goal from the building, the
+  connector minimising the whole trip) broadcast on /gidabot/goals.
+* :meth:`on_goal` — every goal broadcast by any robot (this robot's own included):
+  validated, de-duplicated by uid, kept (FIFO) only if it starts or ends on this
+  robot's floor; ACCEPTED once per kept goal.
+* :meth:`on_cancel` — drops a goal, queued or running; the visitor here is told why.
+* :meth:`on_nav_event` — this robot's navigation reports the end of its part of a trip
+  (a final phase: the goal leaves the queue) or a tour step done (tour mode); any
+  robot's GO_TO_FLOOR tells when a visitor was released (wait estimate).
+* :meth:`on_status` — partner liveness (wall time): a request needing an offline robot
+  is answered at once with PARTNER_OFFLINE instead of waiting forever.
+
+:meth:`pending` gives the list for /gidabot/pending with the wait estimate.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
+from gidabot_navigation.errors import GoalRejected, GuidingError, NoRouteError
+from gidabot_navigation.guiding.liveness import PeerLiveness
+from gidabot_navigation.guiding.messages import (
+    ACCEPTED,
+    CANCEL,
+    CANCELLED_HERE,
+    CONTINUE,
+    GOING_TO_MEETING,
+    MAX_UID,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    PHASE_OF_REASON,
+    REASON_ADMIN,
+    REASON_VISITOR,
+    REJECTED,
+    RELEASE_PHASES,
+    REQUEST,
+    START_ROBOT,
+    START_TOUR,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+    WAITING_VISITOR,
+    WAY_STAIRS,
+    WAYS,
+    Action,
+    CancelData,
+    CommandData,
+    Counters,
+    NavEventData,
+    SeenSet,
+    SendCancel,
+    SendEvent,
+    SendGoal,
+    Trip,
+    UidMaker,
+    same_floor,
+    validate_cancel,
+    validate_command,
+    validate_event,
+    validate_trip,
+)
+from gidabot_navigation.guiding.state import (
+    REMEMBERED_UIDS,
+    GuidingStateError,
+    dataclass_from_dict,
+    number,
+    str_list,
+    trip_from_dict,
+    trip_to_dict,
+)
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
+from gidabot_navigation.guiding.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role
+from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.tours.tour_file import MAX_GOALS
+
+PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)
+
+
+@dataclass(frozen=True)
+class GoalManagerConfig:
+    """``robot``: this robot's name; ``offline_after``: wall s without status before a robot is offline;
+    ``max_queue``: goals kept at most (more are refused and cancelled everywhere)."""
+
+    robot: str
+    default_way: str = WAY_STAIRS
+    default_language: str = "en"
+    offline_after: float = 5.0
+    max_queue: int = 50
+    wait: WaitModel = field(default_factory=WaitModel)
+
+
+@dataclass(frozen=True)
+class PendingSnapshot:
+    """The content of this robot's /gidabot/pending."""
+
+    robot: str
+    floor: float
+    goals: tuple[Trip, ...]
+    eta: tuple[float, ...]     # s from now until each goal is finished by this robot
+    wait_new: float            # s before this robot could start a new request
+    stamp: float               # s, ROS time of the estimate
+
+
+class GoalManagerCore:
+    """The pending requests of one robot and the visitor commands that create or end them."""
+
+    def __init__(self, building: Building, cfg: GoalManagerConfig, log: Logger, now_wall: float,
+                 boot: str | None = None, planner: TripPlanner | None = None) -> None:
+        robot = building.find_robot(cfg.robot)
+        if robot is None:
+            raise GuidingError(f"robot {cfg.robot!r} is not in building {building.id} "
+                               f"({', '.join(r.name for r in building.robots)})")
+        if cfg.default_way not in WAYS:
+            raise GuidingError(f"default way {cfg.default_way!r} is not one of {', '.join(WAYS)}")
+        if cfg.default_language not in LANGUAGES:
+            raise GuidingError(f"default language {cfg.default_language!r} is not one of {', '.join(LANGUAGES)}")
+        if cfg.max_queue < 1:
+            raise GuidingError(f"max_queue {cfg.max_queue!r} must be at least 1")
+        self.building = building
+        self.cfg = cfg
+        self.robot = robot
+        self.me = robot.name
+        self.log = log
+        self.warn = RateLimitedLog(log)
+        self.planner = planner or TripPlanner(building)
+        self.uids = UidMaker(self.me, "gm", boot)
+        self.liveness = PeerLiveness(cfg.offline_after, now_wall)
+        self.tours = TourBook(building)
+        self.waits = TourWaits()
+        self.queue: list[Trip] = []
+        self.version = 0                                   # increases whenever the queue changes
+        self.stats = Counters(received=0, accepted=0, rejected=0)
+        self.pose: tuple[float, float, float] | None = None
+        self._goals_seen = SeenSet()
+        self._cancels_seen = SeenSet()
+        self._events_seen = SeenSet()
+        self._cancelled = SeenSet()
+        self._commands_seen = SeenSet()                   # CommandData.key of the commands handled
+        self._early_continues: dict[str, CommandData] = {}  # goal uid -> a tour Continue that came before its step
+        self._phase: dict[str, tuple[int, float]] = {}    # own navigation's progress per held goal
+        self._releases: OrderedDict[str, float] = OrderedDict()
+
+    # ------------------------------------------------------------------ inputs
+    def on_status(self, robot: str, now_wall: float) -> None:
+        """A RobotStatus of ``robot`` was received (wall time)."""
+        if isinstance(robot, str) and self.building.find_robot(robot) is not None:
+            self.liveness.heard(robot, now_wall)
+
+    def on_pose(self, x: float, y: float, yaw: float) -> None:
+        """This robot's localisation (amcl_pose), map frame of its floor."""
+        if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
+            self.pose = (float(x), float(y), float(yaw))
+
+    def on_catalog(self, entries: Iterable[CatalogEntry]) -> None:
+        """The tour store's catalog changed."""
+        for problem in self.tours.update(entries):
+            self.warn.warning("catalog", problem)
+
+    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
+        stamp) is ignored."""
+        key = cmd.key
+        if key and not self._commands_seen.add(key):
+            self.stats.inc("duplicate_commands")
+            return []
+        try:
+            cmd = validate_command(cmd)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.warn.warning("command", f"visitor command refused: {err}")
+            return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+        if cmd.command == REQUEST:
+            if not cmd.goal_id:
+                return [self._event(REJECTED, None, now_ros, detail="request without a goal_id")]
+            return self._issue(cmd.goal_id, cmd.way, cmd.language, cmd.visitor_id, "", -1, now_ros, now_wall)
+        if cmd.command == CONTINUE:
+            return self._continue(cmd, now_ros, now_wall)
+        if cmd.command == CANCEL:
+            return self._cancel_command(cmd, now_ros)
+        if cmd.command == START_TOUR:
+            return self._start_tour(cmd, now_ros, now_wall)
+        return self._skip(cmd, now_ros, now_wall)
+
+    def on_goal(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
+        """A goal from /gidabot/goals (or made here): keep it if it starts or ends on this floor."""
+        uid = trip.uid if isinstance(trip.uid, str) and len(trip.uid) <= MAX_UID else ""
+        if uid and uid in self._goals_seen:
+            self.stats.inc("duplicates")
+            return []
+        if uid:
+            self._goals_seen.add(uid)
+        self.stats.inc("received")
+        try:
+            trip = validate_trip(self.building, trip)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
+            if trip.origin_robot == self.me:
+                return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
+            return []
+        if trip.uid in self._cancelled:
+            self.stats.inc("cancelled_before_arrival")
+            self.log.info(f"goal {trip.uid} arrived after its cancel; not queued")
+            return []
+        if role(trip, self.robot.floor) is None:
+            self.stats.inc("not_involved")
+            return []
+        if len(self.queue) >= self.cfg.max_queue:
+            self.stats.inc("queue_full")
+            self.warn.warning("queue_full", f"queue of {self.me} is full ({self.cfg.max_queue} goals); "
+                                            f"goal {trip.uid} is cancelled")
+            cancel = self._new_cancel(trip.uid, REASON_ADMIN, f"the queue of {self.me} is full", now_ros)
+            self._cancels_seen.add(cancel.uid)
+            self._cancelled.add(trip.uid)
+            phase = REJECTED if trip.origin_robot == self.me else CANCELLED_HERE
+            return [SendCancel(cancel), self._event(phase, trip, now_ros, detail=f"the queue of {self.me} is full")]
+        self.queue.append(trip)
+        self.version += 1
+        self.stats.inc("accepted")
+        return [self._event(ACCEPTED, trip, now_ros)]
+
+    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
+        """A Cancel from /gidabot/cancels: drop the goal, queued or running, and tell the visitor why."""
+        try:
+            cancel = validate_cancel(self.building, cancel)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.warn.warning("cancel", f"cancel rejected: {err}")
+            return []
+        if from_relay and cancel.origin_robot == self.me:
+            self.stats.inc("rejected_spoofed")
+            self.warn.warning("spoofed", f"cancel {cancel.uid} claims to come from {self.me} but came through a relay")
+            return []
+        return self._apply_cancel(cancel, now_ros, here=False)
+
+    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float,
+                     from_relay: bool = False) -> list[Action]:
+        """A NavEvent of any robot (this robot's navigation included)."""
+        try:
+            ev = validate_event(self.building, ev)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.warn.warning("event", f"nav event rejected: {err}")
+            return []
+        if not self._events_seen.add(ev.uid):
+            return []
+        if ev.phase in RELEASE_PHASES and ev.goal_uid:
+            self._releases[ev.goal_uid] = now_ros
+            while len(self._releases) > 1000:
+                self._releases.popitem(last=False)
+        if ev.robot != self.me or not ev.goal_uid:
+            return []
+        if from_relay:
+            self.stats.inc("rejected_spoofed")
+            self.warn.warning("spoofed", f"event {ev.uid} claims to come from {self.me} but came through a relay")
+            return []
+        trip = self._held(ev.goal_uid)
+        if ev.phase == TOUR_STEP_DONE and ev.tour_file:
+            self.waits.add(TourWait(ev.goal_uid, ev.tour_file, ev.tour_step,
+                                    way=(trip.way if trip else ev.way) or self.cfg.default_way,
+                                    language=trip.language if trip else ev.language,
+                                    visitor_id=trip.visitor_id if trip else "", since=now_ros))
+        early = self._early_continues.pop(ev.goal_uid, None) if ev.final else None
+        if ev.final:
+            self._phase.pop(ev.goal_uid, None)
+            if self._pop(ev.goal_uid) is not None:
+                self.stats.inc("finished")
+        elif ev.phase in PROGRESS_PHASES and trip is not None:
+            self._phase[ev.goal_uid] = (ev.phase, now_ros)
+        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and early.stamp >= ev.stamp > 0:
+            self.stats.inc("early_continues")
+            return self._continue(early, now_ros, now_wall)
+        return []
+
+    def tick(self, now_ros: float, now_wall: float) -> list[Action]:
+        """Periodic housekeeping (nothing is time-driven in the goal manager yet)."""
+        return []
+
+    # ------------------------------------------------------------------ restarts
+    def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
+        """What a restarted goal manager needs (JSON-able): the queue, the ``remember`` most recent
+        handled uids of each kind, the own navigation's progress, releases and the tour steps waiting."""
+        return {
+            "queue": [trip_to_dict(t) for t in self.queue],
+            "goals_seen": self._goals_seen.recent(remember), "cancels_seen": self._cancels_seen.recent(remember),
+            "events_seen": self._events_seen.recent(remember), "cancelled": self._cancelled.recent(remember),
+            "commands_seen": self._commands_seen.recent(remember),
+            "phase": {uid: [phase, since] for uid, (phase, since) in self._phase.items()},
+            "releases": [[uid, t] for uid, t in self._releases.items()][-remember:],
+            "waits": [asdict(w) for w in self.waits.all()],
+            "early_continues": [asdict(c) for c in self._early_continues.values()],
+            "stats": dict(self.stats),
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Resume from :meth:`state` of a previous run (raises GuidingStateError, changing nothing, if damaged)."""
+        try:
+            self._load_state(state)
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as err:
+            raise GuidingStateError(f"goal manager state: {err!r}") from err
+
+    def _load_state(self, state: dict[str, Any]) -> None:
+        queue = [trip_from_dict(t) for t in state.get("queue", [])]
+        seen = {name: str_list(state.get(name, []), name) for name in
+                ("goals_seen", "cancels_seen", "events_seen", "cancelled", "commands_seen")}
+        phase_raw = state.get("phase", {})
+        if not isinstance(phase_raw, dict):
+            raise GuidingStateError("phase: expected an object")
+        phase = {str(uid): (int(number(v[0], "phase")), number(v[1], "phase since")) for uid, v in phase_raw.items()}
+        releases = [(str(r[0]), number(r[1], "release")) for r in state.get("releases", [])]
+        waits = [dataclass_from_dict(TourWait, w) for w in state.get("waits", [])]
+        early = [dataclass_from_dict(CommandData, c) for c in state.get("early_continues", [])]
+        self.queue = queue
+        for name, uids in seen.items():
+            getattr(self, f"_{name}").update(uids)
+        self._phase = {uid: p for uid, p in phase.items() if any(t.uid == uid for t in queue)}
+        for uid, t in releases:
+            self._releases[uid] = t
+        for w in waits:
+            self.waits.add(w)
+        self._early_continues = {c.goal_uid: c for c in early if any(t.uid == c.goal_uid for t in queue)}
+        stats = state.get("stats", {})
+        if isinstance(stats, dict):
+            self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
+        self.version += 1
+
+    # ------------------------------------------------------------------ outputs
+    def pending(self, now_ros: float) -> PendingSnapshot:
+        """The pending list with the wait estimate (s) for /gidabot/pending."""
+        head = None
+        if self.queue and self.queue[0].uid in self._phase:
+            phase, since = self._phase[self.queue[0].uid]
+            head = HeadProgress(self.queue[0].uid, phase, since)
+        pos = (self.pose[0], self.pose[1]) if self.pose else None
+        eta = estimate_queue(self.planner, self.cfg.wait, self.robot, pos, self.queue, head, self._releases, now_ros)
+        return PendingSnapshot(self.me, self.robot.floor, tuple(self.queue), tuple(eta),
+                               eta[-1] if eta else 0.0, now_ros)
+
+    # ------------------------------------------------------------------ requests
+    def _issue(self, goal_id: str, way: str, language: str, visitor_id: str, tour_file: str, tour_step: int,
+               now_ros: float, now_wall: float) -> list[Action]:
+        """Make a goal from this robot's floor and pose to ``goal_id``, broadcast it and queue it here."""
+        language = language if language in LANGUAGES else self.cfg.default_language
+        way = way if way in WAYS else self.cfg.default_way
+        visitor_id = visitor_id or "visitor"
+        ctx = {"language": language, "way": way, "location_id": goal_id[:64], "tour_file": tour_file,
+               "tour_step": tour_step}
+        loc = self.building.find_location(goal_id)
+        if loc is None:
+            self.stats.inc("rejected_location")
+            return [self._event(REJECTED, None, now_ros, detail=f"unknown goal {goal_id[:64]!r}", **ctx)]
+        ctx["target_floor"] = loc.floor
+        a, b = self.robot.floor, loc.floor
+        x, y, _ = self.pose if self.pose else (self.robot.home.x, self.robot.home.y, self.robot.home.yaw)
+        goal_xy = (loc.pose.x, loc.pose.y)
+        connector = ""
+        if not same_floor(a, b):
+            partner = self.building.robot_on(b)
+            if partner is not None and not self.liveness.online(partner.name, now_wall):
+                self.stats.inc("partner_offline")
+                last = self.liveness.last_heard(partner.name)
+                ago = f"no status for {now_wall - last:.0f} s" if last is not None else "never heard"
+                return [self._event(PARTNER_OFFLINE, None, now_ros, **ctx,
+                                    detail=f"{partner.name} (floor {format_floor(b)}) is offline ({ago}); "
+                                           "the request was not queued")]
+            try:
+                choice = self.planner.choose_connector(a, (x, y), b, goal_xy, way)
+            except NoRouteError as err:
+                self.stats.inc("unreachable")
+                return [self._event(UNREACHABLE, None, now_ros, detail=str(err), **ctx)]
+            way, connector = choice.way, choice.connector.id
+        elif not math.isfinite(self.planner.leg_length(a, (x, y), goal_xy)):
+            self.stats.inc("unreachable")
+            return [self._event(UNREACHABLE, None, now_ros, **ctx,
+                                detail=f"no path from ({x:.1f}, {y:.1f}) to {goal_id} on floor {format_floor(a)}")]
+        trip = Trip(uid=self.uids.goal(visitor_id), origin_robot=self.me, visitor_id=visitor_id, initial_floor=a,
+                    initial_x=x, initial_y=y, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y,
+                    goal_yaw=loc.pose.yaw, way=way, connector=connector, start_id=START_ROBOT, goal_id=goal_id,
+                    language=language, tour_file=tour_file, tour_step=tour_step, stamp=now_ros)
+        return [SendGoal(trip), *self.on_goal(trip, now_ros, now_wall)]
+
+    def _continue(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        if cmd.goal_uid:
+            wait = self.waits.get(cmd.goal_uid)
+        else:
+            wait = None if self._navigation_meets_visitor() else self.waits.latest()
+        if wait is None:
+            trip = self._held(cmd.goal_uid) if cmd.goal_uid else None
+            if trip is not None and trip.tour_file:
+                # A Continue at this trip's meeting point (multirobot_navigation's), or the visitor's Continue
+                # after this tour step that overtook the step's TOUR_STEP_DONE (both replayed to this node
+                # after a restart, by different publishers): kept; if the step turns out to be done before
+                # the button was pressed (stamps), it is acted on then.
+                self._early_continues[trip.uid] = cmd
+                while len(self._early_continues) > 32:
+                    self._early_continues.pop(next(iter(self._early_continues)))
+            return []          # a Continue at a meeting point: multirobot_navigation's
+        return self._tour_step(wait.tour_file, wait.step + 1, cmd, wait, now_ros, now_wall, finishing=True)
+
+    def _start_tour(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        if not cmd.tour_file:
+            return [self._event(REJECTED, None, now_ros, detail="start tour without a tour_file")]
+        return self._tour_step(cmd.tour_file, 0, cmd, None, now_ros, now_wall)
+
+    def _skip(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        latest = self.waits.latest()
+        tour_file = cmd.tour_file or (latest.tour_file if latest else "")
+        if not tour_file:
+            return [self._event(REJECTED, None, now_ros, detail="skip without a tour_file")]
+        wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file), None)
+        return self._tour_step(tour_file, cmd.tour_step, cmd, wait, now_ros, now_wall)
+
+    def _tour_step(self, tour_file: str, step: int, cmd: CommandData, wait: TourWait | None, now_ros: float,
+                   now_wall: float, finishing: bool = False) -> list[Action]:
+        """Issue step ``step`` of ``tour_file`` from here, ending what this visitor had of that tour here.
+
+        ``finishing``: a Continue after the last step ends the tour (TOUR_FINISHED) instead of a rejection.
+        """
+        ctx = {"tour_file": tour_file, "tour_step": step if 0 <= step < MAX_GOALS else -1,
+               "language": cmd.language or (wait.language if wait else "")}
+        tour = self.tours.get(tour_file)
+        if tour is None:
+            self.stats.inc("rejected_tour")
+            return [self._event(REJECTED, None, now_ros, detail=f"tour {tour_file!r} is not in this robot's "
+                                                                f"catalog ({len(self.tours)} tours)", **ctx)]
+        if finishing and wait is not None and step >= len(tour.goals):
+            self.waits.pop(wait.goal_uid)
+            return [self._event(TOUR_FINISHED, None, now_ros, goal_uid=wait.goal_uid, detail="no further goal", **ctx)]
+        if not 0 <= step < len(tour.goals):
+            return [self._event(REJECTED, None, now_ros, detail=f"tour {tour_file} has steps 0..{len(tour.goals) - 1}, "
+                                                                f"not {step}", **ctx)]
+        visitor = cmd.visitor_id or (wait.visitor_id if wait else "")
+        actions = self._end_tour_here(tour_file, visitor, now_ros, detail=f"the visitor went to step {step}")
+        self.waits.clear_tour(tour_file)
+        way = cmd.way or (wait.way if wait else "")
+        language = cmd.language or (wait.language if wait else "")
+        actions += self._issue(tour.goals[step].room, way, language, visitor, tour_file, step, now_ros, now_wall)
+        return actions
+
+    def _end_tour_here(self, tour_file: str, visitor: str, now_ros: float, detail: str) -> list[Action]:
+        """Cancel (everywhere) the goals of ``tour_file`` this robot holds for this visitor (skip / restart)."""
+        actions: list[Action] = []
+        for trip in [t for t in self.queue if t.tour_file == tour_file and (not visitor or t.visitor_id == visitor)]:
+            cancel = self._new_cancel(trip.uid, REASON_VISITOR, detail, now_ros)
+            actions += [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True, quiet=True)]
+        return actions
+
+    # ------------------------------------------------------------------ cancels
+    def _cancel_command(self, cmd: CommandData, now_ros: float) -> list[Action]:
+        if cmd.goal_uid:
+            trip = self._held(cmd.goal_uid)
+            if trip is None:
+                wait = self.waits.pop(cmd.goal_uid)
+                if wait is not None:
+                    return [self._tour_ended(wait, now_ros)]
+                if cmd.goal_uid in self._goals_seen and cmd.goal_uid not in self._cancelled:
+                    # a trip this robot does not hold (any more): the others may still hold it
+                    cancel = self._new_cancel(cmd.goal_uid, REASON_VISITOR, f"the visitor cancelled at {self.me}",
+                                              now_ros)
+                    self._cancels_seen.add(cancel.uid)
+                    self._cancelled.add(cmd.goal_uid)
+                    return [SendCancel(cancel), self._event(CANCELLED_HERE, None, now_ros, goal_uid=cmd.goal_uid)]
+                self.stats.inc("cancel_unknown")
+                self.warn.warning("cancel_unknown", f"cancel of unknown trip {cmd.goal_uid!r} ignored")
+                return []
+        else:
+            trip = self._current()
+            if trip is None:
+                wait = self.waits.latest()
+                if wait is not None:
+                    self.waits.pop(wait.goal_uid)
+                    return [self._tour_ended(wait, now_ros)]
+                self.stats.inc("cancel_unknown")
+                return []
+        if trip.tour_file:
+            self.waits.clear_tour(trip.tour_file)
+        cancel = self._new_cancel(trip.uid, REASON_VISITOR, f"the visitor cancelled at {self.me}", now_ros)
+        return [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True)]
+
+    def _tour_ended(self, wait: TourWait, now_ros: float) -> SendEvent:
+        self.waits.clear_tour(wait.tour_file)
+        return self._event(CANCELLED_HERE, None, now_ros, goal_uid=wait.goal_uid, tour_file=wait.tour_file,
+                           tour_step=wait.step, language=wait.language, way=wait.way, detail="tour ended")
+
+    def _apply_cancel(self, cancel: CancelData, now_ros: float, here: bool, quiet: bool = False) -> list[Action]:
+        if not self._cancels_seen.add(cancel.uid):
+            self.stats.inc("duplicate_cancels")
+            return []
+        self._cancelled.add(cancel.goal_uid)
+        trip = self._pop(cancel.goal_uid)
+        self._phase.pop(cancel.goal_uid, None)
+        if trip is None:
+            return []
+        self.stats.inc("cancelled")
+        if cancel.origin_robot == self.me:
+            if not here or quiet:
+                return []        # our navigation gave the trip up and told the visitor already
+            phase = CANCELLED_HERE
+        else:
+            phase = PHASE_OF_REASON[cancel.reason]
+        detail = f"{cancel.origin_robot}: {cancel.reason}" + (f": {cancel.detail}" if cancel.detail else "")
+        return [self._event(phase, trip, now_ros, detail=detail)]
+
+    # ------------------------------------------------------------------ helpers
+    def _held(self, goal_uid: str) -> Trip | None:
+        return next((t for t in self.queue if t.uid == goal_uid), None)
+
+    def _pop(self, goal_uid: str) -> Trip | None:
+        for i, t in enumerate(self.queue):
+            if t.uid == goal_uid:
+                del self.queue[i]
+                self.version += 1
+                return t
+        return None
+
+    def _current(self) -> Trip | None:
+        """The trip "Cancel" without a goal_uid means: the one in progress here, else the newest made here."""
+        running = next((t for t in self.queue if t.uid in self._phase), None)
+        if running is not None:
+            return running
+        return next((t for t in reversed(self.queue) if t.origin_robot == self.me), None)
+
+    def _navigation_meets_visitor(self) -> bool:
+        return any(p in (GOING_TO_MEETING, WAITING_VISITOR) for p, _ in self._phase.values())
+
+    def _new_cancel(self, goal_uid: str, reason: str, detail: str, now_ros: float) -> CancelData:
+        return CancelData(uid=self.uids.cancel(), goal_uid=goal_uid, origin_robot=self.me, reason=reason,
+                          detail=detail, stamp=now_ros)
+
+    def _count_rejection(self, err: GoalRejected) -> None:
+        self.stats.inc("rejected")
+        self.stats.inc(f"rejected_{err.reason}")
+
+    def _event(self, phase: int, trip: Trip | None, now_ros: float, **fields: object) -> SendEvent:
+        ev = NavEventData(uid=self.uids.event(), robot=self.me, floor=self.robot.floor,
+                          goal_uid=trip.uid if trip else "", phase=phase,
+                          language=trip.language if trip else self.cfg.default_language,
+                          way=trip.way if trip else "", connector=trip.connector if trip else "",
+                          target_floor=trip.goal_floor if trip else self.robot.floor,
+                          location_id=trip.goal_id if trip else "", tour_file=trip.tour_file if trip else "",
+                          tour_step=trip.tour_step if trip else -1, stamp=now_ros)
+        fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
+        ev = replace(ev, **fields)
+        self._events_seen.add(ev.uid)
+        return SendEvent(ev)

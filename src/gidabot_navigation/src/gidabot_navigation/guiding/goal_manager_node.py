@@ -1,0 +1,266 @@
+"""ROS adapter of the goal manager: the ``goal_manager`` node (one per robot, on its own master).
+
+The logic lives in :mod:`gidabot_navigation.guiding.goal_manager` (ROS-free). Callbacks
+only enqueue; one loop owns the core, executes its actions and publishes the
+pending list.
+"""
+
+from __future__ import annotations
+
+import queue
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseWithCovarianceStamped
+
+from gidabot_msgs.msg import Cancel, Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
+from gidabot_navigation.guiding.guiding_node import (
+    CANCELS_TOPIC,
+    EVENTS_TOPIC,
+    GOALS_TOPIC,
+    PENDING_TOPIC,
+    STATUS_TOPIC,
+    cancel_from_msg,
+    cancel_to_msg,
+    catalog_entries,
+    command_from_msg,
+    diagnostics,
+    event_from_msg,
+    event_to_msg,
+    from_relay,
+    keep_registered,
+    param_number,
+    param_text,
+    trip_from_msg,
+    trip_to_msg,
+    yaw_of,
+)
+from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
+from gidabot_navigation.guiding.trips import WaitModel
+from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
+
+QUEUE_SIZE = 2000
+DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
+
+
+@dataclass(frozen=True)
+class Params:
+    building: str
+    cfg: GoalManagerConfig
+    pending_period: float      # wall s between unchanged /gidabot/pending messages
+    state_dir: str = ""        # where the node's state survives a restart ("" = none)
+    state_max_age: float = DEFAULT_MAX_AGE
+    replay_window: float = DEFAULT_WINDOW
+
+    @staticmethod
+    def read() -> Params:
+        building = param_text("~building", required=True)
+        robot = param_text("~robot", required=True)
+        wait = WaitModel(speed_factor=param_number("~speed_factor", WaitModel.speed_factor),
+                         stairs_s_per_floor=param_number("~stairs_s_per_floor", WaitModel.stairs_s_per_floor,
+                                                         strict=False),
+                         lift_wait_s=param_number("~lift_wait", WaitModel.lift_wait_s, strict=False),
+                         lift_s_per_floor=param_number("~lift_s_per_floor", WaitModel.lift_s_per_floor, strict=False),
+                         continue_s=param_number("~continue_time", WaitModel.continue_s, strict=False),
+                         leg_overhead_s=param_number("~leg_overhead", WaitModel.leg_overhead_s, strict=False),
+                         pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance))
+        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", "stairs"),
+                                default_language=param_text("~default_language", "en"),
+                                offline_after=param_number("~offline_after", 5.0),
+                                max_queue=int(param_number("~max_queue", 50, minimum=1, strict=False)), wait=wait)
+        state_dir = param_text("~state_dir", "") or default_state_dir(robot)
+        return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
+                      param_number("~state_max_age", DEFAULT_MAX_AGE),
+                      param_number("~replay_window", DEFAULT_WINDOW, strict=False))
+
+
+class GoalManagerNode:
+    """Keeps this robot's pending requests (FIFO) and turns the visitor's commands into goals.
+
+    Subscribed topics:
+      - ``visitor/command`` (gidabot_msgs/VisitorCommand): REQUEST (goal_id, way, language),
+        CONTINUE after a tour step done here (goal_uid of that step, or ""), CANCEL (goal_uid or ""
+        = the trip in progress here), START_TOUR (tour_file), SKIP (tour_file, tour_step).
+        A CONTINUE at a meeting point is multirobot_navigation's.
+      - ``/gidabot/goals`` (gidabot_msgs/Goal): every robot's goals (this robot's own included).
+      - ``/gidabot/cancels`` (gidabot_msgs/Cancel): drop a goal, queued or running.
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): this robot's navigation ends its part of
+        a trip (a final phase) or reports TOUR_STEP_DONE; GO_TO_FLOOR of any robot (wait estimate).
+      - ``/gidabot/status`` (gidabot_msgs/RobotStatus): partner liveness (wall time).
+      - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped): where new trips start.
+      - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the tours for tour mode.
+
+    Published topics (events: the last ``~replay_window`` s are sent again to a subscriber that connects
+    late, e.g. a restarted node; subscribers ignore uids they handled):
+      - ``/gidabot/goals`` (gidabot_msgs/Goal, event): goals made here.
+      - ``/gidabot/cancels`` (gidabot_msgs/Cancel, event): the visitor's cancels here.
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ACCEPTED, REJECTED, PARTNER_OFFLINE /
+        UNREACHABLE for a request that cannot be queued, CANCELLED_HERE / CANCELLED_ELSEWHERE /
+        UNREACHABLE / TIMEOUT / PARTNER_OFFLINE when a cancel drops a goal held here, TOUR_FINISHED
+        on a Continue after the last step.
+      - ``/gidabot/pending`` (gidabot_msgs/PendingRequests, state, latched): the queue with eta per
+        goal and wait_new (s); on change and every ``1/~pending_rate`` wall s.
+      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``guiding: goal_manager <robot>`` counters
+        (received, accepted, rejected_<reason>, duplicates, ...), with the pending list.
+
+    Parameters:
+      - ``~building`` (str, required), ``~robot`` (str, required).
+      - ``~default_way`` (stairs), ``~default_language`` (en): for commands without them.
+      - ``~offline_after`` (wall s, 5.0): a robot without status this long is offline.
+      - ``~max_queue`` (50): goals kept at most; further ones are refused and cancelled everywhere.
+      - ``~pending_rate`` (Hz wall, 1.0).
+      - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``goal_manager.json`` there keeps
+        the queue, the handled uids and the tour steps waiting across a restart of this node (written
+        atomically after every change, before what it produced is published); ``~state_max_age``
+        (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
+      - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
+        ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
+        ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
+    """
+
+    def __init__(self, params: Params) -> None:
+        self.params = params
+        building = load_building(params.building)
+        self.core = GoalManagerCore(building, params.cfg, RosLog(), time.monotonic())
+        self.robot = self.core.me
+        self.store = StateFile(Path(params.state_dir) / "goal_manager.json", "goal_manager", self.robot, RosLog(),
+                               max_age=params.state_max_age) if params.state_dir else None
+        outbox = self.store.resume(self.core.load_state) if self.store is not None else None
+        if outbox is not None:
+            rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
+                          f"{len(outbox)} message(s) not yet published from {self.params.state_dir}")
+        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.dropped = 0
+        self._published_version = -1
+        self._latest_pose: tuple[float, float, float] | None = None
+        window = params.replay_window
+        self.goals_pub = ReplayPublisher(GOALS_TOPIC, Goal, queue_size=100, window=window)
+        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=window)
+        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=window)
+        self.pending_pub = rospy.Publisher(PENDING_TOPIC, PendingRequests, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.subs = [
+            rospy.Subscriber("visitor/command", VisitorCommand, self._enqueue, callback_args="command", queue_size=50),
+            rospy.Subscriber(GOALS_TOPIC, Goal, self._enqueue, callback_args="goal", queue_size=200),
+            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+        ]
+        self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
+
+    # -- callbacks: copy and enqueue ------------------------------------------------------
+    def _enqueue(self, msg: object, kind: str) -> None:
+        try:
+            self.inbox.put_nowait((kind, msg))
+        except queue.Full:
+            self.dropped += 1
+
+    def _on_status(self, msg: RobotStatus) -> None:
+        self._enqueue(msg.robot, "status")
+
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        p = msg.pose.pose              # only the latest pose matters: one assignment, applied by the loop
+        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+
+    # -- the loop that owns the core --------------------------------------------------------
+    def run(self) -> None:
+        period = self.params.pending_period
+        next_pending = time.monotonic()
+        while not rospy.is_shutdown():
+            try:
+                kind, msg = self.inbox.get(timeout=max(0.01, min(0.5, next_pending - time.monotonic())))
+            except queue.Empty:
+                kind, msg = "", None
+            pose = self._latest_pose          # never reset: no race with the callback
+            if pose is not None:
+                self.core.on_pose(*pose)
+            if kind:
+                self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
+            now = time.monotonic()
+            self.commit(self.core.tick(rospy.get_time(), now), False)
+            if self.core.version != self._published_version or now >= next_pending:
+                self.publish_pending()
+                if now >= next_pending:
+                    next_pending = now + period
+                    self.publish_diagnostics()
+
+    def handle(self, kind: str, msg: object) -> list[Action]:
+        now_ros, now_wall = rospy.get_time(), time.monotonic()
+        core = self.core
+        if kind == "command":
+            return core.on_command(command_from_msg(msg), now_ros, now_wall)
+        if kind == "goal":
+            return core.on_goal(trip_from_msg(msg), now_ros, now_wall)
+        if kind == "cancel":
+            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "event":
+            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "status":
+            core.on_status(msg, now_wall)
+        elif kind == "catalog":
+            core.on_catalog(catalog_entries(msg))
+        return []
+
+    def commit(self, actions: list[Action], changed: bool) -> None:
+        """Save the state (with ``actions`` as the outbox) when it may have changed, then publish; once
+        published, save again without them (so a restart publishes them again only if it came in between)."""
+        if self.store is None or not (changed or actions):
+            self.execute(actions)
+        else:
+            self.store.commit(self.core.state, actions, actions, self.execute)
+
+    def execute(self, actions: list[Action]) -> None:
+        for act in actions:
+            if isinstance(act, SendGoal):
+                self.goals_pub.publish(trip_to_msg(act.trip))
+            elif isinstance(act, SendCancel):
+                self.cancels_pub.publish(cancel_to_msg(act.cancel))
+            elif isinstance(act, SendEvent):
+                self.events_pub.publish(event_to_msg(act.event))
+
+    def publish_pending(self) -> None:
+        snap = self.core.pending(rospy.get_time())
+        self._published_version = self.core.version
+        msg = PendingRequests()
+        msg.header.stamp = rospy.Time.now()
+        msg.robot, msg.floor = snap.robot, snap.floor
+        msg.num = min(len(snap.goals), 255)
+        msg.goals = [trip_to_msg(t) for t in snap.goals[:255]]
+        msg.eta = list(snap.eta[:255])
+        msg.wait_new = snap.wait_new
+        self.pending_pub.publish(msg)
+
+    def publish_diagnostics(self) -> None:
+        stats = dict(self.core.stats)
+        stats.update(queue_dropped=self.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
+                     plans=self.core.planner.plans,
+                     state_saves=self.store.saves if self.store else 0,
+                     state_save_failures=self.store.failures if self.store else 0,
+                     replayed=sum(p.buffer.replayed for p in (self.goals_pub, self.cancels_pub, self.events_pub)))
+        warn = bool(self.dropped)
+        self.diag_pub.publish(diagnostics(f"guiding: goal_manager {self.robot}", self.robot, stats, warn,
+                                          f"{len(self.core.queue)} pending, {stats.get('rejected', 0)} rejected"))
+
+
+def main(argv: list[str] | None = None) -> int:
+    rospy.init_node("goal_manager", argv=argv if argv is not None else sys.argv)
+    keep_registered()
+    try:
+        node = GoalManagerNode(Params.read())
+    except (GidaBotError, OSError, ValueError) as err:
+        rospy.logfatal(f"goal_manager cannot start: {err}")
+        return 1
+    rospy.loginfo(f"goal_manager of {node.robot} (floor {node.core.robot.floor:g}) running")
+    node.run()
+    return 0

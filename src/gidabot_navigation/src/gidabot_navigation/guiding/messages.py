@@ -1,0 +1,563 @@
+"""Plain-Python forms of the guiding messages and their validation (ROS-free).
+
+The guiding cores (:mod:`goal_manager_core`, :mod:`navigation_core`) never see a ROS
+message: the adapters convert ``gidabot_msgs`` messages into the dataclasses below
+(:class:`Trip` = Goal, :class:`NavEventData` = NavEvent, :class:`CancelData` = Cancel,
+:class:`CommandData` = VisitorCommand) and back. Everything that comes from outside
+(another robot, the GUI) is untrusted and goes through :func:`validate_trip`,
+:func:`validate_cancel`, :func:`validate_event` or :func:`validate_command` first:
+they raise :class:`~gidabot_navigation.errors.GoalRejected` naming the bad value.
+
+The constants mirror the message definitions (``src/gidabot_msgs/msg``); a unit test
+checks they agree.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from collections import OrderedDict
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from enum import IntEnum
+
+from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
+from gidabot_navigation.errors import GoalRejected, TourNameError
+from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
+
+
+# -- gidabot_msgs/NavEvent phases ---------------------------------------------------
+class Phase(IntEnum):
+    """gidabot_msgs/NavEvent phases (same numbers); the module constants below are their ints."""
+
+    ACCEPTED = 0
+    ON_THE_WAY = 1
+    GOAL_REACHED = 2
+    GO_TO_FLOOR = 3
+    GOING_TO_MEETING = 4
+    WAITING_VISITOR = 5
+    UNREACHABLE = 6
+    NO_ROBOT_ON_FLOOR = 7
+    CANCELLED_HERE = 8
+    CANCELLED_ELSEWHERE = 9
+    TIMEOUT = 10
+    PARTNER_OFFLINE = 11
+    REJECTED = 12
+    TOUR_STEP_DONE = 13
+    TOUR_FINISHED = 14
+    PARTNER_LOST = 15
+    PARTNER_BACK = 16
+
+
+(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
+ NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
+ TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
+
+PHASE_NAMES = {
+    ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
+    GOING_TO_MEETING: "going to meeting point", WAITING_VISITOR: "waiting for the visitor",
+    UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
+    CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
+    REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
+    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back",
+}
+# phases after which the emitting robot is done with the trip (it left its queue)
+FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
+                          CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
+                          TOUR_FINISHED})
+# phases that hand the visitor over to another floor (the start robot released the visitor)
+RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
+
+# -- gidabot_msgs/VisitorCommand commands -------------------------------------------
+class Cmd(IntEnum):
+    """gidabot_msgs/VisitorCommand commands (same numbers); the module constants below are their ints."""
+
+    REQUEST = 0
+    CONTINUE = 1
+    CANCEL = 2
+    START_TOUR = 3
+    SKIP = 4
+
+
+REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = (int(c) for c in Cmd)
+COMMAND_NAMES = {REQUEST: "request", CONTINUE: "continue", CANCEL: "cancel", START_TOUR: "start tour",
+                 SKIP: "skip"}
+
+# -- gidabot_msgs/Cancel reasons ----------------------------------------------------
+REASON_VISITOR = "visitor"
+REASON_UNREACHABLE = "unreachable"
+REASON_TIMEOUT = "timeout"
+REASON_OFFLINE = "offline"
+REASON_ADMIN = "admin"
+REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN)
+# the phase a robot shows its visitor when another robot drops a trip for this reason
+PHASE_OF_REASON = {REASON_VISITOR: CANCELLED_ELSEWHERE, REASON_UNREACHABLE: UNREACHABLE,
+                   REASON_TIMEOUT: TIMEOUT, REASON_OFFLINE: PARTNER_OFFLINE, REASON_ADMIN: CANCELLED_ELSEWHERE}
+
+# -- gidabot_msgs/RobotStatus states ------------------------------------------------
+STATE_IDLE = "idle"
+STATE_GUIDING = "guiding"
+STATE_TO_MEETING = "to_meeting"
+STATE_WAITING = "waiting"
+STATE_RETURNING = "returning"
+STATE_ERROR = "error"
+
+# -- gidabot_msgs/Goal ways ---------------------------------------------------------
+WAY_LIFT = "lift"
+WAY_STAIRS = "stairs"
+WAYS = (WAY_LIFT, WAY_STAIRS)
+
+# -- limits of untrusted text -------------------------------------------------------
+MAX_UID = 160
+MAX_ID = 64          # robot, visitor, location, connector ids
+MAX_DETAIL = 400
+_UID_RE = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
+_ID_RE = re.compile(r"^[A-Za-z0-9_.:@+-]{1,64}$")
+START_ROBOT = "robot"     # Goal.start_id when the trip starts at the robot's pose
+POSE_TOLERANCE = 1.0      # m: a goal_pose this far from its location's pose means the buildings differ
+
+
+def same_floor(a: float, b: float) -> bool:
+    """True when two floor numbers are the same floor (float32 rounding tolerated)."""
+    return math.isfinite(a) and math.isfinite(b) and abs(a - b) < 1e-3
+
+
+def show(value: object, limit: int = 60) -> str:
+    """A short printable form of an untrusted value for log lines and errors."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+# ---------------------------------------------------------------------------
+# Message forms
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Trip:
+    """A gidabot_msgs/Goal: one visitor's trip from a start point to a goal point.
+
+    Poses are in the map frame of their floor (m, rad). ``way`` is the visitor's
+    choice (kept on one-floor goals too, so a tour remembers it); ``connector`` is
+    the lift/staircase used for the floor change ("" on one floor).
+    """
+
+    uid: str
+    origin_robot: str
+    visitor_id: str
+    initial_floor: float
+    initial_x: float
+    initial_y: float
+    goal_floor: float
+    goal_x: float
+    goal_y: float
+    goal_yaw: float
+    way: str
+    connector: str
+    start_id: str
+    goal_id: str
+    language: str
+    tour_file: str = ""
+    tour_step: int = -1
+    stamp: float = 0.0            # s, ROS time when the visitor confirmed
+
+    @property
+    def cross_floor(self) -> bool:
+        return not same_floor(self.initial_floor, self.goal_floor)
+
+    @property
+    def in_tour(self) -> bool:
+        return bool(self.tour_file)
+
+
+@dataclass(frozen=True)
+class NavEventData:
+    """A gidabot_msgs/NavEvent."""
+
+    uid: str
+    robot: str
+    floor: float
+    goal_uid: str
+    phase: int
+    language: str = "en"
+    way: str = ""
+    connector: str = ""
+    target_floor: float = 0.0
+    location_id: str = ""
+    tour_file: str = ""
+    tour_step: int = -1
+    detail: str = ""
+    stamp: float = 0.0
+
+    @property
+    def final(self) -> bool:
+        return self.phase in FINAL_PHASES
+
+
+@dataclass(frozen=True)
+class CancelData:
+    """A gidabot_msgs/Cancel."""
+
+    uid: str
+    goal_uid: str
+    origin_robot: str
+    reason: str
+    detail: str = ""
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class CommandData:
+    """A gidabot_msgs/VisitorCommand.
+
+    :attr:`key` identifies one button press: the uid *and* its stamp (a GUI that restarts
+    counts its command uids from 1 again; a replayed command has both the same)."""
+
+    command: int
+    uid: str = ""
+    visitor_id: str = ""
+    goal_id: str = ""
+    way: str = ""
+    language: str = ""
+    goal_uid: str = ""
+    tour_file: str = ""
+    tour_step: int = -1
+    stamp: float = 0.0
+
+    @property
+    def key(self) -> str:
+        return command_key(self.uid, self.stamp)
+
+
+def command_key(uid: object, stamp: object) -> str:
+    """The de-duplication key of a visitor command ("" = none: a command without uid is never a duplicate)."""
+    if not isinstance(uid, str) or not uid:
+        return ""
+    t = stamp if isinstance(stamp, (int, float)) and math.isfinite(stamp) else 0.0
+    return f"{uid[:MAX_UID]}@{t:.6f}"
+
+
+# -- actions the cores ask their adapters to carry out --------------------------------
+
+@dataclass(frozen=True)
+class SendGoal:
+    """Publish ``trip`` on /gidabot/goals."""
+
+    trip: Trip
+
+
+@dataclass(frozen=True)
+class SendCancel:
+    """Publish ``cancel`` on /gidabot/cancels."""
+
+    cancel: CancelData
+
+
+@dataclass(frozen=True)
+class SendEvent:
+    """Publish ``event`` on /gidabot/nav_events."""
+
+    event: NavEventData
+
+
+@dataclass(frozen=True)
+class MoveTo:
+    """Send a move_base goal (x, y, yaw in the floor's map frame); results come back with ``token``."""
+
+    token: int
+    x: float
+    y: float
+    yaw: float
+
+
+@dataclass(frozen=True)
+class StopMoving:
+    """Cancel the move_base goal ``token`` (the robot stops and is free)."""
+
+    token: int
+
+
+Action = SendGoal | SendCancel | SendEvent | MoveTo | StopMoving
+
+
+# ---------------------------------------------------------------------------
+# Helpers shared by the cores
+# ---------------------------------------------------------------------------
+
+class UidMaker:
+    """Globally unique ids: ``<robot>/event/<tag>.<boot>.<n>``, ``<robot>/cancel/...``,
+    ``<robot>/<visitor>/<boot>.<n>`` for goals.
+
+    ``boot`` tells apart the runs of one node (default: the wall clock at start in
+    base 36), so a restarted node never reuses an id that receivers would ignore.
+    """
+
+    def __init__(self, robot: str, tag: str, boot: str | None = None) -> None:
+        self.robot = robot
+        self.tag = tag
+        self.boot = boot if boot is not None else _base36(time.time_ns() // 1_000_000)
+        self._n = 0
+
+    def _next(self) -> str:
+        self._n += 1
+        return f"{self.tag}.{self.boot}.{self._n}"
+
+    def event(self) -> str:
+        return f"{self.robot}/event/{self._next()}"
+
+    def cancel(self) -> str:
+        return f"{self.robot}/cancel/{self._next()}"
+
+    def goal(self, visitor_id: str) -> str:
+        return f"{self.robot}/{visitor_id}/{self._next()}"
+
+
+def _base36(number: int) -> str:
+    digits = "0123456789abcdefghijklmnopqrstuvwxyz"
+    out = ""
+    while True:
+        number, rem = divmod(number, 36)
+        out = digits[rem] + out
+        if number == 0:
+            return out
+
+
+class SeenSet:
+    """A bounded set of ids (oldest forgotten first): uids already handled."""
+
+    def __init__(self, limit: int = 20000) -> None:
+        self.limit = limit
+        self._items: OrderedDict[str, None] = OrderedDict()
+
+    def __contains__(self, item: object) -> bool:
+        return item in self._items
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def add(self, item: str) -> bool:
+        """Add ``item``; False if it was already there."""
+        if item in self._items:
+            return False
+        self._items[item] = None
+        while len(self._items) > self.limit:
+            self._items.popitem(last=False)
+        return True
+
+    def discard(self, item: str) -> None:
+        self._items.pop(item, None)
+
+    def recent(self, n: int) -> list[str]:
+        """The ``n`` most recently added ids, oldest first (what a restarted node must remember)."""
+        if n <= 0:
+            return []
+        items = list(self._items)
+        return items[-n:]
+
+    def update(self, items: Iterable[str]) -> None:
+        for item in items:
+            if isinstance(item, str):
+                self.add(item)
+
+
+class Counters(dict):
+    """Named counters (rejected_<reason>, duplicates, ...) for diagnostics and tests."""
+
+    def inc(self, key: str, n: int = 1) -> None:
+        self[key] = self.get(key, 0) + n
+
+
+# ---------------------------------------------------------------------------
+# Validation of untrusted input
+# ---------------------------------------------------------------------------
+
+def _text(value: object, what: str, limit: int, pattern: re.Pattern[str] | None = None,
+          empty: bool = True) -> str:
+    if not isinstance(value, str):
+        raise GoalRejected("type", f"{what} {show(value)} is not a string")
+    if len(value) > limit:
+        raise GoalRejected("too_long", f"{what} is {len(value)} characters long; at most {limit} allowed "
+                                       f"({show(value, 40)})")
+    if not value:
+        if empty:
+            return value
+        raise GoalRejected("empty", f"{what} is empty")
+    if pattern is not None and not pattern.match(value):
+        raise GoalRejected("text", f"{what} {show(value)} holds characters other than letters, digits "
+                                   "and _ . : / @ + -")
+    if pattern is None and any(ord(ch) < 32 or ord(ch) == 127 for ch in value):
+        raise GoalRejected("text", f"{what} {show(value)} holds control characters")
+    return value
+
+
+def _finite(value: object, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise GoalRejected("type", f"{what} {show(value)} is not a number")
+    number = float(value)
+    if not math.isfinite(number):
+        raise GoalRejected("not_finite", f"{what} is {number!r}; expected a finite number")
+    return number
+
+
+def _floor_of(building: Building, value: object, what: str) -> float:
+    number = _finite(value, what)
+    floor = building.find_floor(number)
+    if floor is None:
+        raise GoalRejected("floor", f"{what} {format_floor(number)} is not a floor of building {building.id} "
+                                    f"(floors {', '.join(f.label for f in building.floors)})")
+    return floor.id
+
+
+def _tour(tour_file: object, tour_step: object, what: str) -> tuple[str, int]:
+    tour_file = _text(tour_file, f"{what} tour_file", 64)
+    if isinstance(tour_step, bool) or not isinstance(tour_step, int):
+        raise GoalRejected("type", f"{what} tour_step {show(tour_step)} is not an integer")
+    if not tour_file:
+        if tour_step != -1:
+            raise GoalRejected("tour", f"{what} tour_step is {tour_step} without a tour_file; expected -1")
+        return "", -1
+    try:
+        check_tour_file_name(tour_file)
+    except TourNameError as err:
+        raise GoalRejected("tour", f"{what}: {err}") from err
+    if not 0 <= tour_step < MAX_GOALS:
+        raise GoalRejected("tour", f"{what} tour_step {tour_step} is outside 0..{MAX_GOALS - 1}")
+    return tour_file, tour_step
+
+
+def validate_trip(building: Building, trip: Trip) -> Trip:
+    """Check a goal from /gidabot/goals; return it normalised (floor ids, the building's goal pose).
+
+    Rejects: non-string or overlong text, NaN/inf numbers, unknown floors, an origin
+    robot that is not in the building or not on the initial floor, an unknown goal
+    location or one on another floor, a goal pose far from that location (the robots'
+    building files differ), a floor change without a valid way and connector, an
+    unknown language, an unsafe tour file name.
+    """
+    uid = _text(trip.uid, "uid", MAX_UID, _UID_RE, empty=False)
+    origin = _text(trip.origin_robot, "origin_robot", MAX_ID, _ID_RE, empty=False)
+    robot = building.find_robot(origin)
+    if robot is None:
+        raise GoalRejected("robot", f"origin_robot {show(origin)} is not a robot of building {building.id} "
+                                    f"({', '.join(r.name for r in building.robots)})")
+    visitor = _text(trip.visitor_id, "visitor_id", MAX_ID, _ID_RE)
+    a = _floor_of(building, trip.initial_floor, "initial_floor")
+    b = _floor_of(building, trip.goal_floor, "goal_floor")
+    if not same_floor(a, robot.floor):
+        raise GoalRejected("floor", f"initial_floor {format_floor(a)} is not the floor of origin robot {origin} "
+                                    f"({format_floor(robot.floor)})")
+    ix, iy = _finite(trip.initial_x, "initial_pose.x"), _finite(trip.initial_y, "initial_pose.y")
+    gx, gy = _finite(trip.goal_x, "goal_pose.x"), _finite(trip.goal_y, "goal_pose.y")
+    _finite(trip.goal_yaw, "goal_pose orientation")
+    grid = building.floor(a).map
+    if not grid.contains(ix, iy):
+        raise GoalRejected("pose", f"initial_pose ({ix:g}, {iy:g}) is outside the map of floor {format_floor(a)}")
+    goal_id = _text(trip.goal_id, "goal_id", MAX_ID, _ID_RE, empty=False)
+    loc = building.find_location(goal_id)
+    if loc is None:
+        raise GoalRejected("location", f"goal_id {show(goal_id)} is not a location of building {building.id}")
+    if not same_floor(loc.floor, b):
+        raise GoalRejected("location", f"goal_id {goal_id} is on floor {format_floor(loc.floor)}, "
+                                       f"not on goal_floor {format_floor(b)}")
+    off = math.hypot(gx - loc.pose.x, gy - loc.pose.y)
+    if off > POSE_TOLERANCE:
+        raise GoalRejected("pose", f"goal_pose ({gx:g}, {gy:g}) is {off:.1f} m from location {goal_id} at "
+                                   f"({loc.pose.x:g}, {loc.pose.y:g}); the robots' building files differ")
+    start_id = _text(trip.start_id, "start_id", MAX_ID, _ID_RE)
+    if start_id and start_id != START_ROBOT and building.find_location(start_id) is None:
+        raise GoalRejected("location", f"start_id {show(start_id)} is neither {START_ROBOT!r} nor a location")
+    way = _text(trip.way, "way", 16)
+    connector = _text(trip.connector, "connector", MAX_ID, _ID_RE)
+    if way and way not in WAYS:
+        raise GoalRejected("way", f"way {show(way)} is not one of {', '.join(WAYS)} (or '' on one floor)")
+    if a != b:
+        if not way:
+            raise GoalRejected("way", f"a trip from floor {format_floor(a)} to {format_floor(b)} needs a way "
+                                      f"({', '.join(WAYS)})")
+        conn = building.find_connector(connector)
+        if conn is None:
+            raise GoalRejected("connector", f"connector {show(connector)} is not a lift or staircase of the "
+                                            f"building ({', '.join(c.id for c in building.connectors)})")
+        if a not in conn.meeting or b not in conn.meeting:
+            raise GoalRejected("connector", f"connector {connector} does not serve floors {format_floor(a)} "
+                                            f"and {format_floor(b)}")
+        if conn.kind != way:
+            raise GoalRejected("connector", f"connector {connector} is a {conn.kind}, but way is {way}")
+    elif connector:
+        raise GoalRejected("connector", f"connector {show(connector)} given for a trip on one floor; expected ''")
+    language = _text(trip.language, "language", 8)
+    if language not in LANGUAGES:
+        raise GoalRejected("language", f"language {show(language)} is not one of {', '.join(LANGUAGES)}")
+    tour_file, tour_step = _tour(trip.tour_file, trip.tour_step, "goal")
+    stamp = trip.stamp if isinstance(trip.stamp, (int, float)) and math.isfinite(trip.stamp) else 0.0
+    return replace(trip, uid=uid, origin_robot=origin, visitor_id=visitor, initial_floor=a, initial_x=ix,
+                   initial_y=iy, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
+                   way=way, connector=connector, start_id=start_id, goal_id=goal_id, language=language,
+                   tour_file=tour_file, tour_step=tour_step, stamp=float(stamp))
+
+
+def validate_cancel(building: Building, cancel: CancelData) -> CancelData:
+    """Check a Cancel from /gidabot/cancels (ids, a known origin robot, a known reason)."""
+    uid = _text(cancel.uid, "cancel uid", MAX_UID, _UID_RE, empty=False)
+    goal_uid = _text(cancel.goal_uid, "cancel goal_uid", MAX_UID, _UID_RE, empty=False)
+    origin = _text(cancel.origin_robot, "cancel origin_robot", MAX_ID, _ID_RE, empty=False)
+    if building.find_robot(origin) is None:
+        raise GoalRejected("robot", f"cancel origin_robot {show(origin)} is not a robot of building {building.id}")
+    reason = _text(cancel.reason, "cancel reason", 16)
+    if reason not in REASONS:
+        raise GoalRejected("reason", f"cancel reason {show(reason)} is not one of {', '.join(REASONS)}")
+    detail = cancel.detail if isinstance(cancel.detail, str) else ""
+    return replace(cancel, uid=uid, goal_uid=goal_uid, origin_robot=origin, reason=reason,
+                   detail=detail[:MAX_DETAIL])
+
+
+def validate_event(building: Building, event: NavEventData) -> NavEventData:
+    """Check the parts of a NavEvent guiding acts on (uid, robot, goal_uid, phase, tour info)."""
+    uid = _text(event.uid, "event uid", MAX_UID, _UID_RE, empty=False)
+    robot = _text(event.robot, "event robot", MAX_ID, _ID_RE, empty=False)
+    if building.find_robot(robot) is None:
+        raise GoalRejected("robot", f"event robot {show(robot)} is not a robot of building {building.id}")
+    goal_uid = _text(event.goal_uid, "event goal_uid", MAX_UID, _UID_RE)
+    if isinstance(event.phase, bool) or not isinstance(event.phase, int) or event.phase not in PHASE_NAMES:
+        raise GoalRejected("phase", f"event phase {show(event.phase)} is not a known NavEvent phase")
+    tour_file, tour_step = _tour(event.tour_file, event.tour_step, "event")
+    way = event.way if isinstance(event.way, str) and event.way in WAYS else ""
+    language = event.language if event.language in LANGUAGES else "en"
+    return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
+                   way=way, language=language)
+
+
+def validate_command(cmd: CommandData) -> CommandData:
+    """Check a VisitorCommand from the GUI / simulated visitor (lengths, enums; not the building)."""
+    if isinstance(cmd.command, bool) or not isinstance(cmd.command, int) or cmd.command not in COMMAND_NAMES:
+        raise GoalRejected("command", f"command {show(cmd.command)} is not one of "
+                                      f"{', '.join(f'{k}={v}' for k, v in COMMAND_NAMES.items())}")
+    _text(cmd.uid, "command uid", MAX_UID)
+    visitor = _text(cmd.visitor_id, "visitor_id", MAX_ID)
+    visitor = visitor if _ID_RE.match(visitor or "-") else ""
+    goal_id = _text(cmd.goal_id, "goal_id", MAX_ID)
+    way = _text(cmd.way, "way", 16)
+    if way and way not in WAYS:
+        raise GoalRejected("way", f"way {show(way)} is not one of {', '.join(WAYS)} (or '' for the default)")
+    language = _text(cmd.language, "language", 8)
+    if language and language not in LANGUAGES:
+        raise GoalRejected("language", f"language {show(language)} is not one of {', '.join(LANGUAGES)}")
+    goal_uid = _text(cmd.goal_uid, "goal_uid", MAX_UID, _UID_RE)
+    tour_file = _text(cmd.tour_file, "tour_file", 64)
+    if tour_file:
+        try:
+            check_tour_file_name(tour_file)
+        except TourNameError as err:
+            raise GoalRejected("tour", str(err)) from err
+    if isinstance(cmd.tour_step, bool) or not isinstance(cmd.tour_step, int):
+        raise GoalRejected("type", f"tour_step {show(cmd.tour_step)} is not an integer")
+    return replace(cmd, visitor_id=visitor, goal_id=goal_id, way=way, language=language, goal_uid=goal_uid,
+                   tour_file=tour_file)
+
+
+def phase_name(phase: int) -> str:
+    return PHASE_NAMES.get(phase, f"phase {phase}")
+
+
+def uids(items: Iterable[Trip]) -> list[str]:
+    return [t.uid for t in items]

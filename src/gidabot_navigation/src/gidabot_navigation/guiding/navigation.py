@@ -1,0 +1,624 @@
+"""Multirobot navigation (ROS-free core): the guiding state machine of paper Algorithm 1.
+
+One robot runs the head of its pending list (kept by the goal manager) leg by leg
+through move_base. Roles (see :func:`gidabot_navigation.guiding.trips.role`):
+
+* **same floor** — [pick the visitor up] -> ON_THE_WAY to the goal -> GOAL_REACHED
+  (TOUR_STEP_DONE / TOUR_FINISHED for a tour step);
+* **start floor** of a cross-floor trip — [pick up] -> ON_THE_WAY to the connector's
+  meeting point -> GO_TO_FLOOR (target floor, way, connector), or NO_ROBOT_ON_FLOOR
+  when no robot serves the goal floor; the robot's part is then over;
+* **goal floor** — as soon as the trip is at the head: GOING_TO_MEETING -> at the
+  meeting point WAITING_VISITOR -> Continue -> ON_THE_WAY to the goal -> GOAL_REACHED.
+  Nobody presses Continue within ``continue_timeout`` (ROS s, counted from when the
+  robot is at the meeting point *and* the start robot released the visitor) ->
+  TIMEOUT, and the trip is dropped everywhere.
+
+Failures: move_base ABORTED/REJECTED/LOST -> UNREACHABLE here and a Cancel (reason
+unreachable) so every other robot drops the trip and tells its visitor. A Cancel for
+the running trip stops move_base at once. A partner robot that goes offline while
+the trip still needs it -> PARTNER_LOST (the trip waits), PARTNER_BACK when it
+returns; the goal-floor robot gives up after ``partner_timeout`` wall s
+(PARTNER_OFFLINE, Cancel reason offline).
+
+Inputs are explicit events (:meth:`NavigationCore.on_pending`, ``on_move_base_result``,
+``on_continue``, ``on_cancel``, ``on_nav_event``, ``on_status``, ``tick``); each returns
+actions (MoveTo, StopMoving, SendEvent, SendCancel) for the adapter.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections import OrderedDict
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+from gidabot_navigation.building.geometry import Pose2D
+from gidabot_navigation.building.model import Building, format_floor
+from gidabot_navigation.errors import GoalRejected, GuidingError
+from gidabot_navigation.guiding.liveness import PeerLiveness
+from gidabot_navigation.guiding.messages import (
+    GO_TO_FLOOR,
+    GOAL_REACHED,
+    GOING_TO_MEETING,
+    NO_ROBOT_ON_FLOOR,
+    ON_THE_WAY,
+    PARTNER_BACK,
+    PARTNER_LOST,
+    PARTNER_OFFLINE,
+    REASON_OFFLINE,
+    REASON_TIMEOUT,
+    REASON_UNREACHABLE,
+    RELEASE_PHASES,
+    STATE_ERROR,
+    STATE_GUIDING,
+    STATE_IDLE,
+    STATE_TO_MEETING,
+    STATE_WAITING,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+    WAITING_VISITOR,
+    Action,
+    CancelData,
+    Counters,
+    MoveTo,
+    NavEventData,
+    SeenSet,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    Trip,
+    UidMaker,
+    validate_cancel,
+    validate_event,
+)
+from gidabot_navigation.guiding.state import (
+    REMEMBERED_UIDS,
+    GuidingStateError,
+    number,
+    str_list,
+    trip_from_dict,
+    trip_to_dict,
+)
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
+from gidabot_navigation.guiding.trips import Role, partner_of, role
+from gidabot_navigation.logs import Logger, RateLimitedLog
+
+# move_base (actionlib) terminal states, as the adapter names them
+SUCCEEDED = "succeeded"
+ABORTED = "aborted"
+REJECTED_BY_SERVER = "rejected"
+PREEMPTED = "preempted"
+RECALLED = "recalled"
+LOST = "lost"
+
+
+class Stage(enum.Enum):
+    PICKUP = "pickup"            # driving to where the visitor made the request (start / same floor)
+    GUIDING = "guiding"          # ON_THE_WAY with the visitor
+    TO_MEETING = "to_meeting"    # goal floor: driving alone to the connector's meeting point
+    WAITING = "waiting"          # goal floor: at the meeting point, waiting for Continue
+
+
+STATE_OF_STAGE = {Stage.PICKUP: STATE_TO_MEETING, Stage.GUIDING: STATE_GUIDING, Stage.TO_MEETING: STATE_TO_MEETING,
+                  Stage.WAITING: STATE_WAITING}
+
+
+@dataclass(frozen=True)
+class NavigationConfig:
+    """Times: ``continue_timeout``, ``nav_lost_timeout`` in ROS s; ``partner_timeout``, ``offline_after``
+    in wall s; ``pickup_distance`` in m."""
+
+    robot: str
+    continue_timeout: float = 300.0
+    partner_timeout: float = 120.0
+    offline_after: float = 5.0
+    pickup_distance: float = 1.5
+    nav_lost_timeout: float = 30.0
+
+    def __post_init__(self) -> None:
+        for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise GuidingError(f"{name}: {value!r} must be a positive number")
+
+
+@dataclass
+class Leg:
+    """This robot's part of the trip at the head of its queue."""
+
+    trip: Trip
+    role: Role
+    stage: Stage
+    token: int
+    target: Pose2D
+    moving: bool = True
+    arrived_at: float | None = None     # ROS s, reached the meeting point
+    continued: bool = False             # the visitor pressed Continue (possibly before arrival)
+    partner: str | None = None          # the other robot of a cross-floor trip
+    partner_lost: float | None = None   # wall s since which the partner is offline (notice given)
+    started: float = 0.0                # ROS s
+    resend: bool = False                # resumed after a restart: send the move_base goal again
+
+
+@dataclass(frozen=True)
+class StatusSnapshot:
+    """The content of this robot's RobotStatus."""
+
+    robot: str
+    floor: float
+    x: float
+    y: float
+    yaw: float
+    pose_known: bool
+    linear: float
+    angular: float
+    battery: float          # 0..1, -1 unknown
+    state: str
+    pending: int
+    current_goal_uid: str
+    busy_for: float
+
+
+class NavigationCore:
+    """Runs the head of this robot's pending list (Algorithm 1)."""
+
+    def __init__(self, building: Building, cfg: NavigationConfig, log: Logger, now_wall: float,
+                 boot: str | None = None) -> None:
+        robot = building.find_robot(cfg.robot)
+        if robot is None:
+            raise GuidingError(f"robot {cfg.robot!r} is not in building {building.id} "
+                               f"({', '.join(r.name for r in building.robots)})")
+        self.building = building
+        self.cfg = cfg
+        self.robot = robot
+        self.me = robot.name
+        self.floor = robot.floor
+        self.log = log
+        self.warn = RateLimitedLog(log)
+        self.uids = UidMaker(self.me, "nav", boot)
+        self.liveness = PeerLiveness(cfg.offline_after, now_wall)
+        self.tours = TourBook(building)
+        self.stats = Counters()
+        self.queue: list[Trip] = []
+        self.leg: Leg | None = None
+        self.available = False                  # the move_base action server is connected
+        self.pose: Pose2D | None = None
+        self.linear = 0.0
+        self.angular = 0.0
+        self.battery = -1.0
+        self._token = 0
+        self._unavailable_since: float | None = None
+        self._finished = SeenSet()
+        self._cancelled = SeenSet()
+        self._cancels_seen = SeenSet()
+        self._events_seen = SeenSet()
+        self._early_continue: set[str] = set()
+        self._commands_seen = SeenSet()     # CommandData.key of the Continues handled
+        self._releases: OrderedDict[str, tuple[str, float]] = OrderedDict()   # goal uid -> (robot, ROS s)
+        self._eta_last = 0.0
+        self._eta_at = 0.0
+
+    # ------------------------------------------------------------------ sensor-like inputs
+    def on_pose(self, x: float, y: float, yaw: float) -> None:
+        if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
+            self.pose = Pose2D(float(x), float(y), float(yaw))
+
+    def on_odom(self, linear: float, angular: float) -> None:
+        if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (linear, angular)):
+            self.linear, self.angular = float(linear), float(angular)
+
+    def on_battery(self, fraction: float) -> None:
+        if isinstance(fraction, (int, float)) and math.isfinite(fraction):
+            self.battery = min(1.0, max(0.0, float(fraction)))
+
+    def on_status(self, robot: str, now_wall: float) -> None:
+        if isinstance(robot, str) and self.building.find_robot(robot) is not None:
+            self.liveness.heard(robot, now_wall)
+
+    def on_catalog(self, entries: Iterable[CatalogEntry]) -> None:
+        for problem in self.tours.update(entries):
+            self.warn.warning("catalog", problem)
+
+    # ------------------------------------------------------------------ events
+    def on_move_base_available(self, available: bool, now_ros: float) -> None:
+        if available:
+            self._unavailable_since = None
+        elif self.available or self._unavailable_since is None:
+            self._unavailable_since = now_ros
+        self.available = available
+
+    def on_pending(self, goals: Sequence[Trip], eta_last: float, now_ros: float, now_wall: float) -> list[Action]:
+        """This robot's pending list changed (from its goal manager)."""
+        self.queue = list(goals)
+        self._eta_last = eta_last if math.isfinite(eta_last) else 0.0
+        self._eta_at = now_ros
+        actions: list[Action] = []
+        leg = self.leg
+        if leg is not None and leg.trip.uid not in {t.uid for t in self.queue}:
+            self.log.info(f"{leg.trip.uid} left the pending list; stopping it")
+            actions += self._stop(leg)
+            self._finish(leg.trip)
+        return actions + self._advance(now_ros, now_wall)
+
+    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
+        """A Cancel (from this robot or another): stop the trip at once if it runs here."""
+        try:
+            cancel = validate_cancel(self.building, cancel)
+        except GoalRejected as err:
+            self.stats.inc(f"rejected_{err.reason}")
+            self.warn.warning("cancel", f"cancel rejected: {err}")
+            return []
+        if from_relay and cancel.origin_robot == self.me:
+            self.stats.inc("rejected_spoofed")
+            return []
+        if not self._cancels_seen.add(cancel.uid):
+            return []
+        self._cancelled.add(cancel.goal_uid)
+        self._early_continue.discard(cancel.goal_uid)
+        leg = self.leg
+        if leg is None or leg.trip.uid != cancel.goal_uid:
+            return []
+        self.log.info(f"{leg.trip.uid} cancelled by {cancel.origin_robot} ({cancel.reason}); stopping")
+        actions = self._stop(leg)
+        self._finish(leg.trip)
+        return actions + self._advance(now_ros, now_wall)
+
+    def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "") -> list[Action]:
+        """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here).
+
+        ``key`` (:attr:`CommandData.key`): a Continue replayed to a restarted node is ignored."""
+        if not isinstance(goal_uid, str):
+            return []
+        if key and not self._commands_seen.add(key):
+            self.stats.inc("duplicate_commands")
+            return []
+        leg = self.leg
+        if leg is not None and leg.role is Role.GOAL and leg.stage in (Stage.TO_MEETING, Stage.WAITING) \
+                and goal_uid in ("", leg.trip.uid):
+            if leg.stage is Stage.WAITING:
+                return self._go_on(leg, now_ros)
+            leg.continued = True          # the visitor is already here: go on as soon as we arrive
+            return []
+        if goal_uid and any(t.uid == goal_uid and role(t, self.floor) is Role.GOAL for t in self.queue):
+            self._early_continue.add(goal_uid)
+        return []
+
+    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
+        """Any robot's NavEvent: a start robot's GO_TO_FLOOR releases the visitor towards this floor."""
+        try:
+            ev = validate_event(self.building, ev)
+        except GoalRejected as err:
+            self.stats.inc(f"rejected_{err.reason}")
+            return []
+        if not self._events_seen.add(ev.uid):
+            return []
+        if ev.phase in RELEASE_PHASES and ev.goal_uid and ev.robot != self.me:
+            self._releases[ev.goal_uid] = (ev.robot, now_ros)
+            while len(self._releases) > 1000:
+                self._releases.popitem(last=False)
+        return []
+
+    def on_move_base_result(self, token: int, status: str, text: str, now_ros: float,
+                            now_wall: float) -> list[Action]:
+        """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...)."""
+        leg = self.leg
+        if leg is None or token != leg.token or not leg.moving:
+            self.stats.inc("stale_results")
+            return []
+        leg.moving = False
+        if status == SUCCEEDED:
+            return self._arrived(leg, now_ros) + self._advance(now_ros, now_wall)
+        what = {Stage.PICKUP: "to the visitor", Stage.GUIDING: f"to {self._where(leg)}",
+                Stage.TO_MEETING: f"to the meeting point of {leg.trip.connector}"}.get(leg.stage, "")
+        reason = f"move_base {status} on the way {what}" + (f": {text[:200]}" if text else "")
+        if status in (PREEMPTED, RECALLED):
+            reason += " (another client took over move_base)"
+        return self._fail(leg, reason, now_ros) + self._advance(now_ros, now_wall)
+
+    def tick(self, now_ros: float, now_wall: float) -> list[Action]:
+        """Timeouts (Continue, partner offline, navigation lost) and starting the next trip."""
+        actions: list[Action] = []
+        leg = self.leg
+        if leg is not None and leg.resend and self.available:
+            leg.resend = False
+            if leg.moving:
+                self.log.info(f"{leg.trip.uid}: resuming the {leg.stage.value} leg after a restart")
+                self._next_move(leg, leg.stage, leg.target)
+                actions.append(self._move(leg))
+        leg = self.leg
+        if leg is not None and leg.stage is Stage.WAITING and not leg.continued:
+            start = self._timer_start(leg)
+            if start is not None and now_ros - start >= self.cfg.continue_timeout:
+                actions += self._timeout(leg, now_ros)
+        leg = self.leg
+        if leg is not None:
+            actions += self._check_partner(leg, now_ros, now_wall)
+        leg = self.leg
+        if leg is not None and leg.moving and not self.available and self._unavailable_since is not None \
+                and now_ros - self._unavailable_since >= self.cfg.nav_lost_timeout:
+            actions += self._fail(leg, f"the navigation stack (move_base) is gone for "
+                                       f"{now_ros - self._unavailable_since:.0f} s", now_ros)
+        return actions + self._advance(now_ros, now_wall)
+
+    # ------------------------------------------------------------------ restarts
+    def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
+        """What a restarted navigation needs (JSON-able): the running leg, the handled uids, releases."""
+        leg = self.leg
+        return {
+            "queue": [trip_to_dict(t) for t in self.queue],
+            "leg": None if leg is None else {
+                "trip": trip_to_dict(leg.trip), "role": leg.role.value, "stage": leg.stage.value,
+                "target": [leg.target.x, leg.target.y, leg.target.yaw], "moving": leg.moving,
+                "arrived_at": leg.arrived_at, "continued": leg.continued, "partner": leg.partner,
+                "started": leg.started},
+            "token": self._token,
+            "finished": self._finished.recent(remember), "cancelled": self._cancelled.recent(remember),
+            "cancels_seen": self._cancels_seen.recent(remember), "events_seen": self._events_seen.recent(remember),
+            "commands_seen": self._commands_seen.recent(remember),
+            "early_continue": sorted(self._early_continue),
+            "releases": [[uid, r, t] for uid, (r, t) in self._releases.items()][-remember:],
+            "stats": dict(self.stats),
+        }
+
+    def load_state(self, state: dict[str, Any]) -> None:
+        """Resume from :meth:`state` of a previous run: the leg goes on (its move_base goal is sent again
+        once move_base is there). Raises GuidingStateError, changing nothing, if the state is damaged."""
+        try:
+            self._load_state(state)
+        except (TypeError, ValueError, KeyError, IndexError, AttributeError) as err:
+            raise GuidingStateError(f"navigation state: {err!r}") from err
+
+    def _load_state(self, state: dict[str, Any]) -> None:
+        queue = [trip_from_dict(t) for t in state.get("queue", [])]
+        raw = state.get("leg")
+        leg = None
+        if raw is not None:
+            x, y, yaw = (number(v, "leg target") for v in raw["target"])
+            arrived = raw.get("arrived_at")
+            arrived_at = None if arrived is None else number(arrived, "arrived")
+            leg = Leg(trip_from_dict(raw["trip"]), Role(raw["role"]), Stage(raw["stage"]), 0, Pose2D(x, y, yaw),
+                      moving=bool(raw.get("moving")), arrived_at=arrived_at,
+                      continued=bool(raw.get("continued")),
+                      partner=raw["partner"] if isinstance(raw.get("partner"), str) else None,
+                      started=number(raw.get("started", 0.0), "started"), resend=True)
+        seen = {name: str_list(state.get(name, []), name) for name in
+                ("finished", "cancelled", "cancels_seen", "events_seen", "commands_seen", "early_continue")}
+        releases = [(str(r[0]), str(r[1]), number(r[2], "release")) for r in state.get("releases", [])]
+        token = int(number(state.get("token", 0), "token"))
+        self.queue = queue
+        self._token = token
+        if leg is not None:
+            self._token += 1
+            leg.token = self._token
+        self.leg = leg
+        for name in ("finished", "cancelled", "cancels_seen", "events_seen", "commands_seen"):
+            getattr(self, f"_{name}").update(seen[name])
+        self._early_continue = set(seen["early_continue"])
+        for uid, robot, t in releases:
+            self._releases[uid] = (robot, t)
+        stats = state.get("stats", {})
+        if isinstance(stats, dict):
+            self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
+
+    # ------------------------------------------------------------------ outputs
+    def status(self, now_ros: float) -> StatusSnapshot:
+        pose = self.pose or self.robot.home
+        leg = self.leg
+        if not self.available:
+            state = STATE_ERROR
+        elif leg is None:
+            state = STATE_IDLE
+        else:
+            state = STATE_OF_STAGE[leg.stage]
+        pending = sum(1 for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled)
+        busy = max(0.0, self._eta_last - max(0.0, now_ros - self._eta_at)) if pending else 0.0
+        return StatusSnapshot(self.me, self.floor, pose.x, pose.y, pose.yaw, self.pose is not None, self.linear,
+                              self.angular, self.battery, state, min(pending, 255), leg.trip.uid if leg else "",
+                              round(busy, 1))
+
+    # ------------------------------------------------------------------ the state machine
+    def _advance(self, now_ros: float, now_wall: float) -> list[Action]:
+        actions: list[Action] = []
+        while self.leg is None and self.available:
+            trip = next((t for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled), None)
+            if trip is None:
+                break
+            actions += self._start(trip, now_ros)
+        return actions
+
+    def _start(self, trip: Trip, now_ros: float) -> list[Action]:
+        r = role(trip, self.floor)
+        if r is None:
+            self._finished.add(trip.uid)
+            return []
+        partner = partner_of(self.building, trip, self.floor)
+        partner_name = partner.name if partner is not None and partner.name != self.me else None
+        if r is Role.GOAL:
+            meet = self._meeting(trip)
+            if meet is None:
+                return self._fail_unstarted(trip, r, f"connector {trip.connector!r} has no meeting point on floor "
+                                                     f"{format_floor(self.floor)}", now_ros)
+            leg = self._new_leg(trip, r, Stage.TO_MEETING, meet, partner_name, now_ros)
+            leg.continued = trip.uid in self._early_continue
+            return [self._move(leg), self._event(GOING_TO_MEETING, trip, now_ros, location_id=trip.connector)]
+        target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if r is Role.SAME else self._meeting(trip)
+        if target is None:
+            return self._fail_unstarted(trip, r, f"connector {trip.connector!r} has no meeting point on floor "
+                                                 f"{format_floor(self.floor)}", now_ros)
+        pickup = Pose2D(trip.initial_x, trip.initial_y, self.pose.yaw if self.pose else 0.0)
+        if self.pose is not None and self.pose.distance_to(pickup) > self.cfg.pickup_distance:
+            leg = self._new_leg(trip, r, Stage.PICKUP, pickup, partner_name, now_ros)
+            return [self._move(leg), self._event(GOING_TO_MEETING, trip, now_ros, location_id=trip.start_id,
+                                                 detail="picking the visitor up where the request was made")]
+        leg = self._new_leg(trip, r, Stage.GUIDING, target, partner_name, now_ros)
+        return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
+
+    def _arrived(self, leg: Leg, now_ros: float) -> list[Action]:
+        trip = leg.trip
+        if leg.stage is Stage.PICKUP:
+            target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if leg.role is Role.SAME else self._meeting(trip)
+            assert target is not None
+            self._next_move(leg, Stage.GUIDING, target)
+            return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
+        if leg.stage is Stage.TO_MEETING:
+            leg.stage = Stage.WAITING
+            leg.arrived_at = now_ros
+            actions: list[Action] = [self._event(WAITING_VISITOR, trip, now_ros, location_id=trip.connector)]
+            if leg.continued:
+                actions += self._go_on(leg, now_ros)
+            return actions
+        # GUIDING: this robot's part is done
+        self._finish(trip)
+        if leg.role is Role.START:
+            if self.building.robot_on(trip.goal_floor) is None:
+                return [self._event(NO_ROBOT_ON_FLOOR, trip, now_ros,
+                                    detail=f"no robot serves floor {format_floor(trip.goal_floor)}: "
+                                           f"go there by the {trip.way} and find {trip.goal_id} yourself")]
+            return [self._event(GO_TO_FLOOR, trip, now_ros)]
+        return [self._event(self._done_phase(trip), trip, now_ros)]
+
+    def _go_on(self, leg: Leg, now_ros: float) -> list[Action]:
+        """Goal floor: the visitor is here; guide to the goal."""
+        leg.continued = True
+        self._early_continue.discard(leg.trip.uid)
+        self._next_move(leg, Stage.GUIDING, Pose2D(leg.trip.goal_x, leg.trip.goal_y, leg.trip.goal_yaw))
+        return [self._move(leg), self._event(ON_THE_WAY, leg.trip, now_ros, location_id=leg.trip.goal_id)]
+
+    def _timer_start(self, leg: Leg) -> float | None:
+        """ROS s from which the Continue timeout runs: at the meeting point and the visitor released."""
+        if leg.arrived_at is None:
+            return None
+        start_robot = self.building.robot_on(leg.trip.initial_floor)
+        if start_robot is None or start_robot.name == self.me:
+            return leg.arrived_at
+        release = self._releases.get(leg.trip.uid)
+        if release is None or release[0] != start_robot.name:
+            return None
+        return max(leg.arrived_at, release[1])
+
+    def _released(self, trip: Trip) -> bool:
+        start_robot = self.building.robot_on(trip.initial_floor)
+        release = self._releases.get(trip.uid)
+        return release is not None and start_robot is not None and release[0] == start_robot.name
+
+    def _timeout(self, leg: Leg, now_ros: float) -> list[Action]:
+        trip = leg.trip
+        detail = f"nobody pressed Continue at {trip.connector} within {self.cfg.continue_timeout:g} s"
+        self.log.warning(f"{trip.uid}: {detail}; dropped")
+        self.stats.inc("timeouts")
+        self._finish(trip)
+        return [self._event(TIMEOUT, trip, now_ros, location_id=trip.connector, detail=detail),
+                SendCancel(self._cancel(trip, REASON_TIMEOUT, detail, now_ros))]
+
+    def _check_partner(self, leg: Leg, now_ros: float, now_wall: float) -> list[Action]:
+        if leg.partner is None:
+            return []
+        if leg.role is Role.START:
+            needed = leg.stage in (Stage.PICKUP, Stage.GUIDING)
+        else:
+            needed = not leg.continued and not self._released(leg.trip)
+        if not needed:
+            if leg.partner_lost is None:
+                return []
+            leg.partner_lost = None          # the visitor was released / is here: the trip goes on
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail="the trip goes on")]
+        if self.liveness.online(leg.partner, now_wall):
+            if leg.partner_lost is None:
+                return []
+            leg.partner_lost = None
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail=f"{leg.partner} is back; the trip goes on")]
+        actions: list[Action] = []
+        if leg.partner_lost is None:
+            leg.partner_lost = self.liveness.offline_since(leg.partner, now_wall) or now_wall
+            wait = f"; waiting up to {self.cfg.partner_timeout:g} s for it" if leg.role is Role.GOAL else ""
+            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, detail=f"{leg.partner} is offline{wait}"))
+        if leg.role is Role.GOAL and now_wall - leg.partner_lost >= self.cfg.partner_timeout:
+            detail = f"{leg.partner} has been offline for {now_wall - leg.partner_lost:.0f} s; the trip is given up"
+            self.log.warning(f"{leg.trip.uid}: {detail}")
+            actions += self._stop(leg)
+            self._finish(leg.trip)
+            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, detail=detail),
+                        SendCancel(self._cancel(leg.trip, REASON_OFFLINE, detail, now_ros))]
+        return actions
+
+    def _fail(self, leg: Leg, detail: str, now_ros: float) -> list[Action]:
+        """Navigation failed: UNREACHABLE here, and every other robot drops the trip too."""
+        self.log.warning(f"{leg.trip.uid}: {detail}")
+        self.stats.inc("unreachable")
+        actions = self._stop(leg)
+        self._finish(leg.trip)
+        return actions + [self._event(UNREACHABLE, leg.trip, now_ros, location_id=self._where(leg), detail=detail),
+                          SendCancel(self._cancel(leg.trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
+
+    def _fail_unstarted(self, trip: Trip, r: Role, detail: str, now_ros: float) -> list[Action]:
+        self.log.warning(f"{trip.uid}: {detail}")
+        self._finish(trip)
+        return [self._event(UNREACHABLE, trip, now_ros, detail=detail),
+                SendCancel(self._cancel(trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
+
+    # ------------------------------------------------------------------ helpers
+    def _new_leg(self, trip: Trip, r: Role, stage: Stage, target: Pose2D, partner: str | None,
+                 now_ros: float) -> Leg:
+        self._token += 1
+        self.leg = Leg(trip, r, stage, self._token, target, partner=partner, started=now_ros)
+        return self.leg
+
+    def _next_move(self, leg: Leg, stage: Stage, target: Pose2D) -> None:
+        self._token += 1
+        leg.token, leg.stage, leg.target, leg.moving = self._token, stage, target, True
+
+    def _move(self, leg: Leg) -> MoveTo:
+        return MoveTo(leg.token, leg.target.x, leg.target.y, leg.target.yaw)
+
+    def _stop(self, leg: Leg) -> list[Action]:
+        if not leg.moving:
+            return []
+        leg.moving = False
+        return [StopMoving(leg.token)]
+
+    def _finish(self, trip: Trip) -> None:
+        self._finished.add(trip.uid)
+        self._early_continue.discard(trip.uid)
+        if self.leg is not None and self.leg.trip.uid == trip.uid:
+            self.leg = None
+
+    def _meeting(self, trip: Trip) -> Pose2D | None:
+        conn = self.building.find_connector(trip.connector)
+        return conn.meeting.get(self.floor) if conn is not None else None
+
+    def _where(self, leg: Leg) -> str:
+        """Where the robot is going now: the connector of a start leg, else the goal."""
+        if leg.stage is Stage.TO_MEETING or (leg.role is Role.START and leg.stage is Stage.GUIDING):
+            return leg.trip.connector
+        if leg.stage is Stage.PICKUP:
+            return leg.trip.start_id
+        return leg.trip.goal_id
+
+    def _done_phase(self, trip: Trip) -> int:
+        if not trip.tour_file:
+            return GOAL_REACHED
+        length = self.tours.length(trip.tour_file)
+        return TOUR_FINISHED if length is not None and trip.tour_step >= length - 1 else TOUR_STEP_DONE
+
+    def _cancel(self, trip: Trip, reason: str, detail: str, now_ros: float) -> CancelData:
+        cancel = CancelData(uid=self.uids.cancel(), goal_uid=trip.uid, origin_robot=self.me, reason=reason,
+                            detail=detail, stamp=now_ros)
+        self._cancels_seen.add(cancel.uid)
+        self._cancelled.add(trip.uid)
+        return cancel
+
+    def _event(self, phase: int, trip: Trip, now_ros: float, **fields: object) -> SendEvent:
+        ev = NavEventData(uid=self.uids.event(), robot=self.me, floor=self.floor, goal_uid=trip.uid, phase=phase,
+                          language=trip.language, way=trip.way, connector=trip.connector,
+                          target_floor=trip.goal_floor, location_id=trip.goal_id, tour_file=trip.tour_file,
+                          tour_step=trip.tour_step, stamp=now_ros)
+        if fields:
+            ev = replace(ev, **fields)
+        self._events_seen.add(ev.uid)
+        self.stats.inc(f"events_{phase}")
+        return SendEvent(ev)

@@ -1,0 +1,427 @@
+"""ROS adapter of multirobot navigation: the ``multirobot_navigation`` node (one per robot).
+
+The logic lives in :mod:`gidabot_navigation.guiding.navigation` (ROS-free). Callbacks
+only enqueue; one loop owns the core, drives move_base (actionlib
+ActionClient, one goal handle per leg) and publishes the robot's status and pose.
+"""
+
+from __future__ import annotations
+
+import functools
+import queue
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import actionlib
+import rospy
+from actionlib_msgs.msg import GoalStatus
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Point, Pose, PoseWithCovarianceStamped
+from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import BatteryState
+
+from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.guiding_node import (
+    CANCELS_TOPIC,
+    EVENTS_TOPIC,
+    PENDING_TOPIC,
+    POSES_TOPIC,
+    STATUS_TOPIC,
+    cancel_from_msg,
+    cancel_to_msg,
+    catalog_entries,
+    diagnostics,
+    event_from_msg,
+    event_to_msg,
+    from_relay,
+    keep_registered,
+    param_number,
+    param_text,
+    quaternion,
+    sender,
+    trip_from_msg,
+    yaw_of,
+)
+from gidabot_navigation.guiding.messages import (
+    CONTINUE,
+    Action,
+    MoveTo,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    command_key,
+)
+from gidabot_navigation.guiding.navigation import (
+    ABORTED,
+    LOST,
+    PREEMPTED,
+    RECALLED,
+    REJECTED_BY_SERVER,
+    SUCCEEDED,
+    NavigationConfig,
+    NavigationCore,
+)
+from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
+from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
+
+QUEUE_SIZE = 2000
+DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may change the state kept across restarts
+ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
+ACK_RETRIES = 3
+MAX_HANDLES = 16
+STATUS_WALL_PERIOD = 1.0   # wall s: a status at least this often, even when the sim clock is slow or stopped
+STATES = {GoalStatus.SUCCEEDED: SUCCEEDED, GoalStatus.ABORTED: ABORTED, GoalStatus.REJECTED: REJECTED_BY_SERVER,
+          GoalStatus.PREEMPTED: PREEMPTED, GoalStatus.RECALLED: RECALLED, GoalStatus.LOST: LOST}
+STATE_NAMES = {v: k for k, v in vars(GoalStatus).items() if k.isupper() and isinstance(v, int)}
+
+
+@dataclass(frozen=True)
+class Params:
+    building: str
+    cfg: NavigationConfig
+    status_rate: float
+    pose_rate: float
+    move_base: str
+    frame_id: str
+    goal_manager: str
+    state_dir: str = ""
+    state_max_age: float = DEFAULT_MAX_AGE
+    replay_window: float = DEFAULT_WINDOW
+
+    @staticmethod
+    def read() -> Params:
+        cfg = NavigationConfig(robot=param_text("~robot", required=True),
+                               continue_timeout=param_number("~continue_timeout", 300.0),
+                               partner_timeout=param_number("~partner_timeout", 120.0),
+                               offline_after=param_number("~offline_after", 5.0),
+                               pickup_distance=param_number("~pickup_distance", 1.5),
+                               nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
+        return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
+                      param_number("~pose_rate", 5.0), param_text("~move_base", "move_base", required=True),
+                      param_text("~frame_id", "map", required=True),
+                      param_text("~goal_manager", "/goal_manager", required=True),
+                      param_text("~state_dir", "") or default_state_dir(cfg.robot),
+                      param_number("~state_max_age", DEFAULT_MAX_AGE),
+                      param_number("~replay_window", DEFAULT_WINDOW, strict=False))
+
+
+class NavigationNode:
+    """Runs the head of this robot's pending list through move_base (paper Algorithm 1).
+
+    Action client:
+      - ``move_base`` (move_base_msgs/MoveBaseAction; ``~move_base``; actionlib ActionClient, one
+        handle per leg): every leg (pick-up, guiding, to the meeting point) is one goal in
+        ``~frame_id``; ABORTED / REJECTED / LOST -> UNREACHABLE; a goal not acknowledged within 3 s
+        is sent again.
+
+    Subscribed topics:
+      - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): this robot's queue, only from the local
+        ``~goal_manager`` node.
+      - ``/gidabot/cancels`` (gidabot_msgs/Cancel): stop the running trip at once.
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): the start robot's GO_TO_FLOOR (starts the
+        Continue timeout of the goal-floor robot).
+      - ``/gidabot/status`` (gidabot_msgs/RobotStatus): partner liveness (wall time).
+      - ``visitor/command`` (gidabot_msgs/VisitorCommand): CONTINUE at the meeting point (goal_uid of
+        the trip, or "").
+      - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped), ``odom`` (nav_msgs/Odometry),
+        ``battery`` (sensor_msgs/BatteryState): for the status.
+      - ``tour_store/catalog`` (gidabot_msgs/TourCatalog): which tour step is the last.
+
+    Published topics (events: the last ``~replay_window`` s are sent again to a late subscriber):
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ON_THE_WAY, GO_TO_FLOOR,
+        GOING_TO_MEETING, WAITING_VISITOR, GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED, UNREACHABLE,
+        NO_ROBOT_ON_FLOOR, TIMEOUT, PARTNER_LOST, PARTNER_BACK, PARTNER_OFFLINE.
+      - ``/gidabot/cancels`` (gidabot_msgs/Cancel, event): when this robot gives a trip up
+        (unreachable, timeout, offline), so the other robots drop it too.
+      - ``/gidabot/status`` (gidabot_msgs/RobotStatus, state): at ``~status_rate`` (ROS time).
+      - ``/gidabot/poses`` (gidabot_msgs/NavPose, state): at ``~pose_rate`` (ROS time), once localised.
+      - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall.
+
+    Parameters:
+      - ``~building`` (str, required), ``~robot`` (str, required).
+      - ``~continue_timeout`` (ROS s, 300): the goal-floor robot waits this long for Continue, counted
+        from when it is at the meeting point and the start robot released the visitor.
+      - ``~partner_timeout`` (wall s, 120): a goal-floor robot whose start robot stays offline gives up.
+      - ``~offline_after`` (wall s, 5): a robot without status this long is offline.
+      - ``~pickup_distance`` (m, 1.5): farther from the request point, the robot first picks the visitor up.
+      - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
+      - ``~status_rate`` (Hz, 2), ``~pose_rate`` (Hz, 5), ROS time.
+      - ``~move_base`` (move_base), ``~frame_id`` (map), ``~goal_manager`` (/goal_manager).
+      - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``multirobot_navigation.json``
+        there keeps the running leg and the handled uids across a restart (the leg goes on: its
+        move_base goal is sent again); ``~state_max_age`` (wall s, 600); ``~replay_window`` (wall s, 60).
+    """
+
+    def __init__(self, params: Params) -> None:
+        self.params = params
+        building = load_building(params.building)
+        self.core = NavigationCore(building, params.cfg, RosLog(), time.monotonic())
+        self.robot = self.core.me
+        self.store = StateFile(Path(params.state_dir) / "multirobot_navigation.json", "multirobot_navigation",
+                               self.robot, RosLog(), max_age=params.state_max_age) if params.state_dir else None
+        outbox = self.store.resume(self.core.load_state) if self.store is not None else None
+        if outbox is not None:
+            leg = self.core.leg
+            rospy.loginfo(f"multirobot_navigation of {self.robot}: resumed from {self.params.state_dir}"
+                          + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
+                          + f"; {len(outbox)} message(s) not yet published")
+        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.dropped = 0
+        self.ignored_pending = 0
+        self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
+        self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
+        self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
+        self._status_wall = 0.0
+        self._pending_uids: tuple[str, ...] | None = None
+        self._latest_pose: tuple[float, float, float] | None = None
+        self._latest_odom: tuple[float, float] | None = None
+        self._latest_battery: float | None = None
+        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=params.replay_window)
+        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=params.replay_window)
+        self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
+        self.poses_pub = rospy.Publisher(POSES_TOPIC, NavPose, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.subs = [
+            rospy.Subscriber(PENDING_TOPIC, PendingRequests, self._on_pending, queue_size=20),
+            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber("visitor/command", VisitorCommand, self._on_command, queue_size=50),
+            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber("battery", BatteryState, self._on_battery, queue_size=1),
+            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+        ]
+        self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
+                       rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
+        self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
+
+    # -- callbacks: copy and enqueue ------------------------------------------------------
+    def _enqueue(self, msg: object, kind: str) -> None:
+        try:
+            self.inbox.put_nowait((kind, msg))
+        except queue.Full:
+            self.dropped += 1
+
+    def _on_pending(self, msg: PendingRequests) -> None:
+        if msg.robot != self.robot:
+            return
+        if sender(msg) != self.params.goal_manager:
+            self.ignored_pending += 1
+            return
+        self._enqueue(msg, "pending")
+
+    def _on_status(self, msg: RobotStatus) -> None:
+        self._enqueue(msg.robot, "status")
+
+    def _on_command(self, msg: VisitorCommand) -> None:
+        if msg.command == CONTINUE:
+            self._enqueue((msg.goal_uid, command_key(msg.uid, msg.header.stamp.to_sec())), "continue")
+
+    # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
+    def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
+        p = msg.pose.pose
+        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+
+    def _on_odom(self, msg: Odometry) -> None:
+        self._latest_odom = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+
+    def _on_battery(self, msg: BatteryState) -> None:
+        self._latest_battery = msg.percentage
+
+    def _apply_latest(self) -> None:
+        pose, odom, battery = self._latest_pose, self._latest_odom, self._latest_battery   # never reset: no race
+        if pose is not None:
+            self.core.on_pose(*pose)
+        if odom is not None:
+            self.core.on_odom(*odom)
+        if battery is not None:
+            self.core.on_battery(battery)
+
+    def _transition(self, token: int, sends: int, gh: actionlib.ClientGoalHandle) -> None:
+        if gh.get_comm_state() != actionlib.CommState.DONE:
+            return
+        state = gh.get_terminal_state()
+        text = gh.get_goal_status_text() or f"goal status {STATE_NAMES.get(state, state)}"
+        self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
+
+    # -- the loop that owns the core --------------------------------------------------------
+    def run(self) -> None:
+        next_diag = time.monotonic() + 1.0
+        while not rospy.is_shutdown():
+            if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
+                self.publish_status()      # liveness never depends on the (sim) clock running
+            try:
+                kind, msg = self.inbox.get(timeout=0.2)
+            except queue.Empty:
+                kind, msg = "", None
+            now_ros, now_wall = rospy.get_time(), time.monotonic()
+            self._apply_latest()
+            self.core.on_move_base_available(self._server_up(), now_ros)
+            if kind:
+                self.commit(self.handle(kind, msg, now_ros, now_wall), self._changes_state(kind, msg))
+            self.commit(self.core.tick(now_ros, now_wall), False)
+            self._check_ack(now_wall)
+            if now_wall >= next_diag:
+                next_diag = now_wall + 1.0
+                self.publish_diagnostics()
+        if self._active is not None:
+            self._cancel(self._active[0])
+
+    def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
+        core = self.core
+        if kind == "pending":
+            eta_last = float(msg.eta[-1]) if msg.eta else 0.0
+            return core.on_pending([trip_from_msg(g) for g in msg.goals], eta_last, now_ros, now_wall)
+        if kind == "cancel":
+            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "event":
+            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "continue":
+            goal_uid, key = msg
+            return core.on_continue(goal_uid, now_ros, now_wall, key=key)
+        if kind == "result":
+            token, sends, status, text = msg
+            if self._handles.get(token, (None, -1))[1] != sends:
+                return []                   # a goal sent again, or stopped: its result is not the leg's
+            del self._handles[token]
+            if self._active is not None and self._active[0] == token:
+                self._active = None
+            return core.on_move_base_result(token, status, text, now_ros, now_wall)
+        if kind == "status":
+            core.on_status(msg, now_wall)
+        elif kind == "catalog":
+            core.on_catalog(catalog_entries(msg))
+        elif kind == "tick":
+            self.publish_status()
+        elif kind == "pose_tick":
+            self.publish_pose()
+        return []
+
+    def _changes_state(self, kind: str, msg: object) -> bool:
+        """Whether an input may change the state kept across restarts (the 1 Hz unchanged pending does not)."""
+        if kind == "pending":
+            uids = tuple(g.uid for g in msg.goals)  # type: ignore[attr-defined]
+            if uids == self._pending_uids:
+                return False
+            self._pending_uids = uids
+        return kind in DURABLE_INPUTS
+
+    def commit(self, actions: list[Action], changed: bool) -> None:
+        """Save the state (the durable actions as the outbox) when it may have changed, then carry the
+        actions out; once published, save again without them."""
+        durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
+        if self.store is None or not (changed or actions):
+            self.execute(actions)
+        else:
+            self.store.commit(self.core.state, actions, durable, self.execute)
+
+    def execute(self, actions: list[Action]) -> None:
+        for act in actions:
+            if isinstance(act, MoveTo):
+                goal = MoveBaseGoal()
+                goal.target_pose.header.frame_id = self.params.frame_id
+                goal.target_pose.header.stamp = rospy.Time.now()
+                goal.target_pose.pose = Pose(Point(act.x, act.y, 0.0), quaternion(act.yaw))
+                self._send(act.token, goal, 1)
+            elif isinstance(act, StopMoving):
+                self._cancel(act.token)
+            elif isinstance(act, SendEvent):
+                self.events_pub.publish(event_to_msg(act.event))
+            elif isinstance(act, SendCancel):
+                self.cancels_pub.publish(cancel_to_msg(act.cancel))
+
+    # -- move_base ------------------------------------------------------------------------
+    def _send(self, token: int, goal: MoveBaseGoal, sends: int) -> None:
+        old = self._handles.get(token)
+        if old is not None:
+            old[0].cancel()
+        self._active = (token, goal, time.monotonic(), sends)
+        gh = self.client.send_goal(goal, transition_cb=functools.partial(self._transition, token, sends))
+        self._handles[token] = (gh, sends)
+        while len(self._handles) > MAX_HANDLES:           # handles of goals whose server vanished
+            self._handles.pop(next(iter(self._handles)))
+
+    def _cancel(self, token: int) -> None:
+        """Cancel goal ``token``; its late result (PREEMPTED) is dropped."""
+        entry = self._handles.pop(token, None)
+        if entry is not None and entry[0].get_comm_state() != actionlib.CommState.DONE:
+            entry[0].cancel()
+        if self._active is not None and self._active[0] == token:
+            self._active = None
+
+    def _check_ack(self, now_wall: float) -> None:
+        """Send a goal again if move_base never acknowledged it (lost on a fresh connection)."""
+        if self._active is None:
+            return
+        token, goal, sent, sends = self._active
+        gh = self._handles.get(token, (None, 0))[0]
+        if gh is None or now_wall - sent < ACK_TIMEOUT:
+            return
+        if gh.get_comm_state() == actionlib.CommState.WAITING_FOR_GOAL_ACK and sends <= ACK_RETRIES \
+                and self._server_up():
+            rospy.logwarn(f"move_base did not acknowledge goal {token}; sending it again")
+            self._send(token, goal, sends + 1)
+
+    def _server_up(self) -> bool:
+        """The move_base action server is connected (non-blocking)."""
+        ac = self.client
+        status = ac.last_status_msg
+        if status is None:
+            return False
+        server = (getattr(status, "_connection_header", None) or {}).get("callerid", "")
+        return bool(server) and ac.pub_goal.impl.has_connection(server) and ac.pub_cancel.impl.has_connection(server)
+
+    # -- outputs --------------------------------------------------------------------------
+    def publish_status(self) -> None:
+        self._status_wall = time.monotonic()
+        s = self.core.status(rospy.get_time())
+        msg = RobotStatus()
+        msg.header.stamp = rospy.Time.now()
+        msg.header.frame_id = self.params.frame_id
+        msg.robot, msg.floor = s.robot, s.floor
+        msg.nav_pose = Pose(Point(s.x, s.y, 0.0), quaternion(s.yaw))
+        msg.linear_velocity, msg.angular_velocity, msg.battery = s.linear, s.angular, s.battery
+        msg.state, msg.pending, msg.current_goal_uid, msg.busy_for = s.state, s.pending, s.current_goal_uid, s.busy_for
+        self.status_pub.publish(msg)
+
+    def publish_pose(self) -> None:
+        pose = self.core.pose
+        if pose is None:
+            return
+        msg = NavPose()
+        msg.header.stamp = rospy.Time.now()
+        msg.header.frame_id = self.params.frame_id
+        msg.robot, msg.floor = self.robot, self.core.floor
+        msg.nav_pose = Pose(Point(pose.x, pose.y, 0.0), quaternion(pose.yaw))
+        self.poses_pub.publish(msg)
+
+    def publish_diagnostics(self) -> None:
+        stats = dict(self.core.stats)
+        stats.update(state_saves=self.store.saves if self.store else 0,
+                     state_save_failures=self.store.failures if self.store else 0,
+                     replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
+        stats.update(queue_dropped=self.dropped, ignored_pending=self.ignored_pending,
+                     move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
+        self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,
+                                          not self.core.available or bool(self.dropped),
+                                          self.core.status(rospy.get_time()).state))
+
+
+def main(argv: list[str] | None = None) -> int:
+    rospy.init_node("multirobot_navigation", argv=argv if argv is not None else sys.argv)
+    keep_registered()
+    try:
+        node = NavigationNode(Params.read())
+    except (GidaBotError, OSError, ValueError) as err:
+        rospy.logfatal(f"multirobot_navigation cannot start: {err}")
+        return 1
+    rospy.loginfo(f"multirobot_navigation of {node.robot} (floor {node.core.floor:g}) running")
+    node.run()
+    return 0

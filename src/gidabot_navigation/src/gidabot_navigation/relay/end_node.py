@@ -1,0 +1,725 @@
+"""ROS adapter of one relay end: the ``relay_end`` node ``/gidabot_relay_<A>_<B>`` on one robot's master.
+
+The decisions live in :mod:`relay_link` (ROS-free). This module reads the parameters
+once, subscribes the shared topics as raw bytes, publishes what the peer sends with
+the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
+only hand bytes to the core and try a non-blocking send) and the master watch.
+Normally started by the relay supervisor (:mod:`relay_supervisor`), never by hand.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import http.client
+import io
+import os
+import selectors
+import socket
+import struct
+import sys
+import threading
+import time
+import xmlrpc.client
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import genpy
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.relay.end import (
+    EVENT,
+    STATE,
+    Action,
+    Close,
+    LinkConfig,
+    LinkCore,
+    RelayConfigError,
+    TopicSpec,
+    is_relay,
+    load_shared_topics,
+    read_secret,
+    relay_node_name,
+)
+from gidabot_navigation.relay.journal import Journal
+from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.master_watch import Event, MasterWatch, keep_registered, proxy
+from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
+
+EXIT_CONFIG = 2          # bad parameters: restarting will not help
+EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
+PARENT_ENV = "GIDABOT_RELAY_PARENT"   # set by the supervisor: exit when the parent is no longer this pid
+CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
+RETRY_INTERVAL = 0.25    # s between connect attempts
+RECV_BYTES = 1 << 18
+DEFAULT_TOPICS = Path(__file__).resolve().parents[3] / "config" / "shared_topics.yaml"
+
+
+@dataclass(frozen=True)
+class Params:
+    robot_a: str
+    robot_b: str
+    side: str
+    link_host: str
+    link_port: int
+    bind_ip: str
+    topics_file: str
+    secret_file: str
+    state_dir: str
+    max_message_bytes: int
+    max_queue: int
+    max_inbound: int
+    max_queue_bytes: int
+    heartbeat: float
+    link_timeout: float
+    state_rate: float
+    hold_grace: float
+    diagnostics_rate: float
+    replay_window: float = DEFAULT_WINDOW
+    replay_limit: int = 500
+
+    @staticmethod
+    def parse(argv: list[str]) -> Params:
+        """The end's options (command line, never the parameter server: the end must start, and
+        queue, while its master is down). ROS remappings (``x:=y``) in ``argv`` are ignored."""
+        import argparse
+
+        ap = argparse.ArgumentParser(prog="relay_end", description="one end of a GidaBot relay")
+        ap.add_argument("--robot_a", required=True)
+        ap.add_argument("--robot_b", required=True)
+        ap.add_argument("--side", required=True, choices=("a", "b"))
+        ap.add_argument("--link_host", required=True)
+        ap.add_argument("--link_port", required=True, type=int)
+        ap.add_argument("--bind_ip", default=os.environ.get("ROS_IP", ""))
+        ap.add_argument("--topics_file", default=str(DEFAULT_TOPICS))
+        ap.add_argument("--secret_file", default="")
+        ap.add_argument("--state_dir", required=True)
+        ap.add_argument("--max_message_bytes", type=int, default=1 << 20)
+        ap.add_argument("--max_queue", type=int, default=10000)
+        ap.add_argument("--max_inbound", type=int, default=10000)
+        ap.add_argument("--max_queue_bytes", type=int, default=64 << 20)
+        ap.add_argument("--heartbeat", type=float, default=0.5)
+        ap.add_argument("--link_timeout", type=float, default=2.0)
+        ap.add_argument("--state_rate", type=float, default=10.0)
+        ap.add_argument("--hold_grace", type=float, default=1.5)
+        ap.add_argument("--diagnostics_rate", type=float, default=1.0)
+        ap.add_argument("--replay_window", type=float, default=DEFAULT_WINDOW)
+        ap.add_argument("--replay_limit", type=int, default=500)
+        args = [a for a in argv if ":=" not in a]
+        try:
+            ns = ap.parse_args(args)
+        except SystemExit as err:
+            raise RelayConfigError(f"bad relay_end options: {' '.join(args)}") from err
+        for name in ("max_message_bytes", "max_queue", "max_inbound", "max_queue_bytes", "heartbeat", "link_timeout",
+                     "state_rate", "hold_grace", "diagnostics_rate"):
+            value = getattr(ns, name)
+            if not value > 0 or value != value or value == float("inf"):
+                raise RelayConfigError(f"--{name} must be positive and finite, got {value!r}")
+        if not (0 <= ns.replay_window < float("inf") and 0 <= ns.replay_limit <= ns.max_inbound):
+            raise RelayConfigError(f"--replay_window {ns.replay_window!r} s and --replay_limit {ns.replay_limit!r} "
+                                   f"must be >= 0 (the limit at most --max_inbound)")
+        if not 0 < ns.link_port <= 65535:
+            raise RelayConfigError(f"--link_port {ns.link_port} is not a TCP port")
+        _check_ip(ns.link_host, "--link_host")
+        if ns.bind_ip:
+            _check_ip(ns.bind_ip, "--bind_ip")
+        for name in ("robot_a", "robot_b"):
+            value = getattr(ns, name)
+            if not value.replace("_", "").isalnum() or not value.isascii():
+                raise RelayConfigError(f"--{name} {value!r}: robot names are letters, digits and '_'")
+        return Params(**vars(ns))
+
+
+def _check_ip(value: str, what: str) -> None:
+    try:
+        socket.inet_aton(value)
+    except OSError as err:
+        raise RelayConfigError(f"{what} {value!r} is not an IPv4 address (relays use IP addresses only)") from err
+    if value.count(".") != 3:
+        raise RelayConfigError(f"{what} {value!r} is not a dotted IPv4 address")
+
+
+def raw_class(cls: type) -> type:
+    """An AnyMsg subclass that publishes raw bytes under ``cls``'s type, md5 and definition."""
+    return type(f"Raw_{cls._type.replace('/', '_')}", (rospy.AnyMsg,),
+                {"_type": cls._type, "_md5sum": cls._md5sum, "_full_text": cls._full_text,
+                 "_has_header": False, "__slots__": ()})
+
+
+def make_validator(classes: dict[str, type]) -> Callable[[str, bytes], str | None]:
+    """validate(topic, payload): None if ``payload`` is exactly a well-formed message of the topic's type."""
+
+    def validate(topic: str, payload: bytes) -> str | None:
+        cls = classes[topic]
+        msg = cls()
+        try:
+            msg.deserialize(payload)
+            again = io.BytesIO()
+            msg.serialize(again)
+        except (genpy.DeserializationError, genpy.SerializationError, struct.error, ValueError, TypeError,
+                IndexError, UnicodeError) as err:
+            return f"not a valid {cls._type} ({len(payload)} bytes): {err}"
+        if again.getvalue() != payload:
+            return f"not a valid {cls._type} ({len(payload)} bytes): invalid UTF-8 or trailing bytes"
+        return None
+
+    return validate
+
+
+class _StateLatch(rospy.SubscribeListener):
+    """Gives a new subscriber of a state topic the latest value of every publisher (rospy's latch
+    holds only the last one published, which it sends itself right after this)."""
+
+    def __init__(self, node: RelayEndNode, topic: str) -> None:
+        self.node, self.topic = node, topic
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+        # rospy calls this from the thread accepting the connection WITHOUT the publisher's lock,
+        # while the I/O thread may be publishing: both serialise into the publisher's one buffer,
+        # which produced empty/garbled messages. Publish under the lock Publisher.publish takes.
+        impl = self.node.pubs[self.topic].impl
+        for msg in self.node.states_for_new_subscriber(self.topic):
+            impl.acquire()
+            try:
+                peer_publish(msg)
+            finally:
+                impl.release()
+
+
+class _EventReplay(rospy.SubscribeListener):
+    """Gives a new (non-relay) subscriber of an event topic the events this end published in the last
+    ``--replay_window`` s: a node that was restarted gets what it missed (it ignores uids it handled)."""
+
+    def __init__(self, node: RelayEndNode, topic: str) -> None:
+        self.node, self.topic = node, topic
+
+    def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
+        # relays never forward what a relay published: no replay to the other relay ends of this master
+        replay_to_peer(self.node.replays[self.topic], self.node.pubs[self.topic].impl, peer_publish, skip_relays=True)
+
+
+@dataclass
+class _Sock:
+    sock: socket.socket
+    outbuf: bytearray
+    connecting: bool = False
+    deadline: float = 0.0
+
+
+class RelayEndNode:
+    """One end of the relay between robots A and B, on this robot's master.
+
+    Node name: ``/gidabot_relay_<A>_<B>`` (the same on both masters; any node named
+    ``/gidabot_relay_*`` is a relay, and relays never forward what a relay published).
+
+    Subscribed topics (raw bytes, ``rospy.AnyMsg``): every shared topic of ``--topics_file``
+    (default ``config/shared_topics.yaml``): ``/gidabot/goals``, ``/gidabot/cancels``,
+    ``/gidabot/nav_events``, ``/gidabot/tours`` (events) and ``/gidabot/status``,
+    ``/gidabot/poses``, ``/gidabot/pending``, ``/gidabot/tour_index`` (states). Messages of
+    another type/md5, larger than ``--max_message_bytes``, malformed, or published by a relay
+    are not forwarded (counted); subscriptions to relay publishers are closed.
+
+    Published topics: the same shared topics, with the messages of the other robot (events
+    queue 10000; states latched, every publisher's latest value given to late subscribers);
+    ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, stamped with WALL time: relays never use
+    ROS time and do not subscribe ``/clock``) at ``--diagnostics_rate``: status
+    ``relay <A>-<B>: <this robot>`` with connected, rtt_ms, queue_depth, forwarded, dropped,
+    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type and more (docs/relay.md).
+
+    Link: end ``b`` listens on ``--link_host``:``--link_port``; end ``a`` connects there from
+    ``--bind_ip``. Frames are authenticated with HMAC-SHA256 when ``--secret_file`` names a file.
+
+    Options (command line, ``--name value``; not ``~params``, because an end must start and
+    queue while its master is down, and rospy uploads ``_param:=`` arguments to the master):
+      - ``--robot_a``, ``--robot_b`` (str, required): the pair, in building order.
+      - ``--side`` (``a`` or ``b``, required): which robot's master this end is on.
+      - ``--link_host`` (IPv4, required), ``--link_port`` (int, required): end b's address.
+      - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
+      - ``--topics_file`` (path): the shared topics whitelist.
+      - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
+      - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
+      - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
+        outbound), ``--max_inbound`` (events, 10000: received, not yet published),
+        ``--max_queue_bytes`` (bytes, 67108864: payload bytes of each of those queues).
+      - ``--heartbeat`` (s, 0.5), ``--link_timeout`` (s, 2.0): liveness, wall time.
+      - ``--state_rate`` (Hz, 10): max sends per (state topic, publisher).
+      - ``--hold_grace`` (s, 1.5): after this master restarted, events are held until the
+        subscribers seen before are back, or this long.
+      - ``--replay_window`` (s, 60), ``--replay_limit`` (events, 500): a new subscriber that is not a
+        relay (e.g. a node that was restarted) gets the events this end published in the last
+        ``--replay_window`` s again (at most ``--replay_limit`` per topic); receivers ignore uids they
+        already handled (docs/interfaces.md).
+      - ``--diagnostics_rate`` (Hz, 1).
+    """
+
+    def __init__(self, params: Params, watch: MasterWatch | None) -> None:
+        self.params = params
+        name = rospy.get_name()
+        if name != relay_node_name(params.robot_a, params.robot_b):
+            raise RelayConfigError(f"this end is named {name} (remapped?); the relay between {params.robot_a} and "
+                                   f"{params.robot_b} must be named {relay_node_name(params.robot_a, params.robot_b)}")
+        specs = load_shared_topics(params.topics_file)
+        self.specs = {s.name: s for s in specs}
+        classes = {s.name: _message_class(s) for s in specs}
+        secret = read_secret(params.secret_file) if params.secret_file else None
+        cfg = LinkConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
+                         md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
+                         max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
+                         max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
+                         heartbeat=params.heartbeat,
+                         link_timeout=params.link_timeout, state_rate=params.state_rate,
+                         header_topics=frozenset(s.name for s in specs
+                                                 if s.kind == EVENT and classes[s.name]._has_header))
+        self.cfg = cfg
+        journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")
+        self.lock = threading.Lock()
+        self.core = LinkCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes))
+        self.raw = {n: raw_class(c) for n, c in classes.items()}
+        self._last_latched: dict[str, str] = {}
+        self.pruned = 0                      # subscriptions to relay publishers closed
+        self.pubs: dict[str, rospy.Publisher] = {}
+        self.replays = {s.name: ReplayBuffer(params.replay_window, params.replay_limit) for s in specs
+                        if s.kind == EVENT}
+        for s in specs:
+            if s.kind == STATE:
+                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=100, latch=True,
+                                                    subscriber_listener=_StateLatch(self, s.name))
+            else:
+                self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=10000,
+                                                    subscriber_listener=_EventReplay(self, s.name))
+        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
+        self.subs = [rospy.Subscriber(s.name, rospy.AnyMsg, self._on_local, callback_args=s.name)
+                     for s in specs]
+        # delivery hold across restarts of this end's master
+        self.expected_subs: dict[str, set[str]] = {s.name: set() for s in specs if s.kind == EVENT}
+        # at start (journal replay) too: hold events until this master's subscribers are connected
+        self.core.set_delivery_open(False)
+        self.reopen_deadline: float | None = time.monotonic() + params.hold_grace
+        # I/O
+        self.sel = selectors.DefaultSelector()
+        self.socks: dict[int, _Sock] = {}
+        self._next_id = 1
+        self._wake_r, self._wake_w = socket.socketpair()
+        self._wake_r.setblocking(False)
+        self._wake_w.setblocking(False)
+        self.sel.register(self._wake_r, selectors.EVENT_READ, "wake")
+        self.listener: socket.socket | None = None
+        self._next_connect = 0.0
+        self._stop = threading.Event()
+        self._io_thread: threading.Thread | None = None
+        self.watch = watch
+        if watch is not None:
+            watch.add_listener(self._on_master_event)
+
+    # -- startup --------------------------------------------------------------------------
+    def listen(self) -> None:
+        """End b: bind the link port (raises OSError if it cannot)."""
+        if self.params.side != "b":
+            return
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            sock.bind((self.params.link_host, self.params.link_port))
+        except OSError:
+            sock.close()
+            raise
+        sock.listen(8)
+        sock.setblocking(False)
+        self.listener = sock
+        self.sel.register(sock, selectors.EVENT_READ, "listen")
+
+    # -- rospy callbacks (any thread): hand over and return --------------------------------
+    def _on_local(self, msg: rospy.AnyMsg, topic: str) -> None:
+        header = msg._connection_header or {}
+        payload = msg._buff if isinstance(msg._buff, bytes) else bytes(msg._buff)
+        with self.lock:
+            self._apply(self.core.local_message(topic, header.get("callerid", ""), header.get("type", ""),
+                                                header.get("md5sum", ""), payload))
+
+    def states_for_new_subscriber(self, topic: str) -> list[rospy.AnyMsg]:
+        with self.lock:
+            latest = self.core.latest_states(topic)
+            skip = self._last_latched.get(topic)
+        out = []
+        for m in latest:
+            if m.callerid != skip:
+                r = self.raw[topic]()
+                r._buff = m.payload
+                out.append(r)
+        return out
+
+    def _on_master_event(self, event: Event, watch: MasterWatch) -> None:
+        now = time.monotonic()
+        with self.lock:
+            if event is Event.DOWN:
+                self.core.set_master_up(False)
+                self.core.set_delivery_open(False)
+                self.reopen_deadline = None
+            elif event is Event.REREGISTER:
+                self.core.set_master_up(True)
+                self.core.set_delivery_open(False)
+                self.reopen_deadline = now + self.params.hold_grace
+        self._wake()
+
+    # -- actions (lock held) --------------------------------------------------------------
+    def _apply(self, actions: list[Action]) -> None:
+        """Carry out the core's actions: append and send at once (non-blocking); the I/O thread
+        sends what the socket could not take yet. Every send happens under the lock, in order."""
+        wake = False
+        for act in actions:
+            s = self.socks.get(act.conn)
+            if s is None:
+                continue
+            if isinstance(act, Close):
+                s.outbuf.clear()
+                self._close_sock(act.conn, notify=False)
+                continue
+            s.outbuf += act.data
+            self._flush(s)
+            if s.outbuf:
+                wake = True
+        if wake and threading.current_thread() is not self._io_thread:
+            self._wake()
+
+    def _flush(self, s: _Sock) -> None:
+        try:
+            while s.outbuf:
+                n = s.sock.send(s.outbuf)
+                if n <= 0:
+                    break
+                del s.outbuf[:n]
+        except (BlockingIOError, InterruptedError):
+            pass
+        except OSError:
+            s.outbuf.clear()        # the reader side will see the connection fail
+
+    def _wake(self) -> None:
+        with contextlib.suppress(BlockingIOError, OSError):
+            self._wake_w.send(b"\0")
+
+    def _close_sock(self, conn_id: int, notify: bool, reason: str = "closed") -> None:
+        s = self.socks.pop(conn_id, None)
+        if s is None:
+            return
+        with contextlib.suppress(KeyError, ValueError):
+            self.sel.unregister(s.sock)
+        with contextlib.suppress(OSError):
+            s.sock.close()
+        if notify:
+            self.core.connection_closed(conn_id, reason)
+
+    # -- the I/O thread -------------------------------------------------------------------
+    def run(self) -> None:
+        self._io_thread = threading.current_thread()
+        period = 1.0 / self.params.diagnostics_rate
+        next_diag = time.monotonic()
+        next_tick = time.monotonic()
+        parent = os.environ.get(PARENT_ENV, "")
+        try:
+            while not rospy.is_shutdown() and not self._stop.is_set():
+                if parent and str(os.getppid()) != parent:
+                    rospy.logerr(f"{self.core.name}: the relay supervisor (pid {parent}) is gone; exiting")
+                    break
+                now = time.monotonic()
+                with self.lock:
+                    timeout = min(self.core.next_tick_in(), max(0.0, next_tick - now), max(0.0, next_diag - now))
+                    self._update_interest()
+                if self.params.side == "a":
+                    self._maybe_connect(now)
+                    timeout = min(timeout, RETRY_INTERVAL)
+                for key, mask in self.sel.select(timeout):
+                    self._handle(key, mask)
+                now = time.monotonic()
+                self._check_connect_timeouts(now)
+                if now >= next_tick:
+                    next_tick = now + self.params.heartbeat / 2
+                    with self.lock:
+                        self._apply(self.core.tick())
+                    self._update_hold(now)
+                    self._prune_relay_connections()
+                self._deliver()
+                if now >= next_diag:
+                    next_diag = max(next_diag + period, now)
+                    self._publish_diagnostics()
+        finally:
+            with self.lock:
+                self._apply(self.core.shutdown())
+                for cid in list(self.socks):
+                    self._close_sock(cid, notify=False)
+            if self.listener is not None:
+                self.listener.close()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake()
+
+    def _update_interest(self) -> None:
+        for cid, s in self.socks.items():
+            want = selectors.EVENT_WRITE if s.connecting else \
+                selectors.EVENT_READ | (selectors.EVENT_WRITE if s.outbuf else 0)
+            try:
+                key = self.sel.get_key(s.sock)
+                if key.events != want:
+                    self.sel.modify(s.sock, want, cid)
+            except KeyError:
+                self.sel.register(s.sock, want, cid)
+
+    def _handle(self, key: selectors.SelectorKey, mask: int) -> None:
+        if key.data == "wake":
+            with contextlib.suppress(BlockingIOError, OSError):
+                while self._wake_r.recv(4096):
+                    pass
+            return
+        if key.data == "listen":
+            self._accept()
+            return
+        cid = key.data
+        s = self.socks.get(cid)
+        if s is None:
+            return
+        if s.connecting:
+            self._finish_connect(cid, s)
+            return
+        if mask & selectors.EVENT_READ:
+            try:
+                data = s.sock.recv(RECV_BYTES)
+            except (BlockingIOError, InterruptedError):
+                data = None
+            except OSError as err:
+                with self.lock:
+                    self._close_sock(cid, notify=True, reason=f"receive error: {err.strerror}")
+                return
+            if data == b"":
+                with self.lock:
+                    self._close_sock(cid, notify=True, reason="connection closed by the other side")
+                return
+            if data:
+                with self.lock:
+                    self._apply(self.core.data_received(cid, data))
+        if mask & selectors.EVENT_WRITE:
+            with self.lock:
+                s = self.socks.get(cid)
+                if s is not None:
+                    self._flush(s)
+
+    def _accept(self) -> None:
+        assert self.listener is not None
+        while True:
+            try:
+                sock, _ = self.listener.accept()
+            except (BlockingIOError, InterruptedError):
+                return
+            except OSError as err:
+                rospy.logwarn(f"{self.core.name}: accept failed: {err.strerror}")
+                return
+            self._add_sock(sock, initiator=False)
+
+    def _add_sock(self, sock: socket.socket, initiator: bool) -> None:
+        sock.setblocking(False)
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+        cid = self._next_id
+        self._next_id += 1
+        with self.lock:
+            self.socks[cid] = _Sock(sock, bytearray())
+            self.sel.register(sock, selectors.EVENT_READ, cid)
+            self._apply(self.core.connection_opened(cid, initiator))
+
+    def _maybe_connect(self, now: float) -> None:
+        with self.lock:
+            busy = self.core.active is not None or any(s.connecting for s in self.socks.values()) \
+                or bool(self.core.conns)
+        if busy or now < self._next_connect:
+            return
+        self._next_connect = now + RETRY_INTERVAL
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            if self.params.bind_ip:
+                sock.bind((self.params.bind_ip, 0))
+            sock.setblocking(False)
+            err = sock.connect_ex((self.params.link_host, self.params.link_port))
+        except OSError as e:
+            sock.close()
+            with self.lock:
+                self.core.rlog.warning("connect", f"{self.core.name}: cannot connect to {self.params.link_host}:"
+                                                  f"{self.params.link_port} from {self.params.bind_ip}: {e.strerror}")
+            return
+        if err not in (0, errno.EINPROGRESS):
+            sock.close()
+            return
+        cid = self._next_id
+        self._next_id += 1
+        with self.lock:
+            self.socks[cid] = _Sock(sock, bytearray(), connecting=True, deadline=now + CONNECT_TIMEOUT)
+            self.sel.register(sock, selectors.EVENT_WRITE, cid)
+
+    def _finish_connect(self, cid: int, s: _Sock) -> None:
+        err = s.sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+        with self.lock:
+            if err != 0:
+                self._close_sock(cid, notify=False)
+                return
+            s.connecting = False
+            s.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self.sel.modify(s.sock, selectors.EVENT_READ, cid)
+            self._apply(self.core.connection_opened(cid, True))
+
+    def _check_connect_timeouts(self, now: float) -> None:
+        with self.lock:
+            for cid, s in list(self.socks.items()):
+                if s.connecting and now > s.deadline:
+                    self._close_sock(cid, notify=False)
+
+    # -- deliveries (I/O thread only, so they stay in order) -------------------------------
+    def _deliver(self) -> None:
+        with self.lock:
+            deliveries = self.core.take_deliveries()
+        if not deliveries:
+            return
+        events = states = 0
+        for d in deliveries:
+            raw = self.raw[d.msg.topic]()
+            raw._buff = d.msg.payload
+            try:
+                if d.kind == STATE:
+                    with self.lock:
+                        self._last_latched[d.msg.topic] = d.msg.callerid
+                    self.pubs[d.msg.topic].publish(raw)
+                    states += 1
+                else:
+                    self.replays[d.msg.topic].add(raw)
+                    self.pubs[d.msg.topic].publish(raw)
+                    events += 1
+            except rospy.ROSException as err:       # shutting down
+                rospy.logwarn(f"{self.core.name}: cannot publish on {d.msg.topic}: {err}")
+                break
+        with self.lock:
+            self.core.delivered(events, states)
+
+    def _update_hold(self, now: float) -> None:
+        """Track event subscribers; reopen held delivery once every subscriber is connected.
+
+        "Every subscriber" = the non-relay subscribers connected before the hold, plus those
+        the master lists now; delivery reopens when all of them are connected to this end's
+        publishers, or when ``hold_grace`` is over (then it says who is missing)."""
+        current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay(c.endpoint_id or "")}
+                   for t in self.expected_subs}
+        with self.lock:
+            held, up, deadline = not self.core.delivery_open, self.core.master_up, self.reopen_deadline
+        if not held:
+            if up:
+                self.expected_subs = current
+            return
+        if deadline is None or not up:
+            return
+        registered = self._registered_subscribers()
+        want = {t: {n for n in self.expected_subs[t] | registered.get(t, set()) if not is_relay(n)}
+                for t in current}
+        missing = {t: sorted(want[t] - current[t]) for t in current if want[t] - current[t]}
+        if missing and now < deadline:
+            return
+        with self.lock:
+            self.core.set_delivery_open(True)
+            self.reopen_deadline = None
+            held_events = len(self.core.state.pending_in)
+        why = ("grace period over, still missing " + "; ".join(f"{t}: {', '.join(m)}" for t, m in missing.items())
+               if missing else "every subscriber is connected")
+        rospy.loginfo(f"{self.core.name}: delivering {held_events} held event(s): {why}")
+
+    def _prune_relay_connections(self) -> None:
+        """Close this end's subscriptions to relay publishers (itself and the other relay ends on this
+        master): their messages are never forwarded, so receiving them only costs CPU. Messages that
+        arrive before the pruning are dropped by caller id anyway. rospy does not reconnect a closed
+        connection until the master's publisher list changes (then the next tick prunes it again)."""
+        for sub in self.subs:
+            for c in list(sub.impl.connections):
+                header = getattr(c, "header", None) or {}
+                if is_relay(str(header.get("callerid", ""))):
+                    with contextlib.suppress(Exception):     # rospy transport internals: best effort
+                        c.close()
+                    self.pruned += 1
+
+    def _registered_subscribers(self) -> dict[str, set[str]]:
+        """Subscribers of the shared event topics registered with this end's master ({} if it does not answer)."""
+        if self.watch is None:
+            return {}
+        try:
+            code, _, state = proxy(self.watch.master_uri, 0.3).getSystemState(self.watch.caller_id)
+        except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError):
+            return {}
+        if code != 1:
+            return {}
+        return {topic: set(nodes) for topic, nodes in state[1] if topic in self.expected_subs}
+
+    # -- diagnostics ----------------------------------------------------------------------
+    def _publish_diagnostics(self) -> None:
+        with self.lock:
+            snap = self.core.snapshot()
+            down_since = self.core.link_down_since
+        status = DiagnosticStatus()
+        status.name = f"relay {self.cfg.robot_a}-{self.cfg.robot_b}: {self.cfg.robot}"
+        status.hardware_id = self.cfg.node_name
+        if not snap["connected"]:
+            status.level = DiagnosticStatus.ERROR
+            since = "" if down_since is None else f" for {time.monotonic() - down_since:.1f} s"
+            status.message = f"link to {self.cfg.peer_robot} down{since}; {snap['queue_depth']} event(s) queued"
+        elif snap["peer_master_up"] is False or not snap["master_up"] or not snap["delivery_open"]:
+            status.level = DiagnosticStatus.WARN
+            who = self.cfg.peer_robot if snap["peer_master_up"] is False else self.cfg.robot
+            status.message = f"connected; master of {who} down or restarting, events held"
+        else:
+            status.level = DiagnosticStatus.OK
+            status.message = f"connected to {self.cfg.peer_robot}, rtt {snap['rtt_ms']} ms"
+        snap["link_address"] = f"{self.params.link_host}:{self.params.link_port}"
+        snap["pruned_relay_connections"] = self.pruned
+        snap["side"] = self.params.side
+        snap["replayed_events"] = sum(r.replayed for r in self.replays.values())
+        status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
+        arr = DiagnosticArray()
+        arr.header.stamp = rospy.Time.now()
+        arr.status = [status]
+        with contextlib.suppress(rospy.ROSException):
+            self.diag_pub.publish(arr)
+
+
+def _message_class(spec: TopicSpec) -> type:
+    import roslib.message
+
+    try:
+        cls = roslib.message.get_message_class(spec.type)
+    except (ImportError, ValueError, AttributeError) as err:
+        raise RelayConfigError(f"shared topic {spec.name}: cannot load message type {spec.type}: {err}") from err
+    if cls is None:
+        raise RelayConfigError(f"shared topic {spec.name}: unknown message type {spec.type} (is the workspace built?)")
+    return cls
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    try:
+        params = Params.parse(argv[1:])
+    except RelayConfigError as err:
+        print(f"relay_end: {err}", file=sys.stderr)
+        return EXIT_CONFIG
+    # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
+    rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
+    watch = keep_registered()
+    try:
+        node = RelayEndNode(params, watch)
+    except (GidaBotError, OSError) as err:
+        rospy.logfatal(f"relay end {rospy.get_name()} cannot start: {err}")
+        return EXIT_CONFIG
+    try:
+        node.listen()
+    except OSError as err:
+        rospy.logfatal(f"{node.core.name}: cannot listen on {params.link_host}:{params.link_port}: {err.strerror}")
+        node.core.journal.close()
+        return EXIT_PORT
+    rospy.loginfo(f"{node.core.name}: {'listening on' if params.side == 'b' else 'connecting to'} "
+                  f"{params.link_host}:{params.link_port}, {len(node.specs)} shared topics, "
+                  f"{'HMAC-SHA256' if node.cfg.secret else 'NO authentication'}")
+    rospy.on_shutdown(node.stop)
+    node.run()
+    return 0

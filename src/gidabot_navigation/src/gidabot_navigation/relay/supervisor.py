@@ -1,0 +1,297 @@
+"""The relay supervisor: starts this robot's relays (both ends of each) as child processes.
+
+Robot i of the building's robot list starts the relays to robots i+1..n-1, so the
+building has exactly n(n-1)/2 relays, derived from the building file. For the pair
+(i, j) the supervisor starts end ``a`` against robot i's master (ROS_IP = i's address)
+and end ``b`` against robot j's master (ROS_IP = j's address if this machine has that
+address, as in the simulated building; otherwise this robot's own address), each in
+its own process group, killed if the supervisor dies (parent-death signal, and the
+ends also watch their parent), restarted with exponential backoff if they die.
+
+:func:`plan_relays` and :class:`Backoff` are ROS-free; :class:`ChildProcess` is plain
+process handling; the ROS adapter is :mod:`gidabot_navigation.relay.supervisor_node`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.relay.end import relay_node_name
+
+EXIT_CONFIG = 2                          # = relay_node.EXIT_CONFIG (not imported: that module needs rospy)
+EXIT_PORT = 3                            # = relay_node.EXIT_PORT
+PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = relay_node.PARENT_ENV: the ends exit when their parent is gone
+RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
+
+
+@dataclass(frozen=True)
+class EndSpec:
+    """One relay end process: which pair, which side, which master, where the link is."""
+
+    robot_a: str
+    robot_b: str
+    side: str            # "a" or "b"
+    master_uri: str      # master of the robot of this side
+    ros_ip: str          # ROS_IP of this end
+    link_host: str       # end b's listening address
+    link_port: int
+    bind_ip: str         # end a's source address
+
+    @property
+    def link(self) -> str:
+        return f"{self.robot_a}_{self.robot_b}"
+
+    @property
+    def key(self) -> str:
+        return f"{self.link}.{self.side}"
+
+    @property
+    def node_name(self) -> str:
+        return relay_node_name(self.robot_a, self.robot_b)
+
+
+def is_local_address(ip: str) -> bool:
+    """True if this machine can bind ``ip`` (the simulated building: every robot's address is local)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        try:
+            s.bind((ip, 0))
+        except OSError:
+            return False
+    return True
+
+
+def free_port(ip: str) -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind((ip, 0))
+        return int(s.getsockname()[1])
+
+
+def plan_relays(building: Building, robot: str, port_for: Callable[[int, str], int],
+                is_local: Callable[[str], bool] = is_local_address) -> list[EndSpec]:
+    """The ends this robot's supervisor starts: two per pair (robot, later robot).
+
+    ``port_for(pair_index, host)`` gives the link port of the pair with that index in
+    ``building.relay_pairs()`` (end b listens on ``host``).
+    """
+    me = building.robot(robot)
+    ends: list[EndSpec] = []
+    for index, (a, b) in enumerate(building.relay_pairs()):
+        if a.name != me.name:
+            continue
+        b_ip = b.ip if is_local(b.ip) else a.ip
+        port = port_for(index, b_ip)
+        ends.append(EndSpec(a.name, b.name, "a", a.master_uri, a.ip, b_ip, port, a.ip))
+        ends.append(EndSpec(a.name, b.name, "b", b.master_uri, b_ip, b_ip, port, a.ip))
+    return ends
+
+
+@dataclass
+class Backoff:
+    """Restart delays: ``initial`` doubling to ``maximum``; back to ``initial`` after ``stable`` s running."""
+
+    initial: float = 0.5
+    maximum: float = 10.0
+    stable: float = 30.0
+    delay: float = 0.5
+
+    def __post_init__(self) -> None:
+        self.delay = self.initial
+
+    def next_delay(self, ran_for: float) -> float:
+        if ran_for >= self.stable:
+            self.delay = self.initial
+        d = self.delay
+        self.delay = min(self.maximum, self.delay * 2)
+        return d
+
+
+@dataclass(frozen=True)
+class EndOptions:
+    """What every end gets besides its EndSpec (passed as private parameters)."""
+
+    state_dir: str
+    secret_file: str = ""
+    topics_file: str = ""
+    extra: tuple[tuple[str, str], ...] = ()     # further end options (tuning): (name, value)
+
+
+def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> list[str]:
+    """Command line of one end (the secret travels as a file path, never as a value)."""
+    argv = [python, str(RELAY_END), "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
+            "--link_host", spec.link_host, "--link_port", str(spec.link_port), "--bind_ip", spec.bind_ip,
+            "--state_dir", opts.state_dir, "--secret_file", opts.secret_file]
+    if opts.topics_file:
+        argv += ["--topics_file", opts.topics_file]
+    for k, v in opts.extra:
+        argv += [f"--{k}", v]
+    return argv
+
+
+def end_env(spec: EndSpec, base: Mapping[str, str], parent_pid: int) -> dict[str, str]:
+    env = dict(base)
+    for var in ("ROS_HOSTNAME", "ROS_NAMESPACE"):
+        env.pop(var, None)
+    env.update({"ROS_MASTER_URI": spec.master_uri, "ROS_IP": spec.ros_ip, PARENT_ENV: str(parent_pid),
+                "PYTHONUNBUFFERED": "1"})
+    return env
+
+
+class ChildProcess:
+    """One end process: its own process group, SIGTERM when the supervisor dies, restart with backoff."""
+
+    def __init__(self, spec: EndSpec, opts: EndOptions, log: Callable[[str, str], None],
+                 base_env: Mapping[str, str] | None = None, output_dir: Path | None = None,
+                 argv_for: Callable[[EndSpec, EndOptions], list[str]] = end_argv) -> None:
+        self.spec = spec
+        self.output_dir = output_dir
+        self.argv_for = argv_for
+        self.opts = opts
+        self.log = log
+        self.base_env = dict(os.environ if base_env is None else base_env)
+        self.popen: subprocess.Popen | None = None
+        self.backoff = Backoff()
+        self.started_at = 0.0
+        self.next_start = 0.0
+        self.restarts = 0
+        self.last_exit: int | None = None
+
+    @property
+    def pid(self) -> int | None:
+        return self.popen.pid if self.popen is not None and self.popen.poll() is None else None
+
+    def start(self, now: float) -> None:
+        argv = self.argv_for(self.spec, self.opts)
+        setpriv = shutil.which("setpriv")
+        if setpriv:
+            argv = [setpriv, "--pdeathsig", "TERM", "--", *argv]
+        out = None
+        try:
+            if self.output_dir is not None:
+                out = open(self.output_dir / f"{self.spec.key}.log", "ab")  # noqa: SIM115 - closed below
+            self.popen = subprocess.Popen(argv, env=end_env(self.spec, self.base_env, os.getpid()),
+                                          stdin=subprocess.DEVNULL, stdout=out,
+                                          stderr=subprocess.STDOUT if out else None, start_new_session=True,
+                                          preexec_fn=None if setpriv else _pdeathsig)
+        except OSError as err:
+            self.popen = None
+            self.next_start = now + self.backoff.next_delay(0.0)
+            self.log("error", f"cannot start relay end {self.spec.key}: {err.strerror}")
+            return
+        finally:
+            if out is not None:
+                out.close()
+        self.started_at = now
+        self.log("info", f"started relay end {self.spec.node_name} side {self.spec.side} on "
+                         f"{self.spec.master_uri} (pid {self.popen.pid}, link {self.spec.link_host}:"
+                         f"{self.spec.link_port})")
+
+    def poll(self, now: float) -> int | None:
+        """The exit code if the process ended since the last poll (then a restart is scheduled)."""
+        if self.popen is None or self.popen.poll() is None:
+            return None
+        code = self.popen.returncode
+        self.popen = None
+        self.last_exit = code
+        self.restarts += 1
+        delay = self.backoff.next_delay(now - self.started_at)
+        if code == EXIT_CONFIG:
+            delay = max(delay, self.backoff.maximum)
+        self.next_start = now + delay
+        self.log("warning", f"relay end {self.spec.key} exited with {code}; restarting in {delay:.1f} s")
+        return code
+
+    def due(self, now: float) -> bool:
+        return self.popen is None and now >= self.next_start
+
+    def stop(self, grace: float = 3.0) -> None:
+        if self.popen is None:
+            return
+        pgid = self.popen.pid
+        for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 2.0), (signal.SIGKILL, 5.0)):
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(pgid, sig)
+            try:
+                self.popen.wait(timeout=wait)
+                break
+            except subprocess.TimeoutExpired:
+                continue
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(pgid, signal.SIGKILL)
+        self.popen = None
+
+
+def _pdeathsig() -> None:       # pragma: no cover - runs in the child between fork and exec
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)      # PR_SET_PDEATHSIG
+
+
+class Supervisor:
+    """Keeps every planned end running (no rospy): call :meth:`step` periodically, :meth:`stop` at the end."""
+
+    def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],
+                 new_port: Callable[[str], int] = free_port, base_env: Mapping[str, str] | None = None,
+                 output_dir: Path | None = None,
+                 argv_for: Callable[[EndSpec, EndOptions], list[str]] = end_argv) -> None:
+        """``output_dir``: where each end's stdout/stderr goes (``<key>.log``); None = inherited.
+        ``argv_for``: the command of an end (tests replace the relay end by a stand-in)."""
+        self.children = [ChildProcess(s, opts, log, base_env, output_dir, argv_for) for s in ends]
+        self.log = log
+        self.new_port = new_port
+
+    def step(self, now: float) -> None:
+        for child in self.children:
+            code = child.poll(now)
+            if code == EXIT_PORT and child.spec.side == "b":
+                self._move_link(child, now)
+        for child in self.children:
+            if child.due(now):
+                child.start(now)
+
+    def _move_link(self, end_b: ChildProcess, now: float) -> None:
+        """End b could not bind its port: give the pair a new port and restart end a with it."""
+        port = self.new_port(end_b.spec.link_host)
+        self.log("warning", f"link port {end_b.spec.link_port} of relay {end_b.spec.link} is taken; moving to {port}")
+        for child in self.children:
+            if child.spec.link == end_b.spec.link:
+                child.spec = replace(child.spec, link_port=port)
+                if child.spec.side == "a" and child.popen is not None:
+                    child.stop()
+                    child.next_start = now
+        end_b.next_start = now
+
+    def stop(self, grace: float = 3.0) -> None:
+        """Stop every end at once: SIGINT, then SIGTERM, then SIGKILL to each process group."""
+        running = [c for c in self.children if c.popen is not None]
+        for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, 2.0), (signal.SIGKILL, 5.0)):
+            for c in running:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(c.popen.pid, sig)
+            deadline = time.monotonic() + wait
+            for c in running:
+                with contextlib.suppress(subprocess.TimeoutExpired):
+                    c.popen.wait(timeout=max(0.0, deadline - time.monotonic()))
+            running = [c for c in running if c.popen.poll() is None]
+            if not running:
+                break
+        for c in self.children:
+            if c.popen is not None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(c.popen.pid, signal.SIGKILL)
+                c.popen = None
+
+    def status(self) -> list[tuple[str, int | None, int, int | None, str]]:
+        """(end key, pid or None, restarts, last exit code, link address) per end."""
+        return [(c.spec.key, c.pid, c.restarts, c.last_exit, f"{c.spec.link_host}:{c.spec.link_port}")
+                for c in self.children]

@@ -1,0 +1,133 @@
+"""ROS adapter of the relay supervisor: the ``/relay_supervisor`` node.
+
+Core: :mod:`gidabot_navigation.relay.supervisor`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+import time
+from pathlib import Path
+
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.relay.end import RelayConfigError
+from gidabot_navigation.relay.supervisor import EndOptions, Supervisor, free_port, plan_relays
+
+
+class RelaySupervisorNode:
+    """Starts and keeps running the relays this robot owns (node ``/relay_supervisor``).
+
+    For every robot after this one in the building's robot list, both ends of the relay
+    ``/gidabot_relay_<this>_<other>`` (see :class:`gidabot_navigation.relay.end_node.RelayEndNode`).
+
+    Published topics:
+      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, wall-time stamps: no ``/clock``), 1 Hz:
+        ``relay_supervisor: <robot>``
+        with, per end (key ``<A>_<B>.<side>``), "pid P, restarts R, last exit E, link host:port".
+
+    Parameters:
+      - ``~building`` (str, required): building.yaml or its directory.
+      - ``~robot`` (str, required): this robot's name in the building.
+      - ``~state_dir`` (str, required): directory of the ends' journals.
+      - ``~secret_file`` (str, default ''): file holding the shared secret (HMAC-SHA256); '' = none.
+      - ``~topics_file`` (str, default the package's ``config/shared_topics.yaml``).
+      - ``~link_port_base`` (int, default 0): link port of pair k (k-th of the building's
+        relay pairs) is base + k; 0 = a free port chosen at start.
+      - ``~end_params`` (dict, default {}): further options for every end
+        (e.g. ``{max_queue: 10000, heartbeat: 0.5}``; see RelayEndNode).
+    """
+
+    def __init__(self) -> None:
+        import rospy
+
+        self.rospy = rospy
+        building_path = str(rospy.get_param("~building", ""))
+        self.robot = str(rospy.get_param("~robot", ""))
+        state_dir = str(rospy.get_param("~state_dir", ""))
+        if not building_path or not self.robot or not state_dir:
+            raise RelayConfigError("~building, ~robot and ~state_dir are required")
+        secret_file = str(rospy.get_param("~secret_file", "") or "")
+        if secret_file:
+            from gidabot_navigation.relay.end import read_secret
+
+            read_secret(secret_file)                  # fail here, clearly, rather than in every end
+            secret_file = str(Path(secret_file).resolve())
+        topics_file = str(rospy.get_param("~topics_file", "") or "")
+        base = rospy.get_param("~link_port_base", 0)
+        if not isinstance(base, int) or isinstance(base, bool) or not 0 <= base < 65000:
+            raise RelayConfigError(f"~link_port_base must be a port number or 0, got {base!r}")
+        extra = rospy.get_param("~end_params", {}) or {}
+        if not isinstance(extra, dict):
+            raise RelayConfigError(f"~end_params must be a mapping, got {extra!r}")
+        building = load_building(building_path)
+        building.robot(self.robot)                    # KeyError with the known names
+
+        def port_for(index: int, host: str) -> int:
+            return base + index if base else free_port(host)
+
+        ends = plan_relays(building, self.robot, port_for)
+        Path(state_dir).mkdir(parents=True, exist_ok=True)
+        opts = EndOptions(state_dir=str(Path(state_dir).resolve()), secret_file=secret_file,
+                          topics_file=topics_file, extra=tuple((str(k), str(v)) for k, v in extra.items()))
+        self.sup = Supervisor(ends, opts, self._log)
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        pairs = sorted({e.link for e in ends})
+        rospy.loginfo(f"relay_supervisor of {self.robot}: {len(pairs)} relay(s) to start"
+                      f"{': ' + ', '.join(pairs) if pairs else ' (last robot of the building)'}; "
+                      f"{'HMAC-SHA256' if secret_file else 'NO authentication (no secret file)'}")
+
+    def _log(self, level: str, msg: str) -> None:
+        {"info": self.rospy.loginfo, "warning": self.rospy.logwarn, "error": self.rospy.logerr}[level](msg)
+
+    def run(self) -> None:
+        rospy = self.rospy
+        next_diag = 0.0
+        try:
+            while not rospy.is_shutdown():
+                now = time.monotonic()
+                self.sup.step(now)
+                if now >= next_diag:
+                    next_diag = now + 1.0
+                    self._diagnostics()
+                time.sleep(0.2)
+        finally:
+            self.sup.stop()
+
+    def _diagnostics(self) -> None:
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+        status = DiagnosticStatus()
+        status.name = f"relay_supervisor: {self.robot}"
+        status.hardware_id = self.robot
+        rows = self.sup.status()
+        down = [row[0] for row in rows if row[1] is None]
+        status.level = DiagnosticStatus.WARN if down else DiagnosticStatus.OK
+        status.message = f"{len(rows) - len(down)}/{len(rows)} relay ends running"
+        for key, pid, restarts, last, link in rows:
+            status.values.append(KeyValue(key, f"pid {pid if pid else '-'}, restarts {restarts}, "
+                                               f"last exit {last}, link {link}"))
+        arr = DiagnosticArray()
+        arr.header.stamp = self.rospy.Time.now()
+        arr.status = [status]
+        with contextlib.suppress(self.rospy.ROSException):
+            self.diag_pub.publish(arr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    import rospy
+
+    from gidabot_navigation.ros.master_watch import keep_registered
+
+    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv, disable_rostime=True)
+    keep_registered()
+    try:
+        node = RelaySupervisorNode()
+    except (GidaBotError, KeyError, OSError) as err:
+        rospy.logfatal(f"relay_supervisor cannot start: {err}")
+        return 1
+    node.run()
+    return 0

@@ -1,0 +1,172 @@
+"""Building loader: the faculty loads; every kind of mistake is reported with file, key and value."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import yaml
+
+from gidabot_navigation.building.geometry import BlueprintTransform
+from gidabot_navigation.building.model import format_floor, load_building
+from gidabot_navigation.errors import BuildingError
+
+
+def test_faculty_loads(faculty) -> None:
+    assert [f.id for f in faculty.floors] == [0, 1, 2, 3]
+    assert [(r.name, r.floor, r.drive) for r in faculty.robots] == [
+        ("Tartalo", 0, "differential"), ("Kbot", 1, "differential"),
+        ("Galtxagorri", 2, "differential"), ("MariSorgin", 3, "synchro")]
+    assert sorted(c.kind for c in faculty.connectors) == ["lift", "stairs", "stairs"]
+    for connector in faculty.connectors:
+        assert sorted(connector.meeting) == [0, 1, 2, 3]
+    for room in ("014", "008", "101", "104", "223", "274", "325", "305"):
+        assert faculty.find_location(room) is not None
+    assert len(faculty.relay_pairs()) == 6
+    assert faculty.robot_on(2).name == "Galtxagorri"
+    assert faculty.robot_on(7) is None
+    assert faculty.find_floor(float("nan")) is None
+    assert len({r.master_uri for r in faculty.robots}) == 4
+
+
+def test_every_location_has_three_languages(faculty) -> None:
+    for loc in faculty.locations:
+        assert set(loc.names) == {"eu", "en", "es"}
+        assert loc.name("es") and loc.name("xx") == loc.names["en"]
+
+
+def test_lookups_and_copies(faculty) -> None:
+    assert faculty.floor(1.0000001).id == 1
+    with pytest.raises(KeyError, match="unknown floor 9"):
+        faculty.floor(9)
+    assert [c.id for c in faculty.connectors_between(0, 3, "stairs")] == ["stairs_west", "stairs_east"]
+    moved = faculty.with_master_uris({"Kbot": "http://127.0.0.12:40000/"})
+    assert moved.robot("Kbot").port == 40000 and faculty.robot("Kbot").port == 11311
+    assert moved.robot("Kbot").ip == "127.0.0.12"
+
+
+def test_relocate_building(tmp_path: Path, faculty) -> None:
+    from gidabot_navigation.building.model import relocate_building
+
+    out = relocate_building(Path(__file__).resolve().parents[4] / "maps" / "faculty", tmp_path / "copy", {"Tartalo": "http://127.0.0.11:45678/"})
+    moved = load_building(out)
+    assert moved.robot("Tartalo").port == 45678 and moved.robot("Kbot").port == 11311
+    assert [loc.id for loc in moved.locations] == [loc.id for loc in faculty.locations]
+
+
+def test_format_floor() -> None:
+    assert format_floor(0.0) == "0" and format_floor(0.5) == "0.5" and format_floor(-1) == "-1"
+
+
+def test_blueprint_transform_round_trip() -> None:
+    t = BlueprintTransform(scale=16.0, origin_u=24, origin_v=408, rotation=0.3)
+    u, v = t.to_pixel(12.5, -3.0)
+    assert t.to_map(u, v) == pytest.approx((12.5, -3.0))
+    assert BlueprintTransform(16.0, 24, 408).to_pixel(1.0, 1.0) == (40.0, 392.0)
+
+
+def _edit(path: Path, change: Callable[[dict], None]) -> Path:
+    file = path / "building.yaml"
+    doc = yaml.safe_load(file.read_text())
+    change(doc)
+    file.write_text(yaml.safe_dump(doc, sort_keys=False, allow_unicode=True))
+    return file
+
+
+def _loc(doc: dict, room: str) -> dict:
+    return next(loc for loc in doc["locations"] if loc["id"] == room)
+
+
+BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
+    ("unknown floor", lambda d: _loc(d, "223").update(floor=7),
+     "locations[*].floor: unknown floor 7 (floors: 0, 1, 2, 3)"),
+    ("outside the map", lambda d: _loc(d, "014").update(pose=[500.0, 12.0, 0.0]),
+     "locations[*].pose: (500, 12) is outside the map of floor 0"),
+    ("inside a wall", lambda d: _loc(d, "014").update(pose=[10.0, 10.4, 0.0]),
+     "locations[*].pose: (10, 10.4) is inside a wall"),
+    ("duplicate location id", lambda d: _loc(d, "101").update(id="223"),
+     "duplicate location id '223'"),
+    ("unquoted room number", lambda d: _loc(d, "101").update(id=101),
+     "locations[*].id: 101 must be a string"),
+    ("connector missing on a floor", lambda d: d["connectors"][1]["meeting"].pop(2),
+     "connectors[1].meeting: connector lift serves floor 2 but has no meeting pose there"),
+    ("two robots one master", lambda d: d["robots"][1].update(master_uri=d["robots"][0]["master_uri"]),
+     "robots[1].master_uri: 'http://127.0.0.11:11311/' is also the master of robot Tartalo"),
+    ("host name instead of IP", lambda d: d["robots"][2].update(master_uri="http://galtxagorri.local:11311"),
+     "robots[2].master_uri: 'http://galtxagorri.local:11311' must be http://<IP address>:<port>/"),
+    ("unknown drive", lambda d: d["robots"][3].update(drive="legged"),
+     "robots[3].drive: 'legged' is not one of differential, synchro"),
+    ("negative speed", lambda d: d["robots"][0].update(max_linear=-0.5),
+     "robots[0].max_linear: -0.5 must be > 0"),
+    ("NaN in a pose", lambda d: d["robots"][0].update(home=[float("nan"), 1.0, 0.0]),
+     "robots[0].home[0]: nan is not a finite number"),
+    ("missing language", lambda d: _loc(d, "305")["names"].pop("eu"),
+     "locations[*].names.eu: is missing (names are needed in eu, en and es)"),
+    ("unknown key (typo)", lambda d: d["floors"][0].update(blueprnt="x.png"),
+     "floors[0].blueprnt: unknown key"),
+    ("map file missing", lambda d: d["floors"][2].update(map="nowhere.yaml"),
+     "floors[2].map: 'nowhere.yaml': file not found"),
+    ("duplicate floor", lambda d: d["floors"][3].update(id=2),
+     "floors[3].id: duplicate floor id 2"),
+    ("two robots on one floor", lambda d: d["robots"][1].update(floor=0),
+     "robots[1].floor: floor 0 already has robot Tartalo"),
+    ("bad category", lambda d: _loc(d, "001").update(category="shop"),
+     "locations[*].category: 'shop' is not one of"),
+    ("bad blueprint scale", lambda d: d["floors"][1]["blueprint_transform"].update(scale=0),
+     "floors[1].blueprint_transform.scale: 0 must be > 0"),
+    ("duplicate robot", lambda d: d["robots"][2].update(name="Kbot"),
+     "robots[2].name: duplicate robot name 'Kbot'"),
+    ("unknown connector kind", lambda d: d["connectors"][0].update(kind="escalator"),
+     "connectors[0].kind: 'escalator' is not one of lift, stairs"),
+]
+
+
+@pytest.mark.parametrize("label, change, expected", BROKEN, ids=[b[0] for b in BROKEN])
+def test_broken_building_names_file_key_value(faculty_copy: Path, label: str, change, expected: str) -> None:
+    file = _edit(faculty_copy, change)
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    text = str(info.value)
+    assert str(file) in text
+    head, _, rest = expected.partition("[*]")
+    if rest:
+        assert head in text and rest in text, text
+    else:
+        assert expected in text, text
+
+
+def test_all_problems_reported_at_once(faculty_copy: Path) -> None:
+    def change(d: dict) -> None:
+        d["robots"][0]["drive"] = "legged"
+        _loc(d, "223")["floor"] = 7
+        d["connectors"][0]["meeting"].pop(0)
+
+    _edit(faculty_copy, change)
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    assert len(info.value.problems) == 3
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("", "expected a mapping"),
+    ("floors: [", "not valid YAML"),
+    ("- 1\n- 2\n", "expected a mapping, got [1, 2]"),
+])
+def test_not_a_building(tmp_path: Path, text: str, expected: str) -> None:
+    (tmp_path / "building.yaml").write_text(text)
+    with pytest.raises(BuildingError, match=expected.replace("[", r"\[").replace("]", r"\]")):
+        load_building(tmp_path)
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(BuildingError, match="cannot read"):
+        load_building(tmp_path / "nope")
+
+
+def test_meeting_points_and_homes_are_reachable_free_space(faculty) -> None:
+    for connector in faculty.connectors:
+        for fid, pose in connector.meeting.items():
+            assert faculty.floor(fid).map.is_free(pose.x, pose.y)
+            assert math.isfinite(pose.yaw)

@@ -1,0 +1,370 @@
+"""``gidabot bench relay [--json]``: relay latency against direct delivery, and 4/8-robot meshes.
+
+1. Side by side in one run: one publisher on master A sends gidabot_msgs/Goal at 100 Hz;
+   a subscriber on A (direct: same master) and one on B (relayed by /gidabot_relay_A_B)
+   time every message (wall clock stamped at publication). Prints p50/p99 of both and
+   their difference.
+2. Meshes of 4 and 8 robots (6 and 28 relays, both ends of each started as by the relay
+   supervisor, HMAC on): every robot publishes goals at 10 Hz and records everyone
+   else's; prints CPU per relay (both end processes, % of one core, while publishing and
+   idle), delivery latency p50/p99/max (max = the worst stall), lost and duplicated deliveries.
+
+Everything runs on loopback addresses 127.N.0.x (see procs.robot_address), each robot
+with its own master; the ends write their journals to a temporary directory.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, Supervisor
+from gidabot_sim.runner.procs import ProcessGroup, free_port, robot_address, ros_env, start_master
+
+SECRET = "bench-relay-secret-0123456789"
+CLK_TCK = os.sysconf("SC_CLK_TCK")
+
+
+# -- the worker: one rospy process that publishes and/or records goals ------------------------------
+def worker(argv: Sequence[str]) -> int:
+    """``bench_relay worker --robot R --role pub|sub|both --expect A,B --rate HZ --count N``.
+
+    Line protocol on stdin/stdout: prints ``{"event": "warm_ok"}`` once a warm-up message of
+    every expected origin arrived (pub: at once); on ``go`` publishes ``count`` goals at
+    ``rate`` and prints ``{"event": "sent"}``; on ``report`` prints every receipt; ``quit``.
+    """
+    import genpy
+    import rospy
+
+    from gidabot_msgs.msg import Goal
+
+    ap = argparse.ArgumentParser(prog="bench_relay worker")
+    ap.add_argument("--robot", required=True)
+    ap.add_argument("--role", choices=("pub", "sub", "both"), required=True)
+    ap.add_argument("--expect", default="")
+    ap.add_argument("--subs", type=int, default=1)
+    ap.add_argument("--rate", type=float, default=100.0)
+    ap.add_argument("--count", type=int, default=1000)
+    ap.add_argument("--phase", type=float, default=0.0, help="s to wait after 'go' (spreads the robots' sends)")
+    args = ap.parse_args(list(argv))
+    out = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
+    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())          # rospy's log lines stay off the protocol
+    rospy.init_node(f"bench_{args.role}_{args.robot}", disable_signals=True)
+    expect = {e for e in args.expect.split(",") if e}
+    warm_from: set[str] = set()
+    recv: dict[str, list[tuple[int, float]]] = {}
+
+    def on_goal(msg: Goal) -> None:
+        now = time.time()
+        origin, _, k = msg.uid.rpartition("/")
+        if origin.startswith("warm:"):
+            warm_from.add(origin[5:])
+            return
+        recv.setdefault(origin, []).append((int(k), (now - msg.header.stamp.to_sec()) * 1000.0))
+
+    if args.role in ("sub", "both"):
+        rospy.Subscriber("/gidabot/goals", Goal, on_goal, queue_size=None, tcp_nodelay=True)
+    pub = rospy.Publisher("/gidabot/goals", Goal, queue_size=1000) if args.role in ("pub", "both") else None
+
+    def send(uid: str) -> None:
+        g = Goal()
+        g.uid, g.origin_robot, g.goal_id, g.tour_step = uid, args.robot, "bench", -1
+        g.header.stamp = genpy.Time.from_sec(time.time())
+        assert pub is not None
+        pub.publish(g)
+
+    if pub is not None:
+        deadline = time.monotonic() + 120
+        while pub.get_num_connections() < args.subs and time.monotonic() < deadline:
+            time.sleep(0.05)
+    warm_ok = False
+    next_warm = 0.0
+    while True:
+        if not warm_ok and warm_from >= expect:
+            warm_ok = True
+            out.write(json.dumps({"event": "warm_ok"}) + "\n")
+        if pub is not None and time.monotonic() >= next_warm:
+            next_warm = time.monotonic() + 0.3
+            send(f"warm:{args.robot}/0")
+        ready, _, _ = select.select([sys.stdin], [], [], 0.05)
+        if not ready:
+            continue
+        line = sys.stdin.readline()
+        if not line or line.strip() == "quit":
+            break
+        cmd = line.strip()
+        if cmd == "go" and pub is not None:
+            period = 1.0 / args.rate
+            start = time.monotonic() + args.phase
+            for k in range(args.count):
+                delay = start + k * period - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+                send(f"{args.robot}/{k}")
+            out.write(json.dumps({"event": "sent"}) + "\n")
+            next_warm = float("inf")
+        elif cmd == "go":
+            next_warm = float("inf")
+        elif cmd == "report":
+            out.write(json.dumps({"event": "report", "recv": recv}) + "\n")
+    rospy.signal_shutdown("bench done")
+    return 0
+
+
+# -- the orchestrator -------------------------------------------------------------------------------
+class Worker:
+    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str]) -> None:
+        log = open(group.log_dir / f"{name}.log", "ab") if group.log_dir else subprocess.DEVNULL  # noqa: SIM115
+        self.proc = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.relay", "worker", *args],
+                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
+                                     bufsize=1, start_new_session=True)
+        if hasattr(log, "close"):
+            log.close()
+        self.name = name
+
+    def send(self, cmd: str) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(cmd + "\n")
+        self.proc.stdin.flush()
+
+    def expect(self, event: str, timeout: float) -> dict:
+        assert self.proc.stdout is not None
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            ready, _, _ = select.select([self.proc.stdout], [], [], max(0.0, deadline - time.monotonic()))
+            if not ready:
+                break
+            line = self.proc.stdout.readline()
+            if not line:
+                raise RuntimeError(f"bench worker {self.name} exited (code {self.proc.poll()})")
+            msg = json.loads(line)
+            if msg.get("event") == event:
+                return msg
+        raise RuntimeError(f"bench worker {self.name}: no {event!r} within {timeout:g} s")
+
+    def close(self) -> None:
+        if self.proc.poll() is None:
+            try:
+                self.send("quit")
+                self.proc.wait(timeout=5)
+            except (OSError, subprocess.TimeoutExpired):
+                self.proc.kill()
+                self.proc.wait(timeout=5)
+
+
+def percentile(values: list[float], q: float) -> float:
+    if not values:
+        return float("nan")
+    s = sorted(values)
+    return s[min(len(s) - 1, max(0, int(round(q / 100.0 * (len(s) - 1)))))]
+
+
+def cpu_seconds(pids: list[int]) -> float:
+    total = 0
+    for pid in pids:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+            total += int(fields[11]) + int(fields[12])           # utime + stime
+        except (OSError, IndexError, ValueError):
+            continue
+    return total / CLK_TCK
+
+
+@dataclass
+class Robots:
+    names: list[str]
+    uris: list[str]
+    ips: list[str]
+
+
+def start_robots(group: ProcessGroup, n: int, net_offset: int = 0) -> Robots:
+    names = [f"R{i}" for i in range(n)]
+    ips = [robot_address(i + net_offset) for i in range(n)]
+    uris = [start_master(group, f"master_{names[i]}", ips[i]) for i in range(n)]
+    return Robots(names, uris, ips)
+
+
+def mesh_ends(robots: Robots) -> list[EndSpec]:
+    """Both ends of every pair, as relay_supervisor.plan_relays gives them on one machine."""
+    ends = []
+    n = len(robots.names)
+    for i in range(n):
+        for j in range(i + 1, n):
+            port = free_port(robots.ips[j])
+            a, b = robots.names[i], robots.names[j]
+            ends.append(EndSpec(a, b, "a", robots.uris[i], robots.ips[i], robots.ips[j], port, robots.ips[i]))
+            ends.append(EndSpec(a, b, "b", robots.uris[j], robots.ips[j], robots.ips[j], port, robots.ips[i]))
+    return ends
+
+
+def start_relays(ends: list[EndSpec], state_dir: Path, secret_file: Path, log_dir: Path) -> Supervisor:
+    opts = EndOptions(state_dir=str(state_dir), secret_file=str(secret_file))
+    env = dict(os.environ)
+    env["ROS_LOG_DIR"] = env["ROS_HOME"] = str(log_dir)
+    log_dir.mkdir(parents=True, exist_ok=True)
+    sup = Supervisor(ends, opts, lambda level, msg: None, base_env=env, output_dir=log_dir)
+    sup.step(time.monotonic())
+    return sup
+
+
+def wait_warm(workers: list[Worker], timeout: float) -> None:
+    for w in workers:
+        w.expect("warm_ok", timeout)
+
+
+def side_by_side(tmp: Path, rate: float, count: int, log) -> dict:
+    with ProcessGroup(tmp / "logs_pair") as group:
+        robots = start_robots(group, 2)
+        sup = start_relays(mesh_ends(robots), tmp / "state_pair", tmp / "secret", tmp / "logs_pair")
+        try:
+            env_a = ros_env(robots.uris[0], robots.ips[0], log_dir=tmp / "logs_pair" / "A")
+            env_b = ros_env(robots.uris[1], robots.ips[1], log_dir=tmp / "logs_pair" / "B")
+            direct = Worker(group, "direct_sub", env_a, ["--robot", "A", "--role", "sub", "--expect", "R0"])
+            relayed = Worker(group, "relayed_sub", env_b, ["--robot", "B", "--role", "sub", "--expect", "R0"])
+            # subscribers: the direct one, and end a of the relay (which forwards to B)
+            pub = Worker(group, "pub", env_a, ["--robot", "R0", "--role", "pub", "--subs", "2", "--rate", str(rate),
+                                               "--count", str(count)])
+            workers = [direct, relayed, pub]
+            try:
+                wait_warm(workers, 120)
+                log(f"  publishing {count} goals at {rate:g} Hz ...")
+                for w in workers:
+                    w.send("go")
+                pub.expect("sent", count / rate + 60)
+                time.sleep(1.0)
+                res = {}
+                for name, w in (("direct", direct), ("relayed", relayed)):
+                    w.send("report")
+                    recv = w.expect("report", 30)["recv"].get("R0", [])
+                    res[name] = [lat for _, lat in recv]
+                    res[name + "_n"] = len(recv)
+            finally:
+                for w in workers:
+                    w.close()
+        finally:
+            sup.stop()
+    d, r = res["direct"], res["relayed"]
+    out = {"rate_hz": rate, "messages": count, "direct_received": res["direct_n"], "relayed_received": res["relayed_n"],
+           "direct_p50_ms": percentile(d, 50), "direct_p99_ms": percentile(d, 99),
+           "relayed_p50_ms": percentile(r, 50), "relayed_p99_ms": percentile(r, 99)}
+    out["added_p50_ms"] = out["relayed_p50_ms"] - out["direct_p50_ms"]
+    out["added_p99_ms"] = out["relayed_p99_ms"] - out["direct_p99_ms"]
+    return out
+
+
+def mesh(tmp: Path, n: int, rate: float, seconds: float, idle: float, log) -> dict:
+    tag = f"mesh{n}"
+    count = int(rate * seconds)
+    with ProcessGroup(tmp / f"logs_{tag}") as group:
+        t0 = time.monotonic()
+        robots = start_robots(group, n)
+        ends = mesh_ends(robots)
+        sup = start_relays(ends, tmp / f"state_{tag}", tmp / "secret", tmp / f"logs_{tag}")
+        workers: list[Worker] = []
+        try:
+            for i, name in enumerate(robots.names):
+                env = ros_env(robots.uris[i], robots.ips[i], log_dir=tmp / f"logs_{tag}" / name)
+                others = ",".join(x for x in robots.names if x != name)
+                workers.append(Worker(group, f"worker_{name}", env,
+                                      ["--robot", name, "--role", "both", "--expect", others, "--subs", str(n),
+                                       "--rate", str(rate), "--count", str(count), "--phase", str(i / n / rate)]))
+            wait_warm(workers, 300)
+            startup = time.monotonic() - t0
+            pids = [c.pid for c in sup.children if c.pid]
+            if len(pids) != len(ends):
+                raise RuntimeError(f"{len(ends) - len(pids)} relay end(s) not running")
+            log(f"  {n} robots, {len(ends) // 2} relays up in {startup:.1f} s; idle {idle:g} s ...")
+            c0, w0 = cpu_seconds(pids), time.monotonic()
+            time.sleep(idle)
+            c1, w1 = cpu_seconds(pids), time.monotonic()
+            log(f"  every robot publishes {count} goals at {rate:g} Hz ...")
+            for w in workers:
+                w.send("go")
+            for w in workers:
+                w.expect("sent", seconds + 120)
+            time.sleep(2.0)
+            c2, w2 = cpu_seconds(pids), time.monotonic()
+            reports = {}
+            for name, w in zip(robots.names, workers, strict=True):
+                w.send("report")
+                reports[name] = w.expect("report", 60)["recv"]
+            sup.step(time.monotonic())
+            restarts = sum(c.restarts for c in sup.children)
+        finally:
+            for w in workers:
+                w.close()
+            sup.stop()
+    relays = len(ends) // 2
+    lat: list[float] = []
+    lost = dup = 0
+    for receiver, recv in reports.items():
+        for origin in robots.names:
+            if origin == receiver:
+                continue
+            got = recv.get(origin, [])
+            ks = [k for k, _ in got]
+            lost += count - len(set(ks))
+            dup += len(ks) - len(set(ks))
+            lat += [x for _, x in got]
+    return {"robots": n, "relays": relays, "messages_per_robot": count, "rate_hz": rate,
+            "deliveries": len(lat), "startup_s": round(startup, 1),
+            "cpu_percent_per_relay": 100.0 * (c2 - c1) / (w2 - w1) / relays,
+            "idle_cpu_percent_per_relay": 100.0 * (c1 - c0) / (w1 - w0) / relays,
+            "p50_ms": percentile(lat, 50), "p99_ms": percentile(lat, 99), "max_ms": max(lat) if lat else float("nan"),
+            "lost": lost, "duplicated": dup, "end_restarts": restarts}
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "worker":
+        return worker(argv[1:])
+    ap = argparse.ArgumentParser(prog="gidabot bench relay", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap.add_argument("--rate", type=float, default=100.0, help="Hz of the side-by-side run (default 100)")
+    ap.add_argument("--count", type=int, default=1000, help="messages of the side-by-side run (default 1000)")
+    ap.add_argument("--mesh", default="4,8", help="robot counts of the mesh runs (default 4,8; '' = none)")
+    ap.add_argument("--mesh-rate", type=float, default=10.0, help="Hz per robot in the meshes (default 10)")
+    ap.add_argument("--mesh-seconds", type=float, default=10.0, help="publishing time of a mesh run (default 10)")
+    ap.add_argument("--idle", type=float, default=5.0, help="s of idle CPU measurement per mesh (default 5)")
+    args = ap.parse_args(argv)
+
+    def log(msg: str) -> None:
+        if not args.json:
+            print(msg, flush=True)
+
+    with tempfile.TemporaryDirectory(prefix="gidabot-bench-relay-") as tmpdir:
+        tmp = Path(tmpdir)
+        (tmp / "secret").write_text(SECRET)
+        log("relay benchmark: loopback, one master per robot, HMAC-SHA256, journals on " + str(tmp))
+        res = side_by_side(tmp, args.rate, args.count, log)
+        log(f"  direct  (same master):  p50 {res['direct_p50_ms']:.3f} ms  p99 {res['direct_p99_ms']:.3f} ms  "
+            f"({res['direct_received']}/{args.count} received)")
+        log(f"  relayed (A -> B):       p50 {res['relayed_p50_ms']:.3f} ms  p99 {res['relayed_p99_ms']:.3f} ms  "
+            f"({res['relayed_received']}/{args.count} received)")
+        log(f"  relay adds:             p50 {res['added_p50_ms']:+.3f} ms  p99 {res['added_p99_ms']:+.3f} ms  "
+            "(target: <= 1 ms at p50, < 5 ms at p99)")
+        res["mesh"] = []
+        for n in [int(x) for x in args.mesh.split(",") if x.strip()]:
+            m = mesh(tmp, n, args.mesh_rate, args.mesh_seconds, args.idle, log)
+            res["mesh"].append(m)
+            log(f"  mesh {m['robots']} robots / {m['relays']} relays: cpu {m['cpu_percent_per_relay']:.2f} %/relay "
+                f"(idle {m['idle_cpu_percent_per_relay']:.2f}), latency p50 {m['p50_ms']:.2f} ms p99 "
+                f"{m['p99_ms']:.2f} ms max {m['max_ms']:.1f} ms, lost {m['lost']}, duplicated {m['duplicated']} "
+                f"of {m['deliveries']} deliveries")
+    if args.json:
+        print(json.dumps(res, sort_keys=True))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

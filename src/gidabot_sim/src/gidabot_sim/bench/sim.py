@@ -1,0 +1,293 @@
+"""``gidabot bench sim [--json]``: planner time per faculty floor and the simulator's real-time factor.
+
+Measured side by side in one run:
+
+1. **Planner**: on every floor of the building, plans between every pair of places
+   (locations, meeting points, the robot's home) with the move_base stand-in's planner
+   (A* on the inflated costmap at the map's resolution, string pulling); median and
+   worst time per plan. Targets: median <= 50 ms, worst <= 200 ms at 0.05 m (C++ navfn
+   takes about 150 ms on a 75 m path).
+2. **Real-time factor** of one floor (ROS-free, one process, as fast as it goes): the
+   floor's robot with a 360-beam laser at 10 Hz, odometry, the amcl stand-in and the
+   move_base stand-in driving a tour of the floor; sim seconds per wall second.
+   Target: >= 10.
+3. **The floor under ROS** (unless ``--no-ros``): ``launch/sim_floor.launch`` on its own
+   master at ``--speed`` (10x), a subscriber on ``base_scan`` (so the laser runs) and a
+   move_base action client driving the same tour; CPU time (% of one core) of the
+   ``/sim``, ``/move_base`` and ``/amcl`` processes while driving, and the achieved
+   clock factor.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import os
+import select
+import statistics
+import subprocess
+import sys
+import time
+import xmlrpc.client
+from pathlib import Path
+from tempfile import TemporaryDirectory
+
+from gidabot_navigation.building.geometry import Pose2D
+from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_sim.bench.closed_loop import FloorLoop
+from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
+from gidabot_sim.runner.procs import ProcessError, ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.world.kinematics import Limits
+from gidabot_sim.world.world import LaserSpec
+
+REPO = Path(__file__).resolve().parents[5]
+FACULTY = REPO / "maps" / "faculty"
+SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
+TARGETS = {"planner_median_ms": 50.0, "planner_max_ms": 200.0, "real_time_factor": 10.0}
+TOUR_FLOOR = 1.0
+PHASES = ("laser", "no_laser", "idle")
+IDLE_SIM_S = 60.0
+
+
+def places(building: Building, floor: float) -> list[Pose2D]:
+    f = building.floor(floor)
+    out = [loc.pose for loc in building.locations_on(f.id)]
+    out += [c.meeting[f.id] for c in building.connectors if f.id in c.meeting]
+    robot = building.robot_on(f.id)
+    if robot is not None:
+        out.append(robot.home)
+    return out
+
+
+def bench_planner(building: Building) -> list[dict]:
+    """Time per plan between every pair of places, per floor."""
+    rows = []
+    for floor in building.floors:
+        robot = building.robot_on(floor.id)
+        radius = robot.radius if robot else 0.3
+        limits = Limits.of_robot(robot) if robot else Limits(0.5, 1.0, 0.5, 1.0)
+        core = MoveBaseCore.for_robot(floor.map, radius, limits)
+        times, lengths = [], []
+        for a, b in itertools.combinations(places(building, floor.id), 2):
+            start = time.perf_counter()
+            path = core.make_plan((a.x, a.y), (b.x, b.y))
+            times.append((time.perf_counter() - start) * 1000.0)
+            lengths.append(path.length)
+        longest = max(range(len(lengths)), key=lengths.__getitem__)
+        rows.append({"floor": floor.label, "plans": len(times), "median_ms": round(statistics.median(times), 2),
+                     "max_ms": round(max(times), 2), "longest_path_m": round(lengths[longest], 1),
+                     "longest_path_ms": round(times[longest], 2), "resolution_m": floor.map.resolution})
+    return rows
+
+
+def tour(building: Building, floor: float) -> list[Pose2D]:
+    """East staircase, west staircase, lift: the floor's long trips."""
+    f = building.floor(floor)
+    meets = {c.id: c.meeting[f.id] for c in building.connectors if f.id in c.meeting}
+    order = [k for k in ("stairs_east", "stairs_west", "lift") if k in meets] or list(meets)
+    return [meets[k] for k in order]
+
+
+def bench_rtf(building: Building, floor: float = TOUR_FLOOR) -> dict:
+    """Sim seconds per wall second of one floor in one process (laser 360 beams at 10 Hz, driving)."""
+    loop = FloorLoop(building, floor, seed=1, laser_rate=10.0, laser=LaserSpec(beams=360))
+    goals = tour(building, floor)
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    outcomes = [loop.drive(goal, timeout=400.0).outcome for goal in goals]
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    sim = loop.world.time
+    return {"floor": building.floor(floor).label, "robot": loop.robot.name, "sim_s": round(sim, 1),
+            "wall_s": round(wall, 2), "cpu_s": round(cpu, 2), "real_time_factor": round(sim / wall, 1),
+            "laser_beams": 360, "laser_scans": loop.scans, "laser_hz": round(loop.scans / sim, 2),
+            "driven_m": round(loop.world.robots[0].odometer, 1), "goals": outcomes}
+
+
+# -- the floor under ROS ------------------------------------------------------------------
+
+def _cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _node_pid(master_uri: str, node: str) -> int | None:
+    try:
+        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/bench", node)
+        if code != 1:
+            return None
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/bench")
+        return int(pid) if code == 1 else None
+    except (OSError, xmlrpc.client.Error):
+        return None
+
+
+def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
+    """Launch one floor at ``speed`` and drive the tour through the ROS interfaces; CPU of the three nodes."""
+    base = load_building(building_dir)
+    robot = base.robot_on(floor)
+    if robot is None:
+        raise ProcessError(f"floor {floor:g} has no robot")
+    with TemporaryDirectory(prefix="gidabot-bench-") as tmp, ProcessGroup(Path(tmp) / "logs") as procs:
+        ip = robot_address(base.robots.index(robot))
+        uri = start_master(procs, "master", ip)
+        path = relocate_building(building_dir, Path(tmp) / "building", {robot.name: uri})
+        env = ros_env(uri, ip, log_dir=Path(tmp) / "ros")
+        procs.start("floor", ["roslaunch", "--skip-log-check", str(SIM_LAUNCH), f"building:={path}",
+                              f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
+        pids: dict[str, int] = {}
+
+        def found() -> bool:
+            for node in ("/sim", "/move_base", "/amcl"):
+                pid = pids.get(node) or _node_pid(uri, node)
+                if pid:
+                    pids[node] = pid
+            return len(pids) == 3
+
+        wait_until(found, 60.0, "the floor's nodes")
+        goals = [[g.x, g.y, g.yaw] for g in tour(load_building(path), floor)]
+        driver = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.sim", "--ros-driver", json.dumps(goals)],
+                                  env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                                  start_new_session=True)
+        phases = {}
+        try:
+            ready = driver.stdout.readline()
+            if not ready.startswith("READY"):
+                raise ProcessError(f"bench driver did not get ready: {ready!r} (logs in {tmp})")
+            for _ in PHASES:
+                cpu0 = {n: _cpu_seconds(p) for n, p in pids.items()}
+                wall0 = time.monotonic()
+                driver.stdin.write("GO\n")
+                driver.stdin.flush()
+                line = _read_line(driver, timeout)
+                wall = time.monotonic() - wall0
+                cpu = {n: _cpu_seconds(p) - cpu0[n] for n, p in pids.items()}
+                result = json.loads(line)
+                percent = {n.strip("/"): round(100.0 * c / wall, 1) for n, c in cpu.items()}
+                percent["total"] = round(sum(100.0 * c / wall for c in cpu.values()), 1)
+                phases[result["phase"]] = {
+                    "wall_s": round(wall, 2), "sim_s": round(result["sim_s"], 1),
+                    "achieved_factor": round(result["sim_s"] / result["wall_s"], 2), "goals": result["outcomes"],
+                    "laser_hz_sim": round(result["scans"] / max(result["sim_s"], 1e-9), 2),
+                    "cpu_percent_of_one_core": percent}
+        finally:
+            if driver.poll() is None:
+                driver.kill()
+            driver.wait(timeout=10)
+    laser_cpu = phases.get("laser", {}).get("cpu_percent_of_one_core", {}).get("total", 0.0)
+    # extrapolation, not a measurement: the speed at which the three nodes would fill one core
+    capacity = round(speed * 100.0 / laser_cpu, 1) if laser_cpu > 0 else None
+    return {"speed": speed, "robot": robot.name, **phases, "one_core_capacity_factor_estimate": capacity}
+
+
+def _read_line(proc: subprocess.Popen, timeout: float) -> str:
+    ready, _, _ = select.select([proc.stdout], [], [], timeout)
+    line = proc.stdout.readline() if ready else ""
+    if not line:
+        raise ProcessError(f"bench driver gave no result within {timeout:g} s")
+    return line
+
+
+def ros_driver(goals: list[list[float]]) -> int:
+    """Runs in a subprocess on the floor's master: subscribe base_scan, drive the goals, print JSON."""
+    import actionlib
+    import rospy
+    from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
+    from sensor_msgs.msg import LaserScan
+
+    from gidabot_sim.ros.convert import pose_msg
+
+    rospy.init_node("bench_driver", disable_signals=True)
+    scans = [0]
+    scan_sub = rospy.Subscriber("base_scan", LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
+                                queue_size=50)
+    client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+    deadline = time.monotonic() + 60.0
+    while not client.wait_for_server(rospy.Duration(0.5)):     # sim time: the clock may not run yet
+        if time.monotonic() > deadline:
+            print("NOSERVER", flush=True)
+            return 1
+    while scans[0] == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    print("READY", flush=True)
+    for phase in PHASES:
+        if sys.stdin.readline().strip() != "GO":
+            return 1
+        if phase == "no_laser":
+            scan_sub.unregister()
+            goals = goals[::-1]
+        wall0, sim0, scans0 = time.monotonic(), rospy.get_time(), scans[0]
+        outcomes = []
+        if phase == "idle":                       # parked, waiting for visitors: most of a demo
+            goals = []
+            while rospy.get_time() - sim0 < IDLE_SIM_S and time.monotonic() - wall0 < 60.0:
+                time.sleep(0.05)
+        for x, y, yaw in goals:
+            goal = MoveBaseGoal()
+            goal.target_pose.header.frame_id = "map"
+            goal.target_pose.pose = pose_msg(Pose2D(x, y, yaw))
+            client.send_goal(goal)
+            end = time.monotonic() + 120.0
+            while not client.wait_for_result(rospy.Duration(1.0)) and time.monotonic() < end:
+                pass
+            state = client.get_state()
+            outcomes.append({3: SUCCEEDED, 4: "aborted", 2: "preempted"}.get(state, f"state {state}"))
+        print(json.dumps({"phase": phase, "wall_s": time.monotonic() - wall0, "sim_s": rospy.get_time() - sim0,
+                          "scans": scans[0] - scans0, "outcomes": outcomes}), flush=True)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="gidabot bench sim", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--building", default=str(FACULTY), help="building directory (default: the faculty)")
+    parser.add_argument("--speed", type=float, default=10.0, help="speed factor of the ROS run (default 10)")
+    parser.add_argument("--no-ros", action="store_true", help="skip the run under ROS")
+    parser.add_argument("--ros-driver", metavar="GOALS", help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.ros_driver:
+        return ros_driver(json.loads(args.ros_driver))
+    building = load_building(args.building)
+    planner = bench_planner(building)
+    rtf = bench_rtf(building, TOUR_FLOOR if building.find_floor(TOUR_FLOOR) else building.floors[0].id)
+    report: dict = {"planner": planner, "real_time_factor": rtf["real_time_factor"], "rtf_run": rtf,
+                    "targets": TARGETS}
+    if not args.no_ros:
+        report["ros"] = bench_ros(Path(args.building), args.speed)
+    medians_ok = all(r["median_ms"] <= TARGETS["planner_median_ms"] for r in planner)
+    max_ok = all(r["max_ms"] <= TARGETS["planner_max_ms"] for r in planner)
+    report["pass"] = medians_ok and max_ok and rtf["real_time_factor"] >= TARGETS["real_time_factor"]
+    if args.json:
+        print(json.dumps(report))
+        return 0
+    print("planner (A* on the inflated costmap, string pulling), time per plan between every pair of places:")
+    for r in planner:
+        print(f"  floor {r['floor']}: {r['plans']:4d} plans, median {r['median_ms']:6.2f} ms, "
+              f"max {r['max_ms']:6.2f} ms, longest path {r['longest_path_m']:.1f} m in {r['longest_path_ms']:.2f} ms "
+              f"(res {r['resolution_m']:g} m)")
+    print(f"  targets: median <= {TARGETS['planner_median_ms']:g} ms, max <= {TARGETS['planner_max_ms']:g} ms "
+          "(navfn ~150 ms on a 75 m path)")
+    print(f"real-time factor, floor {rtf['floor']} ({rtf['robot']}), {rtf['laser_beams']}-beam laser at "
+          f"{rtf['laser_hz']:g} Hz, move_base driving {rtf['driven_m']} m ({', '.join(rtf['goals'])}):")
+    print(f"  {rtf['sim_s']} sim s in {rtf['wall_s']} wall s -> {rtf['real_time_factor']}x "
+          f"(target >= {TARGETS['real_time_factor']:g}x)")
+    if "ros" in report:
+        ros = report["ros"]
+        print(f"under ROS at {ros['speed']:g}x (sim_floor.launch on its own master, move_base action goals), "
+              "CPU in % of one core while driving:")
+        for phase, text in (("laser", "driving, base_scan subscribed"), ("no_laser", "driving, no base_scan"),
+                            ("idle", "parked, no base_scan")):
+            r = ros[phase]
+            cpu = r["cpu_percent_of_one_core"]
+            print(f"  {text:30s}: sim {cpu['sim']:5.1f}, move_base {cpu['move_base']:5.1f}, amcl {cpu['amcl']:5.1f}, "
+                  f"total {cpu['total']:5.1f} (clock factor {r['achieved_factor']}, laser {r['laser_hz_sim']} Hz"
+                  + (f", goals {', '.join(r['goals'])})" if r["goals"] else ")"))
+        if ros.get("one_core_capacity_factor_estimate"):
+            print(f"  -> one core would carry this floor with its laser up to about "
+                  f"{ros['one_core_capacity_factor_estimate']}x (extrapolated from the CPU at {ros['speed']:g}x)")
+    print("PASS" if report["pass"] else "FAIL")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,803 @@
+"""Fault injection for the simulated building (ROS-free core of ``gidabot chaos``).
+
+* :func:`make_schedule` — the faults of a run, from a seed: link cuts (iptables between
+  two robots' addresses, a relay end stopped, a relay supervisor killed), master
+  restarts, node restarts, process freezes, blocked corridors and hostile messages.
+* :class:`Bookkeeping` — what the per-master chaos probes recorded, turned into goals
+  accepted / completed / lost / duplicated and the paper's Table 3.
+* :func:`expected_table3` — Table 3 of a tour without faults.
+* log scanning for crashed nodes (:func:`roslaunch_deaths`, :func:`tracebacks`).
+* :func:`choose_obstacle` — a person standing in a robot's way that delays it but does
+  not make its goal impossible.
+* :class:`ChaosResult` — the printed table and the JSON object.
+
+Definitions (docs/chaos.md):
+
+* **accepted**: a goal published on ``/gidabot/goals`` by the ``/goal_manager`` of its
+  origin robot (seen there by the probe), or one some robot ACCEPTED;
+* **completed**: the goal floor's robot reported GOAL_REACHED / TOUR_STEP_DONE /
+  TOUR_FINISHED for it (NO_ROBOT_ON_FLOOR from the start robot when the goal floor
+  has none);
+* **lost**: accepted, not cancelled, and never completed or never ACCEPTED by a robot
+  it involves (the robots of its start and goal floors);
+* **duplicated**: a goal or cancel uid delivered more than once on one master, or a
+  robot that processed a goal twice (two ACCEPTED events, or two final events, with
+  different event uids);
+* **recovery time**: from the moment a fault is cleared to the first delivery across
+  the affected link (both ways), on the restarted master (to a subscriber that
+  registered after the restart), or of the restarted/frozen node's output on every
+  other master.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+import re
+import statistics
+from collections import Counter, defaultdict
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.errors import PlanningError
+from gidabot_navigation.guiding.messages import (
+    ACCEPTED,
+    CANCELLED_ELSEWHERE,
+    CANCELLED_HERE,
+    FINAL_PHASES,
+    GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
+    PARTNER_BACK,
+    PARTNER_LOST,
+    PARTNER_OFFLINE,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+)
+from gidabot_navigation.tours.tour_file import Tour
+
+# -- fault kinds ------------------------------------------------------------------------
+CUT_IPTABLES = "link_cut_iptables"            # every packet between two robots' addresses dropped
+CUT_RELAY_END = "link_cut_relay_end"          # one end of a pair's relay stopped (SIGSTOP), then continued
+CUT_SUPERVISOR = "link_cut_relay_supervisor"  # a robot's relay supervisor killed: its ends die, roslaunch respawns it
+MASTER_RESTART = "master_restart"             # a robot's master stopped and started again (empty)
+NODE_RESTART = "node_restart"                 # goal_manager / multirobot_navigation killed, respawned by roslaunch
+FREEZE = "process_freeze"                     # SIGSTOP, then SIGCONT
+CORRIDOR = "corridor_blocked"                 # a person stands in a robot's way (sim obstacle), then leaves
+HOSTILE = "hostile_message"                   # one hostile message on one master
+KINDS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR, MASTER_RESTART, NODE_RESTART, FREEZE, CORRIDOR, HOSTILE)
+LINK_CUTS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR)
+
+GUIDING_NODES = ("goal_manager", "multirobot_navigation")
+FREEZE_TARGETS = ("goal_manager", "multirobot_navigation", "master", "sim", "move_base")
+
+# -- NavEvent phases (gidabot_msgs/NavEvent.msg) ----------------------------------------
+COMPLETIONS = frozenset({GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED})
+VISIBLE_FAILURES = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, CANCELLED_HERE, CANCELLED_ELSEWHERE})
+GUIDING_CALLERS = ("/goal_manager", "/multirobot_navigation")
+RELAY_PREFIX = "/gidabot_relay_"
+
+RECOVERY_TARGET_S = 5.0
+
+
+# ---------------------------------------------------------------------------
+# Hostile messages
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Hostile:
+    """One hostile message: ``msg`` fields ("nan", "inf", "-inf" for floats; ``["__repeat__", c, n]`` for
+    a string of n characters c); ``{robot}`` in a string is this master's robot, ``{other}`` another's."""
+
+    name: str
+    topic: str
+    type: str
+    msg: dict[str, Any]
+
+
+def _goal(**kw: Any) -> dict[str, Any]:
+    base = {"uid": "{robot}/chaos/h.1", "origin_robot": "{robot}", "visitor_id": "chaos", "initial_floor": 0.0,
+            "initial_pose": {"x": 30.0, "y": 12.0}, "goal_floor": 0.0,
+            "goal_pose": {"position": {"x": 30.0, "y": 12.0}, "orientation": {"w": 1.0}}, "way": "stairs",
+            "connector": "", "start_id": "robot", "goal_id": "001", "language": "en", "tour_step": -1}
+    base.update(kw)
+    return base
+
+
+HOSTILE_MESSAGES: tuple[Hostile, ...] = (
+    Hostile("goal_nan_pose", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="{robot}/chaos/nan.1", initial_pose={"x": "nan", "y": 12.0})),
+    Hostile("goal_inf_pose", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="{robot}/chaos/inf.1", goal_pose={"position": {"x": "inf", "y": "-inf"},
+                                                        "orientation": {"w": "nan"}})),
+    Hostile("goal_unknown_floor", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="{robot}/chaos/floor.1", goal_floor=7.5)),
+    Hostile("goal_unknown_room", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="{robot}/chaos/room.1", goal_id="999")),
+    Hostile("goal_huge_strings", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="{robot}/chaos/huge.1", goal_id=["__repeat__", "9", 300_000],
+                  visitor_id=["__repeat__", "v", 200_000])),
+    Hostile("goal_ghost_robot", "/gidabot/goals", "gidabot_msgs/Goal",
+            _goal(uid="Ghost/chaos/ghost.1", origin_robot="Ghost")),
+    Hostile("cancel_unknown_goal", "/gidabot/cancels", "gidabot_msgs/Cancel",
+            {"uid": "{robot}/cancel/chaos.1", "goal_uid": "{robot}/nobody/chaos.404", "origin_robot": "{robot}",
+             "reason": "visitor"}),
+    Hostile("cancel_ghost_robot", "/gidabot/cancels", "gidabot_msgs/Cancel",
+            {"uid": "Ghost/cancel/chaos.2", "goal_uid": "{other}/v/gm.x.1", "origin_robot": "Ghost",
+             "reason": "because"}),
+    Hostile("tour_path_name", "/gidabot/tours", "gidabot_msgs/Tour",
+            {"uid": "{robot}/tour/chaos.1", "origin_robot": "{robot}", "editor_robot": "{robot}",
+             "version": 4_000_000_000_000_000_000, "language": "en", "floor": 0.0, "tour_name": "Escape",
+             "file_name": "../../../etc/chaos.tour", "tour_goals_info": ["0, 001, Copy Shop"]}),
+    Hostile("tour_device_name", "/gidabot/tours", "gidabot_msgs/Tour",
+            {"uid": "{robot}/tour/chaos.2", "origin_robot": "{robot}", "editor_robot": "{robot}",
+             "version": 1_700_000_000_000_000_000, "language": "en", "floor": 0.0, "tour_name": "Dev",
+             "file_name": "con.tour", "tour_goals_info": ["0, 001, Copy Shop"]}),
+    Hostile("tour_edit_hidden_name", "tour_store/edit", "gidabot_msgs/Tour",
+            {"file_name": ".gidabot-tours.json", "tour_name": "Hidden", "language": "en", "floor": 0.0,
+             "tour_goals_info": ["0, 001, Copy Shop\n9, 999, injected line"]}),
+    Hostile("event_unknown_phase", "/gidabot/nav_events", "gidabot_msgs/NavEvent",
+            {"uid": "Ghost/event/chaos.1", "robot": "Ghost", "floor": "nan", "goal_uid": "{robot}/v/x",
+             "phase": 200, "tour_step": 9999}),
+    Hostile("status_nan_pose", "/gidabot/status", "gidabot_msgs/RobotStatus",
+            {"robot": "Ghost", "floor": "inf", "nav_pose": {"position": {"x": "nan", "y": "nan"},
+                                                            "orientation": {"w": "nan"}},
+             "battery": "nan", "state": ["__repeat__", "s", 100_000]}),
+    Hostile("pose_inf", "/gidabot/poses", "gidabot_msgs/NavPose",
+            {"robot": "Ghost", "floor": 42.0, "nav_pose": {"position": {"x": "inf", "y": "-inf"}}}),
+    Hostile("pending_spoofed", "/gidabot/pending", "gidabot_msgs/PendingRequests",
+            {"robot": "{robot}", "floor": "nan", "num": 3, "eta": ["nan", "inf"], "wait_new": "-inf"}),
+    Hostile("command_unknown_room", "visitor/command", "gidabot_msgs/VisitorCommand",
+            {"uid": "{robot}/chaos/cmd/1", "visitor_id": "chaos", "command": 0, "goal_id": "no-such-room",
+             "way": "stairs", "language": "en", "tour_step": -1}),
+    Hostile("command_hostile_tour", "visitor/command", "gidabot_msgs/VisitorCommand",
+            {"uid": "{robot}/chaos/cmd/2", "visitor_id": "chaos", "command": 3, "tour_file": "../../x\\y.tour",
+             "language": "xx", "tour_step": -5}),
+    Hostile("command_unknown_kind", "visitor/command", "gidabot_msgs/VisitorCommand",
+            {"uid": ["__repeat__", "u", 5000], "visitor_id": "chaos", "command": 77, "goal_uid": "nope"}),
+    Hostile("initialpose_nan", "initialpose", "geometry_msgs/PoseWithCovarianceStamped",
+            {"header": {"frame_id": "map"}, "pose": {"pose": {"position": {"x": "nan", "y": 3.0},
+                                                              "orientation": {"w": 1.0}}}}),
+    Hostile("obstacle_nan", "/sim/obstacle", "gidabot_msgs/Obstacle",
+            {"id": "chaos_nan", "action": 0, "shape": 0, "x": "nan", "y": "inf", "radius": -1.0}),
+)
+
+
+def hostile_by_name(name: str) -> Hostile:
+    for h in HOSTILE_MESSAGES:
+        if h.name == name:
+            return h
+    raise KeyError(f"unknown hostile message {name!r} (known: {', '.join(h.name for h in HOSTILE_MESSAGES)})")
+
+
+def fill_placeholders(value: Any, robot: str, other: str) -> Any:
+    """``{robot}`` / ``{other}`` in every string of a message template."""
+    if isinstance(value, str):
+        return value.replace("{robot}", robot).replace("{other}", other)
+    if isinstance(value, dict):
+        return {k: fill_placeholders(v, robot, other) for k, v in value.items()}
+    if isinstance(value, list) and not (value and value[0] == "__repeat__"):
+        return [fill_placeholders(v, robot, other) for v in value]
+    return value
+
+
+# ---------------------------------------------------------------------------
+# The schedule
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Profile:
+    """How many faults of each kind; link cut durations are log-uniform in [cut_min_s, cut_max_s] (wall s)."""
+
+    iptables_cuts: int = 3
+    relay_end_cuts: int = 2
+    supervisor_kills: int = 1
+    master_restarts: int = -1          # -1: one per robot
+    node_restarts: int = 2
+    freezes: int = 2
+    corridors: int = 2
+    hostile: int = 10
+    cut_min_s: float = 1.0
+    cut_max_s: float = 60.0
+    master_down_s: tuple[float, float] = (1.0, 5.0)
+    freeze_s: tuple[float, float] = (1.0, 8.0)
+    corridor_s: tuple[float, float] = (5.0, 20.0)
+    gap_s: tuple[float, float] = (3.0, 7.0)
+
+
+PROFILES = {
+    "full": Profile(),
+    "quick": Profile(iptables_cuts=1, relay_end_cuts=1, supervisor_kills=1, master_restarts=1, node_restarts=2,
+                     freezes=1, corridors=1, hostile=6, cut_min_s=2.0, cut_max_s=6.0, master_down_s=(1.0, 2.0),
+                     freeze_s=(2.0, 3.0), corridor_s=(4.0, 6.0), gap_s=(2.0, 3.0)),
+}
+
+
+@dataclass(frozen=True)
+class Fault:
+    """One fault: ``robot`` (master, node, floor...), ``other`` (the pair's other robot for link cuts),
+    ``target`` (node / process / hostile message / relay side), ``duration`` (wall s), ``gap`` (wall s
+    to wait before it)."""
+
+    kind: str
+    robot: str
+    other: str = ""
+    target: str = ""
+    duration: float = 0.0
+    gap: float = 0.0
+    crash: bool = False               # master restarts: SIGKILL instead of SIGINT
+    active: bool = False              # aimed at the trip under way when injected (its two robots / a robot of it)
+
+    def label(self) -> str:
+        where = f"{self.robot}-{self.other}" if self.other else self.robot
+        where += " (trip under way)" if self.active else ""
+        what = f" {self.target}" if self.target else ""
+        length = f" {self.duration:.1f} s" if self.duration else ""
+        return f"{self.kind} {where}{what}{length}"
+
+
+def _log_uniform(rng: random.Random, low: float, high: float) -> float:
+    return math.exp(rng.uniform(math.log(low), math.log(high)))
+
+
+def make_schedule(seed: int, building: Building, profile: Profile) -> list[Fault]:
+    """The faults of one run, in order (deterministic for a seed and a building)."""
+    rng = random.Random(seed)
+    robots = [r.name for r in building.robots]
+    pairs = [(a.name, b.name) for a, b in building.relay_pairs()]
+    owners = sorted({a for a, _ in pairs}, key=robots.index)
+    p = profile
+    cuts = p.iptables_cuts + p.relay_end_cuts
+    durations = [_log_uniform(rng, p.cut_min_s, p.cut_max_s) for _ in range(cuts)]
+    if cuts >= 2:      # the whole range: one short cut and one long one
+        durations[0] = rng.uniform(p.cut_min_s, min(p.cut_max_s, p.cut_min_s * 3))
+        durations[1] = rng.uniform(max(p.cut_min_s, p.cut_max_s * 0.75), p.cut_max_s)
+    rng.shuffle(durations)
+    faults: list[Fault] = []
+    for i in range(p.iptables_cuts):
+        a, b = rng.choice(pairs)
+        faults.append(Fault(CUT_IPTABLES, a, b, duration=round(durations[i], 1)))
+    for i in range(p.relay_end_cuts):
+        a, b = rng.choice(pairs)
+        length = round(durations[p.iptables_cuts + i], 1)
+        faults.append(Fault(CUT_RELAY_END, a, b, target=rng.choice("ab"), duration=length))
+    for _ in range(p.supervisor_kills):
+        faults.append(Fault(CUT_SUPERVISOR, rng.choice(owners)))
+    masters = robots if p.master_restarts < 0 else rng.sample(robots, min(p.master_restarts, len(robots)))
+    for r in masters:
+        faults.append(Fault(MASTER_RESTART, r, duration=round(rng.uniform(*p.master_down_s), 1),
+                            crash=rng.random() < 0.5))
+    for i in range(p.node_restarts):
+        faults.append(Fault(NODE_RESTART, rng.choice(robots), target=GUIDING_NODES[i % len(GUIDING_NODES)]))
+    for _ in range(p.freezes):
+        faults.append(Fault(FREEZE, rng.choice(robots), target=rng.choice(FREEZE_TARGETS),
+                            duration=round(rng.uniform(*p.freeze_s), 1)))
+    for _ in range(p.corridors):
+        faults.append(Fault(CORRIDOR, "", duration=round(rng.uniform(*p.corridor_s), 1)))
+    rng.shuffle(faults)
+    names = [h.name for h in HOSTILE_MESSAGES]
+    rng.shuffle(names)
+    hostile = [Fault(HOSTILE, rng.choice(robots), target=names[i % len(names)]) for i in range(p.hostile)]
+    for h in hostile:                  # between the others, at random places
+        faults.insert(rng.randrange(len(faults) + 1), h)
+    # half the link cuts, every node restart and freeze of a guiding node hit the trip under way
+    out, cut = [], 0
+    for f in faults:
+        active = f.kind == NODE_RESTART or (f.kind == FREEZE and f.target in GUIDING_NODES)
+        if f.kind in (CUT_IPTABLES, CUT_RELAY_END):
+            active, cut = cut % 2 == 0, cut + 1
+        out.append(Fault(f.kind, f.robot, f.other, f.target, f.duration,
+                         0.0 if f.kind == HOSTILE else round(rng.uniform(*p.gap_s), 1), f.crash, active))
+    return out
+
+
+def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_wait_s: float = 10.0) -> float:
+    """A rough wall-time length of a schedule run back to back (to choose the sim speed)."""
+    total = 0.0
+    for f in faults:
+        total += f.gap + f.duration
+        if f.kind in (CUT_SUPERVISOR, NODE_RESTART):
+            total += 6.0
+        if f.kind == CORRIDOR:
+            total += corridor_wait_s
+        if f.kind != HOSTILE:
+            total += recovery_s
+    return total
+
+
+# ---------------------------------------------------------------------------
+# Expected Table 3
+# ---------------------------------------------------------------------------
+
+def tour_trips(tour: Tour, start_floor: float) -> list[tuple[float, float]]:
+    """(start floor, goal floor) of every goal of a tour run from ``start_floor``."""
+    trips, here = [], start_floor
+    for g in tour.goals:
+        trips.append((here, g.floor))
+        here = g.floor
+    return trips
+
+
+def expected_table3(building: Building, trips: list[tuple[float, float]]) -> dict[str, tuple[int, int]]:
+    """robot -> (received, processed) without faults: every goal reaches every robot; a robot processes the
+    goals that start or end on its floor."""
+    out = {}
+    for r in building.robots:
+        processed = sum(1 for a, b in trips if math.isclose(a, r.floor) or math.isclose(b, r.floor))
+        out[r.name] = (len(trips), processed)
+    return out
+
+
+# ---------------------------------------------------------------------------
+# Bookkeeping of goals from the probes' records
+# ---------------------------------------------------------------------------
+
+@dataclass
+class GoalFate:
+    uid: str
+    origin: str
+    initial_floor: float
+    goal_floor: float
+    goal_id: str
+    tour_step: int
+    involved: list[str]
+    processed_by: list[str] = field(default_factory=list)
+    completed: bool = False
+    cancelled: bool = False
+    cancel_reasons: list[str] = field(default_factory=list)
+    visible_failures: list[str] = field(default_factory=list)
+    duplicated: list[str] = field(default_factory=list)
+
+    @property
+    def lost(self) -> bool:
+        return not self.cancelled and (not self.completed or not set(self.involved) <= set(self.processed_by))
+
+
+class Bookkeeping:
+    """Goals and cancels from every master's probe records (dicts, see ``chaos_probe``).
+
+    Record kinds: ``goal`` (uid, origin, floors, goal_id, tour_step), ``cancel`` (uid, goal_uid, origin,
+    reason), ``event`` (uid, robot, goal_uid, phase); each with ``m`` (the master's robot), ``c`` (the
+    publisher's caller id) and ``w`` (wall time received).
+    """
+
+    def __init__(self, building: Building, records: Iterable[dict[str, Any]]) -> None:
+        self.building = building
+        self.robots = {r.name: r for r in building.robots}
+        self.goal_records: dict[str, list[dict[str, Any]]] = defaultdict(list)     # uid -> every delivery
+        self.cancel_records: dict[str, list[dict[str, Any]]] = defaultdict(list)
+        self.events: dict[str, dict[str, Any]] = {}                                   # event uid -> record
+        self.foreign = Counter()                                                      # hostile / unknown records
+        for rec in records:
+            kind = rec.get("k")
+            if kind == "goal":
+                self.goal_records[str(rec.get("uid"))].append(rec)
+            elif kind == "cancel":
+                self.cancel_records[str(rec.get("uid"))].append(rec)
+            elif kind == "event":
+                if self._legit_event(rec):
+                    self.events.setdefault(str(rec.get("uid")), rec)
+                else:
+                    self.foreign["event"] += 1
+
+    def _legit_event(self, rec: dict[str, Any]) -> bool:
+        robot, phase, caller = rec.get("robot"), rec.get("phase"), str(rec.get("c", ""))
+        if robot not in self.robots or not isinstance(phase, int) or not 0 <= phase <= PARTNER_BACK:
+            return False
+        if rec.get("m") == robot:
+            return caller in GUIDING_CALLERS
+        return caller.startswith(RELAY_PREFIX)
+
+    # -- goals ----------------------------------------------------------------------------
+    def accepted(self) -> dict[str, dict[str, Any]]:
+        """uid -> the goal's record (from its origin's master when seen there)."""
+        out: dict[str, dict[str, Any]] = {}
+        for uid, recs in self.goal_records.items():
+            for rec in recs:
+                if rec.get("c") == "/goal_manager" and rec.get("m") == rec.get("origin") in self.robots:
+                    out[uid] = rec
+                    break
+        accepted_events = {e.get("goal_uid") for e in self.events.values() if e.get("phase") == ACCEPTED}
+        for uid in accepted_events:
+            if uid and uid not in out and self.goal_records.get(uid):
+                out[uid] = self.goal_records[uid][0]
+        return out
+
+    def fates(self) -> dict[str, GoalFate]:
+        goals = self.accepted()
+        by_goal: dict[str, list[dict[str, Any]]] = defaultdict(list)
+        for ev in self.events.values():
+            by_goal[str(ev.get("goal_uid", ""))].append(ev)
+        cancels: dict[str, list[str]] = defaultdict(list)
+        for recs in self.cancel_records.values():
+            rec = recs[0]
+            if rec.get("origin") in self.robots:
+                cancels[str(rec.get("goal_uid"))].append(str(rec.get("reason")))
+        fates = {}
+        for uid, g in goals.items():
+            a, b = float(g.get("initial_floor", math.nan)), float(g.get("goal_floor", math.nan))
+            involved = [r.name for r in self.building.robots if math.isclose(r.floor, a) or math.isclose(r.floor, b)]
+            fate = GoalFate(uid, str(g.get("origin")), a, b, str(g.get("goal_id", "")), int(g.get("tour_step", -1)),
+                            involved)
+            goal_robot = self.building.robot_on(b)
+            start_robot = self.building.robot_on(a)
+            accepted_by: dict[str, set[str]] = defaultdict(set)
+            finals: dict[str, set[str]] = defaultdict(set)
+            for ev in by_goal.get(uid, []):
+                robot, phase = str(ev.get("robot")), int(ev.get("phase", -1))
+                if phase == ACCEPTED:
+                    accepted_by[robot].add(str(ev.get("uid")))
+                if phase in FINAL_PHASES:
+                    finals[robot].add(str(ev.get("uid")))
+                if phase in COMPLETIONS and goal_robot is not None and robot == goal_robot.name:
+                    fate.completed = True
+                if phase == NO_ROBOT_ON_FLOOR and goal_robot is None and start_robot is not None \
+                        and robot == start_robot.name:
+                    fate.completed = True
+                if phase in VISIBLE_FAILURES:
+                    fate.visible_failures.append(f"{robot}: phase {phase}")
+            fate.processed_by = sorted(accepted_by, key=lambda r: list(self.robots).index(r))
+            fate.cancel_reasons = cancels.get(uid, [])
+            fate.cancelled = bool(fate.cancel_reasons)
+            for robot, uids in accepted_by.items():
+                if len(uids) > 1:
+                    fate.duplicated.append(f"{robot} accepted it {len(uids)} times")
+            for robot, uids in finals.items():
+                if len(uids) > 1:
+                    fate.duplicated.append(f"{robot} ended it {len(uids)} times")
+            per_master = Counter(str(r.get("m")) for r in self.goal_records[uid])
+            for master, n in per_master.items():
+                if n > 1:
+                    fate.duplicated.append(f"delivered {n} times on {master}'s master")
+            fates[uid] = fate
+        return fates
+
+    def duplicated_cancels(self) -> dict[str, list[str]]:
+        """Cancel uids (of accepted goals) delivered more than once on one master."""
+        goals = self.accepted()
+        out: dict[str, list[str]] = {}
+        for uid, recs in self.cancel_records.items():
+            if str(recs[0].get("goal_uid")) not in goals:
+                continue
+            per_master = Counter(str(r.get("m")) for r in recs)
+            dup = [f"delivered {n} times on {m}'s master" for m, n in per_master.items() if n > 1]
+            if dup:
+                out[uid] = dup
+        return out
+
+    def table3(self, fates: dict[str, GoalFate]) -> dict[str, tuple[int, int]]:
+        """robot -> (received, processed), counting the accepted goals that were not cancelled."""
+        kept = {uid for uid, f in fates.items() if not f.cancelled}
+        out = {}
+        for name in self.robots:
+            received = sum(1 for uid in kept if any(r.get("m") == name for r in self.goal_records.get(uid, [])))
+            processed = sum(1 for uid in kept if name in fates[uid].processed_by)
+            out[name] = (received, processed)
+        return out
+
+    def partner_notices(self) -> tuple[int, int, list[str]]:
+        """(PARTNER_LOST notices, of them followed by PARTNER_BACK or the end of that robot's part, unanswered)."""
+        seq: dict[tuple[str, str], list[tuple[float, int]]] = defaultdict(list)
+        for ev in self.events.values():
+            seq[(str(ev.get("robot")), str(ev.get("goal_uid")))].append((float(ev.get("w", 0.0)), int(ev["phase"])))
+        lost = answered = 0
+        open_: list[str] = []
+        for (robot, goal), items in seq.items():
+            items.sort()
+            for i, (_, phase) in enumerate(items):
+                if phase != PARTNER_LOST:
+                    continue
+                lost += 1
+                if any(p == PARTNER_BACK or p in FINAL_PHASES for _, p in items[i + 1:]):
+                    answered += 1
+                else:
+                    open_.append(f"{robot} {goal}")
+        return lost, answered, open_
+
+    def tour_finished(self, tour_file: str, last_step: int) -> bool:
+        return any(ev.get("phase") == TOUR_FINISHED and ev.get("tour_file") == tour_file
+                   and ev.get("tour_step") == last_step for ev in self.events.values())
+
+
+# ---------------------------------------------------------------------------
+# Crashes in the logs
+# ---------------------------------------------------------------------------
+
+_DIED = re.compile(r"\[([A-Za-z0-9_]+)-\d+\] process has died \[pid (\d+), exit code (-?\d+)")
+_END_EXIT = re.compile(r"relay end (\S+) exited with (-?\d+)")
+TRACEBACK = "Traceback (most recent call last)"
+
+
+def roslaunch_deaths(text: str) -> list[tuple[str, int, int]]:
+    """(node, pid, exit code) of every 'process has died' line of a roslaunch output."""
+    return [(m.group(1), int(m.group(2)), int(m.group(3))) for m in _DIED.finditer(text)]
+
+
+def relay_end_exits(text: str) -> list[tuple[str, int]]:
+    """(end key, exit code) of every relay end the supervisor saw exit."""
+    return [(m.group(1), int(m.group(2))) for m in _END_EXIT.finditer(text)]
+
+
+_LOGGER_PREFIX = re.compile(r"^\[(rospy\.[A-Za-z_.]+|rosmaster[A-Za-z_.]*|rosgraph[A-Za-z_.]*)\]")
+_CRASH_CONTEXT = ("bad callback", "Exception in thread", "Exception ignored in")
+
+
+def crash_tracebacks(text: str) -> list[str]:
+    """The tracebacks of a log that mean our code failed, each as its last line (the exception).
+
+    Counted: an exception in a subscriber callback (rospy's "bad callback"), one that ended a thread,
+    and a bare traceback on a process's own output (a process that crashed). Not counted: rospy's and
+    rosmaster's own reports of network events (a connection refused while a master or a node restarts,
+    "Unable to report rosout", Python's "--- Logging error ---" while the master is away), which log a
+    traceback but change nothing, and the second half of a chained exception."""
+    lines = text.splitlines()
+    found = []
+    for i, line in enumerate(lines):
+        at = line.find(TRACEBACK)
+        if at < 0:
+            continue
+        head = line[:at]
+        context = head
+        if not head.strip():                         # a bare traceback: what introduced it?
+            j = i - 1
+            while j >= 0 and (not lines[j].strip() or lines[j].startswith((" ", "\t"))):
+                j -= 1
+            context = lines[j] if j >= 0 else ""
+            if "During handling of the above exception" in context or "direct cause of the following" in context:
+                continue
+            if context.startswith("--- Logging error ---"):
+                continue
+        if any(c in context for c in _CRASH_CONTEXT):
+            pass
+        elif head.strip() or _LOGGER_PREFIX.match(context):
+            continue                                   # a library's report of an I/O error
+        k = i + 1
+        while k < len(lines) and (lines[k].startswith((" ", "\t")) or not lines[k].strip()):
+            k += 1
+        found.append(lines[k][:200] if k < len(lines) else "?")
+    return found
+
+
+def tracebacks(text: str) -> int:
+    """How many crash tracebacks a log holds (:func:`crash_tracebacks`)."""
+    return len(crash_tracebacks(text))
+
+
+# ---------------------------------------------------------------------------
+# A person in a robot's way
+# ---------------------------------------------------------------------------
+
+def choose_obstacle(building: Building, floor: float, pose: tuple[float, float], plan: list[tuple[float, float]],
+                    robot_radius: float, ahead: tuple[float, float] = (3.0, 9.0), radius: float = 0.3,
+                    margin: float = 0.2) -> tuple[float, float, float] | None:
+    """(x, y, radius) of a disc on the robot's planned path, ``ahead`` m in front of it, such that a
+    path around it still exists for a robot ``margin`` m wider than this one (it delays the robot; it
+    never makes the goal impossible). None when no such place exists on this plan."""
+    from gidabot_navigation.building.planning import Circle, GridPlanner
+
+    if len(plan) < 2:
+        return None
+    dense = [plan[0]]
+    for (x0, y0), (x1, y1) in zip(plan, plan[1:], strict=False):   # a point every 0.25 m at most
+        n = max(1, math.ceil(math.hypot(x1 - x0, y1 - y0) / 0.25))
+        dense += [(x0 + (x1 - x0) * k / n, y0 + (y1 - y0) * k / n) for k in range(1, n + 1)]
+    plan = dense
+    grid = building.floor(floor).map
+    planner = GridPlanner(grid, robot_radius + 0.05 + margin, inflation_radius=robot_radius + 0.7)
+    goal = plan[-1]
+    # distance along the plan from its point nearest to the robot
+    near = min(range(len(plan)), key=lambda i: math.hypot(plan[i][0] - pose[0], plan[i][1] - pose[1]))
+    along, candidates = 0.0, []
+    for i in range(near + 1, len(plan)):
+        along += math.hypot(plan[i][0] - plan[i - 1][0], plan[i][1] - plan[i - 1][1])
+        if ahead[0] <= along <= ahead[1]:
+            candidates.append(i)
+        if along > ahead[1]:
+            break
+    if math.hypot(goal[0] - pose[0], goal[1] - pose[1]) < ahead[0] + 2.0:
+        return None
+    for i in candidates[len(candidates) // 2:] + candidates[:len(candidates) // 2]:
+        x, y = plan[i]
+        nxt = plan[min(i + 1, len(plan) - 1)]
+        dx, dy = nxt[0] - plan[i - 1][0], nxt[1] - plan[i - 1][1]
+        norm = math.hypot(dx, dy) or 1.0
+        nx, ny = -dy / norm, dx / norm
+        for offset in (0.0, 0.25, -0.25):
+            cx, cy = x + nx * offset, y + ny * offset
+            if math.hypot(cx - goal[0], cy - goal[1]) < radius + robot_radius + 1.5:
+                continue
+            if math.hypot(cx - pose[0], cy - pose[1]) < radius + robot_radius + 1.0:
+                continue
+            planner.clear_obstacles()
+            try:
+                planner.add_obstacle("chaos", Circle(cx, cy, radius))
+                path = planner.plan(pose, goal)
+            except PlanningError:
+                continue
+            if math.isfinite(path.length):
+                return (round(cx, 2), round(cy, 2), radius)
+    return None
+
+
+# ---------------------------------------------------------------------------
+# Results
+# ---------------------------------------------------------------------------
+
+@dataclass
+class FaultResult:
+    """What happened to one fault: wall times (s since the epoch), recovery in s (None: not measured for
+    this kind, or not recovered within the wait: see ``recovered``)."""
+
+    fault: Fault
+    injected: float | None = None
+    cleared: float | None = None
+    recovery_s: float | None = None
+    recovered: bool = True
+    skipped: str = ""                  # why it was not injected
+    detail: str = ""
+
+    def row(self) -> dict[str, Any]:
+        d = asdict(self.fault)
+        d.update(injected=self.injected, cleared=self.cleared, recovery_s=self.recovery_s, recovered=self.recovered,
+                 skipped=self.skipped, detail=self.detail)
+        return d
+
+
+@dataclass
+class ChaosResult:
+    seed: int
+    tour: str
+    speed: float
+    faults: list[FaultResult]
+    fates: dict[str, GoalFate]
+    duplicated_cancels: dict[str, list[str]]
+    table3_expected: dict[str, tuple[int, int]]
+    table3_measured: dict[str, tuple[int, int]]
+    table3_bags: dict[str, tuple[int, int]]
+    tours_intact: bool
+    tours_problems: list[str]
+    crashes: list[str]
+    tracebacks: dict[str, int]
+    hostile_rejected: dict[str, int]
+    partner_lost: int
+    partner_answered: int
+    tour_completed: bool
+    outcome: str
+    run_folder: str
+    wall_s: float = 0.0
+    sim_s: float = 0.0
+
+    # -- derived --------------------------------------------------------------------------
+    def injected(self) -> list[FaultResult]:
+        return [f for f in self.faults if f.injected is not None]
+
+    def counts(self) -> dict[str, int]:
+        c = Counter(f.fault.kind for f in self.injected())
+        return {k: c.get(k, 0) for k in KINDS}
+
+    def recoveries(self) -> dict[str, list[float]]:
+        out: dict[str, list[float]] = defaultdict(list)
+        for f in self.injected():
+            if f.recovery_s is not None:
+                out[f.fault.kind].append(f.recovery_s)
+        return out
+
+    def unrecovered(self) -> list[FaultResult]:
+        return [f for f in self.injected() if not f.recovered]
+
+    def max_recovery(self) -> float | None:
+        values = [v for vs in self.recoveries().values() for v in vs]
+        if self.unrecovered():
+            return math.inf
+        return max(values) if values else None
+
+    def lost(self) -> list[str]:
+        return sorted(uid for uid, f in self.fates.items() if f.lost)
+
+    def duplicated(self) -> list[str]:
+        return sorted(uid for uid, f in self.fates.items() if f.duplicated)
+
+    def node_crashes(self) -> int:
+        return len(self.crashes) + sum(self.tracebacks.values())
+
+    def failures(self) -> list[str]:
+        """Every target missed (empty: the run passed)."""
+        out = []
+        if len(self.injected()) < len([f for f in self.faults if not f.skipped]) or \
+                any(f.skipped for f in self.faults if f.fault.kind != CORRIDOR):
+            out.append("not every planned fault was injected")
+        if self.lost():
+            out.append(f"{len(self.lost())} goal(s) lost")
+        if self.duplicated() or self.duplicated_cancels:
+            out.append(f"{len(self.duplicated())} goal(s) and {len(self.duplicated_cancels)} cancel(s) duplicated")
+        mr = self.max_recovery()
+        if mr is not None and mr > RECOVERY_TARGET_S:
+            out.append(f"a recovery took {'too long (not recovered)' if math.isinf(mr) else f'{mr:.1f} s'}")
+        if self.table3_measured != self.table3_expected:
+            out.append("Table 3 counts differ from the fault-free tour")
+        if not self.tours_intact:
+            out.append("a tour directory changed")
+        if self.partner_answered < self.partner_lost:
+            out.append(f"{self.partner_lost - self.partner_answered} 'partner lost' notice(s) never followed by "
+                       "'partner back' or the end of that robot's part")
+        if self.node_crashes():
+            out.append(f"{self.node_crashes()} node crash(es)")
+        if not self.tour_completed:
+            out.append(f"the tour was not completed ({self.outcome})")
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        rec = {k: {"n": len(v), "max_s": round(max(v), 2), "median_s": round(statistics.median(v), 2)}
+               for k, v in self.recoveries().items()}
+        mr = self.max_recovery()
+        return {
+            "seed": self.seed, "tour": self.tour, "speed": self.speed, "faults": self.counts(),
+            "faults_injected": len(self.injected()), "faults_planned": len(self.faults),
+            "goals_accepted": len(self.fates),
+            "goals_completed": sum(1 for f in self.fates.values() if f.completed),
+            "goals_cancelled": sum(1 for f in self.fates.values() if f.cancelled),
+            "goals_lost": len(self.lost()), "goals_duplicated": len(self.duplicated()),
+            "cancels_duplicated": len(self.duplicated_cancels),
+            "max_recovery_s": None if mr is None else (round(mr, 2) if math.isfinite(mr) else "not recovered"),
+            "recovery": rec,
+            "node_crashes": self.node_crashes(), "crashes": self.crashes, "tracebacks": self.tracebacks,
+            "table3": {"expected": {k: list(v) for k, v in self.table3_expected.items()},
+                       "measured": {k: list(v) for k, v in self.table3_measured.items()},
+                       "bags": {k: list(v) for k, v in self.table3_bags.items()},
+                       "unchanged": self.table3_measured == self.table3_expected},
+            "tours_intact": self.tours_intact, "tours_problems": self.tours_problems,
+            "hostile_rejected": self.hostile_rejected,
+            "partner_lost": self.partner_lost, "partner_lost_answered": self.partner_answered,
+            "tour_completed": self.tour_completed, "outcome": self.outcome,
+            "lost": self.lost(), "duplicated": {u: self.fates[u].duplicated for u in self.duplicated()},
+            "visible_failures": {u: f.visible_failures for u, f in self.fates.items() if f.visible_failures},
+            "wall_s": round(self.wall_s, 1), "sim_s": round(self.sim_s, 1),
+            "passed": not self.failures(), "failures": self.failures(),
+            "fault_log": [f.row() for f in self.faults], "run_folder": self.run_folder,
+        }
+
+    def format(self) -> str:
+        lines = [f"Chaos run: seed {self.seed}, tour {self.tour}, speed {self.speed:g}x; "
+                 f"wall {self.wall_s:.0f} s, sim {self.sim_s:.0f} s", "",
+                 f"{'Fault kind':<28} {'Injected':>8} {'Recovery max (s)':>17} {'median (s)':>11}"]
+        lines.append("-" * len(lines[-1]))
+        recs = self.recoveries()
+        counts = self.counts()
+        for kind in KINDS:
+            v = recs.get(kind, [])
+            unrec = sum(1 for f in self.unrecovered() if f.fault.kind == kind)
+            mx = "not recovered" if unrec else (f"{max(v):.2f}" if v else "-")
+            med = f"{statistics.median(v):.2f}" if v else "-"
+            lines.append(f"{kind:<28} {counts[kind]:>8} {mx:>17} {med:>11}")
+        lines.append(f"{'total':<28} {len(self.injected()):>8}")
+        mr = self.max_recovery()
+        fates = self.fates
+        crashes = f" ({'; '.join(self.crashes[:5])}{'; ...' if len(self.crashes) > 5 else ''})" if self.crashes else ""
+        tbs = f"; tracebacks: {', '.join(f'{k} {v}' for k, v in self.tracebacks.items())}" if self.tracebacks else ""
+        tours = "yes" if self.tours_intact else "NO: " + "; ".join(self.tours_problems)
+        lines += ["",
+                  f"Goals accepted {len(fates)}, completed {sum(1 for f in fates.values() if f.completed)}, "
+                  f"cancelled {sum(1 for f in fates.values() if f.cancelled)}, lost {len(self.lost())}, "
+                  f"duplicated {len(self.duplicated())} (cancels duplicated {len(self.duplicated_cancels)})",
+                  "Max recovery: " + ("-" if mr is None else "not recovered" if math.isinf(mr) else f"{mr:.2f} s")
+                  + f" (target {RECOVERY_TARGET_S:g} s)",
+                  f"Partner offline notices: {self.partner_lost}, followed by 'back' or the end of the leg: "
+                  f"{self.partner_answered}",
+                  "Hostile messages rejected (counters): "
+                  + (", ".join(f"{k} {v}" for k, v in sorted(self.hostile_rejected.items())) or "-"),
+                  f"Node crashes: {self.node_crashes()}{crashes}{tbs}",
+                  f"Tour directories intact: {tours}",
+                  "", f"{'Table 3':<14} {'expected':>12} {'measured':>12} {'bags':>12}"]
+        for name, exp in self.table3_expected.items():
+            m = self.table3_measured.get(name, (0, 0))
+            b = self.table3_bags.get(name)
+            lines.append(f"{name:<14} {exp[0]:>5} / {exp[1]:<4} {m[0]:>5} / {m[1]:<4} "
+                         + (f"{b[0]:>5} / {b[1]:<4}" if b else f"{'-':>12}"))
+        lines += ["", f"Tour: {self.outcome}"]
+        failures = self.failures()
+        lines.append("RESULT: " + ("PASSED (0 lost, 0 duplicated, recoveries within 5 s, Table 3 unchanged, "
+                                   "no crash, tours intact)" if not failures else "FAILED: " + "; ".join(failures)))
+        return "\n".join(lines)

@@ -1,0 +1,310 @@
+"""``gidabot demo``: the simulated Faculty of Informatics running a tour, unattended.
+
+Starts four masters (Tartalo floor 0, Kbot 1, Galtxagorri 2, MariSorgin 3), the six
+relays (HMAC secret file), a simulator per floor, every robot's nodes and a
+simulated visitor per floor; runs the tour (default: the paper's real-world tour,
+Table 4); shows progress; records one rosbag per robot; then prints the paper's
+tables (3 and 5), sim time, wall time and where it wrote everything. Ctrl-C (or
+SIGTERM) stops everything cleanly and keeps the bags of the partial run.
+
+    bin/gidabot demo                                   # Table 4 tour, headless
+    bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
+    bin/gidabot demo --goal 305 --way lift             # one target
+    bin/gidabot demo --gui                             # open each robot's GUI too
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import shutil
+import signal
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from datetime import datetime
+from pathlib import Path
+from typing import TextIO
+
+from gidabot_navigation.building.model import Building, load_building
+from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
+from gidabot_sim.demo import report
+from gidabot_sim.demo.progress import Progress
+from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
+from gidabot_sim.runner.procs import ProcessError, robot_address
+
+DEFAULT_SPEED = 20.0
+# Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
+# time (2 Hz status, 5 Hz poses by default): at 20x that would be 40 + 100 messages per wall second per
+# robot, every one of them handled by three relay ends and the recorder on each master (they cost more
+# CPU than the rest of the building together). The relays forward at most 10 per second anyway; Table 5
+# distances come from each robot's own /amcl_pose (a sample every 0.1 m), not from /gidabot/poses.
+STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
+START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
+STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+def parse_args(argv: list[str]) -> argparse.Namespace:
+    p = argparse.ArgumentParser(prog="gidabot demo", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty", help="building directory")
+    p.add_argument("--tour", type=Path, default=REPO / "tours" / "real_world.tour",
+                   help="tour file to run (default: tours/real_world.tour, the paper's Table 4)")
+    p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
+    p.add_argument("--start-floor", type=float, default=None,
+                   help="floor where the visitor starts (default: the tour's first floor, else 0)")
+    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
+                   help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
+    p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
+    p.add_argument("--skip", action="append", default=[], metavar="K:M",
+                   help="after tour step K (1-based) go to step M (may repeat)")
+    p.add_argument("--out", type=Path, default=REPO / "runs",
+                   help="output folder; the run goes to OUT/<date>-<time>-<tour>/ (default: runs/)")
+    p.add_argument("--gui", action="store_true", help="open every robot's GUI (needs a display)")
+    p.add_argument("--timeout", type=float, default=None,
+                   help="wall seconds before giving up (default: 120 + 300 s of sim time per goal / speed)")
+    p.add_argument("--secret", type=Path, default=None,
+                   help="FILE with the relays' shared secret (default: a fresh random one in the run folder)")
+    p.add_argument("--json", action="store_true",
+                   help="print the final report as one JSON object on stdout (progress goes to stderr)")
+    p.add_argument("--cpu", action="store_true",
+                   help="print the CPU seconds each process of the run used (also written to cpu.json)")
+    p.add_argument("--net", type=int, default=None, metavar="N",
+                   help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
+    return p.parse_args(argv)
+
+
+def _skips(values: list[str], goals: int) -> list[list[int]]:
+    out = []
+    for v in values:
+        try:
+            k, m = (int(x) for x in v.split(":"))
+        except ValueError as err:
+            raise DemoError(f"--skip {v!r}: expected K:M, two step numbers") from err
+        if not (1 <= k < m <= goals):
+            raise DemoError(f"--skip {v!r}: need 1 <= K < M <= {goals}")
+        out.append([k - 1, m - 1])
+    return out
+
+
+class Signals:
+    """SIGINT/SIGTERM set a flag (checked at safe points) instead of raising anywhere."""
+
+    def __init__(self, log: Callable[[str], None]) -> None:
+        self.received: str = ""
+        self._log = log
+        self._old: dict[int, object] = {}
+
+    def __enter__(self) -> Signals:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            self._old[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self._old.items():
+            signal.signal(sig, old)  # type: ignore[arg-type]
+
+    def _handle(self, signum: int, _frame: object) -> None:
+        name = signal.Signals(signum).name
+        if self.received:
+            self._log(f"gidabot demo: {name} again: still stopping everything, please wait")
+            return
+        self.received = name
+        self._log(f"\ngidabot demo: {name}: stopping everything (bags are closed first)")
+
+    def __bool__(self) -> bool:
+        return bool(self.received)
+
+
+def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float]:
+    """(label, number of goals, tour file name, start floor) of what the visitor does."""
+    if args.goal:
+        if building.find_location(args.goal) is None:
+            raise DemoError(f"--goal {args.goal!r} is not a location of {building.id}")
+        start = args.start_floor if args.start_floor is not None else building.robots[0].floor
+        return f"goal-{args.goal}", 1, "", float(start)
+    try:
+        check_tour_file_name(args.tour.name)
+        tour = parse_tour(args.tour.read_bytes(), args.tour.name, building, source=str(args.tour))
+    except (OSError, TourError, TourNameError) as err:
+        raise DemoError(f"{args.tour}: {err}") from err
+    start = args.start_floor if args.start_floor is not None else tour.goals[0].floor
+    return args.tour.stem, len(tour.goals), args.tour.name, float(start)
+
+
+def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
+    if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
+        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
+    if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
+    if building.robot_on(start_floor) is None:
+        raise DemoError(f"start floor {start_floor:g} has no robot (robots: "
+                        f"{', '.join(f'{r.name} {r.floor:g}' for r in building.robots)})")
+    if args.secret is not None and not args.secret.is_file():
+        raise DemoError(f"--secret {args.secret}: not a file")
+    if args.net is not None and not 1 <= args.net <= 254:
+        raise DemoError(f"--net {args.net}: expected 1..254")
+    if args.gui and not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") != "offscreen":
+        raise DemoError("--gui needs a display (DISPLAY is not set)")
+
+
+def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
+    building = load_building(args.building)
+    label, total, tour_name, start_floor = _visit(args, building)
+    _validate(args, building, start_floor)
+    skips = _skips(args.skip, total)
+    if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
+        args.timeout = START_STOP_S + SIM_S_PER_GOAL * total / args.speed
+
+    wall_begin = time.time()
+    run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
+    seed = run_dir / "seed_tours"
+    shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+    if tour_name:
+        shutil.copy(args.tour, seed / tour_name)
+    launch_args = {"gui_fullscreen": "false",
+                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+    visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
+               "start_floor": start_floor}
+    what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
+    print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
+          f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
+          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, speed {args.speed:g}x"
+          f"{', GUIs' if args.gui else ', headless'}\nrun folder: {run_dir}", file=out, flush=True)
+
+    addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
+                 else None)
+    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
+    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
+                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
+    failure = ""
+    tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
+    try:
+        sim.start(cancelled=lambda: bool(stop))
+        failure = _follow(sim, progress, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
+        if not stop and progress.finished:
+            time.sleep(2.0)  # the last poses and events reach the recorders
+        if args.cpu:
+            _cpu_table(sim, wall_begin, tour_cpu[0] if tour_cpu else None, out)
+    except (DemoError, ProcessError, OSError) as err:   # a process that cannot start, a full disk...
+        failure = str(err)
+        print(f"gidabot demo: {err}", file=sys.stderr)
+    finally:
+        stop_begin = time.time()
+        sim.stop()
+        print(f"stopped every process in {time.time() - stop_begin:.1f} s"
+              + (f"; ignored SIGINT: {', '.join(sim.forced)}" if sim.forced else "")
+              + (f"; left by their parents and killed: {', '.join(sim.killed_leftovers)}"
+                 if sim.killed_leftovers else ""), file=out, flush=True)
+    total_wall = time.time() - wall_begin
+    outcome = (f"interrupted ({stop.received})" if stop else failure or progress.outcome or "not finished")
+    run = {
+        "building": "building/building.yaml", "tour": tour_name or f"goal {args.goal}", "goals": total,
+        "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
+        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1), "speed": args.speed,
+        "way": args.way, "start_floor": start_floor, "skips": skips,
+        "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
+    }
+    (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
+    ratio = run["sim_s"] / run["wall_s"] if run["wall_s"] > 0 else 0.0
+    print(f"\nOutcome: {outcome}; {run['completed']} of {total} goals done; tour: sim {run['sim_s']:.0f} s, "
+          f"wall {run['wall_s']:.0f} s, sim/wall {ratio:.1f}x; whole demo {total_wall:.0f} s wall "
+          f"(start-up and shut-down included)\n", file=out, flush=True)
+    code = EXIT_FAILED
+    if all((run_dir / f"{r.name}.bag").exists() for r in building.robots):
+        code = report.main([str(run_dir)] + (["--json"] if args.json else []))
+    else:
+        print(f"gidabot demo: no bags in {run_dir} (the run did not get that far)", file=out)
+    print(f"\nrun folder: {run_dir}  (bags, run.json, report.json, paths_floor*.png, logs/)", file=out, flush=True)
+    if stop:
+        return EXIT_INTERRUPTED
+    return EXIT_OK if code == 0 and progress.outcome == "completed" else EXIT_FAILED
+
+
+def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace, wall_begin: float,
+            out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
+    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
+    assert sim.monitor_file is not None
+    shown = ""
+    deadline = wall_begin + args.timeout
+    next_track = 0.0
+    with open(sim.monitor_file, encoding="utf-8") as feed:
+        while not progress.finished and not stop:
+            line = feed.readline()
+            if line:
+                if progress.feed_line(line):
+                    if tour_cpu is not None and not tour_cpu and progress.goals:
+                        tour_cpu.append(CpuSnapshot(time.time(), sim.cpu_usage()))
+                    text = progress.line()
+                    if text != shown:
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}", file=out, flush=True)
+                        shown = text
+                continue
+            if time.monotonic() >= next_track:   # know every node, so that stop() finds them all
+                sim.track()
+                next_track = time.monotonic() + 5.0
+            dead = sim.dead()
+            if dead:
+                return f"{', '.join(dead)} stopped unexpectedly (see {sim.run_dir / 'logs'})"
+            if time.time() > deadline:
+                return f"timed out after {args.timeout:.0f} s of wall time ({progress.line()})"
+            time.sleep(0.2)
+    return ""
+
+
+@dataclass
+class CpuSnapshot:
+    wall: float
+    rows: list[dict[str, object]]
+
+
+def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = None) -> dict[str, float]:
+    """CPU seconds per kind of process (node name / program), all robots together; minus ``before`` (pid ->
+    CPU s at an earlier snapshot) when given."""
+    kinds: dict[str, float] = {}
+    for r in rows:
+        cpu = float(r["cpu_s"]) - (before or {}).get(int(r["pid"]), 0.0)  # type: ignore[arg-type]
+        kinds[str(r["process"])] = kinds.get(str(r["process"]), 0.0) + cpu
+    return kinds
+
+
+def _cpu_table(sim: SimulatedBuilding, begin: float, tour_start: CpuSnapshot | None, out: TextIO) -> None:
+    """Print and save (cpu.json) what each kind of process cost: start-up, then the tour alone."""
+    end = CpuSnapshot(time.time(), sim.cpu_usage())
+    if tour_start is None:
+        phases = [("whole run", begin, end.wall, end.rows, None)]
+    else:
+        first = {int(r["pid"]): float(r["cpu_s"]) for r in tour_start.rows}  # type: ignore[arg-type]
+        phases = [("start-up", begin, tour_start.wall, tour_start.rows, None),
+                  ("tour", tour_start.wall, end.wall, end.rows, first)]
+    saved: dict[str, object] = {"processes": end.rows}
+    for name, t0, t1, rows, before in phases:
+        wall = max(t1 - t0, 1e-9)
+        kinds = sorted(_per_kind(rows, before).items(), key=lambda kv: -kv[1])
+        total = sum(cpu for _, cpu in kinds)
+        saved[name] = {"wall_s": round(wall, 1), "cpu_s": round(total, 1), "cores": round(total / wall, 2),
+                       "per_kind_cpu_s": {k: round(v, 1) for k, v in kinds}}
+        print(f"\nCPU of the run's processes, {name}: {total:.0f} s in {wall:.0f} s of wall time "
+              f"({total / wall:.2f} of {os.cpu_count()} cores); per kind of process (all robots together):",
+              file=out)
+        for kind, cpu in kinds:
+            print(f"  {kind:<26} {cpu:7.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %  {cpu / wall:5.2f} cores",
+                  file=out)
+    (sim.run_dir / "cpu.json").write_text(json.dumps(saved, indent=2), encoding="utf-8")
+
+
+def main(argv: list[str]) -> int:
+    args = parse_args(argv)
+    out = sys.stderr if args.json else sys.stdout
+    with Signals(lambda text: print(text, file=out, flush=True)) as stop:
+        try:
+            return run_demo(args, out, stop)
+        except (DemoError, BuildingError) as err:
+            print(f"gidabot demo: {err}", file=sys.stderr)
+            return EXIT_USAGE

@@ -1,0 +1,426 @@
+"""``gidabot report <run folder>``: the paper's tables from a run's rosbags (no ROS needed).
+
+A run folder (written by ``gidabot demo``/``chaos``) holds ``run.json`` and one
+rosbag per robot (``<robot>.bag``, recorded on that robot's master; after a restart
+of its master the recording goes on in further parts, ``run.json`` lists them as
+``bags``, and every part is read: a message in two parts counts once). Bags are
+read with the ``rosbags`` library, which takes the message definitions from the
+bags themselves. Printed (``--json``: the same as one JSON object):
+
+* per robot, goal messages received and processed (paper Table 3): received =
+  distinct goals seen on ``/gidabot/goals`` on that robot's master; processed =
+  trips the robot accepted (its own ``NavEvent.ACCEPTED`` events). A message that is
+  not a well-formed goal (hostile input: a bad uid, NaN/inf numbers, an unknown floor,
+  robot or room, overlong text) is not counted (``rejected_goals``);
+* per robot, time, distance and mean velocity while guiding the visitor (paper
+  Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
+  distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
+  a sample every 0.1 m, whatever the sim speed; bags without it: the robot's
+  ``/gidabot/poses``); and the tour total;
+* one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
+  thick while guiding the visitor, thin dashed while driving alone (to a meeting
+  point, back to the visitor), the tour's goals numbered by step.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+from collections.abc import Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from gidabot_navigation.guiding.messages import (
+    ACCEPTED,
+    CANCELLED_ELSEWHERE,
+    CANCELLED_HERE,
+    GO_TO_FLOOR,
+    GOAL_REACHED,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    TIMEOUT,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+)
+
+LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
+            PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
+COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
+
+
+class ReportError(Exception):
+    """A run folder cannot be reported on (missing files, unreadable bags)."""
+
+
+@dataclass(frozen=True)
+class Event:
+    t: float            # s, header stamp (sim time)
+    robot: str
+    goal_uid: str
+    phase: int
+
+
+@dataclass(frozen=True)
+class PoseSample:
+    t: float
+    x: float
+    y: float
+
+
+@dataclass(frozen=True)
+class GoalInfo:
+    """Where a goal ends (for the plots)."""
+
+    goal_id: str
+    floor: float
+    x: float
+    y: float
+    tour_step: int
+    yaw: float = 0.0    # rad: the robot stops facing the door, so the room is that way
+
+
+@dataclass
+class RobotRecord:
+    """What one robot's bag says."""
+
+    name: str
+    floor: float
+    goal_uids: set[str] = field(default_factory=set)
+    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
+    local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
+    goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
+    bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
+    rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
+
+    @property
+    def track(self) -> list[PoseSample]:
+        """The robot's path: its own localisation if recorded, else its shared poses."""
+        return self.local_poses or self.poses
+
+
+@dataclass
+class RobotRow:
+    name: str
+    floor: float
+    received: int
+    processed: int
+    time_s: float
+    distance_m: float
+    mean_velocity_mps: float
+
+
+def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+    """[start, end] sim-time intervals while the robot was guiding the visitor."""
+    intervals: list[tuple[float, float]] = []
+    start: float | None = None
+    for ev in sorted(events, key=lambda e: e.t):
+        if ev.phase == ON_THE_WAY and start is None:
+            start = ev.t
+        elif ev.phase in LEG_ENDS and start is not None:
+            intervals.append((start, ev.t))
+            start = None
+    return intervals
+
+
+def path_length(poses: list[PoseSample], intervals: list[tuple[float, float]] | None = None) -> float:
+    """Distance in m along the pose samples (only inside ``intervals`` if given)."""
+    total = 0.0
+    for a, b in zip(poses, poses[1:], strict=False):
+        if intervals is not None and not any(s <= a.t and b.t <= e for s, e in intervals):
+            continue
+        step = math.hypot(b.x - a.x, b.y - a.y)
+        if math.isfinite(step):
+            total += step
+    return total
+
+
+def robot_row(rec: RobotRecord) -> RobotRow:
+    intervals = guiding_intervals(rec.events)
+    time_s = sum(e - s for s, e in intervals)
+    dist = path_length(rec.track, intervals)
+    processed = len({e.goal_uid for e in rec.events if e.phase == ACCEPTED})
+    return RobotRow(rec.name, rec.floor, len(rec.goal_uids), processed, round(time_s, 1), round(dist, 1),
+                    round(dist / time_s, 3) if time_s > 0 else 0.0)
+
+
+def analyse(records: list[RobotRecord], run: dict) -> dict:
+    """The report as a JSON-able dict (``robots`` and ``tour``)."""
+    rows = [robot_row(r) for r in records]
+    completed = {e.goal_uid for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid}
+    all_goals = set().union(*(r.goal_uids for r in records)) if records else set()
+    time_s = sum(r.time_s for r in rows)
+    dist = sum(r.distance_m for r in rows)
+    sim_s, wall_s = float(run.get("sim_s", 0.0)), float(run.get("wall_s", 0.0))
+    tour = {
+        "file": run.get("tour", ""),
+        "goals": int(run.get("goals", len(all_goals))),
+        "completed": len(completed),
+        "time_s": round(time_s, 1),
+        "distance_m": round(dist, 1),
+        "mean_velocity_mps": round(dist / time_s, 3) if time_s > 0 else 0.0,
+        "sim_s": round(sim_s, 1),
+        "wall_s": round(wall_s, 1),
+        "sim_to_wall": round(sim_s / wall_s, 2) if wall_s > 0 else 0.0,
+    }
+    unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
+    rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
+    return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
+            "rejected_goals": rejected}
+
+
+def format_tables(report: dict) -> str:
+    lines = ["Goal messages per robot (paper Table 3) and guiding data (paper Table 5)", ""]
+    head = f"{'Robot':<12} {'Floor':>5} {'Received':>9} {'Processed':>10} {'Time (s)':>9} {'Dist. (m)':>10} " \
+           f"{'Mean vel. (m/s)':>16}"
+    lines += [head, "-" * len(head)]
+    for r in report["robots"]:
+        lines.append(f"{r['name']:<12} {r['floor']:>5g} {r['received']:>9} {r['processed']:>10} {r['time_s']:>9.1f} "
+                     f"{r['distance_m']:>10.1f} {r['mean_velocity_mps']:>16.2f}")
+    t = report["tour"]
+    lines.append(f"{'Tour':<12} {'':>5} {'':>9} {'':>10} {t['time_s']:>9.1f} {t['distance_m']:>10.1f} "
+                 f"{t['mean_velocity_mps']:>16.2f}")
+    lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
+                  f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
+                  f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    for robot, n in report.get("rejected_goals", {}).items():
+        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
+    for where, n in report.get("unreadable_messages", {}).items():
+        lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+# Reading bags (rosbags, no ROS)
+# ---------------------------------------------------------------------------
+
+def _stamp(msg: object, fallback_ns: int) -> float:
+    header = getattr(msg, "header", None)
+    if header is not None:
+        t = header.stamp.sec + header.stamp.nanosec * 1e-9
+        if t > 0:
+            return t
+    return fallback_ns * 1e-9
+
+
+_UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
+
+
+def plausible_goal(msg: Any, building: Any | None) -> bool:
+    """A goal message as a robot could have sent it: a valid uid, finite numbers, short printable text, and
+    (with the building) its floors, origin robot and goal location known ("" allowed for the last two)."""
+    try:
+        texts = (msg.origin_robot, msg.visitor_id, msg.way, msg.connector, msg.start_id, msg.goal_id,
+                 msg.language, msg.tour_file)
+        numbers = (msg.initial_floor, msg.goal_floor, msg.initial_pose.x, msg.initial_pose.y,
+                   msg.goal_pose.position.x, msg.goal_pose.position.y, msg.goal_pose.orientation.z,
+                   msg.goal_pose.orientation.w)
+        if not _UID.match(msg.uid):
+            return False
+    except (AttributeError, TypeError):
+        return False
+    if not all(isinstance(t, str) and len(t) <= 64 and t.isprintable() for t in texts):
+        return False
+    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in numbers):
+        return False
+    if building is None:
+        return True
+    if any(building.find_floor(f) is None for f in numbers[:2]):
+        return False
+    if texts[0] and building.find_robot(texts[0]) is None:
+        return False
+    return not (texts[5] and building.find_location(texts[5]) is None)
+
+
+def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None = None,
+                   building: Any | None = None) -> RobotRecord:
+    """Extract goals, this robot's events and poses from one robot's bag (added to ``rec``: bag parts)."""
+    from rosbags.highlevel import AnyReader
+
+    rec = rec or RobotRecord(name, floor)
+    try:
+        with AnyReader([path]) as reader:
+            wanted = [c for c in reader.connections
+                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
+            for conn, t_ns, raw in reader.messages(connections=wanted):
+                try:
+                    msg = reader.deserialize(raw, conn.msgtype)
+                except Exception:  # noqa: BLE001 - rosbags raises several types; one bad message is skipped
+                    rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
+                    continue
+                if conn.topic == "/gidabot/goals":
+                    if not plausible_goal(msg, building):
+                        rec.rejected_goals += 1
+                        continue
+                    rec.goal_uids.add(msg.uid)
+                    gp, q = msg.goal_pose.position, msg.goal_pose.orientation
+                    rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
+                                                  int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
+                elif conn.topic == "/amcl_pose":
+                    p = msg.pose.pose.position
+                    rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
+                elif conn.topic == "/gidabot/nav_events":
+                    if msg.robot == name:
+                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                elif msg.robot == name:
+                    p = msg.nav_pose.position
+                    rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
+    except Exception as err:  # rosbags raises several unrelated types for damaged bags
+        raise ReportError(f"{path}: cannot read bag: {err}") from err
+    # parts overlap (two recorders ran for a while): keep each event and sample once
+    rec.events = sorted(dict.fromkeys(rec.events), key=lambda e: e.t)
+    rec.poses = sorted(set(rec.poses), key=lambda p: p.t)
+    rec.local_poses = sorted(set(rec.local_poses), key=lambda p: p.t)
+    return rec
+
+
+def load_run(folder: Path) -> tuple[dict, list[RobotRecord]]:
+    run_file = folder / "run.json"
+    try:
+        run = json.loads(run_file.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise ReportError(f"{run_file}: cannot read ({err.strerror}); is {folder} a run folder?") from err
+    except json.JSONDecodeError as err:
+        raise ReportError(f"{run_file}: not valid JSON: {err}") from err
+    building = _run_building(folder, run)
+    records = []
+    for robot in run.get("robots", []):
+        parts = robot.get("bags") or [robot.get("bag", f"{robot['name']}.bag")]
+        rec = RobotRecord(robot["name"], float(robot.get("floor", 0)))
+        for part in parts:
+            bag = folder / part
+            if not bag.exists():
+                raise ReportError(f"{bag}: missing bag of robot {robot['name']}")
+            read_robot_bag(bag, rec.name, rec.floor, rec, building)
+        records.append(rec)
+    return run, records
+
+
+def _run_building(folder: Path, run: dict) -> Any | None:
+    """The run's building, to tell goals from hostile messages (None when it cannot be loaded)."""
+    from gidabot_navigation.building.model import load_building
+    from gidabot_navigation.errors import GidaBotError
+
+    path = Path(run.get("building", "building/building.yaml"))
+    path = path if path.is_absolute() else folder / path
+    try:
+        return load_building(path)
+    except (GidaBotError, OSError):
+        return None
+
+
+def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path]:
+    """One PNG per floor: the path each robot followed over the floor's blueprint (paper Fig. 7)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from PIL import Image
+
+    from gidabot_navigation.building.model import load_building
+    from gidabot_navigation.errors import GidaBotError
+
+    building_file = Path(run.get("building", "building/building.yaml"))
+    if not building_file.is_absolute():   # relative to the run folder (folders can be moved)
+        building_file = folder / building_file
+    try:
+        building = load_building(building_file)
+    except GidaBotError as err:
+        raise ReportError(f"{building_file}: cannot load the run's building: {err}") from err
+    goals: dict[str, GoalInfo] = {}
+    for rec in records:
+        goals.update(rec.goals)
+    written = []
+    colours = ["#d62728", "#1f77b4", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b", "#e377c2", "#17becf"]
+    for floor in building.floors:
+        img = Image.open(floor.blueprint_file)
+        fig, ax = plt.subplots(figsize=(img.width / 100, img.height / 100 + 0.8), dpi=100)
+        ax.imshow(img)
+        ax.set_xlim(-0.5, img.width - 0.5)
+        ax.set_ylim(img.height - 0.5, -0.5)
+        for i, rec in enumerate(records):
+            track = rec.track
+            if rec.floor != floor.id or not track:
+                continue
+            colour = colours[i % len(colours)]
+            intervals = guiding_intervals(rec.events)
+            for guiding, part in _split(track, intervals):
+                uv = [floor.transform.to_pixel(p.x, p.y) for p in part]
+                ax.plot([u for u, _ in uv], [v for _, v in uv], "-" if guiding else "--", color=colour,
+                        linewidth=2.5 if guiding else 1.0, alpha=1.0 if guiding else 0.7)
+            start, end = floor.transform.to_pixel(track[0].x, track[0].y), \
+                floor.transform.to_pixel(track[-1].x, track[-1].y)
+            ax.plot(*start, "o", color=colour, markersize=8)
+            ax.plot(*end, "s", color=colour, markersize=8)
+            ax.plot([], [], "-", color=colour, linewidth=2.5,
+                    label=f"{rec.name}: guiding (thick), alone (dashed); o start, \u25a0 end")
+        marks: dict[tuple[float, float], list[str]] = {}   # label 1 m from the goal towards its door
+        for g in goals.values():
+            if g.floor == floor.id:
+                label = str(g.tour_step + 1) if g.tour_step >= 0 else g.goal_id
+                key = (round(g.x + math.cos(g.yaw), 1), round(g.y + math.sin(g.yaw), 1))
+                if label not in marks.setdefault(key, []):
+                    marks[key].append(label)
+        for (x, y), labels in marks.items():
+            u, v = floor.transform.to_pixel(x, y)
+            ax.annotate(",".join(sorted(labels, key=lambda t: (len(t), t))), (u, v), ha="center", va="center",
+                        fontsize=9, fontweight="bold", color="white",
+                        bbox={"boxstyle": "round,pad=0.25", "fc": "#333333", "ec": "none"})
+        tour = run.get("tour", "")
+        ax.set_title(f"{floor.names['en']} (floor {floor.label}): paths followed"
+                     + (f" during {tour}; numbers: tour steps" if tour else ""), fontsize=12)
+        ax.set_axis_off()
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, 0.0), frameon=False, fontsize=10)
+        out = folder / f"paths_floor{floor.label}.png"
+        fig.savefig(out, bbox_inches="tight")
+        plt.close(fig)
+        written.append(out)
+    return written
+
+
+def _split(track: list[PoseSample], intervals: list[tuple[float, float]]) -> list[tuple[bool, list[PoseSample]]]:
+    """The track cut into consecutive parts inside / outside the guiding intervals (parts share ends)."""
+    def inside(t: float) -> bool:
+        return any(s <= t <= e for s, e in intervals)
+
+    parts: list[tuple[bool, list[PoseSample]]] = []
+    for sample in track:
+        state = inside(sample.t)
+        if parts and parts[-1][0] == state:
+            parts[-1][1].append(sample)
+        else:
+            prev = parts[-1][1][-1:] if parts else []
+            parts.append((state, prev + [sample]))
+    return parts
+
+
+def main(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser(prog="gidabot report", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("run", type=Path, help="run folder written by gidabot demo / chaos")
+    parser.add_argument("--json", action="store_true", help="print the tables as one JSON object")
+    parser.add_argument("--no-plots", action="store_true", help="do not write the per-floor path PNGs")
+    args = parser.parse_args(argv)
+    try:
+        run, records = load_run(args.run)
+        report = analyse(records, run)
+        report["run_folder"] = str(args.run.resolve())
+        if not args.no_plots:
+            report["plots"] = [str(p) for p in plot_paths(args.run, run, records)]
+    except ReportError as err:
+        print(f"gidabot report: {err}", file=sys.stderr)
+        return 1
+    (args.run / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
+    if args.json:
+        print(json.dumps(report))
+    else:
+        print(format_tables(report))
+        for p in report.get("plots", []):
+            print(f"wrote {p}")
+    return 0

@@ -1,0 +1,130 @@
+"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`)."""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+import rospy
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import Odometry
+from tf2_msgs.msg import TFMessage
+
+from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_sim.errors import SimConfigError
+from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
+from gidabot_sim.ros import convert as ru
+from gidabot_sim.world.clock import Periodic
+
+
+def _pose2d(msg: Odometry) -> Pose2D | None:
+    p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    values = (p.x, p.y, q.x, q.y, q.z, q.w)
+    if not all(math.isfinite(v) for v in values):
+        return None
+    return Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+
+
+class AmclNode:
+    """Localisation as amcl reports it, from the simulator's ground truth plus plausible error.
+
+    Subscribes:
+      ``base_pose_ground_truth`` (nav_msgs/Odometry, map frame): the simulator's true pose.
+      ``odom`` (nav_msgs/Odometry): odometry, paired by stamp for the ``map -> odom`` transform
+        (subscribed only while somebody listens to /tf).
+      (``initialpose`` is handled by the simulator, which moves the simulated robot; the
+      estimate follows the new ground truth at once.)
+    Publishes:
+      ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped, latched, frame ``map``): after the robot
+        moved ``~update_min_d`` or turned ``~update_min_a``, and at once after a relocation;
+        covariance filled (x, y, yaw variances).
+      tf ``map -> odom`` (while /tf has subscribers) at ``~tf_rate`` and with every estimate, stamped
+        ``~transform_tolerance`` ahead as amcl does.
+    Params:
+      ``~noise_xy`` (m, 0.03), ``~noise_yaw`` (rad, 0.02): standard deviations of the estimate's error;
+      ``~noise_tau`` (s, 3): its correlation time; ``~update_min_d`` (m, 0.1), ``~update_min_a`` (rad, 0.1);
+      ``~tf_rate`` (Hz sim, 10), ``~transform_tolerance`` (s, 0.1); ``~global_frame_id`` (map),
+      ``~odom_frame_id`` (odom); ``~seed`` (int, -1 = random).
+    Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
+    """
+
+    def __init__(self) -> None:
+        def num(name: str, default: float) -> float:
+            value = rospy.get_param(name, default)
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number")
+            return float(value)
+
+        config = AmclConfig(noise_xy=num("~noise_xy", 0.03), noise_yaw=num("~noise_yaw", 0.02),
+                            noise_tau=num("~noise_tau", 3.0), update_min_d=num("~update_min_d", 0.1),
+                            update_min_a=num("~update_min_a", 0.1))
+        seed = int(rospy.get_param("~seed", -1))
+        self.core = AmclCore(config, np.random.default_rng(None if seed < 0 else seed))
+        tf_rate = num("~tf_rate", 10.0)
+        if tf_rate <= 0:
+            raise SimConfigError(f"~tf_rate: {tf_rate!r} must be > 0 Hz")
+        self.tf_due = Periodic(tf_rate)
+        self.tolerance = num("~transform_tolerance", 0.1)
+        self.global_frame = str(rospy.get_param("~global_frame_id", "map"))
+        self.odom_frame = str(rospy.get_param("~odom_frame_id", "odom"))
+        self.lock = threading.Lock()
+        self.rejected = ru.CountingLog(rospy.logerr)
+        self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=5, latch=True)
+        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
+        self.odom_sub: rospy.Subscriber | None = None
+        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10)
+
+    def _follow_odom(self) -> None:
+        """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
+        wanted = self.tf_pub.get_num_connections() > 0
+        if wanted and self.odom_sub is None:
+            self.odom_sub = rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+        elif not wanted and self.odom_sub is not None:
+            self.odom_sub.unregister()
+            self.odom_sub = None
+
+    def _on_odom(self, msg: Odometry) -> None:
+        pose = _pose2d(msg)
+        if pose is None:
+            self.rejected.reject("odom", "amcl: ignoring odom with a non-finite pose")
+        else:
+            with self.lock:
+                self.core.on_odom(msg.header.stamp.to_sec(), pose)
+
+    def _on_truth(self, msg: Odometry) -> None:
+        truth = _pose2d(msg)
+        if truth is None:
+            self.rejected.reject("base_pose_ground_truth", "amcl: ignoring a non-finite ground-truth pose")
+            return
+        t = msg.header.stamp.to_sec()
+        self._follow_odom()
+        with self.lock:
+            estimate = self.core.on_truth(t, truth)
+            tf_due = self.tf_due.due(t) or estimate is not None
+            map_odom = self.core.map_to_odom() if tf_due and self.tf_pub.get_num_connections() else None
+        if estimate is not None:
+            out = PoseWithCovarianceStamped()
+            out.header.stamp = ru.stamp(estimate.stamp)
+            out.header.frame_id = self.global_frame
+            out.pose.pose = ru.pose_msg(estimate.pose)
+            out.pose.covariance = list(estimate.covariance)
+            self.pose_pub.publish(out)
+        if map_odom is not None:
+            self.tf_pub.publish(TFMessage(transforms=[ru.transform(self.global_frame, self.odom_frame, map_odom,
+                                                                   t + self.tolerance)]))
+
+
+def main() -> None:
+    rospy.init_node("amcl")
+    guard = rospy_exit_guard("amcl")     # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    keep_registered()     # re-register with a restarted master
+    try:
+        AmclNode()
+    except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
+        rospy.logfatal(f"amcl: cannot start: {err}")
+        raise SystemExit(1) from err
+    guard.spin(rospy.is_shutdown)

@@ -1,0 +1,332 @@
+"""ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`)."""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import actionlib
+import rospy
+import rospy.rostime
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
+from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
+from nav_msgs.msg import Odometry
+from nav_msgs.msg import Path as PathMsg
+from nav_msgs.srv import GetPlan, GetPlanResponse
+from std_srvs.srv import Empty, EmptyResponse
+
+from gidabot_msgs.msg import ObstacleArray
+from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.building.planning import Path
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
+from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_sim.errors import SimConfigError
+from gidabot_sim.navstack.amcl import PoseTracker
+from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
+from gidabot_sim.ros import convert as ru
+from gidabot_sim.world.clock import Periodic, next_cycle
+from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D
+from gidabot_sim.world.world import obstacle_shape
+
+
+def path_msg(path: Path, goal_yaw: float, spacing: float, t: float) -> PathMsg:
+    """A plan as navfn returns it: a pose every ``spacing`` m, each facing along the path, the last the goal's yaw."""
+    msg = PathMsg()
+    msg.header.frame_id = "map"
+    msg.header.stamp = ru.stamp(t)
+    points = path.densified(spacing)
+    for k, (x, y) in enumerate(points):
+        if k + 1 < len(points):
+            nx, ny = points[k + 1]
+            yaw = math.atan2(ny - y, nx - x)
+        else:
+            yaw = goal_yaw
+        pose = PoseStamped()
+        pose.header = msg.header
+        pose.pose = ru.pose_msg(Pose2D(x, y, yaw))
+        msg.poses.append(pose)
+    return msg
+
+
+class MoveBaseNode:
+    """Drives the robot to goals like move_base (global planner on the inflated map + path follower).
+
+    Action server ``move_base`` (move_base_msgs/MoveBaseAction, SimpleActionServer semantics):
+      a new goal preempts the current one (PREEMPTED); cancel -> PREEMPTED and the robot stops;
+      SUCCEEDED within ``~xy_goal_tolerance`` / ``~yaw_goal_tolerance``; ABORTED when no plan exists
+      (after ``~planner_patience`` if run-time obstacles could clear), when stuck
+      (``~controller_patience``, ``~oscillation_timeout``), or for an invalid goal (NaN, bad
+      quaternion, frame other than ``map``). Feedback ``base_position`` (map frame) at ``~feedback_rate``.
+    Subscribes:
+      ``move_base_simple/goal`` (geometry_msgs/PoseStamped): re-published as an action goal (as move_base).
+      ``odom`` (nav_msgs/Odometry) + ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped): the robot's
+        map pose, as tf's map -> odom -> base_footprint would give it.
+      ``~obstacles_topic`` (gidabot_msgs/ObstacleArray, default ``/sim/obstacles``): run-time obstacles,
+        lethal in the costmap (a perfect obstacle layer); any change re-plans the running goal.
+    Publishes:
+      ``cmd_vel`` (geometry_msgs/Twist) at ``~controller_frequency`` while a goal runs (zero when it ends);
+      ``move_base/current_goal`` (geometry_msgs/PoseStamped); ``move_base/NavfnROS/plan`` (nav_msgs/Path)
+      on every (re)plan while subscribed.
+    Services:
+      ``move_base/make_plan`` (nav_msgs/GetPlan): a plan from ``start`` (empty frame_id: the robot's pose)
+        to ``goal``; empty plan when there is none. Like move_base it refuses (service error) while a
+        goal is running, unless ``~make_plan_while_active`` is true.
+      ``move_base/clear_costmaps`` (std_srvs/Empty).
+    Params:
+      ``~building`` (str), ``~robot`` (str): radius, drive, velocity/acceleration limits;
+      ``~xy_goal_tolerance`` (m, 0.25), ``~yaw_goal_tolerance`` (rad, 0.2), ``~controller_frequency`` (Hz, 10),
+      ``~planner_patience`` (s, 5), ``~controller_patience`` (s, 15), ``~oscillation_timeout`` (s, 30),
+      ``~oscillation_distance`` (m, 0.5), ``~lookahead`` (m, 0.8), ``~safety_time`` (s, 1.2),
+      ``~footprint_padding`` (m, 0.05: added to the radius for planning),
+      ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
+      (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
+      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
+      ``~stall_threshold`` (s, 1: a longer gap between two control cycles means this process was starved
+      or frozen; that time is not held against the goal's patience timers).
+      All times are sim time.
+    Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
+    """
+
+    def __init__(self) -> None:
+        building = load_building(str(rospy.get_param("~building", "")))
+        try:
+            robot = building.robot(str(rospy.get_param("~robot", "")))
+        except KeyError as err:
+            raise SimConfigError(f"~robot: {err}") from err
+        floor = building.floor(robot.floor)
+
+        def num(name: str, default: float) -> float:
+            value = rospy.get_param(name, default)
+            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
+                    or value <= 0:
+                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number > 0")
+            return float(value)
+
+        defaults = NavConfig()
+        config = NavConfig(**{name: num(f"~{name}", value) for name, value in defaults.__dict__.items()})
+        self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
+                                           inflation_radius=num("~inflation_radius", robot.radius + 0.7),
+                                           cost_scaling=num("~cost_scaling_factor", 3.0),
+                                           goal_tolerance=num("~default_tolerance", 0.5))
+        self.spacing = num("~plan_point_spacing", floor.map.resolution)
+        self.feedback_due = Periodic(num("~feedback_rate", 5.0))
+        self.rate_hz = config.controller_frequency
+        self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
+        self.robot = robot.name
+        self.tracker = PoseTracker()
+        self.core_lock = threading.Lock()       # the core: control loop vs. services
+        self.tracker_lock = threading.Lock()
+        self.events: queue.SimpleQueue = queue.SimpleQueue()
+        self.wake = threading.Event()
+        self.plans_published = 0
+        self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
+        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=5)
+        self.goal_pub = rospy.Publisher("move_base/current_goal", PoseStamped, queue_size=2)
+        self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
+        self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=2)
+        self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction, auto_start=False)
+        self.server.register_goal_callback(lambda: self._event("goal"))
+        self.server.register_preempt_callback(lambda: self._event("preempt"))
+        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+        rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
+        rospy.Subscriber(str(rospy.get_param("~obstacles_topic", "/sim/obstacles")), ObstacleArray,
+                         lambda msg: self._event("obstacles", msg), queue_size=10)
+        rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal, queue_size=2)
+        rospy.Service("move_base/make_plan", GetPlan, self._make_plan)
+        rospy.Service("move_base/clear_costmaps", Empty, self._clear_costmaps)
+        self.server.start()
+
+    # -- callbacks: copy or enqueue ---------------------------------------------------
+    def _event(self, kind: str, msg: Any = None) -> None:
+        self.events.put((kind, msg))
+        self.wake.set()
+
+    def _on_odom(self, msg: Odometry) -> None:
+        p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
+        values = (p.x, p.y, q.x, q.y, q.z, q.w, v.linear.x, v.linear.y, v.angular.z)
+        if not all(math.isfinite(x) for x in values):
+            self.rejected.reject("odom", f"move_base: ignoring odom with non-finite values {values!r}")
+            return
+        with self.tracker_lock:
+            self.tracker.on_odom(msg.header.stamp.to_sec(), Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
+                                 Twist2D(v.linear.x, v.linear.y, v.angular.z))
+
+    def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
+        try:
+            pose = ru.pose2d_of(msg.pose.pose, "amcl_pose")
+        except GidaBotError as err:
+            self.rejected.reject("amcl_pose", f"move_base: ignoring amcl_pose: {err}")
+            return
+        with self.tracker_lock:
+            self.tracker.on_estimate(msg.header.stamp.to_sec(), pose)
+
+    def _on_simple_goal(self, msg: PoseStamped) -> None:
+        goal = MoveBaseActionGoal()
+        goal.header.stamp = rospy.Time.now()
+        goal.goal.target_pose = msg
+        self.action_goal_pub.publish(goal)
+
+    # -- services ---------------------------------------------------------------------
+    def _make_plan(self, req: Any) -> GetPlanResponse:
+        if self.server.is_active() and not self.plan_while_active:
+            raise rospy.ServiceException("move_base must be in an inactive state to make a plan for an "
+                                         "external user")
+        resp = GetPlanResponse()
+        resp.plan.header.frame_id = "map"
+        resp.plan.header.stamp = rospy.Time.now()
+        try:
+            goal = ru.goal_to_pose2d(req.goal.header.frame_id, req.goal.pose)
+            start = None
+            if req.start.header.frame_id:
+                s = ru.goal_to_pose2d(req.start.header.frame_id, req.start.pose)
+                start = (s.x, s.y)
+            with self.core_lock:
+                path = self.core.make_plan(start, (goal.x, goal.y), float(req.tolerance))
+        except (GidaBotError, ValueError, TypeError) as err:
+            rospy.logwarn(f"move_base: make_plan: no plan: {err}")
+            return resp
+        resp.plan = path_msg(path, goal.yaw, self.spacing, rospy.get_time())
+        return resp
+
+    def _clear_costmaps(self, _req: Any) -> EmptyResponse:
+        with self.core_lock:
+            self.core.clear_costmaps()
+        rospy.loginfo("move_base: costmaps cleared")
+        return EmptyResponse()
+
+    # -- the control loop ------------------------------------------------------------------
+    def _drain(self, now: float) -> None:
+        latest_obstacles = None
+        while True:
+            try:
+                kind, msg = self.events.get_nowait()
+            except queue.Empty:
+                break
+            if kind == "goal":
+                self._accept_goal(now)
+            elif kind == "preempt":
+                if not self.server.is_new_goal_available() and self.server.is_active():
+                    self.core.cancel()
+                    self.cmd_pub.publish(ru.twist_msg(ZERO))
+                    self.server.set_preempted(MoveBaseResult(), "Goal cancelled")
+            elif kind == "obstacles":
+                latest_obstacles = msg           # each array is the whole set: only the newest matters
+        if latest_obstacles is not None:
+            self._obstacles(latest_obstacles)
+
+    def _accept_goal(self, now: float) -> None:
+        if not self.server.is_new_goal_available():
+            return
+        goal = self.server.accept_new_goal()     # a running goal is reported PREEMPTED
+        if goal is None:
+            return
+        target = goal.target_pose
+        try:
+            pose = ru.goal_to_pose2d(target.header.frame_id, target.pose)
+            self.core.set_goal(pose, now)
+        except GidaBotError as err:
+            self.rejected.reject("goal", f"move_base: aborting on goal: {err}")
+            self.core.cancel()
+            self.cmd_pub.publish(ru.twist_msg(ZERO))
+            self.server.set_aborted(MoveBaseResult(), f"Aborting on goal because it was sent with an invalid "
+                                    f"pose: {err}")
+            return
+        current = PoseStamped()
+        current.header.frame_id, current.header.stamp = "map", rospy.Time.now()
+        current.pose = ru.pose_msg(pose)
+        self.goal_pub.publish(current)
+        self.feedback_due.reset()
+
+    def _obstacles(self, msg: ObstacleArray) -> None:
+        shapes = {}
+        for ob in msg.obstacles:
+            try:
+                shapes[ob.id] = obstacle_shape(ob.shape, ob.x, ob.y, ob.yaw, ob.radius, ob.width, ob.height)
+            except GidaBotError as err:
+                rospy.logwarn(f"move_base: ignoring obstacle {ob.id[:64]!r}: {err}")
+        if self.core.set_obstacles(shapes):
+            rospy.loginfo(f"move_base: costmap updated ({len(shapes)} obstacle(s))")
+
+    def _cycle(self) -> None:
+        now = rospy.get_time()
+        with self.core_lock:
+            self._drain(now)
+            with self.tracker_lock:
+                pose, velocity, stamp = self.tracker.pose(), self.tracker.velocity, self.tracker.stamp
+            if pose is not None and stamp is not None:
+                self.core.set_pose(pose, velocity, stamp)
+            result = self.core.step(now)
+            path, goal, plans_after = self.core.path, self.core.goal, self.core.plans
+        if result.cmd is not None:
+            self.cmd_pub.publish(ru.twist_msg(result.cmd))
+        if result.outcome == SUCCEEDED and self.server.is_active():
+            self.server.set_succeeded(MoveBaseResult(), result.text)
+        elif result.outcome == ABORTED and self.server.is_active():
+            self.server.set_aborted(MoveBaseResult(), result.text)
+        elif self.server.is_active() and pose is not None and self.feedback_due.due(now):
+            feedback = MoveBaseFeedback()
+            feedback.base_position.header.frame_id = "map"
+            feedback.base_position.header.stamp = ru.stamp(now)
+            feedback.base_position.pose = ru.pose_msg(pose)
+            self.server.publish_feedback(feedback)
+        if path is not None and goal is not None and self.plans_published != plans_after:
+            self.plans_published = plans_after
+            if self.plan_pub.get_num_connections():
+                self.plan_pub.publish(path_msg(path.plan, goal.yaw, self.spacing, now))
+
+    def run(self, guard: ExitGuard) -> None:
+        """The control loop at ``~controller_frequency`` (ROS time) until shutdown. Stops at the first
+        signal (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only
+        then closes the topics (see :mod:`gidabot_navigation.ros.exit_guard`)."""
+        guard.set_wake(self.wake.set)
+        try:
+            self._loop(lambda: rospy.is_shutdown() or guard.requested)
+        except rospy.ROSException:
+            if not guard.requested:    # a topic closed under a publish blocked past the guard's wait
+                raise
+        finally:
+            guard.loop_stopped()
+
+    def _loop(self, stop: Callable[[], bool]) -> None:
+        period = 1.0 / self.rate_hz
+        due = rospy.get_time()
+        while not stop():
+            if self.core.state is State.IDLE and self.events.empty():
+                self.wake.wait(0.5)           # idle: sleep until a goal (or an obstacle update) arrives
+                self.wake.clear()
+                if self.events.empty():
+                    continue
+            self._cycle()
+            due = next_cycle(due, period, rospy.get_time())
+            self._sleep_until(due, period, stop)
+
+    @staticmethod
+    def _sleep_until(t: float, period: float, stop: Callable[[], bool]) -> None:
+        """rospy.Rate.sleep in ROS time, but ending within 50 ms wall of ``stop()`` (rospy's sleep only
+        notices a shutdown, and every 0.5 s while the clock stands still) and at a jump back in time."""
+        cond = rospy.rostime.get_rostime_cond()       # notified at every /clock message
+        while not stop():
+            now = rospy.get_time()
+            if now >= t or now < t - 2 * period:
+                return
+            with cond:
+                cond.wait(min(0.05, t - now))
+
+
+def main() -> None:
+    rospy.init_node("move_base")
+    guard = rospy_exit_guard("move_base", main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    keep_registered()     # re-register with a restarted master
+    try:
+        node = MoveBaseNode()
+    except (GidaBotError, OSError, ValueError, TypeError) as err:     # bad parameters or files
+        rospy.logfatal(f"move_base: cannot start: {err}")
+        raise SystemExit(1) from err
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)    # the shutdown runs in the guard's thread, never in this one

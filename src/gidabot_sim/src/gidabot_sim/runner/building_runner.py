@@ -1,0 +1,420 @@
+"""Run the whole simulated building on this one machine (a thin layer over the per-robot launches).
+
+Starts one master per robot on the robot's own loopback address (free ports, so
+runs never collide), sets ``/use_sim_time`` on every master, then per robot a
+``rosbag record`` of the shared topics and ``launch/robot.launch sim:=true``
+against its master, the simulated visitor (one node per floor, started apart from
+the robots' launches: it plays a person, whom restarting a robot's nodes must not
+reset) and the progress monitor. Every process is in its own process group;
+:meth:`SimulatedBuilding.stop` (and leaving the ``with`` block) stops them all by
+process group: recorders first (SIGINT: the bag is closed and indexed), then the
+robots, the visitor, the monitor and the masters.
+
+A master can be stopped and started again (:meth:`stop_master`,
+:meth:`start_master_again`, fault injection): ``rosbag record`` never re-registers
+with a restarted master, so it would miss publishers that (re)start afterwards;
+that robot's recording then goes on in a new bag part (``<robot>.<n>.bag``; the
+old recorder is stopped a little later), and :attr:`bags` lists every part.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import secrets
+import shutil
+import signal
+import subprocess
+import sys
+import time
+import xmlrpc.client
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_sim.errors import SimError
+from gidabot_sim.runner.procs import ProcessError, ProcessGroup, ros_env, start_master
+
+REPO = Path(__file__).resolve().parents[5]
+ROBOT_LAUNCH = REPO / "launch" / "robot.launch"
+MONITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "monitor"
+VISITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "visitor"
+RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
+# what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
+RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
+                   "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
+                   "/visitor/command", "/amcl_pose")
+
+
+NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
+
+
+class DemoError(SimError):
+    """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
+
+
+def rosbag_record_binary() -> str:
+    """Path of rosbag's ``record`` program (what ``rosbag record`` runs).
+
+    Started directly so that it is the leader of its process group: a SIGINT reaches it
+    once and it closes the bag before exiting (the ``rosbag`` Python wrapper exits at
+    once on SIGINT, and the group would be killed while the bag is being closed).
+    """
+    import roslib.packages
+
+    found = roslib.packages.find_node("rosbag", "record")
+    if not found:
+        raise DemoError("rosbag's record program was not found (Debian package ros-core / rosbag)")
+    return str(found[0])
+
+
+def write_secret(path: Path) -> Path:
+    """A fresh random relay secret (HMAC-SHA256 key, 32 bytes hex) in ``path``, mode 0600."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+    with os.fdopen(fd, "w", encoding="ascii") as out:
+        out.write(secrets.token_hex(32) + "\n")
+    return path
+
+
+def set_param(master_uri: str, key: str, value: object) -> None:
+    """Set a parameter on a master (XML-RPC, no rospy in this process)."""
+    try:
+        code, msg, _ = xmlrpc.client.ServerProxy(master_uri).setParam("/gidabot_demo", key, value)
+    except (OSError, xmlrpc.client.Error) as err:
+        raise DemoError(f"cannot set {key} on the master {master_uri}: {err}") from err
+    if code != 1:
+        raise DemoError(f"cannot set {key} on the master {master_uri}: {msg}")
+
+
+@dataclass(frozen=True)
+class ProcInfo:
+    """One process, from ``/proc/<pid>/stat`` and its command line."""
+
+    pid: int
+    ppid: int
+    pgid: int
+    start: int              # start time (clock ticks since boot): tells a reused pid apart
+    cpu_s: float            # user + system CPU seconds so far
+    argv: tuple[str, ...]
+
+    @property
+    def label(self) -> str:
+        """The ROS node name (``__name:=``), else the program's name."""
+        argv = self.argv
+        for arg in argv:
+            if arg.startswith("__name:="):
+                return arg.split(":=", 1)[1]
+        if len(argv) >= 2 and Path(argv[0]).name.startswith("python"):
+            if argv[1] == "-m" and len(argv) >= 3:
+                return argv[2].rsplit(".", 1)[-1]
+            return "python -c" if argv[1] == "-c" else Path(argv[1]).name
+        return Path(argv[0]).name if argv else "?"
+
+
+def read_proc(pid: int) -> ProcInfo | None:
+    """``/proc/<pid>`` of a live process, or None (gone, or not readable)."""
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
+        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    except OSError:
+        return None
+    fields = stat[stat.rfind(")") + 2:].split()
+    if len(fields) < 20 or fields[0] == "Z":
+        return None
+    tick = os.sysconf("SC_CLK_TCK")
+    return ProcInfo(pid, int(fields[1]), int(fields[2]), int(fields[19]), (int(fields[11]) + int(fields[12])) / tick,
+                    tuple(a.decode(errors="replace") for a in argv if a))
+
+
+def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
+    """Every live process that is one of ``roots`` or descends from one (roslaunch starts each node in
+    a session of its own, so process groups alone do not find them)."""
+    procs = {}
+    for entry in os.scandir("/proc"):
+        if entry.name.isdigit():
+            info = read_proc(int(entry.name))
+            if info is not None:
+                procs[info.pid] = info
+    children: dict[int, list[int]] = {}
+    for info in procs.values():
+        children.setdefault(info.ppid, []).append(info.pid)
+    found: dict[int, ProcInfo] = {}
+    todo = [pid for pid in roots if pid in procs]
+    while todo:
+        pid = todo.pop()
+        if pid not in found:
+            found[pid] = procs[pid]
+            todo.extend(children.get(pid, []))
+    return found
+
+
+@dataclass
+class SimulatedBuilding:
+    """The simulated building's processes. ``addresses`` (one per robot, building order) replace
+    the building file's own master addresses (tests use a per-session loopback network)."""
+
+    building_dir: Path
+    run_dir: Path
+    speed: float = 10.0
+    gui: bool = False
+    record: bool = True
+    relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
+    seed_tours: Path = REPO / "tours"
+    addresses: list[str] | None = None
+    robot_args: dict[str, dict[str, str]] = field(default_factory=dict)   # per robot extra launch args
+    common_args: dict[str, str] = field(default_factory=dict)
+    start_delay: float = 8.0                  # wall s from launching the robots to sim time 0
+    visitor: dict[str, object] | None = None  # the simulated visitor's ~params (tour_file, goal_id, way, ...)
+    monitor: bool = True                      # the progress monitor (monitor.jsonl)
+    building: Building | None = None
+    building_file: Path | None = None
+    monitor_file: Path | None = None
+    start_wall: float = 0.0
+
+    def __post_init__(self) -> None:
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        self.procs = ProcessGroup(self.run_dir / "logs")
+        self._stopped = False
+        self._seen: dict[int, ProcInfo] = {}    # every process of the run seen by track()
+        self._root: dict[int, str] = {}         # pid -> the managed process it descends from
+        self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
+        self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
+        self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
+        self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
+
+    def __enter__(self) -> SimulatedBuilding:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    # -- start ---------------------------------------------------------------
+    def start(self, cancelled: Callable[[], bool] = lambda: False) -> None:
+        """Masters, /use_sim_time, recorders, every robot's launch, the monitor. Raises DemoError.
+
+        ``cancelled`` is asked between two steps (a signal handler sets it): start-up stops
+        there with DemoError, and every process started so far is known to :meth:`stop`.
+        """
+        def check() -> None:
+            if cancelled():
+                raise DemoError("start-up interrupted")
+
+        base = load_building(self.building_dir)
+        if self.addresses is not None and len(self.addresses) != len(base.robots):
+            raise DemoError(f"{len(self.addresses)} addresses for {len(base.robots)} robots")
+        uris: dict[str, str] = {}
+        try:
+            for i, r in enumerate(base.robots):
+                ip = self.addresses[i] if self.addresses is not None else r.ip
+                check()
+                uris[r.name] = start_master(self.procs, f"master_{r.name}", ip)
+        except ProcessError as err:
+            raise DemoError(f"cannot start the masters: {err}") from err
+        self.building_file = relocate_building(self.building_dir, self.run_dir / "building", uris)
+        self.building = load_building(self.building_file)
+        for uri in uris.values():   # before any node starts: every node (and rosbag) runs on sim time
+            set_param(uri, "/use_sim_time", True)
+        if self.relay_secret is None:
+            self.relay_secret = write_secret(self.run_dir / "relay.secret")
+        self.start_wall = time.time() + self.start_delay
+        for robot in self.building.robots:
+            check()
+            if self.record:
+                self.start_recorder(robot.name)
+            self.launch_robot(robot.name)
+        check()
+        if self.visitor is not None:
+            for robot in self.building.robots:
+                self.start_visitor(robot.name)
+        if not self.monitor:
+            return
+        self.monitor_file = self.run_dir / "monitor.jsonl"
+        self.monitor_file.touch()
+        first = self.building.robots[0]
+        robots = "[" + ", ".join(r.name for r in self.building.robots) + "]"
+        self.procs.start("monitor", [sys.executable, str(MONITOR_NODE), f"_out:={self.monitor_file}",
+                                     f"_robots:={robots}"], self.env(first.name))
+
+    def env(self, robot: str) -> dict[str, str]:
+        if self.building is None:
+            raise DemoError("the building is not started")
+        r = self.building.robot(robot)
+        return ros_env(r.master_uri, r.ip, log_dir=self.run_dir / "ros" / robot)
+
+    def launch_args(self, robot: str) -> list[str]:
+        tours_dir = self.run_dir / "tours" / robot
+        args = {
+            "building": str(self.building_file), "robot": robot, "sim": "true", "speed": f"{self.speed:g}",
+            "start_wall": f"{self.start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
+            "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
+            "relay_state_dir": str(self.run_dir / "relay" / robot),
+        }
+        args.update(self.common_args)
+        args.update(self.robot_args.get(robot, {}))
+        return [f"{k}:={v}" for k, v in args.items()]
+
+    def start_recorder(self, robot: str) -> Path:
+        """A ``rosbag record`` of the shared topics on ``robot``'s master, into its next bag part."""
+        parts = self.bags.setdefault(robot, [])
+        n = len(parts)
+        bag = self.run_dir / (f"{robot}.bag" if n == 0 else f"{robot}.{n}.bag")
+        name = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
+        self.procs.start(name, [rosbag_record_binary(), "--quiet", "--min-space", "100M", "-O", str(bag),
+                                *RECORDED_TOPICS], self.env(robot))
+        parts.append(bag)
+        return bag
+
+    def start_visitor(self, robot: str) -> None:
+        """The simulated visitor's node of ``robot``'s floor, as a process of its own (not in the robot's
+        launch: restarting the robot's nodes must not make the person forget where they are)."""
+        assert self.building_file is not None and self.visitor is not None
+        params = {"building": str(self.building_file), "robot": robot, **self.visitor}
+        argv = [sys.executable, str(VISITOR_NODE), "__name:=visitor",
+                *(f"_{k}:={json.dumps(v)}" for k, v in params.items())]   # JSON is YAML: types kept
+        self.procs.start(f"visitor_{robot}", argv, self.env(robot))
+
+    def stop_master(self, robot: str, crash: bool = False) -> None:
+        """Stop ``robot``'s master (``crash``: SIGKILL, else SIGINT); its nodes keep running."""
+        name = f"master_{robot}"
+        if crash:
+            self.procs.signal(name, signal.SIGKILL)
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.procs.get(name).popen.wait(timeout=5.0)
+        else:
+            self.procs.stop(name, grace=5.0)
+
+    def start_master_again(self, robot: str, timeout: float = 15.0) -> float:
+        """Start ``robot``'s master again (same address and port) and wait until it answers; then its
+        recording goes on in a new bag part. Returns the monotonic time the master answered."""
+        from gidabot_sim.runner.procs import master_pid, wait_until
+
+        name = f"master_{robot}"
+        old = self.procs.get(name)
+        self.procs.start(name, old.argv, old.env, old.cwd)
+        uri = self.building.robot(robot).master_uri if self.building else ""
+        wait_until(lambda: master_pid(uri) is not None, timeout, f"master of {robot} back", interval=0.02)
+        up = time.monotonic()
+        set_param(uri, "/use_sim_time", True)
+        if self.record and self.bags.get(robot):
+            old_rec = f"record_{robot}" if len(self.bags[robot]) == 1 else f"record_{robot}.{len(self.bags[robot]) - 1}"
+            self.start_recorder(robot)
+            self.retired[old_rec] = up + RECORDER_OVERLAP
+        return up
+
+    def housekeeping(self) -> None:
+        """Stop the recorders a restarted master made obsolete, once their successors have run a while."""
+        now = time.monotonic()
+        for name, due in list(self.retired.items()):
+            if due is not None and now >= due and self.procs.alive(name):
+                self.procs.signal(name, signal.SIGINT)      # bag closed and indexed; reaped by stop()
+                self.retired[name] = float("inf")
+
+    def launch_robot(self, robot: str) -> None:
+        """(Re)start robot's whole stack (its roslaunch) against its master."""
+        name = f"robot_{robot}"
+        if self.procs.alive(name):
+            self.procs.stop(name, grace=20.0)
+        self.procs.start(name, ["roslaunch", "--skip-log-check", str(ROBOT_LAUNCH), *self.launch_args(robot)],
+                         self.env(robot))
+
+    def track(self) -> dict[int, ProcInfo]:
+        """Scan every process of the run (called now and then, and before :meth:`stop`): what is seen
+        here is stopped by :meth:`stop` even if its parent (a roslaunch) is killed before it."""
+        roots = {self.procs.get(n).popen.pid for n in self.procs.names() if self.procs.alive(n)}
+        tree = process_tree(roots)
+        self._seen.update(tree)
+        for info in tree.values():
+            self._root[info.pid] = self._owner(info, tree)
+        return tree
+
+    def _owner(self, info: ProcInfo, tree: dict[int, ProcInfo]) -> str:
+        leaders = {self.procs.get(n).popen.pid: n for n in self.procs.names()}
+        pid = info.pid
+        while pid in tree and pid not in leaders:
+            pid = tree[pid].ppid
+        return leaders.get(pid, "?")
+
+    def cpu_usage(self) -> list[dict[str, object]]:
+        """CPU seconds so far of every live process of the run: owner (robot_<R>, master_<R>,
+        record_<R>, monitor), node/program, pid; largest first."""
+        rows = [{"owner": self._root.get(info.pid, "?"), "process": info.label, "pid": info.pid,
+                 "cpu_s": round(info.cpu_s, 2)} for info in self.track().values()]
+        return sorted(rows, key=lambda r: -float(r["cpu_s"]))  # type: ignore[arg-type]
+
+    def _hurry_nodes(self, owners: list[str], grace: float = NODE_GRACE) -> None:
+        """roslaunch stops its nodes one by one and gives each 15 s to obey SIGINT before SIGTERM:
+        a node still running ``grace`` s after the SIGINT gets SIGTERM (then SIGKILL) from here, by
+        its process group (roslaunch starts each node in a session of its own)."""
+        leaders = {self.procs.get(n).popen.pid for n in owners}
+
+        def stragglers() -> list[ProcInfo]:
+            return [info for info in self.leftovers()
+                    if self._root.get(info.pid) in owners and info.pid not in leaders and info.pgid == info.pid]
+
+        deadline = time.monotonic() + grace
+        while stragglers() and time.monotonic() < deadline:
+            time.sleep(0.2)
+        for sig, wait in ((signal.SIGTERM, 2.0), (signal.SIGKILL, 1.0)):
+            late = stragglers()
+            if not late:
+                return
+            for info in late:
+                with contextlib.suppress(ProcessLookupError, PermissionError):
+                    os.killpg(info.pgid, sig)
+                note = f"{self._root.get(info.pid, '?')[len('robot_'):]}/{info.label} ({sig.name})"
+                if note not in self.forced:
+                    self.forced.append(note)
+            deadline = time.monotonic() + wait
+            while stragglers() and time.monotonic() < deadline:
+                time.sleep(0.1)
+
+    def leftovers(self) -> list[ProcInfo]:
+        """Processes of this run that are still alive (same pid and start time as when seen)."""
+        left = []
+        for pid, seen in self._seen.items():
+            now = read_proc(pid)
+            if now is not None and now.start == seen.start:
+                left.append(now)
+        return left
+
+    def dead(self) -> list[str]:
+        """Names of processes that should be running and are not (a failed launch, a dead master)."""
+        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired]
+
+    def process_groups(self) -> dict[str, int]:
+        """name -> process group id of every process started (each is its group's leader)."""
+        return {n: self.procs.get(n).popen.pid for n in self.procs.names()}
+
+    # -- stop ----------------------------------------------------------------
+    def stop(self) -> None:
+        """Stop recorders (bags closed), then robots, monitor and masters. Idempotent."""
+        if self._stopped:
+            return
+        self._stopped = True
+        self.track()
+        for name in self.procs.names():
+            if name.startswith("record_"):
+                self.procs.stop(name, grace=15.0)
+        robots = [n for n in self.procs.names() if n.startswith("robot_")]
+        for name in robots:   # every robot shuts down at the same time, then each is waited for
+            if self.procs.alive(name):
+                self.procs.signal(name, signal.SIGINT)
+        self._hurry_nodes(robots)
+        for name in robots:
+            self.procs.stop(name, grace=20.0)
+        self.procs.close()
+        for info in self.leftovers():   # a node whose roslaunch did not stop it (own session: own group)
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                if info.pgid == info.pid:
+                    os.killpg(info.pid, signal.SIGKILL)
+                else:
+                    os.kill(info.pid, signal.SIGKILL)
+            self.killed_leftovers.append(f"{info.label} (pid {info.pid})")
+        for active in self.run_dir.glob("*.bag.active"):   # a recorder that had to be killed
+            subprocess.run(["rosbag", "reindex", str(active)], capture_output=True, timeout=120, check=False)
+            shutil.move(str(active), str(active.with_suffix("")))
+            for orig in self.run_dir.glob("*.bag.orig.active"):   # reindex's backup
+                orig.unlink()

@@ -1,0 +1,224 @@
+"""The floor world: commands and timeouts, collisions (walls, obstacles, robots), teleports, obstacles,
+laser, battery, odometry, time catch-up; several robots on one floor."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gidabot_navigation.building.geometry import Pose2D
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
+from gidabot_navigation.building.planning import Circle, Rectangle
+from gidabot_sim.errors import CommandRejected, ObstacleRejected, PoseRejected, SimConfigError
+from gidabot_sim.world.kinematics import Limits
+from gidabot_sim.world.world import MAX_OBSTACLES, BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
+
+RES = 0.05
+FACULTY = Path(__file__).resolve().parents[4] / "maps" / "faculty"
+DIFF = Limits(0.6, 1.0, 0.5, 1.5, "differential")
+SYNC = Limits(0.5, 0.9, 0.4, 1.2, "synchro")
+
+
+def hall(width_m: float = 10.0, height_m: float = 6.0) -> OccupancyMap:
+    """A walled rectangle, origin (0, 0): free inside x 0.05..w-0.05, y 0.05..h-0.05."""
+    cells = np.full((int(round(height_m / RES)), int(round(width_m / RES))), FREE, dtype=np.int8)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = OCCUPIED
+    return OccupancyMap(cells, RES, 0.0, 0.0)
+
+
+def spec(name: str = "R", radius: float = 0.3, limits: Limits = DIFF, **kw) -> RobotSpec:
+    return RobotSpec(name, radius, limits, LaserSpec(beams=361, noise=0.0), **kw)   # beam 180 looks ahead
+
+
+def drive(world: World, index: int, vx: float, vy: float, wz: float, seconds: float) -> None:
+    """Keep commanding (as a controller at 10 Hz would) for ``seconds``."""
+    end = world.time + seconds
+    while world.time < end - 1e-9:
+        world.set_command(index, vx, vy, wz)
+        world.advance_to(world.time + 0.1)
+
+
+def test_commands_ramp_at_the_limits_and_time_out() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    world.set_command(0, 1.0, 0.0, 0.0)                 # clamped to 0.6
+    world.advance_to(0.2)
+    robot = world.robots[0]
+    assert robot.vel.vx == pytest.approx(0.1)            # 0.5 m/s^2 for 0.2 s
+    world.advance_to(5.0)                                 # no new command after 0.2 s: brakes and stops
+    assert robot.vel.is_zero()
+    assert robot.pose.x < 2.0 + 0.2                       # moved only while the command was fresh
+    drive(world, 0, 0.6, 0.0, 0.0, 3.0)
+    assert robot.vel.vx == pytest.approx(0.6)
+    assert robot.pose.y == pytest.approx(3.0) and robot.pose.yaw == pytest.approx(0.0)
+    with pytest.raises(CommandRejected):
+        world.set_command(0, math.nan, 0.0, 0.0)
+    assert robot.cmd.vx == pytest.approx(0.6)             # the last good command stays
+
+
+def test_a_robot_never_enters_a_wall() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(8.0, 3.0, 0.0))
+    drive(world, 0, 0.6, 0.0, 0.0, 10.0)                  # straight at the east wall (inner face x 9.95)
+    robot = world.robots[0]
+    assert robot.stalled and robot.stalls >= 1 and robot.vel.is_zero()
+    assert 9.95 - 0.3 - 0.02 <= robot.pose.x <= 9.95 - 0.3 + 1e-9    # touching, never overlapping
+    assert world.clearance(robot.pose.x, robot.pose.y) >= 0.3
+    drive(world, 0, -0.3, 0.0, 0.0, 1.0)                  # backing out is allowed
+    assert not robot.stalled and robot.pose.x < 9.5
+
+
+def test_two_robots_collide_and_see_each_other() -> None:
+    world = World(hall(), dt=0.02)
+    a = world.add_robot(spec("A"), Pose2D(2.0, 3.0, 0.0))
+    b = world.add_robot(spec("B", radius=0.25, limits=SYNC), Pose2D(6.0, 3.0, math.pi))
+    assert world.scan(a)[180] == pytest.approx(6.0 - 0.25 - 2.0 - 0.1, abs=1e-6)
+    for _ in range(100):                                   # head-on
+        world.set_command(a, 0.6, 0.0, 0.0)
+        world.set_command(b, 0.5, 0.0, 0.0)
+        world.advance_to(world.time + 0.1)
+    ra, rb = world.robots
+    gap = math.hypot(ra.pose.x - rb.pose.x, ra.pose.y - rb.pose.y)
+    assert 0.55 - 1e-9 <= gap <= 0.55 + 0.05
+    assert ra.stalls >= 1 and rb.stalls >= 1
+    # B is holonomic: it can slide sideways out of the way, A then passes
+    drive(world, b, 0.0, 0.5, 0.0, 3.0)
+    assert rb.pose.y < 3.0 - 1.0                           # B faces -x: its left is -y
+    drive(world, a, 0.6, 0.0, 0.0, 5.0)
+    assert ra.pose.x > rb.pose.x + 1.0
+    with pytest.raises(PoseRejected, match="overlaps robot A"):
+        world.teleport(b, Pose2D(ra.pose.x + 0.3, ra.pose.y, 0.0))
+
+
+def test_teleport_checks_and_nudges() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    world.set_command(0, 0.5, 0.0, 0.0)
+    world.advance_to(0.1)
+    odom_before = world.robots[0].odom
+    placed = world.teleport(0, Pose2D(5.0, 2.0, 7.0))
+    assert placed == Pose2D(5.0, 2.0, pytest.approx(7.0 - 2 * math.pi))
+    assert world.robots[0].vel.is_zero() and world.robots[0].odom == odom_before   # odometry does not jump
+    nudged = world.teleport(0, Pose2D(9.8, 3.0, 0.0))         # 0.15 m from the wall: moved clear of it
+    assert world.clearance(nudged.x, nudged.y) >= 0.3 and abs(nudged.x - 9.8) <= 0.5
+    for bad, message in [(Pose2D(math.nan, 1.0, 0.0), "not finite"), (Pose2D(1.0, 1.0, math.inf), "not finite"),
+                         (Pose2D(-3.0, 1.0, 0.0), "outside the map"), (Pose2D(9.97, 3.0, 0.0), "inside a wall"),
+                         (Pose2D(5.0, 6.5, 0.0), "outside the map")]:
+        with pytest.raises(PoseRejected, match=message):
+            world.teleport(0, bad)
+    assert world.robots[0].pose == nudged
+    with pytest.raises(PoseRejected, match="does not fit"):
+        World(hall(1.0, 1.0)).add_robot(spec(radius=0.6), Pose2D(0.5, 0.5, 0.0))
+
+
+def test_obstacles_block_robots_and_the_laser() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    ahead = 180
+    assert world.scan(0)[ahead] == pytest.approx(9.95 - 2.1, abs=1e-6)
+    world.add_obstacle("door", Rectangle(6.0, 3.0, 0.1, 6.0))      # a closed door across the hall
+    version = world.obstacle_version
+    assert world.scan(0)[ahead] == pytest.approx(5.95 - 2.1, abs=0.06)   # rasterised within half a cell
+    drive(world, 0, 0.6, 0.0, 0.0, 15.0)
+    assert world.robots[0].pose.x <= 5.90 - 0.3 + 1e-9 and world.robots[0].stalls >= 1
+    world.add_obstacle("person", Circle(3.0, 1.0, 0.25))
+    with pytest.raises(ObstacleRejected, match="overlap robot R"):
+        world.add_obstacle("onto", Circle(world.robots[0].pose.x + 0.4, 3.0, 0.2))
+    with pytest.raises(ObstacleRejected, match="id"):
+        world.add_obstacle("bad id!", Circle(3.0, 5.0, 0.2))
+    with pytest.raises(ObstacleRejected, match="radius"):
+        obstacle_shape(0, 3.0, 5.0, 0.0, -1.0, 0.0, 0.0)
+    with pytest.raises(ObstacleRejected, match="shape"):
+        obstacle_shape(7, 3.0, 5.0, 0.0, 1.0, 0.0, 0.0)
+    with pytest.raises(ObstacleRejected, match="finite"):
+        obstacle_shape(1, math.nan, 5.0, 0.0, 0.0, 1.0, 1.0)
+    assert world.remove_obstacle("door") and not world.remove_obstacle("door")
+    assert world.obstacle_version > version
+    assert world.scan(0)[ahead] == pytest.approx(9.95 - world.laser_pose(0).x, abs=1e-6)
+    assert world.clear_obstacles() == 1 and world.obstacles == {}
+    for k in range(MAX_OBSTACLES):
+        world.add_obstacle(f"o{k}", Circle(9.0, 0.5 + 0.02 * k, 0.01))
+    with pytest.raises(ObstacleRejected, match="already"):
+        world.add_obstacle("one-more", Circle(9.0, 5.0, 0.01))
+    world.add_obstacle("o0", Circle(9.0, 5.0, 0.02))                # replacing is fine
+
+
+def test_a_burst_of_obstacle_changes_updates_the_world_once() -> None:
+    world = World(hall(), dt=0.02)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    version = world.obstacle_version
+    for k in range(20):
+        world.add_obstacle(f"p{k}", Circle(4.0 + 0.2 * k, 5.0, 0.05), rebuild=False)
+    world.add_obstacle("door", Rectangle(6.0, 3.0, 0.1, 6.0), rebuild=False)
+    assert world.remove_obstacle("p0", rebuild=False)
+    assert world.scan(0)[180] == pytest.approx(9.95 - 2.1, abs=1e-6)   # not applied yet
+    assert world.rebuild() and not world.rebuild()
+    assert world.obstacle_version == version + 1
+    assert world.scan(0)[180] < 4.0
+    assert world.clear_obstacles(rebuild=False) == 20 and world.rebuild()
+
+
+def test_laser_noise_limits_and_geometry() -> None:
+    world = World(hall(), dt=0.02, rng=np.random.default_rng(3))
+    laser = LaserSpec(beams=181, fov=math.pi, noise=0.02, range_max=4.0)
+    world.add_robot(RobotSpec("R", 0.3, DIFF, laser), Pose2D(2.0, 3.0, 0.0))
+    ranges = world.scan(0)
+    assert ranges.shape == (181,) and laser.angle_increment == pytest.approx(math.pi / 180)
+    assert ranges[0] == pytest.approx(2.95, abs=0.1) and ranges[-1] == pytest.approx(2.95, abs=0.1)  # right, left
+    assert ranges[90] == math.inf                                 # 7.85 m ahead > range_max 4 m
+    clean = world.scan(0, noisy=False)
+    finite = np.isfinite(clean)
+    noise = ranges[finite] - clean[finite]
+    assert 0.01 < noise.std() < 0.03
+    assert LaserSpec(beams=4, fov=2 * math.pi).angles().tolist() == pytest.approx(
+        [-math.pi, -math.pi / 2, 0.0, math.pi / 2])
+    with pytest.raises(SimConfigError, match="beams"):
+        LaserSpec(beams=0)
+
+
+def test_battery_drains_with_time_and_distance() -> None:
+    model = BatteryModel(start=0.9, idle_per_hour=0.1, per_km=0.5)
+    world = World(hall(30.0, 6.0), dt=0.05, max_catchup=1e6)
+    world.add_robot(spec(battery=model), Pose2D(2.0, 3.0, 0.0))
+    world.advance_to(3600.0 / 10)                      # 6 minutes at rest
+    robot = world.robots[0]
+    assert robot.battery == pytest.approx(0.9 - 0.01, abs=1e-6)
+    drive(world, 0, 0.6, 0.0, 0.0, 40.0)
+    assert robot.odometer > 20.0
+    idle = 0.1 * 40.0 / 3600.0
+    assert robot.battery == pytest.approx(0.89 - idle - 0.5 * robot.odometer / 1000.0, abs=1e-6)
+    assert model.voltage(1.0) == 12.7 and model.voltage(0.0) == 11.0
+    with pytest.raises(SimConfigError, match="start"):
+        BatteryModel(start=1.5)
+
+
+def test_time_catch_up_and_skips() -> None:
+    world = World(hall(), dt=0.02, max_catchup=10.0)
+    world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
+    world.start_at(100.0)
+    assert world.advance_to(101.0) == 50 and world.time == pytest.approx(101.0)
+    world.set_command(0, 0.5, 0.0, 0.0)
+    assert world.advance_to(1000.0) == 500                # 899 s behind: 889 s skipped, 10 s simulated
+    assert world.skipped == pytest.approx(889.0) and world.time == pytest.approx(1000.0)
+    assert world.robots[0].pose.x == pytest.approx(2.0)   # the command did not survive the gap
+    with pytest.raises(ValueError):
+        world.advance_to(math.nan)
+
+
+def test_the_faculty_robots_fit_at_home_and_the_synchro_robot_turns_while_sliding() -> None:
+    faculty = load_building(FACULTY)
+    for floor in faculty.floors:
+        robot = faculty.robot_on(floor.id)
+        world = World(floor.map)
+        world.add_robot(RobotSpec(robot.name, robot.radius, Limits.of_robot(robot)), robot.home)
+        assert world.clearance(robot.home.x, robot.home.y) >= robot.radius
+    mari = faculty.robot("MariSorgin")
+    world = World(faculty.floor(3).map, dt=0.02)
+    world.add_robot(RobotSpec(mari.name, mari.radius, Limits.of_robot(mari)), mari.home)
+    drive(world, 0, 0.4, 0.0, 0.5, 4.0)
+    pose = world.robots[0].pose
+    assert pose.yaw > 1.0 and world.robots[0].stalls == 0

@@ -1,0 +1,234 @@
+"""goal_manager + multirobot_navigation on ONE master (launch/guiding.launch), with a fake move_base.
+
+Tartalo (floor 0) runs its guiding nodes next to tests/guiding_fake_nav.py (move_base action
+server, amcl_pose, odom, battery); a probe plays the visitor (visitor/command), the other
+robots (their goals, events and statuses on the shared topics) and records what guiding says.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+from probe import Probe
+
+from gidabot_navigation.building.model import load_building
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
+
+pytestmark = pytest.mark.system
+
+REPO = Path(__file__).resolve().parents[2]
+FACULTY = REPO / "maps" / "faculty"
+LAUNCH = REPO / "launch" / "guiding.launch"
+FAKE_NAV = Path(__file__).resolve().parent / "guiding_fake_nav.py"
+EVENT, GOAL, CANCEL, CMD = ("gidabot_msgs/NavEvent", "gidabot_msgs/Goal", "gidabot_msgs/Cancel",
+                            "gidabot_msgs/VisitorCommand")
+STATUS, PENDING = "gidabot_msgs/RobotStatus", "gidabot_msgs/PendingRequests"
+(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE, CANCELLED_HERE,
+ CANCELLED_ELSEWHERE, TIMEOUT, REJECTED) = 0, 1, 2, 3, 4, 5, 6, 8, 9, 10, 12
+REQUEST, CONTINUE, CANCEL_CMD = 0, 1, 2
+BLOCKED = "012"                   # the fake move_base cannot reach this room
+
+
+class Robot:
+    def __init__(self, procs: ProcessGroup, probe: Probe, env: dict[str, str]) -> None:
+        self.procs, self.probe, self.env = procs, probe, env
+        self.n = 0
+
+    def command(self, command: int, **fields) -> None:
+        self.n += 1
+        msg = {"uid": f"Tartalo/test/cmd/{self.n}", "visitor_id": "test", "command": command, "language": "en",
+               "tour_step": -1, **fields}
+        self.probe.pub("visitor/command", CMD, msg, subs=2)
+
+    def statuses(self) -> None:
+        """The other robots are alive (their statuses, as the relays would deliver them)."""
+        for name, floor in (("Kbot", 1.0), ("Galtxagorri", 2.0), ("MariSorgin", 3.0)):
+            self.probe.pub("/gidabot/status", STATUS, {"robot": name, "floor": floor, "state": "idle"}, subs=2)
+
+    def events(self, goal_uid: str | None = None, since: int = 0) -> list[dict]:
+        return [m for m in self.probe.msgs("/gidabot/nav_events", since)
+                if goal_uid is None or m["goal_uid"] == goal_uid]
+
+    def wait_phase(self, phase: int, goal_uid: str | None = None, since: int = 0, timeout: float = 20.0,
+                   robot: str = "Tartalo") -> dict:
+        return self.probe.wait("/gidabot/nav_events", lambda m: m["phase"] == phase and m["robot"] == robot and
+                               (goal_uid is None or m["goal_uid"] == goal_uid), timeout,
+                               f"phase {phase} for {goal_uid}", since=since)
+
+    def idle(self, timeout: float = 20.0) -> dict:
+        return self.probe.wait("/gidabot/status", lambda m: m["state"] == "idle" and m["pending"] == 0, timeout,
+                               "Tartalo idle", since=max(0, len(self.probe.msgs("/gidabot/status")) - 1))
+
+
+@pytest.fixture(scope="module")
+def robot(tmp_path_factory) -> Iterator[Robot]:
+    tmp = tmp_path_factory.mktemp("guiding_nodes")
+    building = load_building(FACULTY)
+    blocked = building.location(BLOCKED).pose
+    with ProcessGroup(tmp / "logs") as procs:
+        ip = robot_address(0)
+        uri = start_master(procs, "master", ip)
+        env = ros_env(uri, ip, log_dir=tmp / "logs" / "ros")
+        procs.start("fake_nav", [sys.executable, str(FAKE_NAV), "_start:=[30.0, 12.0, 0.0]", "_speed:=12.0",
+                                 f"_abort_at:=[[{blocked.x}, {blocked.y}]]"], env)
+        procs.start("guiding", ["roslaunch", "--skip-log-check", str(LAUNCH), f"building:={FACULTY}",
+                                "robot:=Tartalo", "continue_timeout:=4", "output:=screen"], env)
+        with Probe(env, tmp / "logs" / "probe.log") as probe:
+            for topic, type_ in (("/gidabot/nav_events", EVENT), ("/gidabot/goals", GOAL),
+                                 ("/gidabot/cancels", CANCEL), ("/gidabot/status", STATUS),
+                                 ("/gidabot/pending", PENDING), ("/gidabot/poses", "gidabot_msgs/NavPose"),
+                                 ("/diagnostics", "diagnostic_msgs/DiagnosticArray")):
+                probe.sub(topic, type_)
+            r = Robot(procs, probe, env)
+            # the nodes are up, localised and connected to move_base
+            probe.wait("/gidabot/status", lambda m: m["robot"] == "Tartalo" and m["state"] == "idle"
+                       and abs(m["nav_pose"]["position"]["x"] - 30.0) < 0.01 and abs(m["battery"] - 0.8) < 1e-6,
+                       60, "Tartalo's status")
+            probe.wait("/gidabot/pending", lambda m: m["robot"] == "Tartalo", 30, "Tartalo's pending list")
+            yield r
+
+
+def test_same_floor_request_is_guided_to_the_goal(robot: Robot) -> None:
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id="001", way="stairs")
+    acc = robot.wait_phase(ACCEPTED, since=n)
+    uid = acc["goal_uid"]
+    goal = robot.probe.wait("/gidabot/goals", lambda m: m["uid"] == uid, 5, "the broadcast goal")
+    assert (goal["origin_robot"], goal["initial_floor"], goal["goal_floor"], goal["goal_id"]) == \
+        ("Tartalo", 0.0, 0.0, "001")
+    assert goal["initial_pose"]["x"] == pytest.approx(30.0, abs=0.01)
+    pend = robot.probe.wait("/gidabot/pending", lambda m: m["num"] == 1 and m["goals"][0]["uid"] == uid, 5)
+    assert pend["eta"][0] > 0 and pend["wait_new"] == pend["eta"][0]
+    robot.probe.wait("/gidabot/status", lambda m: m["current_goal_uid"] == uid and m["state"] == "guiding", 10)
+    robot.wait_phase(GOAL_REACHED, uid)
+    assert [e["phase"] for e in robot.events(uid)] == [ACCEPTED, ON_THE_WAY, GOAL_REACHED]
+    robot.idle()
+    robot.probe.wait("/gidabot/poses", lambda m: m["robot"] == "Tartalo" and m["floor"] == 0.0
+                     and abs(m["nav_pose"]["position"]["x"] - 9.0) < 0.01, 5, "the pose at the goal")
+
+
+def test_cross_floor_request_from_the_start_robot(robot: Robot) -> None:
+    robot.statuses()
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id="301", way="stairs")
+    uid = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
+    goal = robot.probe.wait("/gidabot/goals", lambda m: m["uid"] == uid, 5)
+    assert goal["connector"] == "stairs_west" and goal["way"] == "stairs" and goal["goal_floor"] == 3.0
+    otw = robot.wait_phase(ON_THE_WAY, uid)
+    assert otw["location_id"] == "stairs_west"
+    ev = robot.wait_phase(GO_TO_FLOOR, uid)
+    assert (ev["target_floor"], ev["way"], ev["connector"], ev["location_id"]) == (3.0, "stairs", "stairs_west", "301")
+    robot.idle()
+
+
+def test_goal_floor_meets_the_visitor_and_times_out(robot: Robot) -> None:
+    """Goals from MariSorgin (floor 3) to floor 0: Tartalo meets the visitor at the staircase."""
+    robot.statuses()
+    loc = load_building(FACULTY).location("005").pose
+
+    def goal(uid: str) -> dict:
+        return {"uid": uid, "origin_robot": "MariSorgin", "visitor_id": "v", "initial_floor": 3.0,
+                "initial_pose": {"x": 30.0, "y": 12.0}, "goal_floor": 0.0,
+                "goal_pose": {"position": {"x": loc.x, "y": loc.y}, "orientation": {"w": 1.0}}, "way": "stairs",
+                "connector": "stairs_west", "start_id": "robot", "goal_id": "005", "language": "eu",
+                "tour_file": "", "tour_step": -1}
+
+    n = len(robot.events())
+    robot.probe.pub("/gidabot/goals", GOAL, goal("MariSorgin/v/t.1"), subs=2)
+    robot.wait_phase(GOING_TO_MEETING, "MariSorgin/v/t.1", since=n)
+    robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.1", since=n)
+    robot.command(CONTINUE, goal_uid="MariSorgin/v/t.1")
+    robot.wait_phase(GOAL_REACHED, "MariSorgin/v/t.1", since=n)
+    assert robot.events("MariSorgin/v/t.1")[0]["language"] == "eu"
+    # a second visitor never shows up: 4 s after MariSorgin released them, the trip is dropped
+    robot.probe.pub("/gidabot/goals", GOAL, goal("MariSorgin/v/t.2"), subs=2)
+    robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.2", since=n)
+    robot.probe.pub("/gidabot/nav_events", EVENT, {"uid": "MariSorgin/event/t.1", "robot": "MariSorgin",
+                                                   "floor": 3.0, "goal_uid": "MariSorgin/v/t.2",
+                                                   "phase": GO_TO_FLOOR, "target_floor": 0.0, "tour_step": -1},
+                    subs=3)
+    robot.wait_phase(TIMEOUT, "MariSorgin/v/t.2", since=n, timeout=15)
+    robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == "MariSorgin/v/t.2" and m["reason"] == "timeout",
+                     5, "the timeout cancel")
+    robot.idle()
+
+
+def test_cancel_stops_the_robot(robot: Robot) -> None:
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id="022", way="stairs")      # 40 m away: a few seconds of driving
+    uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
+    robot.command(CANCEL_CMD, goal_uid="")
+    robot.wait_phase(CANCELLED_HERE, uid)
+    cancel = robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == uid, 5, "the broadcast cancel")
+    assert (cancel["origin_robot"], cancel["reason"]) == ("Tartalo", "visitor")
+    status = robot.idle(10)
+    x = status["nav_pose"]["position"]["x"]
+    assert x < 45.0, f"the robot went on to the goal (x = {x})"      # stopped on the way to x = 51 m
+    assert GOAL_REACHED not in [e["phase"] for e in robot.events(uid)]
+
+
+def test_aborted_navigation_is_unreachable_and_broadcast(robot: Robot) -> None:
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id=BLOCKED, way="stairs")
+    uid = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
+    ev = robot.wait_phase(UNREACHABLE, uid)
+    assert "Failed to find a valid plan" in ev["detail"] or "aborted" in ev["detail"]
+    cancel = robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == uid, 5, "the unreachable cancel")
+    assert (cancel["origin_robot"], cancel["reason"]) == ("Tartalo", "unreachable")
+    robot.idle()
+    # a cancel from the goal floor of another trip tells this visitor
+    robot.statuses()
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id="223", way="lift")
+    uid2 = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
+    robot.probe.pub("/gidabot/cancels", CANCEL, {"uid": "Galtxagorri/cancel/t.1", "goal_uid": uid2,
+                                                 "origin_robot": "Galtxagorri", "reason": "visitor"}, subs=3)
+    robot.wait_phase(CANCELLED_ELSEWHERE, uid2)
+    robot.idle()
+
+
+def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
+    p = robot.probe
+    n = len(robot.events())
+    for cmd in ({"command": 99}, {"command": REQUEST, "goal_id": "x" * 100000},
+                {"command": REQUEST, "goal_id": "999"}, {"command": REQUEST, "goal_id": "001", "way": "rocket"},
+                {"command": CONTINUE, "goal_uid": "../../etc"}, {"command": 3, "tour_file": "../../passwd.tour"},
+                {"command": 4, "tour_file": "nope.tour", "tour_step": 2 ** 31 - 1},
+                {"command": CANCEL_CMD, "goal_uid": "nobody/v/1"}, {"command": REQUEST, "language": "\u0000"}):
+        robot.command(**cmd)
+    base = {"uid": "Evil/1", "origin_robot": "Kbot", "visitor_id": "v", "initial_floor": 1.0,
+            "initial_pose": {"x": 30.0, "y": 12.0}, "goal_floor": 0.0,
+            "goal_pose": {"position": {"x": 9.0, "y": 11.4}, "orientation": {"w": 1.0}}, "way": "stairs",
+            "connector": "stairs_west", "start_id": "robot", "goal_id": "001", "language": "en", "tour_step": -1}
+    hostile = [{"goal_floor": "nan"}, {"initial_floor": "nan"}, {"goal_floor": 1e30}, {"origin_robot": "Evil"},
+               {"goal_id": "999"}, {"uid": "u" * 200000}, {"goal_pose": {"position": {"x": "nan", "y": 1.0}}},
+               {"connector": "chimney"}, {"tour_file": "../../x.tour", "tour_step": 0}, {"language": "x" * 5000}]
+    for i, change in enumerate(hostile):
+        msg = {**base, "uid": f"Evil/{i}", **change}
+        p.pub("/gidabot/goals", GOAL, msg, subs=2)
+    p.pub("/gidabot/cancels", CANCEL, {"uid": "", "goal_uid": "x", "origin_robot": "Evil", "reason": "why"}, subs=3)
+    p.pub("/gidabot/nav_events", EVENT, {"uid": "e/1", "robot": "Tartalo", "floor": "nan", "goal_uid": "",
+                                         "phase": 250, "tour_step": -5}, subs=3)
+    # the goal manager counted the rejections
+    def rejected() -> int:
+        for m in reversed(p.msgs("/diagnostics")):
+            st = m["status"][0]
+            if st["name"] == "guiding: goal_manager Tartalo":
+                return int({kv["key"]: kv["value"] for kv in st["values"]}.get("rejected", 0))
+        return 0
+    wait_until(lambda: rejected() >= len(hostile) + 5, 15, "the rejections counted")
+    rejected_events = [e for e in robot.events(since=n) if e["phase"] == REJECTED]
+    assert len(rejected_events) >= 5 and all(len(e["detail"]) <= 400 for e in rejected_events)
+    assert robot.procs.alive("guiding") and robot.procs.alive("fake_nav")
+    # a valid request still works; an (empty) pending list of Tartalo published by another node
+    # on the way is ignored (only the local goal_manager's counts)
+    n = len(robot.events())
+    robot.command(REQUEST, goal_id="014", way="stairs")
+    uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
+    p.pub("/gidabot/pending", PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, subs=2)
+    robot.wait_phase(GOAL_REACHED, uid)
+    log = (robot.procs.get("guiding").log_path or Path("/dev/null")).read_text(errors="replace")
+    assert "Traceback" not in log

@@ -1,0 +1,108 @@
+"""The tour_store node on one master: admin edits, remote tours, hostile input, anti-entropy, restart."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from probe import Probe
+from tour_system import FACULTY, REPO, T_NOW, TOUR, VISIT, dir_state, hostile, robot_ip, start_store, tour
+
+from gidabot_sim.runner.procs import ProcessGroup, ros_env, start_master, wait_until
+
+pytestmark = pytest.mark.system
+SEEDED = ["long_tour.tour", "paper_example.tour", "real_world.tour"]
+
+
+@pytest.fixture
+def one_robot(tmp_path: Path, procs: ProcessGroup):
+    """Galtxagorri's master, its tour store (launch file, seeded from tours/) and a probe."""
+    uri = start_master(procs, "master", robot_ip(2))
+    env = ros_env(uri, robot_ip(2), log_dir=tmp_path / "logs" / "ros")
+    tours_dir = tmp_path / "tours"
+    start_store(procs, env, "Galtxagorri", FACULTY, tours_dir, name="tour_store")
+    with Probe(env, tmp_path / "logs" / "probe.log") as probe:
+        for topic, type_ in (("tour_store/catalog", "gidabot_msgs/TourCatalog"), ("/gidabot/tours", TOUR),
+                             ("/gidabot/tour_index", "gidabot_msgs/TourIndex"),
+                             ("tour_store/edit_result", "gidabot_msgs/TourEditResult"),
+                             ("/diagnostics", "diagnostic_msgs/DiagnosticArray")):
+            probe.sub(topic, type_)
+        probe.wait("tour_store/catalog", lambda m: len(m["tours"]) == 3, 60, "the seeded catalog")
+        yield procs, env, tours_dir, probe
+
+
+def catalog_names(probe: Probe) -> list[str]:
+    return [t["file_name"] for t in probe.msgs("tour_store/catalog")[-1]["tours"]]
+
+
+def diag(probe: Probe, key: str) -> int:
+    msgs = probe.msgs("/diagnostics")
+    if not msgs:
+        return 0
+    values = {kv["key"]: kv["value"] for kv in msgs[-1]["status"][0]["values"]}
+    return int(values.get(key, 0))
+
+
+def test_admin_edits_are_stored_shared_and_survive_restart(one_robot) -> None:
+    procs, env, tours_dir, probe = one_robot
+    assert sorted(dir_state(tours_dir)) == SEEDED
+    assert dir_state(tours_dir)["real_world.tour"] == (REPO / "tours" / "real_world.tour").read_bytes()
+
+    probe.pub("tour_store/edit", TOUR, tour("visit.tour", VISIT, name="Open day", uid="gui/1"))
+    res = probe.wait("tour_store/edit_result", lambda m: m["uid"] == "gui/1", 10, "edit result")
+    assert res["ok"] and res["version"] > 0, res
+    assert dir_state(tours_dir)["visit.tour"] == b"Tour: Open day\n" + "\n".join(VISIT).encode() + b"\n"
+    shared = probe.wait("/gidabot/tours", lambda m: m["file_name"] == "visit.tour", 5, "the shared tour")
+    assert (shared["editor_robot"], shared["origin_robot"], shared["version"]) == ("Galtxagorri", "Galtxagorri",
+                                                                                    res["version"])
+    assert shared["tour_goals_info"] == VISIT and shared["tour_name"] == "Open day" and shared["floor"] == 0
+    probe.wait("tour_store/catalog", lambda m: "visit.tour" in [t["file_name"] for t in m["tours"]], 5)
+    probe.wait("/gidabot/tour_index", lambda m: "visit.tour" in m["file_names"], 5)
+
+    probe.pub("tour_store/edit", TOUR, tour("bad.tour", ["0, 999, Nowhere"], uid="gui/2"))
+    res = probe.wait("tour_store/edit_result", lambda m: m["uid"] == "gui/2", 10)
+    assert not res["ok"] and res["reason"] == "content" and "unknown room '999'" in res["error"]
+    assert "bad.tour" not in dir_state(tours_dir)
+
+    probe.pub("tour_store/edit", TOUR, tour("long_tour.tour", [], deleted=True, uid="gui/3"))
+    assert probe.wait("tour_store/edit_result", lambda m: m["uid"] == "gui/3", 10)["ok"]
+    assert "long_tour.tour" not in dir_state(tours_dir)
+    tomb = probe.wait("/gidabot/tours", lambda m: m["file_name"] == "long_tour.tour", 5, "the tombstone")
+    assert tomb["deleted"] and tomb["version"] > res["version"]
+
+    before = dir_state(tours_dir)
+    procs.stop("tour_store")
+    n = len(probe.msgs("tour_store/catalog"))
+    start_store(procs, env, "Galtxagorri", FACULTY, tours_dir, name="tour_store")
+    cat = probe.wait("tour_store/catalog", lambda m: True, 60, "the catalog after restart", since=n)
+    assert sorted(t["file_name"] for t in cat["tours"]) == ["paper_example.tour", "real_world.tour", "visit.tour"]
+    assert dir_state(tours_dir) == before
+
+
+def test_remote_tours_hostile_input_and_anti_entropy(one_robot) -> None:
+    procs, env, tours_dir, probe = one_robot
+    # a valid tour from Kbot is written into the directory
+    probe.pub("/gidabot/tours", TOUR, tour("from_kbot.tour", VISIT, editor="Kbot", origin="Kbot", version=T_NOW,
+                                             uid="Kbot/tour/x.1"), subs=2)
+    wait_until(lambda: "from_kbot.tour" in dir_state(tours_dir), 10, "Kbot's tour on disk")
+    before = dir_state(tours_dir)
+    assert sorted(before) == sorted([*SEEDED, "from_kbot.tour"])
+
+    # hostile and malformed tours: every one rejected, counted, nothing touched
+    cases = hostile("Kbot")
+    for _, msg, _ in cases:
+        probe.pub("/gidabot/tours", TOUR, msg, subs=2)
+    wait_until(lambda: diag(probe, "rejected") >= len(cases), 20, f"{len(cases)} rejections")
+    assert diag(probe, "rejected") == len(cases)
+    for reason in {r for _, _, r in cases}:
+        assert diag(probe, f"rejected_{reason}") == sum(1 for _, _, r in cases if r == reason), reason
+    assert dir_state(tours_dir) == before
+    assert not (tours_dir.parent / "escape.tour").exists() and not Path("/tmp/abs.tour").exists()
+    assert catalog_names(probe) == sorted(before)
+
+    # anti-entropy: Kbot's index says it lacks everything -> every record is re-sent
+    n = len(probe.msgs("/gidabot/tours"))
+    probe.pub("/gidabot/tour_index", "gidabot_msgs/TourIndex", {"robot": "Kbot", "file_names": [], "versions": [],
+                                                               "editor_robots": [], "deleted": []}, subs=2)
+    wait_until(lambda: {m["file_name"] for m in probe.msgs("/gidabot/tours", n)} >= set(before), 5,
+               "the re-sent tours")
