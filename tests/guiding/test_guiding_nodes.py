@@ -1,6 +1,6 @@
 """goal_manager + multirobot_navigation on ONE master (launch/guiding.launch), with a fake move_base.
 
-Tartalo (floor 0) runs its guiding nodes next to tests/guiding_fake_nav.py (move_base action
+Tartalo (floor 0) runs its guiding nodes next to tests/guiding/guiding_fake_nav.py (move_base action
 server, amcl_pose, odom, battery); a probe plays the visitor (visitor/command), the other
 robots (their goals, events and statuses on the shared topics) and records what guiding says.
 """
