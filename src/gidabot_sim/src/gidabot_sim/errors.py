@@ -32,3 +32,7 @@ class ObstacleRejected(SimError):
 
 class GoalRejected(SimError):
     """A navigation goal is invalid (not finite, invalid quaternion, wrong frame)."""
+
+
+class MachinesError(SimError):
+    """The separate machines (network namespaces, links, firewalls, faults) cannot be set up or changed."""
