@@ -248,6 +248,7 @@ class Stats:
     replays_ignored: int = 0        # local events already forwarded, published again (a replay, a restart)
     ignored_relay: int = 0          # local messages published by a relay (never forwarded again)
     resent: int = 0                 # events sent again on a new connection
+    acked_on_reconnect: int = 0     # unacknowledged events the peer's HELLO said it had stored (ACK lost)
     connections: int = 0            # authenticated connections so far
     link_losses: int = 0            # active connections lost
     rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REJECT_REASONS, 0))
@@ -512,9 +513,11 @@ class LinkCore:
         st = self.state
         down_for = "" if self.link_down_since is None else f" after {now - self.link_down_since:.1f} s"
         self.link_down_since = None
-        # what the peer already stored of our stream counts as acknowledged
+        # what the peer already stored of our stream counts as acknowledged (its ACK was lost with the link)
         if peer.in_epoch == st.out_epoch and st.outq and st.outq[0].seq <= peer.in_last:
+            queued = len(st.outq)
             self._acked(peer.in_last)
+            self.stats.acked_on_reconnect += queued - len(st.outq)
         if peer.out_epoch != st.in_epoch:
             if st.in_epoch:
                 self.log.warning(f"{self.name}: {self.cfg.peer_robot}'s event stream changed epoch "
@@ -750,6 +753,7 @@ class LinkCore:
             "dropped": s.dropped,
             "duplicates_suppressed": s.duplicates_suppressed,
             "resent": s.resent,
+            "acked_on_reconnect": s.acked_on_reconnect,
             "ignored_relay": s.ignored_relay,
             "replays_ignored": s.replays_ignored,
             "connections": s.connections,

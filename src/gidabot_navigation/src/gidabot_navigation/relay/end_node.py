@@ -46,7 +46,7 @@ from gidabot_navigation.relay.end import (
 )
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.master_watch import Event, MasterWatch, keep_registered, proxy
+from gidabot_navigation.ros.master_watch import Event, MasterWatch, bound_master_calls, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 
 EXIT_CONFIG = 2          # bad parameters: restarting will not help
@@ -703,6 +703,7 @@ def main(argv: list[str] | None = None) -> int:
     except RelayConfigError as err:
         print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
+    bound_master_calls()     # init_node's own calls to a master that does not answer are bounded too
     # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
     rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
     watch = keep_registered()
