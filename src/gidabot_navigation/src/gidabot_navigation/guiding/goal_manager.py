@@ -502,6 +502,8 @@ class GoalManagerCore:
         trip = self._pop(cancel.goal_uid)
         self._phase.pop(cancel.goal_uid, None)
         if trip is None:
+            if cancel.goal_uid not in self._goals_seen:
+                self.stats.inc("cancel_unknown")     # kept (its goal may still come), and counted
             return []
         self.stats.inc("cancelled")
         if cancel.origin_robot == self.me:

@@ -208,6 +208,7 @@ class SimulatedBuilding:
         self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
         self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
         self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
+        self.off: set[str] = set()               # robots whose machine is off (machine_off)
         self.ros_offsets: dict[str, float] = {}   # robot -> how far its sim clock is ahead (clock offsets)
 
     def __enter__(self) -> SimulatedBuilding:
@@ -378,6 +379,33 @@ class SimulatedBuilding:
             self.retired[old_rec] = up + RECORDER_OVERLAP
         return up
 
+    def machine_off(self, robot: str) -> list[int]:
+        """``robot``'s computer goes off: every process of its launch and its master killed (SIGKILL), and, with
+        separate machines, it is off the network. The world's tools on its floor (the visitor, the recorder)
+        stay. Returns the pids killed."""
+        if self.net is not None:
+            self.net.partition(robot)
+        self.off.add(robot)
+        tree = process_tree({self.procs.get(f"robot_{robot}").popen.pid, self.procs.get(f"master_{robot}").popen.pid})
+        self._seen.update(tree)
+        for info in tree.values():
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(info.pgid, signal.SIGKILL)
+        for name in (f"robot_{robot}", f"master_{robot}"):
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.procs.get(name).popen.wait(timeout=10.0)
+        return sorted(tree)
+
+    def machine_on(self, robot: str) -> float:
+        """``robot``'s computer is back: on the network, its master (recording in a new bag part) and its launch
+        started again, from what it kept on disk. Returns the monotonic time its master answered."""
+        if self.net is not None:
+            self.net.clear_faults(robot)
+        up = self.start_master_again(robot)
+        self.launch_robot(robot)
+        self.off.discard(robot)
+        return up
+
     def housekeeping(self) -> None:
         """Stop the recorders a restarted master made obsolete, once their successors have run a while."""
         now = time.monotonic()
@@ -455,8 +483,10 @@ class SimulatedBuilding:
         return left
 
     def dead(self) -> list[str]:
-        """Names of processes that should be running and are not (a failed launch, a dead master)."""
-        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired]
+        """Names of processes that should be running and are not (a failed launch, a dead master; not those of a
+        machine that is off)."""
+        off = {f"{kind}_{r}" for r in self.off for kind in ("robot", "master")}
+        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired and n not in off]
 
     def process_groups(self) -> dict[str, int]:
         """name -> process group id of every process started (each is its group's leader)."""

@@ -385,8 +385,8 @@ class Machines:
             self.iptables(name, "-A", "INPUT", *rule)
         return rules
 
-    def _fault(self, name: str, chain: str, *rule: str) -> None:
-        self.iptables(name, "-A", chain, *rule, "-j", "DROP")
+    def _fault(self, name: str, chain: str, *rule: str, remove: bool = False) -> None:
+        self.iptables(name, "-D" if remove else "-A", chain, *rule, "-j", "DROP")
 
     def partition(self, name: str) -> None:
         """Machine ``name`` loses the network (every packet in or out of ``eth0`` dropped)."""
@@ -394,19 +394,31 @@ class Machines:
         self._fault(name, FAULT_OUT, "-o", "eth0")
 
     def cut(self, a: str, b: str) -> None:
-        """Every packet between machines ``a`` and ``b`` dropped, both ways (rules on ``a``)."""
+        """Every packet between machines ``a`` and ``b`` dropped, both ways (rules on each)."""
         self.drop(a, b)
         self.drop(b, a)
+
+    def uncut(self, a: str, b: str) -> None:
+        """Undo :meth:`cut`."""
+        self.undrop(a, b)
+        self.undrop(b, a)
 
     def drop(self, src: str, dst: str, probability: float = 1.0) -> None:
         """Packets from ``src`` to ``dst`` dropped (with ``probability`` < 1: that share of them, at random);
         the other direction is untouched. Rules on ``src`` (OUTPUT)."""
+        self._fault(src, FAULT_OUT, *self._drop_rule(dst, probability))
+
+    def undrop(self, src: str, dst: str, probability: float = 1.0) -> None:
+        """Undo :meth:`drop` with the same arguments."""
+        self._fault(src, FAULT_OUT, *self._drop_rule(dst, probability), remove=True)
+
+    def _drop_rule(self, dst: str, probability: float) -> list[str]:
         if not 0.0 < probability <= 1.0:
             raise MachinesError(f"drop probability {probability!r}: expected (0, 1]")
         rule = ["-d", self.address(dst)]
         if probability < 1.0:
             rule += ["-m", "statistic", "--mode", "random", "--probability", f"{probability:.4f}"]
-        self._fault(src, FAULT_OUT, *rule)
+        return rule
 
     def clear_faults(self, name: str | None = None) -> None:
         """Remove every fault rule (of machine ``name``, or of every machine)."""
