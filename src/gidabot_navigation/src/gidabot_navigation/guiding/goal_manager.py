@@ -279,7 +279,9 @@ class GoalManagerCore:
                 self.stats.inc("finished")
         elif ev.phase in PROGRESS_PHASES and trip is not None:
             self._phase[ev.goal_uid] = (ev.phase, now_ros)
-        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and early.stamp >= ev.stamp > 0:
+        # both stamps are this robot's (its visitor's button, its navigation's event): robots' clocks may disagree
+        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and ev.robot == self.me \
+                and early.stamp >= ev.stamp > 0:
             self.stats.inc("early_continues")
             return self._continue(early, now_ros, now_wall)
         return []
