@@ -9,7 +9,10 @@ messages. Targets: every request of the visitor completed, no goal lost or dupli
 recovery within 5 s, Table 3 as without faults (from the probes and from the bags), every hostile
 message counted by a node of the master it was sent to, no node crash, every tour directory
 unchanged. The full run (the Table 2 tour) is `bin/gidabot chaos`; measured runs are in docs/chaos.md.
-Needs root for iptables; bounded to about 4 minutes.
+With separate machines (`--machines`) the faults of a real network are added: a robot
+partitioned, every link flapping, one-way and partial loss, a machine down and back, and every
+robot's clock off by up to 5 minutes. Needs root (iptables, network namespaces); bounded to
+about 4 minutes each.
 """
 
 from __future__ import annotations
@@ -35,20 +38,22 @@ KEYS = {"accepted", "completed", "lost", "duplicated", "max_recovery_s", "faults
         "requests"}
 
 
-@pytest.mark.timeout(330)
+@pytest.mark.timeout(600)
 @pytest.mark.skipif(shutil.which("iptables") is None or os.geteuid() != 0, reason="needs iptables and root")
-def test_quick_chaos_run_keeps_every_promise(tmp_path: Path) -> None:
+@pytest.mark.parametrize("machines", [False, True], ids=["loopback", "machines"])
+def test_quick_chaos_run_keeps_every_promise(tmp_path: Path, machines: bool) -> None:
     tour = tmp_path / "chaos_test.tour"
     tour.write_text(TOUR, encoding="utf-8")
+    where = ["--machines"] if machines else ["--net", str(procs_mod.test_network())]
     argv = [str(GIDABOT), "chaos", "--profile", "quick", "--seed", "3", "--tour", str(tour), "--out",
-            str(tmp_path / "runs"), "--net", str(procs_mod.test_network()), "--json", "--timeout", "270"]
+            str(tmp_path / "runs"), *where, "--json", "--timeout", "480"]
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
     try:
-        out, err = proc.communicate(timeout=300)
+        out, err = proc.communicate(timeout=540)
     except subprocess.TimeoutExpired:
         os.killpg(proc.pid, signal.SIGINT)
         out, err = proc.communicate(timeout=60)
-        pytest.fail(f"chaos run still going after 300 s\n{err[-4000:]}")
+        pytest.fail(f"chaos run still going after 540 s\n{err[-4000:]}")
     print(err[-6000:])                       # the progress and the table (shown with -s or on failure)
     doc = json.loads(out)
     assert set(doc) >= KEYS
@@ -56,6 +61,10 @@ def test_quick_chaos_run_keeps_every_promise(tmp_path: Path) -> None:
     assert {f["kind"] for f in doc["faults"]} == {k for k, n in counts.items() if n}
     assert counts["node_restart"] == 2 and counts["hostile_message"] >= 5
     assert counts["masters_down"] == 1 and counts["link_cut_master_restart"] == 1      # overlapping faults
+    if machines:          # the faults of a real network between separate machines, and their clocks
+        assert all(counts[k] >= 1 for k in ("partition", "links_flapping", "one_way_loss", "lossy_link",
+                                             "machine_down")), counts
+        assert counts["clock_offset"] == 4 and doc["relay_counters"]["link_losses"] > 0
     assert doc["accepted"] == 4 and doc["completed"] == 4, doc
     assert doc["lost"] == 0 and doc["duplicated"] == 0 and doc["cancels_duplicated"] == 0, doc
     assert all(r["passed"] for r in doc["requests"]) and len(doc["requests"]) == 4, doc["requests"]
