@@ -429,6 +429,9 @@ class ChaosRun:
             order = [r.name for r in self.building.robots]
             a, b = sorted(robots, key=order.index)
             return cc.Fault(fault.kind, a, b, fault.target, fault.duration, fault.gap, fault.crash, fault.active)
+        if fault.kind == cc.PARTITION and robots:           # a robot of the trip: the other may give the trip up
+            return cc.Fault(fault.kind, self.rng.choice(robots), duration=fault.duration, gap=fault.gap,
+                            active=fault.active)
         if fault.kind in (cc.NODE_RESTART, cc.FREEZE) and robots:
             busy = self.busy_robot(robots)       # a robot driving or waiting for this trip, if one is soon
             robot = busy or self.rng.choice(robots)
