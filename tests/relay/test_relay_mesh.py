@@ -13,14 +13,13 @@ import xmlrpc.client
 import pytest
 from relay_system import DIAG, GOAL, GOALS, RelayMesh, settle, wait_pid_gone
 
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Topic
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
 
-EVENTS = [("/gidabot/goals", "gidabot_msgs/Goal"), ("/gidabot/cancels", "gidabot_msgs/Cancel"),
-          ("/gidabot/nav_events", "gidabot_msgs/NavEvent"), ("/gidabot/tours", "gidabot_msgs/Tour")]
-STATES = [("/gidabot/status", "gidabot_msgs/RobotStatus"), ("/gidabot/poses", "gidabot_msgs/NavPose"),
-          ("/gidabot/pending", "gidabot_msgs/PendingRequests"), ("/gidabot/tour_index", "gidabot_msgs/TourIndex")]
+EVENTS = [(t.name, t.type) for t in SHARED_TOPICS if t.kind == EVENT]
+STATES = [(t.name, t.type) for t in SHARED_TOPICS if t.kind == STATE]
 
 
 @pytest.fixture
@@ -87,7 +86,7 @@ def test_every_robot_reaches_every_other_exactly_once_with_all_topics_both_ways(
 
 def test_state_topics_are_latched_for_late_subscribers_and_resent_on_reconnect(mesh, faculty_masters) -> None:
     mesh.start()
-    status = ("/gidabot/status", "gidabot_msgs/RobotStatus")
+    status = (Topic.STATUS, "gidabot_msgs/RobotStatus")
     mesh.publish("Tartalo", *status, {"robot": "Tartalo", "state": "idle"})
     mesh.wait_end("Kbot", "Tartalo", lambda d: d["delivered_states"] == "1", 10, "status delivered")
     mesh.sub("Kbot", *status)                                  # a late subscriber gets it at once

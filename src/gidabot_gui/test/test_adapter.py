@@ -23,7 +23,7 @@ from gidabot_gui.inbox import Inbox
 from gidabot_gui.model import Command, InitialPose, TourEdit
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.guiding.messages import Cmd
+from gidabot_navigation.interface import Cmd
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:

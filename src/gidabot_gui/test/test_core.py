@@ -22,7 +22,7 @@ from gidabot_gui.model import (
 )
 from gidabot_gui.plans import plan_request, tour_ways
 from gidabot_gui.texts import Texts
-from gidabot_navigation.guiding.messages import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Phase
 
 VID = "gui-test"
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",

@@ -8,22 +8,14 @@ from __future__ import annotations
 import pytest
 from relay_support import MD5, SECRET, TYPES, Clock, Log, make_core, pair
 
-from gidabot_navigation.relay.end import (
-    Close,
-    LinkConfig,
-    RelayConfigError,
-    Send,
-    TopicSpec,
-    is_relay,
-    parse_shared_topics,
-    read_secret,
-    relay_node_name,
-)
+from gidabot_navigation.errors import RelayConfigError
+from gidabot_navigation.interface import EVENT, Topic, TopicSpec, is_relay_end, relay_end_name
+from gidabot_navigation.relay.end import Close, RelayEndConfig, Send, parse_shared_topics, read_secret
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.relay.protocol import FrameType, Hello, encode_frame, hello_key
 
-G = "/gidabot/goals"
-S = "/gidabot/status"
+G = Topic.GOALS
+S = Topic.STATUS
 
 
 # -- handshake and authentication ------------------------------------------------------------
@@ -155,8 +147,8 @@ def test_peer_event_of_wrong_md5_or_malformed_is_acknowledged_not_published(tmp_
 
 
 def test_relay_names() -> None:
-    assert relay_node_name("Tartalo", "Kbot") == "/gidabot_relay_Tartalo_Kbot"
-    assert is_relay("/gidabot_relay_Tartalo_Kbot") and not is_relay("/relay_supervisor")
+    assert relay_end_name("Tartalo", "Kbot") == "/gidabot_relay_Tartalo_Kbot"
+    assert is_relay_end("/gidabot_relay_Tartalo_Kbot") and not is_relay_end("/relay_supervisor")
 
 
 # -- sequence numbers, acknowledgements, de-duplication -------------------------------------------
@@ -252,7 +244,7 @@ def test_torn_journal_tail_is_cut_off(tmp_path) -> None:
 
 
 def test_journal_is_locked_against_a_second_process(tmp_path) -> None:
-    from gidabot_navigation.relay.journal import JournalError
+    from gidabot_navigation.errors import JournalError
 
     j = Journal(tmp_path / "x.journal")
     j.open()
@@ -397,19 +389,6 @@ def test_diagnostics_snapshot_has_the_required_keys(tmp_path) -> None:
 
 
 # -- configuration ----------------------------------------------------------------------------
-def test_shared_topics_file_of_the_package_is_valid() -> None:
-    from pathlib import Path
-
-    from gidabot_navigation.relay.end import load_shared_topics
-
-    path = Path(__file__).resolve().parents[2] / "config" / "shared_topics.yaml"
-    specs = load_shared_topics(path)
-    assert {s.name for s in specs if s.kind == "event"} == {"/gidabot/goals", "/gidabot/cancels",
-                                                             "/gidabot/nav_events", "/gidabot/tours"}
-    assert {s.name for s in specs if s.kind == "state"} == {"/gidabot/status", "/gidabot/poses",
-                                                             "/gidabot/pending", "/gidabot/tour_index"}
-
-
 @pytest.mark.parametrize(("doc", "text"), [
     ({}, "non-empty list"),
     ({"topics": [{"name": "rel", "type": "a/B", "class": "event"}]}, "global topic name"),
@@ -436,13 +415,13 @@ def test_secret_file_rules(tmp_path) -> None:
 
 
 def test_link_config_validation() -> None:
-    topics = (TopicSpec(G, TYPES[G], "event"),)
+    topics = (TopicSpec(G, TYPES[G], EVENT),)
     with pytest.raises(RelayConfigError, match="side"):
-        LinkConfig("A", "B", "c", topics, MD5)
+        RelayEndConfig("A", "B", "c", topics, MD5)
     with pytest.raises(RelayConfigError, match="shorter than link_timeout"):
-        LinkConfig("A", "B", "a", topics, MD5, heartbeat=3.0)
+        RelayEndConfig("A", "B", "a", topics, MD5, heartbeat=3.0)
     with pytest.raises(RelayConfigError, match="no md5"):
-        LinkConfig("A", "B", "a", topics, {})
+        RelayEndConfig("A", "B", "a", topics, {})
 
 
 def test_a_local_event_published_again_is_forwarded_once_even_after_a_restart(tmp_path) -> None:

@@ -8,11 +8,12 @@ from xmlrpc.server import SimpleXMLRPCRequestHandler, SimpleXMLRPCServer
 
 import pytest
 
+from gidabot_navigation.errors import MasterWatchError
+from gidabot_navigation.interface import Topic
 from gidabot_navigation.ros.master_watch import (
     Event,
     MasterWatch,
     MasterWatchCore,
-    MasterWatchError,
     ParamKeeper,
     Registrations,
     get_master_pid,
@@ -162,7 +163,7 @@ def servers() -> Iterator[tuple[FakeMaster, str, FakeSlave, str]]:
 
 
 REGS = Registrations(publications=[("/chatter", "std_msgs/String"), ("/rosout", "rosgraph_msgs/Log")],
-                     subscriptions=[("/gidabot/goals", "*")],
+                     subscriptions=[(Topic.GOALS, "*")],
                      services=[("/node/get_loggers", "rosrpc://127.0.0.1:5555")])
 
 
@@ -172,13 +173,13 @@ def test_register_all_registers_everything_and_feeds_publisher_update(servers) -
     assert [c[0] for c in master.calls] == ["pub", "pub", "sub", "srv"]
     assert all(c[1] == "/node" and c[4] == suri for c in master.calls)
     assert master.calls[2][3] == "*"
-    assert slave.updates == [("/master", "/gidabot/goals", ["http://127.0.0.1:1/"])]
+    assert slave.updates == [("/master", Topic.GOALS, ["http://127.0.0.1:1/"])]
 
 
 def test_register_all_refusal_names_what(servers) -> None:
     master, muri, _, suri = servers
-    master.refuse = "/gidabot/goals"
-    with pytest.raises(MasterWatchError, match="refused to register subscriber /gidabot/goals"):
+    master.refuse = Topic.GOALS
+    with pytest.raises(MasterWatchError, match=f"refused to register subscriber {Topic.GOALS}"):
         register_all(muri, "/node", suri, REGS, timeout=2.0)
 
 

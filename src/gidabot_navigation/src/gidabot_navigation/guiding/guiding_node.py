@@ -15,14 +15,7 @@ from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quate
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import CancelData, CommandData, NavEventData, Trip
 from gidabot_navigation.guiding.tour_mode import CatalogEntry
-
-RELAY_PREFIX = "/gidabot_relay_"
-GOALS_TOPIC = "/gidabot/goals"
-CANCELS_TOPIC = "/gidabot/cancels"
-EVENTS_TOPIC = "/gidabot/nav_events"
-STATUS_TOPIC = "/gidabot/status"
-POSES_TOPIC = "/gidabot/poses"
-PENDING_TOPIC = "/gidabot/pending"
+from gidabot_navigation.interface import is_relay_end
 
 
 def sender(msg: object) -> str:
@@ -33,7 +26,7 @@ def sender(msg: object) -> str:
 
 def from_relay(msg: object) -> bool:
     """True when ``msg`` was published by a relay, i.e. it came from another robot."""
-    return sender(msg).startswith(RELAY_PREFIX)
+    return is_relay_end(sender(msg))
 
 
 def stamp_of(msg: object) -> float:

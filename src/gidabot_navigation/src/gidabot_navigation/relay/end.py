@@ -37,14 +37,14 @@ from pathlib import Path
 
 import yaml
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import FrameRejected, JournalError, RelayConfigError
+from gidabot_navigation.interface import EVENT, STATE, TopicSpec, is_relay_end, relay_end_name
 from gidabot_navigation.logs import Logger, RateLimitedLog
-from gidabot_navigation.relay.journal import Journal, JournalError, JournalState, event_digest
+from gidabot_navigation.relay.journal import Journal, JournalState, event_digest
 from gidabot_navigation.relay.protocol import (
     FRAME_OVERHEAD,
     NONCE_LEN,
     FrameReader,
-    FrameRejected,
     FrameType,
     Hello,
     Message,
@@ -60,33 +60,10 @@ from gidabot_navigation.relay.protocol import (
     session_keys,
 )
 
-RELAY_PREFIX = "/gidabot_relay_"
-EVENT, STATE = "event", "state"
 REJECT_REASONS = ("auth", "oversize", "malformed", "type")
 
 
-class RelayConfigError(GidaBotError):
-    """The relay's configuration (shared topics, link parameters, secret) is invalid."""
-
-
-def is_relay(callerid: str) -> bool:
-    """True if ``callerid`` names a relay end (whose messages are never forwarded again)."""
-    return callerid.startswith(RELAY_PREFIX)
-
-
-def relay_node_name(robot_a: str, robot_b: str) -> str:
-    """Node name of both ends of the relay between ``robot_a`` (first in the building) and ``robot_b``."""
-    return f"{RELAY_PREFIX}{robot_a}_{robot_b}"
-
-
 # -- configuration --------------------------------------------------------------------------
-@dataclass(frozen=True)
-class TopicSpec:
-    name: str      # global topic name, e.g. /gidabot/goals
-    type: str      # ROS type, e.g. gidabot_msgs/Goal
-    kind: str      # "event" or "state"
-
-
 def load_shared_topics(path: str | Path) -> tuple[TopicSpec, ...]:
     """Read the whitelist (``config/shared_topics.yaml``): ``topics: [{name, type, class}]``."""
     try:
@@ -133,7 +110,7 @@ def read_secret(path: str | Path) -> bytes:
 
 
 @dataclass(frozen=True)
-class LinkConfig:
+class RelayEndConfig:
     """One end of the relay between ``robot_a`` and ``robot_b`` (times in wall seconds)."""
 
     robot_a: str
@@ -174,7 +151,7 @@ class LinkConfig:
             raise RelayConfigError(f"no md5 for topic(s) {', '.join(missing)}")
 
     @property
-    def link(self) -> str:
+    def pair(self) -> str:
         return f"{self.robot_a}_{self.robot_b}"
 
     @property
@@ -187,7 +164,7 @@ class LinkConfig:
 
     @property
     def node_name(self) -> str:
-        return relay_node_name(self.robot_a, self.robot_b)
+        return relay_end_name(self.robot_a, self.robot_b)
 
 
 # -- actions --------------------------------------------------------------------------------
@@ -253,14 +230,14 @@ class Stats:
     rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REJECT_REASONS, 0))
 
 
-class LinkCore:
+class RelayEndCore:
     """One end's decisions (see the module docstring). Not thread-safe: the adapter serialises calls.
 
     ``validate(topic, payload)`` returns None if the payload is a well-formed message of
     the topic's type, else a short description of what is wrong.
     """
 
-    def __init__(self, cfg: LinkConfig, journal: Journal, clock: Callable[[], float], log: Logger,
+    def __init__(self, cfg: RelayEndConfig, journal: Journal, clock: Callable[[], float], log: Logger,
                  validate: Callable[[str, bytes], str | None] | None = None) -> None:
         self.cfg = cfg
         self.journal = journal
@@ -273,10 +250,10 @@ class LinkCore:
         self.max_body = cfg.max_message_bytes + FRAME_OVERHEAD
         self.state: JournalState = journal.open()
         if journal.truncated_bytes:
-            log.warning(f"relay {cfg.link} ({cfg.robot}): cut a torn tail of {journal.truncated_bytes} bytes off "
+            log.warning(f"relay {cfg.pair} ({cfg.robot}): cut a torn tail of {journal.truncated_bytes} bytes off "
                         f"the journal (the process was killed while writing)")
         if self.state.outq or self.state.pending_in:
-            log.info(f"relay {cfg.link} ({cfg.robot}): journal holds {len(self.state.outq)} unacknowledged "
+            log.info(f"relay {cfg.pair} ({cfg.robot}): journal holds {len(self.state.outq)} unacknowledged "
                      f"and {len(self.state.pending_in)} unpublished event(s); they will be delivered")
         self.stats = Stats()
         self._out_bytes = sum(len(m.payload) for m in self.state.outq)
@@ -301,7 +278,7 @@ class LinkCore:
     # -- helpers --------------------------------------------------------------------------
     @property
     def name(self) -> str:
-        return f"relay {self.cfg.link} ({self.cfg.robot} end)"
+        return f"relay {self.cfg.pair} ({self.cfg.robot} end)"
 
     def _reject(self, reason: str, text: str) -> None:
         self.stats.rejected[reason] = self.stats.rejected.get(reason, 0) + 1
@@ -323,7 +300,7 @@ class LinkCore:
     # -- local messages (from this end's master) -------------------------------------------
     def local_message(self, topic: str, callerid: str, type_: str, md5: str, payload: bytes) -> list[Action]:
         """A message a local node published on a shared topic; returns frames to send now."""
-        if is_relay(callerid):
+        if is_relay_end(callerid):
             self.stats.ignored_relay += 1
             return []
         spec = self.topics.get(topic)
@@ -413,7 +390,7 @@ class LinkCore:
         self.conns[conn_id] = conn
         if not initiator:
             return []
-        hello = Hello(self.cfg.link, self.cfg.side, conn.nonce, b"", self.state.out_epoch, self.state.in_epoch,
+        hello = Hello(self.cfg.pair, self.cfg.side, conn.nonce, b"", self.state.out_epoch, self.state.in_epoch,
                       self.state.in_last)
         return [Send(conn_id, encode_frame(FrameType.HELLO, hello.encode(), self.key_hello, 0))]
 
@@ -466,9 +443,9 @@ class LinkCore:
             check_mac(frame, self.key_hello, 0)
             hello = Hello.decode(frame.body)
             want_side = "b" if conn.initiator else "a"
-            if hello.link != self.cfg.link or hello.side != want_side:
-                raise FrameRejected("auth", f"HELLO for link {hello.link!r} side {hello.side!r}; this end is link "
-                                            f"{self.cfg.link!r} and expects side {want_side!r}")
+            if hello.pair != self.cfg.pair or hello.side != want_side:
+                raise FrameRejected("auth", f"HELLO for relay {hello.pair!r} side {hello.side!r}; this end is relay "
+                                            f"{self.cfg.pair!r} and expects side {want_side!r}")
             conn.peer = hello
             if conn.initiator:
                 if hello.echo != conn.nonce:
@@ -477,7 +454,7 @@ class LinkCore:
                 out.append(self._frame(conn, FrameType.READY, b""))
                 self._activate(conn, out)
             else:
-                reply = Hello(self.cfg.link, self.cfg.side, conn.nonce, hello.nonce, self.state.out_epoch,
+                reply = Hello(self.cfg.pair, self.cfg.side, conn.nonce, hello.nonce, self.state.out_epoch,
                               self.state.in_epoch, self.state.in_last)
                 out.append(Send(conn.id, encode_frame(FrameType.HELLO, reply.encode(), self.key_hello, 0)))
                 self._derive_keys(conn, hello.nonce, conn.nonce)
@@ -494,7 +471,7 @@ class LinkCore:
     def _derive_keys(self, conn: _Conn, nonce_a: bytes, nonce_b: bytes) -> None:
         if self.cfg.secret is None:
             return
-        k_ab, k_ba = session_keys(self.cfg.secret, self.cfg.link, nonce_a, nonce_b)
+        k_ab, k_ba = session_keys(self.cfg.secret, self.cfg.pair, nonce_a, nonce_b)
         conn.tx_key, conn.rx_key = (k_ab, k_ba) if self.cfg.side == "a" else (k_ba, k_ab)
 
     def _activate(self, conn: _Conn, out: list[Action]) -> None:

@@ -36,7 +36,7 @@ import xmlrpc.client
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import MasterWatchError
 from gidabot_navigation.logs import Logger
 
 DEFAULT_PERIOD = 0.5     # s between polls
@@ -44,10 +44,6 @@ DEFAULT_TIMEOUT = 0.3    # s, socket timeout of one XML-RPC call
 DOWN_AFTER = 2           # consecutive failed polls before the master is declared down
 PARAM_REFRESH = 30.0     # s between merges of the node's parameters into the remembered set
 RESTORED_KEYS = ("/use_sim_time",)   # global parameters every node restores besides its private ones
-
-
-class MasterWatchError(GidaBotError):
-    """Re-registration with the master failed (the master refused a registration or went away)."""
 
 
 class Event(enum.Enum):

@@ -23,8 +23,9 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+from gidabot_navigation.interface import is_relay_end
+
 DEFAULT_WINDOW = 60.0     # wall s of events a late subscriber gets again
-RELAY_PREFIX = "/gidabot_relay_"
 
 
 class ReplayBuffer:
@@ -87,7 +88,7 @@ def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., 
     ``skip_relays`` (a relay's own publishers): no replay to a relay subscriber, which would never
     forward it. A node's events are replayed to a relay end too: one that (re)started missed them, and
     it forwards only those it has not forwarded before (digests in its journal)."""
-    if skip_relays and peer_of(peer_publish).startswith(RELAY_PREFIX):
+    if skip_relays and is_relay_end(peer_of(peer_publish)):
         return 0
     sent = 0
     for msg in buffer.recent():

@@ -48,8 +48,9 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
+from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError, TourRejected, TourStoreError
+from gidabot_navigation.interface import LANGUAGES
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.safe_dir import Entry, SafeDir, sha256
 from gidabot_navigation.tours.tour_file import (

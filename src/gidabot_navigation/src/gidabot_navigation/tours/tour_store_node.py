@@ -21,14 +21,13 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
-from gidabot_navigation.building.model import LANGUAGES, load_building
+from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
+from gidabot_navigation.interface import LANGUAGES, Node, Topic
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.tours.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
 
-TOURS_TOPIC = "/gidabot/tours"
-INDEX_TOPIC = "/gidabot/tour_index"
 QUEUE_SIZE = 1000
 
 
@@ -158,13 +157,13 @@ class TourStoreNode:
         self.store.open()
         self.inbox: queue.Queue[tuple[str, bytes, str]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
-        self.tours_pub = rospy.Publisher(TOURS_TOPIC, Tour, queue_size=100)
-        self.index_pub = rospy.Publisher(INDEX_TOPIC, TourIndex, queue_size=10, latch=True)
-        self.catalog_pub = rospy.Publisher("tour_store/catalog", TourCatalog, queue_size=2, latch=True)
-        self.result_pub = rospy.Publisher("tour_store/edit_result", TourEditResult, queue_size=20)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.tours_pub = rospy.Publisher(Topic.TOURS, Tour, queue_size=100)
+        self.index_pub = rospy.Publisher(Topic.TOUR_INDEX, TourIndex, queue_size=10, latch=True)
+        self.catalog_pub = rospy.Publisher(Topic.TOUR_CATALOG, TourCatalog, queue_size=2, latch=True)
+        self.result_pub = rospy.Publisher(Topic.TOUR_EDIT_RESULT, TourEditResult, queue_size=20)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [rospy.Subscriber(topic, rospy.AnyMsg, self._enqueue, callback_args=kind, queue_size=100)
-                     for topic, kind in ((TOURS_TOPIC, "tour"), (INDEX_TOPIC, "index"), ("tour_store/edit", "edit"))]
+                     for topic, kind in ((Topic.TOURS, "tour"), (Topic.TOUR_INDEX, "index"), (Topic.TOUR_EDIT, "edit"))]
         self._publish_state()
 
     # -- callbacks: size check, enqueue, return ---------------------------------------
@@ -301,7 +300,7 @@ class TourStoreNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("tour_store", argv=argv if argv is not None else sys.argv)
+    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv)
     keep_registered()    # found again after its master restarts (docs/interfaces.md)
     try:
         node = TourStoreNode(Params.read())

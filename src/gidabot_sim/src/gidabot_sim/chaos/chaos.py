@@ -44,13 +44,14 @@ from typing import Any, TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import Node, Phase, global_name
 from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse_tour
 from gidabot_sim.chaos import core as cc
-from gidabot_sim.chaos.faults import FaultError, LinkCuts
+from gidabot_sim.chaos.faults import LinkCuts
 from gidabot_sim.demo.demo import POSE_RATE, POSE_WALL_HZ, STATUS_RATE, STATUS_WALL_HZ, Signals, report
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding, process_tree
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import ChaosError, DemoError, FaultError, ProcessError, ReportError
+from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding, process_tree
+from gidabot_sim.runner.procs import robot_address
 
 PROBE_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "chaos_probe"
 DEFAULT_SEED = 1
@@ -58,10 +59,6 @@ SIM_S_PER_GOAL = 100.0        # a goal of the long tour takes about 100 s of sim
 RECOVERY_WAIT = 30.0          # wall s a fault gets to recover before it counts as not recovered
 CORRIDOR_WAIT = 60.0          # wall s to wait for a robot driving a long enough leg
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class ChaosError(DemoError):
-    """The chaos run cannot go on (a probe died, the building did not come up)."""
 
 
 # ---------------------------------------------------------------------------
@@ -173,7 +170,7 @@ class TourWatch:
 
     def feed(self, recs: list[dict[str, Any]]) -> None:
         for r in recs:
-            if r.get("k") == "goal" and r.get("c") == "/goal_manager" and r.get("m") == r.get("origin") \
+            if r.get("k") == "goal" and r.get("c") == global_name(Node.GOAL_MANAGER) and r.get("m") == r.get("origin") \
                     and r.get("tour_file") == self.tour_file:
                 self.goals.add(str(r.get("uid")))
                 with contextlib.suppress(TypeError, ValueError):
@@ -182,13 +179,13 @@ class TourWatch:
                     or r.get("c") not in cc.GUIDING_CALLERS or r.get("tour_file") != self.tour_file:
                 continue
             phase = r.get("phase")
-            if phase in (gt.TOUR_STEP_DONE, gt.TOUR_FINISHED):
+            if phase in (Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED):
                 self.done.add(str(r.get("goal_uid")))
                 self.last_step_done = max(self.last_step_done, int(r.get("tour_step", -1)))
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
-            if phase == gt.TOUR_FINISHED and r.get("tour_step") == self.last_step:
+            if phase == Phase.TOUR_FINISHED and r.get("tour_step") == self.last_step:
                 self.finished = True
-            elif phase in (gt.UNREACHABLE, gt.TIMEOUT) or (phase == gt.PARTNER_OFFLINE and r.get("goal_uid")):
+            elif phase in (Phase.UNREACHABLE, Phase.TIMEOUT) or (phase == Phase.PARTNER_OFFLINE and r.get("goal_uid")):
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
 
@@ -479,7 +476,7 @@ class ChaosRun:
     def _kill_supervisor(self, f: cc.Fault, res: cc.FaultResult) -> None:
         pairs = [b.name for a, b in self.building.relay_pairs() if a.name == f.robot]
         old_ends = {(o, s): self.relay_end_pid(f.robot, o, s) for o in pairs for s in "ab"}
-        pid = self.node_pid(f.robot, "relay_supervisor")
+        pid = self.node_pid(f.robot, Node.RELAY_SUPERVISOR)
         res.injected = _now()
         self.killed.add(pid)
         self.killed.update(p for p in old_ends.values() if p)
@@ -509,7 +506,7 @@ class ChaosRun:
         self._recovery(res, self.master_recovered(f.robot, res.cleared))
 
     def _restart_node(self, f: cc.Fault, res: cc.FaultResult) -> None:
-        node = f"/{f.target}"
+        node = global_name(f.target)
         old_uri = self.lookup_node(f.robot, node)
         pid = self.node_pid(f.robot, f.target)
         res.injected = _now()
@@ -525,23 +522,23 @@ class ChaosRun:
             raise ChaosError(f"{node} of {f.robot} did not register again within 60 s")
         res.cleared = _now()
         res.detail = f"pid {pid}; back {res.cleared - res.injected:.1f} s after the kill"
-        topic = "pending" if f.target == "goal_manager" else "status"
+        topic = "pending" if f.target == Node.GOAL_MANAGER else "status"
         others = [r for r in self.probes if r != f.robot]
         self._recovery(res, self.first_everywhere(topic, f.robot, others, res.cleared))
 
     def _freeze(self, f: cc.Fault, res: cc.FaultResult) -> None:
         assert self.sim is not None
-        if f.target == "master":
+        if f.target == cc.MASTER:
             pgid = self.sim.procs.get(f"master_{f.robot}").popen.pid
         else:
             pgid = self.node_pid(f.robot, f.target)
         self._stop_for(pgid, f.duration, res)
         others = [r for r in self.probes if r != f.robot]
-        if f.target == "goal_manager":
+        if f.target == Node.GOAL_MANAGER:
             self._recovery(res, self.first_everywhere("pending", f.robot, others, res.cleared))
-        elif f.target == "multirobot_navigation":
+        elif f.target == Node.MULTIROBOT_NAVIGATION:
             self._recovery(res, self.first_everywhere("status", f.robot, others, res.cleared))
-        elif f.target == "master":
+        elif f.target == cc.MASTER:
             self._recovery(res, self.master_recovered(f.robot, res.cleared))
         else:
             res.detail = "no shared output: recovery not measured"
@@ -804,7 +801,7 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
                             "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots]}
     (run.run_dir / "run.json").write_text(json.dumps(run_json, indent=2), encoding="utf-8")
     bags: dict[str, tuple[int, int]] = {}
-    with contextlib.suppress(report.ReportError):
+    with contextlib.suppress(ReportError):
         rep_run, rep_records = report.load_run(run.run_dir)
         rep = report.analyse(rep_records, rep_run)
         bags = {r["name"]: (r["received"], r["processed"]) for r in rep["robots"]}

@@ -34,8 +34,9 @@ from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
 from gidabot_sim.demo.progress import Progress
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding
+from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)

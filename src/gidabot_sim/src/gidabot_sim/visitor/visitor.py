@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
@@ -76,8 +76,9 @@ class VisitorConfig:
 
 
 @dataclass(frozen=True)
-class Command:
-    """A VisitorCommand to publish on this robot's ``visitor/command``."""
+class ButtonPress:
+    """A button the visitor presses: the VisitorCommand to publish on this robot's ``visitor/command``
+    (the node adds its uid, visitor id and stamp)."""
 
     command: int
     goal_id: str = ""
@@ -91,7 +92,7 @@ class Command:
 @dataclass
 class _Due:
     at: float
-    command: Command
+    press: ButtonPress
 
 
 @dataclass
@@ -117,7 +118,7 @@ class VisitorCore:
         """This node plays the visitor's first floor (the only one that starts the visit)."""
         return math.isclose(self.cfg.floor, self.cfg.start_floor)
 
-    def start(self, now: float) -> list[Command]:
+    def start(self, now: float) -> list[ButtonPress]:
         """Begin the visit: only the start floor's node does something, and only once.
 
         (The visitor being *present* on a floor is not enough: it arrives on every floor of a
@@ -128,9 +129,9 @@ class VisitorCore:
         self.started = True
         c = self.cfg
         if c.tour_file:
-            cmd = Command(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
+            cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
         elif c.goal_id:
-            cmd = Command(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return []
         return [cmd]
@@ -177,10 +178,10 @@ class VisitorCore:
         elif phase == TOUR_STEP_DONE:
             self.present = True
             nxt = dict(self.cfg.skips).get(tour_step)
-            cmd = (Command(SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt, way=self.cfg.way,
-                           language=self.cfg.language) if nxt is not None else
-                   Command(CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
-                           language=self.cfg.language))
+            cmd = (ButtonPress(SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt, way=self.cfg.way,
+                               language=self.cfg.language) if nxt is not None else
+                   ButtonPress(CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
+                               language=self.cfg.language))
             self._due.append(_Due(now + self.cfg.think_s, cmd))
         elif phase == GOAL_REACHED and not self.cfg.tour_file:
             self.present, self.finished, self.outcome = True, True, "goal reached"
@@ -197,25 +198,25 @@ class VisitorCore:
             return
         c = self.cfg
         if c.tour_file:
-            cmd = (Command(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
-                   Command(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
+            cmd = (ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
+                   ButtonPress(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
         elif c.goal_id:
-            cmd = Command(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return
         self.retries += 1
         self._due.append(_Due(now + c.retry_s, cmd))
 
-    def step(self, now: float) -> list[Command]:
+    def step(self, now: float) -> list[ButtonPress]:
         """Commands due at ``now``."""
         for goal_uid in sorted(self.waiting):
             arrival = self.arrivals.get(goal_uid)
             if arrival is not None and now >= arrival:
                 self.waiting.discard(goal_uid)
                 self.present = True
-                self._due.append(_Due(now + self.cfg.think_s, Command(CONTINUE, goal_uid=goal_uid,
-                                                                      way=self.cfg.way,
-                                                                      language=self.cfg.language)))
+                self._due.append(_Due(now + self.cfg.think_s, ButtonPress(CONTINUE, goal_uid=goal_uid,
+                                                                          way=self.cfg.way,
+                                                                          language=self.cfg.language)))
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]
-        return [d.command for d in sorted(ready, key=lambda d: d.at)]
+        return [d.press for d in sorted(ready, key=lambda d: d.at)]

@@ -10,10 +10,11 @@ import rospy
 from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.visitor.visitor import Command, VisitorConfig, VisitorCore
+from gidabot_sim.visitor.visitor import ButtonPress, VisitorConfig, VisitorCore
 
 
 def _float_param(name: str, default: float, low: float = 0.0) -> float:
@@ -84,12 +85,12 @@ class VisitorNode:
         self._tour_ready = not (self.cfg.tour_file and self.core.on_start_floor)
         self._seq = 0
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
-        self.pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=50)
-        rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=100)
-        self._status_sub = rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=50)
+        self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
+        rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=100)
+        self._status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50)
         self._catalog_sub = None
         if not self._tour_ready:
-            self._catalog_sub = rospy.Subscriber("tour_store/catalog", TourCatalog, self._on_catalog, queue_size=2)
+            self._catalog_sub = rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._on_catalog, queue_size=2)
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
     def _on_event(self, msg: NavEvent) -> None:
@@ -127,7 +128,7 @@ class VisitorNode:
         for cmd in commands:
             self._publish(cmd)
 
-    def _publish(self, cmd: Command) -> None:
+    def _publish(self, cmd: ButtonPress) -> None:
         self._seq += 1
         msg = VisitorCommand(uid=f"{self.cfg.robot}/{self.cfg.visitor_id}/cmd/{self._seq}",
                              visitor_id=self.cfg.visitor_id, command=cmd.command, goal_id=cmd.goal_id,
@@ -139,7 +140,7 @@ class VisitorNode:
 
 
 def main() -> None:
-    rospy.init_node("visitor")
+    rospy.init_node(Node.VISITOR)
     keep_registered()
     try:
         VisitorNode()

@@ -30,6 +30,7 @@ from gidabot_msgs.msg import Obstacle, ObstacleArray
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
@@ -134,13 +135,14 @@ class _RobotIO:
     def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
         self.index, self.prefix = index, prefix
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
-        self.odom = rospy.Publisher(f"{prefix}odom", Odometry, queue_size=5)
-        self.truth = rospy.Publisher(f"{prefix}base_pose_ground_truth", Odometry, queue_size=5)
-        self.scan = rospy.Publisher(f"{prefix}base_scan", LaserScan, queue_size=2)
-        self.battery = rospy.Publisher(f"{prefix}battery", BatteryState, queue_size=2)
-        rospy.Subscriber(f"{prefix}cmd_vel", Twist, node.enqueue, callback_args=("cmd_vel", index), queue_size=5)
-        rospy.Subscriber(f"{prefix}initialpose", PoseWithCovarianceStamped, node.enqueue,
-                         callback_args=("initialpose", index), queue_size=5)
+        self.odom = rospy.Publisher(prefix + Topic.ODOM, Odometry, queue_size=5)
+        self.truth = rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry, queue_size=5)
+        self.scan = rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2)
+        self.battery = rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)
+        rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.enqueue, callback_args=(Topic.CMD_VEL, index),
+                         queue_size=5)
+        rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.enqueue,
+                         callback_args=(Topic.INITIALPOSE, index), queue_size=5)
 
 
 class SimNode:
@@ -170,8 +172,8 @@ class SimNode:
         ``~start_wall``.
       ``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` (latched), service ``static_map``
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
-      ``~obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
-      ``~obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
+      ``/sim/obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
+      ``/sim/obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
         wall seconds (speed, sim time, achieved factor, lag, counters of rejected input, stalls, scans).
     Params:
@@ -221,16 +223,16 @@ class SimNode:
         # second, and a tick must not wait behind a queue (rospy warns about queue_size=None: intended)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SyntaxWarning)
-            self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
-        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
-        self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
-        self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
-        self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
-        self.obstacles_pub = rospy.Publisher("~obstacles", ObstacleArray, queue_size=1, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
-        rospy.Subscriber("~obstacle", Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
+            self.clock_pub = rospy.Publisher(Topic.CLOCK, Clock, queue_size=None)
+        self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=20)
+        self.tf_static_pub = rospy.Publisher(Topic.TF_STATIC, TFMessage, queue_size=1, latch=True)
+        self.map_pub = rospy.Publisher(Topic.MAP, OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher(Topic.MAP_METADATA, MapMetaData, queue_size=1, latch=True)
+        self.obstacles_pub = rospy.Publisher(Topic.SIM_OBSTACLES, ObstacleArray, queue_size=1, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
+        rospy.Subscriber(Topic.SIM_OBSTACLE, Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
         self.map_msg = ru.occupancy_grid(self.floor.map, 0.0)
-        rospy.Service("static_map", GetMap, lambda _req: GetMapResponse(map=self.map_msg))
+        rospy.Service(Service.STATIC_MAP, GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.odom_due = Periodic(params.odom_rate)
         self.truth_due = Periodic(params.truth_rate)
         self.rest_due = Periodic(params.rest_rate)
@@ -257,9 +259,9 @@ class SimNode:
             except queue.Empty:
                 break
             try:
-                if kind == "cmd_vel":
+                if kind == Topic.CMD_VEL:
                     self.world.set_command(index, *ru.twist_of(msg))
-                elif kind == "initialpose":
+                elif kind == Topic.INITIALPOSE:
                     self.world.rebuild()         # check the pose against the obstacles as they are now
                     self._relocate(index, msg)
                 elif kind == "obstacle":
@@ -393,7 +395,7 @@ class SimNode:
             "skipped_s": f"{self.world.skipped:.2f}", "obstacles": str(len(self.world.obstacles)),
             "stalls": str(sum(r.stalls for r in self.world.robots)), "laser_scans": str(self.scans),
         }
-        for kind in ("cmd_vel", "initialpose", "obstacle"):
+        for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
         for robot in self.world.robots:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
@@ -473,8 +475,8 @@ class SimNode:
 
 
 def main() -> None:
-    rospy.init_node("sim")
-    guard = rospy_exit_guard("sim", main_loop=True)    # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    rospy.init_node(Node.SIM)
+    guard = rospy_exit_guard(Node.SIM, main_loop=True)    # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         node = SimNode()
