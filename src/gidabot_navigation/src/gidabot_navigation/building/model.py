@@ -20,7 +20,7 @@ import yaml
 from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
 from gidabot_navigation.building.occupancy import OccupancyMap, load_map
 from gidabot_navigation.errors import BuildingError, MapError, Problem
-from gidabot_navigation.interface import LANGUAGES, WAYS
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, WAYS
 
 DRIVE_TYPES = ("differential", "synchro")
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
@@ -58,18 +58,18 @@ class Location:
     featured: bool = False
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)
 class Connector:
     id: str
-    kind: str                       # "lift" or "stairs"
+    kind: str                       # one of WAYS: "lift" or "stairs"
     names: dict[str, str]
     meeting: dict[float, Pose2D]    # floor id -> meeting pose on that floor
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)

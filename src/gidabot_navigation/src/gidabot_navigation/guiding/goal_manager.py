@@ -67,6 +67,7 @@ from gidabot_navigation.interface import (
     CANCEL,
     CANCELLED_HERE,
     CONTINUE,
+    DEFAULT_LANGUAGE,
     GOING_TO_MEETING,
     LANGUAGES,
     ON_THE_WAY,
@@ -97,7 +98,7 @@ class GoalManagerConfig:
 
     robot: str
     default_way: str = WAY_STAIRS
-    default_language: str = "en"
+    default_language: str = DEFAULT_LANGUAGE
     offline_after: float = 5.0
     max_queue: int = 50
     wait: WaitModel = field(default_factory=WaitModel)

@@ -31,8 +31,6 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     trip_from_msg,
     trip_to_msg,
     yaw_of,
@@ -40,8 +38,9 @@ from gidabot_navigation.guiding.guiding_node import (
 from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
-from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -69,10 +68,10 @@ class Params:
                          continue_s=param_number("~continue_time", WaitModel.continue_s, strict=False),
                          leg_overhead_s=param_number("~leg_overhead", WaitModel.leg_overhead_s, strict=False),
                          pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance))
-        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", "stairs"),
-                                default_language=param_text("~default_language", "en"),
+        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", WAY_STAIRS),
+                                default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
-                                max_queue=int(param_number("~max_queue", 50, minimum=1, strict=False)), wait=wait)
+                                max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait)
         state_dir = param_text("~state_dir", "") or default_state_dir(robot)
         return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
                       param_number("~state_max_age", DEFAULT_MAX_AGE),

@@ -25,6 +25,7 @@ from gidabot_navigation.errors import GoalRejected, TourNameError
 from gidabot_navigation.interface import (
     CANCELLED_ELSEWHERE,
     COMMAND_NAMES,
+    DEFAULT_LANGUAGE,
     FINAL_PHASES,
     LANGUAGES,
     PARTNER_OFFLINE,
@@ -116,7 +117,7 @@ class NavEventData:
     floor: float
     goal_uid: str
     phase: int
-    language: str = "en"
+    language: str = DEFAULT_LANGUAGE
     way: str = ""
     connector: str = ""
     target_floor: float = 0.0
@@ -459,7 +460,7 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
         raise GoalRejected("phase", f"event phase {show(event.phase)} is not a known NavEvent phase")
     tour_file, tour_step = _tour(event.tour_file, event.tour_step, "event")
     way = event.way if isinstance(event.way, str) and event.way in WAYS else ""
-    language = event.language if event.language in LANGUAGES else "en"
+    language = event.language if event.language in LANGUAGES else DEFAULT_LANGUAGE
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
                    way=way, language=language)
 

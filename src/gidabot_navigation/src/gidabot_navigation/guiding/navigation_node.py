@@ -35,8 +35,6 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     quaternion,
     sender,
     trip_from_msg,
@@ -56,6 +54,7 @@ from gidabot_navigation.guiding.navigation import (
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000

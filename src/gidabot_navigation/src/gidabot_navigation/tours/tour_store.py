@@ -50,7 +50,7 @@ from pathlib import Path
 
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError, TourRejected, TourStoreError
-from gidabot_navigation.interface import LANGUAGES
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.safe_dir import Entry, SafeDir, sha256
 from gidabot_navigation.tours.tour_file import (
@@ -215,7 +215,7 @@ class TourStore:
 
     def __init__(self, directory: str | os.PathLike[str], building: Building, robot: str, *,
                  wall_ns: Callable[[], int], log: Logger, seed_dir: str | os.PathLike[str] | None = None,
-                 default_language: str = "en", limits: Limits | None = None) -> None:
+                 default_language: str = DEFAULT_LANGUAGE, limits: Limits | None = None) -> None:
         if building.find_robot(robot) is None:
             raise TourStoreError(f"robot {robot!r} is not in building {building.id} "
                                  f"({', '.join(r.name for r in building.robots)})")

@@ -23,9 +23,10 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
-from gidabot_navigation.interface import LANGUAGES, Node, Topic
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.tours.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
 
 QUEUE_SIZE = 1000
@@ -51,23 +52,17 @@ class Params:
         ros_home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
         default_dir = os.path.join(ros_home, "gidabot", robot, "tours")
         tours_dir = str(rospy.get_param("~tours_dir", "") or default_dir)
-        language = str(rospy.get_param("~default_language", "en"))
+        language = str(rospy.get_param("~default_language", DEFAULT_LANGUAGE))
         if language not in LANGUAGES:
             raise TourStoreError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
 
-        def positive(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
-                raise TourStoreError(f"{name} must be a positive number, got {value!r}")
-            return float(value)
-
-        limits = Limits(max_message_bytes=int(positive("~max_message_bytes", Limits.max_message_bytes)),
-                        max_tours=int(positive("~max_tours", Limits.max_tours)),
-                        max_future_ns=int(positive("~max_clock_skew", Limits.max_future_ns / NS) * NS),
-                        tombstone_ttl_ns=int(positive("~tombstone_ttl", Limits.tombstone_ttl_ns / NS) * NS),
-                        resend_period=positive("~resend_period", Limits.resend_period))
+        limits = Limits(max_message_bytes=int(param_number("~max_message_bytes", Limits.max_message_bytes)),
+                        max_tours=int(param_number("~max_tours", Limits.max_tours)),
+                        max_future_ns=int(param_number("~max_clock_skew", Limits.max_future_ns / NS) * NS),
+                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", Limits.tombstone_ttl_ns / NS) * NS),
+                        resend_period=param_number("~resend_period", Limits.resend_period))
         return Params(building, robot, tours_dir, str(rospy.get_param("~seed_dir", "")), language,
-                      positive("~index_rate", 1.0), limits)
+                      param_number("~index_rate", 1.0), limits)
 
 
 def to_core(msg: Tour) -> TourMessage:

@@ -44,7 +44,16 @@ from typing import Any, TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.interface import Node, Phase, global_name
+from gidabot_navigation.interface import (
+    STATE_GUIDING,
+    STATE_TO_MEETING,
+    STATE_WAITING,
+    WAY_STAIRS,
+    WAYS,
+    Node,
+    Phase,
+    global_name,
+)
 from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse_tour
 from gidabot_sim.chaos import core as cc
 from gidabot_sim.chaos.faults import LinkCuts
@@ -393,8 +402,8 @@ class ChaosRun:
         waiting up to ``wait`` s for one; None if none is."""
         deadline = time.monotonic() + wait
         while not self.over():
-            busy = [r for r in robots if self.probes[r].call("plan").get("state") in ("guiding", "to_meeting",
-                                                                                       "waiting")]
+            busy = [r for r in robots if self.probes[r].call("plan").get("state") in (STATE_GUIDING,
+                                                                                       STATE_TO_MEETING, STATE_WAITING)]
             if busy:
                 return self.rng.choice(busy)
             if time.monotonic() >= deadline:
@@ -558,7 +567,7 @@ class ChaosRun:
 
     def _place_person(self, robot: str, f: cc.Fault, res: cc.FaultResult) -> bool:
         info = self.probes[robot].call("plan")
-        if info.get("state") not in ("guiding", "to_meeting") or not info.get("pose") or not info.get("plan"):
+        if info.get("state") not in (STATE_GUIDING, STATE_TO_MEETING) or not info.get("pose") or not info.get("plan"):
             return False
         r = self.building.robot(robot)
         spot = cc.choose_obstacle(self.building, r.floor, tuple(info["pose"][:2]),
@@ -715,7 +724,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="how many faults: full = the issue's (about 26), quick = one or two of each kind")
     p.add_argument("--speed", type=float, default=None,
                    help="sim seconds per wall second (default: slow enough for the tour to outlast the faults)")
-    p.add_argument("--way", choices=("stairs", "lift"), default="stairs")
+    p.add_argument("--way", choices=WAYS, default=WAY_STAIRS)
     p.add_argument("--start-floor", type=float, default=None, help="default: the tour's first floor")
     p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty")
     p.add_argument("--out", type=Path, default=REPO / "runs",

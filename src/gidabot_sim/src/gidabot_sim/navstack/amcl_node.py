@@ -16,7 +16,7 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
-from gidabot_sim.errors import SimConfigError
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
 from gidabot_sim.ros import convert as ru
 from gidabot_sim.world.clock import Periodic
@@ -55,20 +55,14 @@ class AmclNode:
 
     def __init__(self) -> None:
         def num(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number")
-            return float(value)
+            return param_number(name, default, -math.inf, strict=False)
 
         config = AmclConfig(noise_xy=num("~noise_xy", 0.03), noise_yaw=num("~noise_yaw", 0.02),
                             noise_tau=num("~noise_tau", 3.0), update_min_d=num("~update_min_d", 0.1),
                             update_min_a=num("~update_min_a", 0.1))
         seed = int(rospy.get_param("~seed", -1))
         self.core = AmclCore(config, np.random.default_rng(None if seed < 0 else seed))
-        tf_rate = num("~tf_rate", 10.0)
-        if tf_rate <= 0:
-            raise SimConfigError(f"~tf_rate: {tf_rate!r} must be > 0 Hz")
-        self.tf_due = Periodic(tf_rate)
+        self.tf_due = Periodic(param_number("~tf_rate", 10.0))
         self.tolerance = num("~transform_tolerance", 0.1)
         self.global_frame = str(rospy.get_param("~global_frame_id", "map"))
         self.odom_frame = str(rospy.get_param("~odom_frame_id", "odom"))

@@ -27,6 +27,7 @@ from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
@@ -102,21 +103,14 @@ class MoveBaseNode:
             raise SimConfigError(f"~robot: {err}") from err
         floor = building.floor(robot.floor)
 
-        def num(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
-                    or value <= 0:
-                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number > 0")
-            return float(value)
-
         defaults = NavConfig()
-        config = NavConfig(**{name: num(f"~{name}", value) for name, value in defaults.__dict__.items()})
+        config = NavConfig(**{name: param_number(f"~{name}", value) for name, value in defaults.__dict__.items()})
         self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
-                                           inflation_radius=num("~inflation_radius", robot.radius + 0.7),
-                                           cost_scaling=num("~cost_scaling_factor", 3.0),
-                                           goal_tolerance=num("~default_tolerance", 0.5))
-        self.spacing = num("~plan_point_spacing", floor.map.resolution)
-        self.feedback_due = Periodic(num("~feedback_rate", 5.0))
+                                           inflation_radius=param_number("~inflation_radius", robot.radius + 0.7),
+                                           cost_scaling=param_number("~cost_scaling_factor", 3.0),
+                                           goal_tolerance=param_number("~default_tolerance", 0.5))
+        self.spacing = param_number("~plan_point_spacing", floor.map.resolution)
+        self.feedback_due = Periodic(param_number("~feedback_rate", 5.0))
         self.rate_hz = config.controller_frequency
         self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
         self.robot = robot.name

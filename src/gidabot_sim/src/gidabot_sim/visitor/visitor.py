@@ -33,6 +33,7 @@ from gidabot_navigation.interface import (
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     CONTINUE,
+    DEFAULT_LANGUAGE,
     GO_TO_FLOOR,
     GOAL_REACHED,
     PARTNER_OFFLINE,
@@ -45,6 +46,8 @@ from gidabot_navigation.interface import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
+    WAY_LIFT,
+    WAY_STAIRS,
 )
 
 ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_FINISHED}
@@ -55,8 +58,8 @@ class VisitorConfig:
     robot: str                       # robot of this floor
     floor: float                     # this floor
     start_floor: float = 0.0         # where the visitor starts
-    way: str = "stairs"              # "stairs" or "lift" for every floor change
-    language: str = "en"
+    way: str = WAY_STAIRS            # WAY_STAIRS or WAY_LIFT for every floor change
+    language: str = DEFAULT_LANGUAGE
     stairs_s_per_floor: float = 20.0 # s of walking per floor by the stairs
     lift_wait_s: float = 25.0        # s waiting for the lift
     lift_s_per_floor: float = 5.0    # s of lift travel per floor
@@ -70,7 +73,7 @@ class VisitorConfig:
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
-        if self.way == "lift":
+        if self.way == WAY_LIFT:
             return self.lift_wait_s + self.lift_s_per_floor * floors
         return self.stairs_s_per_floor * floors
 
@@ -86,7 +89,7 @@ class ButtonPress:
     tour_file: str = ""
     tour_step: int = -1
     way: str = ""
-    language: str = "en"
+    language: str = DEFAULT_LANGUAGE
 
 
 @dataclass

@@ -33,6 +33,7 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.ros import convert as ru
 from gidabot_sim.world.clock import Periodic, SimClock, tick_period
@@ -40,15 +41,6 @@ from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
 
 MAX_EVENTS_PER_TICK = 200     # inputs applied per /clock tick; a flood waits for the next ticks
-
-
-def _num(name: str, default: float, low: float = 0.0, high: float = math.inf, strict: bool = False) -> float:
-    value = rospy.get_param(name, default)
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or value < low or value > high or (strict and value <= low):
-        bound = f"> {low:g}" if strict else f">= {low:g}"
-        raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a number {bound} and <= {high:g}")
-    return float(value)
 
 
 def _pose_param(name: str, value: Any) -> Pose2D | None:
@@ -103,30 +95,33 @@ class SimParams:
             poses = [_pose_param("~initial_poses", p) for p in raw]
         else:
             poses = [_pose_param("~initial_pose", rospy.get_param("~initial_pose", []))] + [None] * (len(robots) - 1)
-        laser = LaserSpec(beams=int(_num("~laser_beams", 360, 1, 10000)),
-                          fov=_num("~laser_fov", 1.5 * math.pi, 0.0, 2 * math.pi, strict=True),
-                          range_min=_num("~laser_range_min", 0.05), range_max=_num("~laser_range_max", 20.0),
-                          noise=_num("~laser_noise", 0.01), x=_num("~laser_x", 0.1, -5, 5),
-                          y=_num("~laser_y", 0.0, -5, 5))
-        battery = BatteryModel(start=_num("~battery_start", 1.0, 0.0, 1.0),
-                               idle_per_hour=_num("~battery_idle_per_hour", 0.05),
-                               per_km=_num("~battery_per_km", 0.25))
+        laser = LaserSpec(beams=int(param_number("~laser_beams", 360, 1, 10000, strict=False)),
+                          fov=param_number("~laser_fov", 1.5 * math.pi, 0.0, 2 * math.pi),
+                          range_min=param_number("~laser_range_min", 0.05, strict=False),
+                          range_max=param_number("~laser_range_max", 20.0, strict=False),
+                          noise=param_number("~laser_noise", 0.01, strict=False),
+                          x=param_number("~laser_x", 0.1, -5, 5, strict=False),
+                          y=param_number("~laser_y", 0.0, -5, 5, strict=False))
+        battery = BatteryModel(start=param_number("~battery_start", 1.0, 0.0, 1.0, strict=False),
+                               idle_per_hour=param_number("~battery_idle_per_hour", 0.05, strict=False),
+                               per_km=param_number("~battery_per_km", 0.25, strict=False))
         seed = int(rospy.get_param("~seed", -1))
         return SimParams(
             building=building, robots=tuple(robots), floor=float(rospy.get_param("~floor", math.nan)),
-            poses=tuple(poses), speed=_num("~speed", 1.0, 0.0, 1000.0, strict=True),
-            start_wall=_num("~start_wall", 0.0), dt=_num("~physics_dt", 0.02, 0.0, 0.2, strict=True),
-            cmd_timeout=_num("~cmd_timeout", 0.2, 0.0, strict=True),
-            max_catchup=_num("~max_catchup", 10.0, 0.0, strict=True),
-            clock_step=_num("~clock_step", 0.05, 0.0, 10.0, strict=True),
-            clock_rate_max=_num("~clock_rate_max", 100.0, 0.0, 1000.0, strict=True),
-            odom_rate=_num("~odom_rate", 20.0, 0.0, 1000.0, strict=True),
-            truth_rate=_num("~truth_rate", 5.0, 0.0, 1000.0, strict=True),
-            rest_rate=_num("~rest_rate", 1.0, 0.0, 1000.0, strict=True),
-            laser_rate=_num("~laser_rate", 10.0, 0.0, 1000.0, strict=True),
-            battery_rate=_num("~battery_rate", 1.0, 0.0, 100.0, strict=True),
-            laser=laser, laser_z=_num("~laser_z", 0.3, -5, 5), battery=battery,
-            seed=None if seed < 0 else seed, diagnostics_period=_num("~diagnostics_period", 1.0, 0.0, strict=True))
+            poses=tuple(poses), speed=param_number("~speed", 1.0, 0.0, 1000.0),
+            start_wall=param_number("~start_wall", 0.0, strict=False),
+            dt=param_number("~physics_dt", 0.02, 0.0, 0.2),
+            cmd_timeout=param_number("~cmd_timeout", 0.2),
+            max_catchup=param_number("~max_catchup", 10.0),
+            clock_step=param_number("~clock_step", 0.05, 0.0, 10.0),
+            clock_rate_max=param_number("~clock_rate_max", 100.0, 0.0, 1000.0),
+            odom_rate=param_number("~odom_rate", 20.0, 0.0, 1000.0),
+            truth_rate=param_number("~truth_rate", 5.0, 0.0, 1000.0),
+            rest_rate=param_number("~rest_rate", 1.0, 0.0, 1000.0),
+            laser_rate=param_number("~laser_rate", 10.0, 0.0, 1000.0),
+            battery_rate=param_number("~battery_rate", 1.0, 0.0, 100.0),
+            laser=laser, laser_z=param_number("~laser_z", 0.3, -5, 5, strict=False), battery=battery,
+            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0))
 
 
 class _RobotIO:
