@@ -169,7 +169,7 @@ class RelayMesh:
             assert not dups, f"{r} received {dups} more than once on {topic}"
 
     # -- master ---------------------------------------------------------------------------
-    def relay_nodes(self, robot: str) -> list[str]:
+    def relay_ends(self, robot: str) -> list[str]:
         uri = self.robot(robot).master_uri
         _, _, state = xmlrpc.client.ServerProxy(uri).getSystemState("/test")
         nodes = {n for group in state for _, ns in group for n in ns}

@@ -35,8 +35,8 @@ def test_goal_from_robot_0_reaches_robots_1_to_3_exactly_once(mesh) -> None:
     names = {f"/gidabot_relay_{a.name}_{b.name}" for a, b in mesh.sim.building.relay_pairs()}
     assert len(names) == 6
     for r in mesh.robots:
-        assert len(mesh.relay_nodes(r)) == 3 and set(mesh.relay_nodes(r)) <= names
-    assert set().union(*(mesh.relay_nodes(r) for r in mesh.robots)) == names
+        assert len(mesh.relay_ends(r)) == 3 and set(mesh.relay_ends(r)) <= names
+    assert set().union(*(mesh.relay_ends(r) for r in mesh.robots)) == names
 
     for k in range(5):
         mesh.publish(first, GOALS, GOAL, {"uid": f"{first}/v/{k}", "origin_robot": first})

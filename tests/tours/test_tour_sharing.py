@@ -133,7 +133,7 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
     assert all(".gidabot-tours.json" in s for s in stored.values())
     pids = {r: mesh.store_pid(r) for r in ROBOTS}
     assert None not in pids.values(), pids
-    relays = {r: mesh.mesh.relay_nodes(r) for r in ROBOTS}
+    relays = {r: mesh.mesh.relay_ends(r) for r in ROBOTS}
     rejected = {r: int(mesh.store_diag(r).get("rejected", 0)) for r in ROBOTS}
 
     cases = hostile("Tartalo", version=T_NOW)
@@ -162,7 +162,7 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
         assert not (mesh.dirs[r].parent / "escape.tour").exists() and not (mesh.tmp / "escape.tour").exists()
         assert mesh.store_pid(r) == pids[r], f"{r}'s tour store was restarted"
         assert mesh.procs.alive(f"tour_store_{r}") and mesh.procs.alive(f"relays_{r}")
-        assert mesh.mesh.relay_nodes(r) == relays[r]
+        assert mesh.mesh.relay_ends(r) == relays[r]
     mesh.mesh.wait_connected(10)
 
     # and the stores still work: a new tour still reaches everyone

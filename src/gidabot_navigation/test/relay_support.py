@@ -1,4 +1,4 @@
-"""Helpers of the relay unit tests: two link cores joined by an in-memory wire (no sockets, no master)."""
+"""Helpers of the relay unit tests: the cores of two relay ends joined by an in-memory wire (no sockets, no master)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The relay link core: handshake, HMAC, seq/ack, dedup, journal replay, bounded queues, coalescing, liveness.
+"""The core of a relay end: handshake, HMAC, seq/ack, dedup, journal replay, bounded queues, coalescing, liveness.
 
 Two cores joined by an in-memory wire (relay_support.Wire); no sockets, no master.
 """

@@ -5,8 +5,8 @@ from __future__ import annotations
 import sys
 import time
 
+from gidabot_navigation.relay.end import PARENT_ENV
 from gidabot_navigation.relay.supervisor import (
-    PARENT_ENV,
     Backoff,
     EndOptions,
     EndSpec,

@@ -79,8 +79,8 @@ def test_tables_from_bags(tmp_path: Path) -> None:
 
 
 def test_guiding_intervals_and_length() -> None:
-    ev = [report.Event(0, "R", "a", Phase.ON_THE_WAY), report.Event(5, "R", "a", Phase.GO_TO_FLOOR),
-          report.Event(9, "R", "b", Phase.ON_THE_WAY), report.Event(12, "R", "b", Phase.CANCELLED_HERE)]
+    ev = [report.EventSample(0, "R", "a", Phase.ON_THE_WAY), report.EventSample(5, "R", "a", Phase.GO_TO_FLOOR),
+          report.EventSample(9, "R", "b", Phase.ON_THE_WAY), report.EventSample(12, "R", "b", Phase.CANCELLED_HERE)]
     assert report.guiding_intervals(ev) == [(0, 5), (9, 12)]
     poses = [report.PoseSample(t, float(t), 0.0) for t in range(13)]
     assert report.path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)

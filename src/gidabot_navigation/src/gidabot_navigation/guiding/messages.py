@@ -1,7 +1,8 @@
 """Plain-Python forms of the guiding messages and their validation (ROS-free).
 
-The guiding cores (:mod:`goal_manager_core`, :mod:`navigation_core`) never see a ROS
-message: the adapters convert ``gidabot_msgs`` messages into the dataclasses below
+The guiding cores (:mod:`~gidabot_navigation.guiding.goal_manager`,
+:mod:`~gidabot_navigation.guiding.navigation`) never see a ROS message: the adapters
+convert ``gidabot_msgs`` messages into the dataclasses below
 (:class:`Trip` = Goal, :class:`NavEventData` = NavEvent, :class:`CancelData` = Cancel,
 :class:`CommandData` = VisitorCommand) and back. Everything that comes from outside
 (another robot, the GUI) is untrusted and goes through :func:`validate_trip`,

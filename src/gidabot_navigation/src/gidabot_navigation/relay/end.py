@@ -1,9 +1,10 @@
-"""The relay link core (ROS-free): one end of the authenticated link between two robots' masters.
+"""The core of a relay end (ROS-free): what one end of the relay between two robots' masters decides.
 
 A relay between robots A and B has two ends, each an ordinary node named
-``/gidabot_relay_A_B`` on its own robot's master; the ends talk over one TCP
-connection (end b listens, end a connects). This module is everything an end
-decides, with no sockets, threads or rospy: the adapter (:mod:`relay_node`) feeds
+``/gidabot_relay_A_B`` on its own robot's master; the ends talk over one authenticated
+TCP connection, the link (end b listens, end a connects). This module is everything an
+end decides, with no sockets, threads or rospy: the adapter
+(:mod:`gidabot_navigation.relay.end_node`) feeds
 it local messages, connection events, received bytes and the time, and carries out
 the :class:`Send` / :class:`Close` actions it returns and the deliveries it hands out.
 
@@ -61,6 +62,10 @@ from gidabot_navigation.relay.protocol import (
 )
 
 REJECT_REASONS = ("auth", "oversize", "malformed", "type")
+# how an end process tells its supervisor (gidabot_navigation.relay.supervisor) why it stopped
+EXIT_CONFIG = 2                          # bad options: restarting will not help
+EXIT_PORT = 3                            # end b cannot bind the link port: the supervisor picks another
+PARENT_ENV = "GIDABOT_RELAY_PARENT"      # set by the supervisor: an end exits when its parent is gone
 
 
 # -- configuration --------------------------------------------------------------------------
@@ -191,7 +196,7 @@ class Delivery:
     msg: Message
 
 
-class Phase(Enum):
+class ConnState(Enum):
     WAIT_HELLO = "wait_hello"      # a: sent HELLO, waiting for b's; b: waiting for a's HELLO
     WAIT_READY = "wait_ready"      # b: answered HELLO, waiting for a's READY
     ACTIVE = "active"
@@ -204,7 +209,7 @@ class _Conn:
     reader: FrameReader
     opened: float
     last_rx: float
-    phase: Phase = Phase.WAIT_HELLO
+    state: ConnState = ConnState.WAIT_HELLO
     nonce: bytes = b""
     peer: Hello | None = None
     tx_key: bytes | None = None
@@ -382,7 +387,7 @@ class RelayEndCore:
     def connection_opened(self, conn_id: int, initiator: bool) -> list[Action]:
         """A TCP connection exists (initiator: this end connected). Returns the first frames."""
         now = self.clock()
-        pending = [c for c in self.conns.values() if c.phase is not Phase.ACTIVE]
+        pending = [c for c in self.conns.values() if c.state is not ConnState.ACTIVE]
         if len(pending) >= self.cfg.max_pending_connections:
             self.rlog.warning("pending", f"{self.name}: too many unauthenticated connections; refusing one")
             return [Close(conn_id, "too many unauthenticated connections")]
@@ -421,7 +426,7 @@ class RelayEndCore:
                 if frame is None:
                     break
                 conn.last_rx = self.clock()
-                if conn.phase is Phase.ACTIVE:
+                if conn.state is ConnState.ACTIVE:
                     check_mac(frame, conn.rx_key, conn.rx_count)
                     conn.rx_count += 1
                     ack_due = self._active_frame(conn, frame.type, frame.body, out) or ack_due
@@ -439,7 +444,7 @@ class RelayEndCore:
         return out
 
     def _handshake_frame(self, conn: _Conn, frame, out: list[Action]) -> None:
-        if conn.phase is Phase.WAIT_HELLO and frame.type is FrameType.HELLO:
+        if conn.state is ConnState.WAIT_HELLO and frame.type is FrameType.HELLO:
             check_mac(frame, self.key_hello, 0)
             hello = Hello.decode(frame.body)
             want_side = "b" if conn.initiator else "a"
@@ -458,15 +463,15 @@ class RelayEndCore:
                               self.state.in_epoch, self.state.in_last)
                 out.append(Send(conn.id, encode_frame(FrameType.HELLO, reply.encode(), self.key_hello, 0)))
                 self._derive_keys(conn, hello.nonce, conn.nonce)
-                conn.phase = Phase.WAIT_READY
-        elif conn.phase is Phase.WAIT_READY and frame.type is FrameType.READY:
+                conn.state = ConnState.WAIT_READY
+        elif conn.state is ConnState.WAIT_READY and frame.type is FrameType.READY:
             check_mac(frame, conn.rx_key, conn.rx_count)
             conn.rx_count += 1
             if frame.body:
                 raise FrameRejected("malformed", "READY frame with a body")
             self._activate(conn, out)
         else:
-            raise FrameRejected("malformed", f"{frame.type.name} frame during the handshake ({conn.phase.value})")
+            raise FrameRejected("malformed", f"{frame.type.name} frame during the handshake ({conn.state.value})")
 
     def _derive_keys(self, conn: _Conn, nonce_a: bytes, nonce_b: bytes) -> None:
         if self.cfg.secret is None:
@@ -481,7 +486,7 @@ class RelayEndCore:
             out.append(Close(old.id, "replaced by a new authenticated connection"))
             self.conns.pop(old.id, None)
             self.active = None
-        conn.phase = Phase.ACTIVE
+        conn.state = ConnState.ACTIVE
         self.active = conn
         self.stats.connections += 1
         peer = conn.peer
@@ -655,7 +660,7 @@ class RelayEndCore:
         now = self.clock()
         out: list[Action] = []
         for conn in list(self.conns.values()):
-            if conn.phase is not Phase.ACTIVE and now - conn.opened > self.cfg.handshake_timeout:
+            if conn.state is not ConnState.ACTIVE and now - conn.opened > self.cfg.handshake_timeout:
                 out.append(Close(conn.id, "handshake timeout"))
                 self.rlog.warning("handshake", f"{self.name}: connection {conn.id} did not authenticate within "
                                                f"{self.cfg.handshake_timeout:g} s; closed")

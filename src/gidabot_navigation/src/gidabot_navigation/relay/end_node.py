@@ -1,10 +1,10 @@
 """ROS adapter of one relay end: the ``relay_end`` node ``/gidabot_relay_<A>_<B>`` on one robot's master.
 
-The decisions live in :mod:`relay_link` (ROS-free). This module reads the parameters
+The decisions live in :mod:`gidabot_navigation.relay.end` (ROS-free). This module reads the parameters
 once, subscribes the shared topics as raw bytes, publishes what the peer sends with
 the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
 only hand bytes to the core and try a non-blocking send) and the master watch.
-Normally started by the relay supervisor (:mod:`relay_supervisor`), never by hand.
+Normally started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`), never by hand.
 """
 
 from __future__ import annotations
@@ -31,15 +31,22 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_navigation.errors import GidaBotError, RelayConfigError
 from gidabot_navigation.interface import EVENT, STATE, Topic, TopicSpec, is_relay_end, relay_end_name
-from gidabot_navigation.relay.end import Action, Close, RelayEndConfig, RelayEndCore, load_shared_topics, read_secret
+from gidabot_navigation.relay.end import (
+    EXIT_CONFIG,
+    EXIT_PORT,
+    PARENT_ENV,
+    Action,
+    Close,
+    RelayEndConfig,
+    RelayEndCore,
+    load_shared_topics,
+    read_secret,
+)
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.master_watch import Event, MasterWatch, keep_registered, proxy
+from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 
-EXIT_CONFIG = 2          # bad parameters: restarting will not help
-EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
-PARENT_ENV = "GIDABOT_RELAY_PARENT"   # set by the supervisor: exit when the parent is no longer this pid
 CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
 RETRY_INTERVAL = 0.25    # s between connect attempts
 RECV_BYTES = 1 << 18
@@ -339,14 +346,14 @@ class RelayEndNode:
                 out.append(r)
         return out
 
-    def _on_master_event(self, event: Event, watch: MasterWatch) -> None:
+    def _on_master_event(self, event: MasterEvent, watch: MasterWatch) -> None:
         now = time.monotonic()
         with self.lock:
-            if event is Event.DOWN:
+            if event is MasterEvent.DOWN:
                 self.core.set_master_up(False)
                 self.core.set_delivery_open(False)
                 self.reopen_deadline = None
-            elif event is Event.REREGISTER:
+            elif event is MasterEvent.REREGISTER:
                 self.core.set_master_up(True)
                 self.core.set_delivery_open(False)
                 self.reopen_deadline = now + self.params.hold_grace

@@ -28,10 +28,8 @@ from pathlib import Path
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.interface import relay_end_name
+from gidabot_navigation.relay.end import EXIT_CONFIG, EXIT_PORT, PARENT_ENV
 
-EXIT_CONFIG = 2                          # = relay_node.EXIT_CONFIG (not imported: that module needs rospy)
-EXIT_PORT = 3                            # = relay_node.EXIT_PORT
-PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = relay_node.PARENT_ENV: the ends exit when their parent is gone
 RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
 
 

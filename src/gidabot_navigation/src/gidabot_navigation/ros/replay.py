@@ -7,7 +7,7 @@ Event publishers keep what they published in the last ``window`` wall seconds (a
 most ``limit`` messages) and send it again, on that connection only, to every new
 subscriber. Receivers already ignore event uids they have handled
 (docs/interfaces.md), so a replay only fills the gap; a node that restarts keeps
-its handled uids across the restart (guiding state, :mod:`guiding_state`).
+its handled uids across the restart (:mod:`gidabot_navigation.guiding.state`).
 
 :class:`ReplayBuffer` is ROS-free; :class:`ReplayPublisher` wraps ``rospy.Publisher``.
 A node's events are replayed to relay ends too (a relay end that was down missed

@@ -27,7 +27,7 @@ from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topi
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
-from gidabot_navigation.tours.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
+from gidabot_navigation.tours.tour_store import NS, StoreLimits, TourMessage, TourRecord, TourStore, index_entries
 
 QUEUE_SIZE = 1000
 
@@ -40,7 +40,7 @@ class Params:
     seed_dir: str
     default_language: str
     index_rate: float
-    limits: Limits
+    limits: StoreLimits
 
     @staticmethod
     def read() -> Params:
@@ -56,11 +56,11 @@ class Params:
         if language not in LANGUAGES:
             raise TourStoreError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
 
-        limits = Limits(max_message_bytes=int(param_number("~max_message_bytes", Limits.max_message_bytes)),
-                        max_tours=int(param_number("~max_tours", Limits.max_tours)),
-                        max_future_ns=int(param_number("~max_clock_skew", Limits.max_future_ns / NS) * NS),
-                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", Limits.tombstone_ttl_ns / NS) * NS),
-                        resend_period=param_number("~resend_period", Limits.resend_period))
+        limits = StoreLimits(max_message_bytes=int(param_number("~max_message_bytes", StoreLimits.max_message_bytes)),
+                        max_tours=int(param_number("~max_tours", StoreLimits.max_tours)),
+                        max_future_ns=int(param_number("~max_clock_skew", StoreLimits.max_future_ns / NS) * NS),
+                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", StoreLimits.tombstone_ttl_ns / NS) * NS),
+                        resend_period=param_number("~resend_period", StoreLimits.resend_period))
         return Params(building, robot, tours_dir, str(rospy.get_param("~seed_dir", "")), language,
                       param_number("~index_rate", 1.0), limits)
 

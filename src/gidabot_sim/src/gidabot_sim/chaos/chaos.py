@@ -499,7 +499,7 @@ class ChaosRun:
         else:
             raise ChaosError(f"the relay supervisor of {f.robot} did not start its ends again within 60 s")
         res.cleared = _now()
-        res.detail = (f"its relay ends of the links with {', '.join(pairs)} restarted "
+        res.detail = (f"its relay ends (relays with {', '.join(pairs)}) restarted "
                       f"{res.cleared - res.injected:.1f} s after the kill")
         times = [self.link_recovered(f.robot, o, res.cleared) for o in pairs]
         self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]

@@ -57,7 +57,7 @@ COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
 
 
 @dataclass(frozen=True)
-class Event:
+class EventSample:
     t: float            # s, header stamp (sim time)
     robot: str
     goal_uid: str
@@ -90,7 +90,7 @@ class RobotRecord:
     name: str
     floor: float
     goal_uids: set[str] = field(default_factory=set)
-    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    events: list[EventSample] = field(default_factory=list)      # events emitted by this robot
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
@@ -114,7 +114,7 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
     """[start, end] sim-time intervals while the robot was guiding the visitor."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
@@ -265,7 +265,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
                 elif conn.topic == Topic.NAV_EVENTS:
                     if msg.robot == name:
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))

@@ -43,6 +43,7 @@ from gidabot_navigation.building.geometry import Pose2D, wrap_angle
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.building.planning import GridPlanner, Path, Shape
 from gidabot_navigation.errors import PlanningError
+from gidabot_navigation.logs import Logger
 from gidabot_sim.errors import NavGoalRejected, SimConfigError
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D, clamp_velocity, integrate
 
@@ -92,15 +93,12 @@ class StepResult:
     text: str = ""               # the result's status text (move_base's wording where it has one)
 
 
-class Logger:
-    """What the core logs through (rospy's logger in the node, a list in tests)."""
+class _Null:
+    """No log (the core without a logger)."""
 
     def info(self, msg: str) -> None: ...
     def warning(self, msg: str) -> None: ...
-
-
-class _Null(Logger):
-    pass
+    def error(self, msg: str) -> None: ...
 
 
 class FollowedPath:
