@@ -24,7 +24,7 @@ from relay_system import RelayMesh
 from tour_system import FACULTY, TOUR, start_store
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_navigation.interface import Topic
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_sim.errors import ProcessError
 from gidabot_sim.runner.procs import ProcessGroup, master_pid, robot_address, ros_env, start_master, wait_until
 
@@ -158,7 +158,7 @@ class TourMesh:
 
     def store_pid(self, robot: str) -> int | None:
         assert self.masters is not None
-        return node_pid(self.masters.building.robot(robot).master_uri, "/tour_store")
+        return node_pid(self.masters.building.robot(robot).master_uri, global_name(Node.TOUR_STORE))
 
     # -- messages -------------------------------------------------------------------------
     def probe(self, robot: str):

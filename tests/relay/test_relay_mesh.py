@@ -13,7 +13,7 @@ import xmlrpc.client
 import pytest
 from relay_system import DIAG, GOAL, GOALS, RelayMesh, settle, wait_pid_gone
 
-from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Topic
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Node, Topic, global_name
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
@@ -104,7 +104,8 @@ def test_relays_launch_supervisor_death_takes_its_ends_and_roslaunch_brings_them
     mesh.start(subscribe=[(GOALS, GOAL)])
     owner = mesh.robots[0]
     pids = [mesh.end_pid(owner, f"{owner}_{o}.{side}") for o in mesh.robots[1:] for side in "ab"]
-    api = xmlrpc.client.ServerProxy(mesh.robot(owner).master_uri).lookupNode("/test", "/relay_supervisor")[2]
+    master = xmlrpc.client.ServerProxy(mesh.robot(owner).master_uri)
+    api = master.lookupNode("/test", global_name(Node.RELAY_SUPERVISOR))[2]
     sup_pid = xmlrpc.client.ServerProxy(api).getPid("/test")[2]
     t = time.monotonic()
     os.kill(sup_pid, signal.SIGKILL)

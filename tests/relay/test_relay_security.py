@@ -12,7 +12,7 @@ import socket
 import pytest
 from relay_system import GOAL, GOALS, RelayMesh, settle, spoof_publish
 
-from gidabot_navigation.interface import Topic
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.relay.protocol import HEADER, FrameType, Hello, Message, encode_frame, encode_message, hello_key
 
 pytestmark = pytest.mark.system
@@ -47,7 +47,7 @@ def test_spoofed_unauthenticated_and_oversized_frames_are_rejected_and_counted(m
     attacker_ip = mesh.robot("Galtxagorri").ip                  # another machine of the building
     pair = f"{a}_{b}"
     hello = Hello(pair, "a", b"n" * 16, b"", 1, 0, 0).encode()
-    event = encode_message(Message(GOALS, "/goal_manager", "0" * 32, b"evil", 1), True)
+    event = encode_message(Message(GOALS, global_name(Node.GOAL_MANAGER), "0" * 32, b"evil", 1), True)
     attacks = {
         "auth": [encode_frame(FrameType.HELLO, hello),                                     # no HMAC
                  encode_frame(FrameType.HELLO, hello, hello_key(b"guessed-wrong-secret-123")),  # bad HMAC

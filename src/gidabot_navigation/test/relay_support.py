@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gidabot_navigation.interface import EVENT, SHARED_TOPICS, Topic
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, Node, Topic, global_name
 from gidabot_navigation.relay.end import Close, RelayEndConfig, RelayEndCore, Send
 from gidabot_navigation.relay.journal import Journal
 
@@ -99,7 +99,7 @@ class Wire:
             self.published[side] += [(d.kind, d.msg.topic, d.msg.callerid, d.msg.payload) for d in ds]
             core.delivered(len(events), len(ds) - len(events))
 
-    def local(self, side: str, topic: str, payload: bytes, callerid: str = "/goal_manager") -> None:
+    def local(self, side: str, topic: str, payload: bytes, callerid: str = global_name(Node.GOAL_MANAGER)) -> None:
         core = self.a if side == "a" else self.b
         self.run(side, core.local_message(topic, callerid, TYPES[topic], MD5[topic], payload))
 

@@ -9,7 +9,7 @@ import pytest
 from relay_support import MD5, SECRET, TYPES, Clock, Log, make_core, pair
 
 from gidabot_navigation.errors import RelayConfigError
-from gidabot_navigation.interface import EVENT, Topic, TopicSpec, is_relay_end, relay_end_name
+from gidabot_navigation.interface import EVENT, Node, Topic, TopicSpec, global_name, is_relay_end, relay_end_name
 from gidabot_navigation.relay.end import Close, RelayEndConfig, Send, parse_shared_topics, read_secret
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.relay.protocol import FrameType, Hello, encode_frame, hello_key
@@ -148,7 +148,7 @@ def test_peer_event_of_wrong_md5_or_malformed_is_acknowledged_not_published(tmp_
 
 def test_relay_names() -> None:
     assert relay_end_name("Tartalo", "Kbot") == "/gidabot_relay_Tartalo_Kbot"
-    assert is_relay_end("/gidabot_relay_Tartalo_Kbot") and not is_relay_end("/relay_supervisor")
+    assert is_relay_end("/gidabot_relay_Tartalo_Kbot") and not is_relay_end(global_name(Node.RELAY_SUPERVISOR))
 
 
 # -- sequence numbers, acknowledgements, de-duplication -------------------------------------------
@@ -333,7 +333,7 @@ def test_states_are_coalesced_per_publisher_and_resent_on_reconnect(tmp_path) ->
     w, _, _, clock = pair(tmp_path, state_rate=10.0)
     w.connect()
     for i in range(20):                                  # 20 updates within 50 ms
-        w.local("a", S, b"s%d" % i, callerid="/multirobot_navigation")
+        w.local("a", S, b"s%d" % i, callerid=global_name(Node.MULTIROBOT_NAVIGATION))
         clock.t += 0.0025
     w.local("a", S, b"other", callerid="/other_node")
     got = w.payloads("b", S)
@@ -439,9 +439,9 @@ def test_a_local_event_published_again_is_forwarded_once_even_after_a_restart(tm
     w.a.journal.compact(w.a.state)
     w.a.journal.close()
     a2 = make_core("a", Journal(tmp_path / "a.journal"), clock, Log(), header_topics=frozenset({G}))
-    assert a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-2") == []
+    assert a2.local_message(G, global_name(Node.GOAL_MANAGER), TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-2") == []
     assert a2.stats.replays_ignored == 1
-    a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-3")
+    a2.local_message(G, global_name(Node.GOAL_MANAGER), TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-3")
     assert a2.stats.forwarded_events == 1
 
 

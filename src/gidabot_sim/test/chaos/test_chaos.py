@@ -8,8 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.interface import Phase
+from gidabot_navigation.interface import Node, Phase, global_name
 from gidabot_sim.chaos import core as cc
+
+# callers as the probes record them
+GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
 
 
 def test_every_hostile_template_builds_a_message() -> None:
@@ -42,12 +45,12 @@ def test_tour_watch_follows_the_tours_own_events_only() -> None:
     from gidabot_sim.chaos.chaos import TourWatch
 
     w = TourWatch("t.tour", last_step=1, robots={"Tartalo", "Kbot"})
-    ev = {"k": "event", "m": "Tartalo", "robot": "Tartalo", "c": "/multirobot_navigation", "tour_file": "t.tour"}
-    w.feed([{"k": "goal", "m": "Tartalo", "origin": "Tartalo", "c": "/goal_manager", "uid": "T/v/1",
+    ev = {"k": "event", "m": "Tartalo", "robot": "Tartalo", "c": NAV, "tour_file": "t.tour"}
+    w.feed([{"k": "goal", "m": "Tartalo", "origin": "Tartalo", "c": GM, "uid": "T/v/1",
              "tour_file": "t.tour"},
             {**ev, "phase": Phase.TOUR_STEP_DONE, "tour_step": 0},
             {**ev, "phase": Phase.UNREACHABLE, "tour_file": "other.tour"},                  # another visit
-            {**ev, "c": "/chaos_probe", "phase": Phase.TOUR_FINISHED, "tour_step": 1},      # hostile
+            {**ev, "c": PROBE, "phase": Phase.TOUR_FINISHED, "tour_step": 1},      # hostile
             {**ev, "m": "Kbot", "c": "/gidabot_relay_Tartalo_Kbot", "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
     assert w.goals == {"T/v/1"} and w.last_step_done == 0 and not w.finished and not w.failure
     w.feed([{**ev, "robot": "Kbot", "m": "Kbot", "phase": Phase.TOUR_FINISHED, "tour_step": 1}])

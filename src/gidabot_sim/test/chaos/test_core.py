@@ -8,9 +8,12 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.interface import Phase
+from gidabot_navigation.interface import Node, Phase, global_name, relay_end_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_sim.chaos import core as cc
+
+# callers as the probes record them
+GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -54,13 +57,13 @@ def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
 
 
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:
-    return {"k": "goal", "m": m, "c": caller or ("/goal_manager" if m == origin else f"/gidabot_relay_{origin}_{m}"),
+    return {"k": "goal", "m": m, "c": caller or (GM if m == origin else relay_end_name(origin, m)),
             "w": w, "uid": uid, "origin": origin, "initial_floor": a, "goal_floor": b, "goal_id": "x",
             "tour_step": 0}
 
 
 def _ev(m: str, robot: str, goal: str, phase: int, uid: str, w: float = 0.0) -> dict:
-    caller = "/multirobot_navigation" if m == robot else f"/gidabot_relay_{robot}_{m}"
+    caller = NAV if m == robot else relay_end_name(robot, m)
     return {"k": "event", "m": m, "c": caller, "w": w, "uid": uid, "robot": robot, "goal_uid": goal, "phase": phase}
 
 
@@ -85,7 +88,7 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     recs += _everywhere(_ev, "Tartalo", "T/v/2", Phase.ACCEPTED, "T/e/3")
     # g3: cancelled: not lost, not in Table 3
     recs += _everywhere(_goal, "K/v/3", "Kbot", 1.0, 1.0)
-    recs += [{"k": "cancel", "m": m, "c": "/goal_manager", "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
+    recs += [{"k": "cancel", "m": m, "c": GM, "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
               "reason": "visitor"} for m in ROBOTS]
     # g4: Kbot processed it twice (two ACCEPTED with different uids)
     recs += _everywhere(_goal, "K/v/4", "Kbot", 1.0, 1.0)
@@ -93,8 +96,8 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.ACCEPTED, "K/e/5")
     recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.GOAL_REACHED, "K/e/6")
     # hostile input: a goal from the probe and an event claiming to be a robot's, from a probe
-    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller="/chaos_probe"))
-    recs.append({"k": "event", "m": "Kbot", "c": "/chaos_probe", "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
+    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller=PROBE))
+    recs.append({"k": "event", "m": "Kbot", "c": PROBE, "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
                  "phase": Phase.GOAL_REACHED})
     book = cc.Bookkeeping(faculty, recs)
     fates = book.fates()
