@@ -13,7 +13,7 @@ import xmlrpc.client
 import pytest
 from relay_system import DIAG, GOAL, GOALS, RelayMesh, settle, wait_pid_gone
 
-from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Node, Topic, global_name
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Node, Topic, global_name, relay_end_name
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
@@ -32,7 +32,7 @@ def test_goal_from_robot_0_reaches_robots_1_to_3_exactly_once(mesh) -> None:
     mesh.start(subscribe=[(GOALS, GOAL)])
     first, others = mesh.robots[0], mesh.robots[1:]
     # n(n-1)/2 relays, derived from the building: every master has one end of each of its n-1 relays
-    names = {f"/gidabot_relay_{a.name}_{b.name}" for a, b in mesh.sim.building.relay_pairs()}
+    names = {relay_end_name(a.name, b.name) for a, b in mesh.sim.building.relay_pairs()}
     assert len(names) == 6
     for r in mesh.robots:
         assert len(mesh.relay_ends(r)) == 3 and set(mesh.relay_ends(r)) <= names

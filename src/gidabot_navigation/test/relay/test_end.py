@@ -105,7 +105,7 @@ def test_too_many_unauthenticated_connections_are_refused(tmp_path) -> None:
 def test_local_messages_that_must_not_cross(tmp_path) -> None:
     w, la, _, _ = pair(tmp_path, max_message_bytes=100)
     w.connect()
-    w.run("a", w.a.local_message(G, "/gidabot_relay_Kbot_Galtxagorri", TYPES[G], MD5[G], b"relayed"))
+    w.run("a", w.a.local_message(G, relay_end_name("Kbot", "Galtxagorri"), TYPES[G], MD5[G], b"relayed"))
     w.run("a", w.a.local_message(G, "/spoofer", "std_msgs/String", "f" * 32, b"wrong type"))
     w.run("a", w.a.local_message(G, "/spoofer", TYPES[G], "f" * 32, b"wrong md5"))
     w.run("a", w.a.local_message(G, "/big", TYPES[G], MD5[G], b"x" * 101))

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 import time
 
+from gidabot_navigation.interface import relay_end_name
 from gidabot_navigation.relay.end import PARENT_ENV
 from gidabot_navigation.relay.supervisor import (
     Backoff,
@@ -28,7 +29,7 @@ def test_plan_gives_n_n_minus_1_over_2_relays_two_ends_each(faculty) -> None:
     a, b = plans["Tartalo"][0], plans["Tartalo"][1]
     assert (a.side, a.master_uri, a.ros_ip, a.bind_ip) == ("a", t.master_uri, t.ip, t.ip)
     assert (b.side, b.master_uri, b.ros_ip, b.link_host) == ("b", k.master_uri, k.ip, k.ip)
-    assert a.link_port == b.link_port and a.node_name == b.node_name == "/gidabot_relay_Tartalo_Kbot"
+    assert a.link_port == b.link_port and a.node_name == b.node_name == relay_end_name("Tartalo", "Kbot")
 
 
 def test_plan_on_a_real_robot_keeps_the_link_on_this_machine(faculty) -> None:

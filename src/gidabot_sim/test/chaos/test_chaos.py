@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.interface import Node, Phase, global_name
+from gidabot_navigation.interface import Node, Phase, global_name, relay_end_name
 from gidabot_sim.chaos import core as cc
 
 # callers as the probes record them
@@ -51,7 +51,7 @@ def test_tour_watch_follows_the_tours_own_events_only() -> None:
             {**ev, "phase": Phase.TOUR_STEP_DONE, "tour_step": 0},
             {**ev, "phase": Phase.UNREACHABLE, "tour_file": "other.tour"},                  # another visit
             {**ev, "c": PROBE, "phase": Phase.TOUR_FINISHED, "tour_step": 1},      # hostile
-            {**ev, "m": "Kbot", "c": "/gidabot_relay_Tartalo_Kbot", "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
+            {**ev, "m": "Kbot", "c": relay_end_name("Tartalo", "Kbot"), "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
     assert w.goals == {"T/v/1"} and w.last_step_done == 0 and not w.finished and not w.failure
     w.feed([{**ev, "robot": "Kbot", "m": "Kbot", "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
     assert w.finished and w.latest == "step 2 done at Kbot"
