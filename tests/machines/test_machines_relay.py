@@ -17,12 +17,13 @@ from urllib.parse import urlparse
 import pytest
 from relay_system import GOAL, GOALS, RelayMesh, detection_delay, settle
 
+from gidabot_navigation.interface import Topic
 from gidabot_navigation.relay.protocol import FrameType, Hello, Message, encode_frame, encode_message, hello_key
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
 
-CANCELS, CANCEL = "/gidabot/cancels", "gidabot_msgs/Cancel"
+CANCELS, CANCEL = Topic.CANCELS, "gidabot_msgs/Cancel"
 DETECT_S = 3.0
 RESUME_S = 2.0
 PARTITION_S = 40.0

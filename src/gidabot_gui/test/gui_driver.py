@@ -16,6 +16,8 @@ import json
 import os
 import sys
 
+from gidabot_navigation.interface import Node
+
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 
@@ -25,14 +27,14 @@ def main() -> int:
     from PyQt5.QtCore import QSocketNotifier, QTimer
     from PyQt5.QtWidgets import QApplication
 
+    from gidabot_gui.core.i18n import Translator
+    from gidabot_gui.core.inbox import Inbox
     from gidabot_gui.gui_node import GuiNode, Params
-    from gidabot_gui.i18n import Translator
-    from gidabot_gui.inbox import Inbox
-    from gidabot_gui.speech import NullSpeaker
-    from gidabot_gui.window import GuiConfig, MainWindow
+    from gidabot_gui.qt.speech import NullSpeaker
+    from gidabot_gui.qt.window import GuiConfig, MainWindow
     from gidabot_navigation.building.model import load_building
 
-    rospy.init_node("gui", disable_signals=True)
+    rospy.init_node(Node.GUI, disable_signals=True)
     app = QApplication(sys.argv[:1])
     building = load_building(building_path)
     params = Params(building_path, robot, "en", False, "", False, "null", 150, False, 800, 480, 5.0, 20.0, "")
@@ -58,13 +60,13 @@ def main() -> int:
     def handle(cmd: dict) -> dict:
         op = cmd.get("op")
         if op == "pick":
-            window.pick_destination(cmd["goal"])
+            window.visitor.pick_destination(cmd["goal"])
         elif op == "press":
             window.overlay.press(cmd["key"])
         elif op == "cancel":
-            window.press_cancel()
+            window.visitor.press_cancel()
         elif op == "continue":
-            window.press_continue(None)
+            window.visitor.press_continue(None)
         elif op == "quit":
             app.quit()
         elif op != "state":

@@ -5,12 +5,13 @@ from __future__ import annotations
 import sys
 import time
 
+from gidabot_navigation.interface import relay_end_name
+from gidabot_navigation.relay.end import PARENT_ENV
 from gidabot_navigation.relay.supervisor import (
-    PARENT_ENV,
     Backoff,
     EndOptions,
     EndSpec,
-    Supervisor,
+    RelaySupervisor,
     end_argv,
     end_env,
     plan_relays,
@@ -24,19 +25,19 @@ def test_every_robot_runs_one_end_per_other_robot_on_its_own_master(faculty) -> 
     for r in names:
         me = faculty.robot(r)
         assert all(e.master_uri == me.master_uri and e.ros_ip == me.ip for e in plans[r])   # only its own master
-    links = {e.link for ends in plans.values() for e in ends}
-    assert len(links) == len(names) * (len(names) - 1) // 2        # n(n-1)/2 relays, one end on each robot
-    assert sorted(e.key for ends in plans.values() for e in ends) == sorted(f"{x}.{s}" for x in links for s in "ab")
+    pairs = {e.pair for ends in plans.values() for e in ends}
+    assert len(pairs) == len(names) * (len(names) - 1) // 2        # n(n-1)/2 relays, one end on each robot
+    assert sorted(e.key for ends in plans.values() for e in ends) == sorted(f"{x}.{s}" for x in pairs for s in "ab")
 
 
 def test_the_later_robot_listens_on_its_address_and_the_earlier_connects(faculty) -> None:
     t, k, m = (faculty.robot(n) for n in ("Tartalo", "Kbot", "MariSorgin"))
-    a = next(e for e in plan_relays(faculty, "Kbot") if e.link == "Kbot_MariSorgin")
-    b = next(e for e in plan_relays(faculty, "MariSorgin") if e.link == "Kbot_MariSorgin")
+    a = next(e for e in plan_relays(faculty, "Kbot") if e.pair == "Kbot_MariSorgin")
+    b = next(e for e in plan_relays(faculty, "MariSorgin") if e.pair == "Kbot_MariSorgin")
     assert (a.side, a.link_host, a.link_port, a.bind_ip) == ("a", m.ip, m.relay_port + 1, k.ip)
     assert (b.side, b.link_host, b.link_port, b.ros_ip) == ("b", m.ip, m.relay_port + 1, m.ip)
-    assert a.node_name == b.node_name == "/gidabot_relay_Kbot_MariSorgin"
-    tk = next(e for e in plan_relays(faculty, "Kbot") if e.link == "Tartalo_Kbot")
+    assert a.node_name == b.node_name == relay_end_name("Kbot", "MariSorgin")
+    tk = next(e for e in plan_relays(faculty, "Kbot") if e.pair == "Tartalo_Kbot")
     assert (tk.side, tk.link_host, tk.link_port) == ("b", k.ip, k.relay_port)       # Tartalo is robot 0
     assert {e.side for e in plan_relays(faculty, "Tartalo")} == {"a"} and t.ip not in \
         {e.link_host for e in plan_relays(faculty, "Tartalo")}
@@ -66,16 +67,16 @@ STAND_IN = ("import sys, time\n"
             "time.sleep(60)\n")
 
 
-def _supervisor(code: int = 0) -> tuple[Supervisor, list[str]]:
+def _supervisor(code: int = 0) -> tuple[RelaySupervisor, list[str]]:
     lines: list[str] = []
     ends = [EndSpec("A", "B", side, "http://127.0.0.1:1/", "127.0.0.1", "127.0.0.1", 1111, "127.0.0.1")
             for side in "ab"]
-    sup = Supervisor(ends, EndOptions(state_dir="/tmp"), lambda level, msg: lines.append(f"{level}: {msg}"),
-                     argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, str(code)])
+    sup = RelaySupervisor(ends, EndOptions(state_dir="/tmp"), lambda level, msg: lines.append(f"{level}: {msg}"),
+                          argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, str(code)])
     return sup, lines
 
 
-def _step_until(sup: Supervisor, cond, timeout: float = 20.0) -> None:
+def _step_until(sup: RelaySupervisor, cond, timeout: float = 20.0) -> None:
     deadline = time.monotonic() + timeout
     while not cond():
         assert time.monotonic() < deadline, "supervisor did not get there in time"

@@ -27,11 +27,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.relay.end import relay_node_name
+from gidabot_navigation.interface import relay_end_name
+from gidabot_navigation.relay.end import EXIT_CONFIG, EXIT_PORT, PARENT_ENV
 
-EXIT_CONFIG = 2                          # = relay_node.EXIT_CONFIG (not imported: that module needs rospy)
-EXIT_PORT = 3                            # = relay_node.EXIT_PORT
-PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = relay_node.PARENT_ENV: the ends exit when their parent is gone
 RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
 
 
@@ -49,16 +47,16 @@ class EndSpec:
     bind_ip: str         # end a's source address (robot a's)
 
     @property
-    def link(self) -> str:
+    def pair(self) -> str:
         return f"{self.robot_a}_{self.robot_b}"
 
     @property
     def key(self) -> str:
-        return f"{self.link}.{self.side}"
+        return f"{self.pair}.{self.side}"
 
     @property
     def node_name(self) -> str:
-        return relay_node_name(self.robot_a, self.robot_b)
+        return relay_end_name(self.robot_a, self.robot_b)
 
 
 def plan_relays(building: Building, robot: str) -> list[EndSpec]:
@@ -217,7 +215,7 @@ def _pdeathsig() -> None:       # pragma: no cover - runs in the child between f
     ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)      # PR_SET_PDEATHSIG
 
 
-class Supervisor:
+class RelaySupervisor:
     """Keeps every planned end running (no rospy): call :meth:`step` periodically, :meth:`stop` at the end."""
 
     def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],

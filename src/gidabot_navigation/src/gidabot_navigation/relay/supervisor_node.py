@@ -11,9 +11,9 @@ import time
 from pathlib import Path
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.relay.end import RelayConfigError
-from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, Supervisor, plan_relays
+from gidabot_navigation.errors import GidaBotError, RelayConfigError
+from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, plan_relays
 
 
 class RelaySupervisorNode:
@@ -64,10 +64,10 @@ class RelaySupervisorNode:
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         opts = EndOptions(state_dir=str(Path(state_dir).resolve()), secret_file=secret_file,
                           topics_file=topics_file, extra=tuple((str(k), str(v)) for k, v in extra.items()))
-        self.sup = Supervisor(ends, opts, self._log)
+        self.sup = RelaySupervisor(ends, opts, self._log)
         from diagnostic_msgs.msg import DiagnosticArray
 
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         rospy.loginfo(f"relay_supervisor of {self.robot}: {len(ends)} relay end(s)"
                       f"{': ' + ', '.join(_describe(e) for e in ends) if ends else ' (the only robot)'}; "
                       f"{'HMAC-SHA256' if secret_file else 'NO authentication (no secret file)'}")
@@ -111,8 +111,8 @@ class RelaySupervisorNode:
 
 def _describe(end: EndSpec) -> str:
     if end.side == "a":
-        return f"{end.link} (connects to {end.robot_b} at {end.link_host}:{end.link_port})"
-    return f"{end.link} (listens for {end.robot_a} on {end.link_host}:{end.link_port})"
+        return f"{end.pair} (connects to {end.robot_b} at {end.link_host}:{end.link_port})"
+    return f"{end.pair} (listens for {end.robot_a} on {end.link_host}:{end.link_port})"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     from gidabot_navigation.ros.master_watch import bound_master_calls, keep_registered
 
     bound_master_calls()
-    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv, disable_rostime=True)
+    rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True)
     keep_registered()
     try:
         node = RelaySupervisorNode()

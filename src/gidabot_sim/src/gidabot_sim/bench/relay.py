@@ -34,7 +34,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from gidabot_navigation.building.model import DEFAULT_RELAY_PORT
-from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, Supervisor, end_argv
+from gidabot_navigation.interface import Topic
+from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, end_argv
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.procs import (
     ProcessGroup,
@@ -88,8 +89,8 @@ def worker(argv: Sequence[str]) -> int:
         recv.setdefault(origin, []).append((int(k), (now - msg.header.stamp.to_sec()) * 1000.0))
 
     if args.role in ("sub", "both"):
-        rospy.Subscriber("/gidabot/goals", Goal, on_goal, queue_size=None, tcp_nodelay=True)
-    pub = rospy.Publisher("/gidabot/goals", Goal, queue_size=1000) if args.role in ("pub", "both") else None
+        rospy.Subscriber(Topic.GOALS, Goal, on_goal, queue_size=None, tcp_nodelay=True)
+    pub = rospy.Publisher(Topic.GOALS, Goal, queue_size=1000) if args.role in ("pub", "both") else None
 
     def send(uid: str) -> None:
         g = Goal()
@@ -245,7 +246,7 @@ def mesh_ends(robots: Robots) -> list[EndSpec]:
     return ends
 
 
-def start_relays(robots: Robots, state_dir: Path, secret_file: Path, log_dir: Path) -> Supervisor:
+def start_relays(robots: Robots, state_dir: Path, secret_file: Path, log_dir: Path) -> RelaySupervisor:
     """Every end of the mesh, each on its robot's machine (one supervisor here stands for every robot's)."""
     opts = EndOptions(state_dir=str(state_dir), secret_file=str(secret_file))
     env = dict(os.environ)
@@ -256,8 +257,8 @@ def start_relays(robots: Robots, state_dir: Path, secret_file: Path, log_dir: Pa
         robot = robots.names.index(spec.robot_a if spec.side == "a" else spec.robot_b)
         return [*robots.command(robot), *end_argv(spec, options)]
 
-    sup = Supervisor(mesh_ends(robots), opts, lambda level, msg: None, base_env=env, output_dir=log_dir,
-                     argv_for=argv_for)
+    sup = RelaySupervisor(mesh_ends(robots), opts, lambda level, msg: None, base_env=env, output_dir=log_dir,
+                          argv_for=argv_for)
     sup.step(time.monotonic())
     return sup
 
