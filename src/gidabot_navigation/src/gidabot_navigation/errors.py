@@ -93,3 +93,12 @@ class GoalRejected(GuidingError):
 
 class NoRouteError(GuidingError):
     """No connector or no path joins the start and the goal of a trip."""
+
+
+class ConfigError(GidaBotError):
+    """A component is configured or used wrongly (a value out of range, a call from the wrong thread)."""
+
+
+class ResourceError(GidaBotError):
+    """A file the packages ship (launch file, map, tour, config) is not found: the workspace is not built
+    or not sourced (:mod:`gidabot_navigation.resources`)."""

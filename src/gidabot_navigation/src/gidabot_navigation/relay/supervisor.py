@@ -29,10 +29,10 @@ from pathlib import Path
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.relay.end import relay_node_name
 
-EXIT_CONFIG = 2                          # = relay_node.EXIT_CONFIG (not imported: that module needs rospy)
-EXIT_PORT = 3                            # = relay_node.EXIT_PORT
-PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = relay_node.PARENT_ENV: the ends exit when their parent is gone
-RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
+EXIT_CONFIG = 2                          # = end_node.EXIT_CONFIG (not imported: that module needs rospy)
+EXIT_PORT = 3                            # = end_node.EXIT_PORT
+PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = end_node.PARENT_ENV: the ends exit when their parent is gone
+RELAY_END = "gidabot_navigation.relay.end_node"   # the end's module, run with ``python -m``: no file to find
 
 
 @dataclass(frozen=True)
@@ -128,7 +128,7 @@ class EndOptions:
 
 def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> list[str]:
     """Command line of one end (the secret travels as a file path, never as a value)."""
-    argv = [python, str(RELAY_END), "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
+    argv = [python, "-m", RELAY_END, "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
             "--link_host", spec.link_host, "--link_port", str(spec.link_port), "--bind_ip", spec.bind_ip,
             "--state_dir", opts.state_dir, "--secret_file", opts.secret_file]
     if opts.topics_file:
