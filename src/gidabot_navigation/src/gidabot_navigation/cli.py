@@ -3,7 +3,9 @@
     gidabot check maps/faculty
     gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
 
-Prints every problem (file, key or line, value) and exits 1 if there is any.
+Prints every problem (file, key or line, value) and exits 1 if there is any. A tour
+file in a form the tour store accepts but writes differently (CRLF line endings,
+byte-order mark, spacing...) passes, with a note.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
+from gidabot_navigation.tours.tour_file import check_tour_file_name, format_tour, parse_tour
 
 
 def main(argv: list[str]) -> int:
@@ -56,6 +58,9 @@ def main(argv: list[str]) -> int:
             continue
         floors = sorted({g.floor for g in tour.goals})
         note = "" if building else " (rooms not checked: pass --building)"
+        if format_tour(tour).encode("utf-8") != data:
+            note += " (not in the canonical form: the tour store writes it with '\\n' line endings, no BOM, "\
+                    "', ' between columns)"
         print(f"ok   {path}: tour {tour.display_name!r}: {len(tour.goals)} goals on floors "
               f"{', '.join(f'{f:g}' for f in floors)}{note}")
     return 1 if failures else 0
