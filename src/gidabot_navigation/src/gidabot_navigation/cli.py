@@ -1,6 +1,6 @@
 """``gidabot check`` (also ``python -m gidabot_navigation.cli``): validate a building, or tour files against one.
 
-    gidabot check maps/faculty
+    gidabot check maps/faculty         (the rules: docs/building-format.md)
     gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
 
 Prints every problem (file, key or line, value) and exits 1 if there is any. A tour
@@ -14,6 +14,7 @@ import argparse
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building
+from gidabot_navigation.building.reachability import reachability_problems
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.tours.tour_file import check_tour_file_name, format_tour, parse_tour
 
@@ -37,6 +38,9 @@ def main(argv: list[str]) -> int:
         if path.is_dir() or path.suffix in (".yaml", ".yml"):
             try:
                 b = load_building(path)
+                problems = reachability_problems(b)
+                if problems:
+                    raise BuildingError(problems)
             except BuildingError as err:
                 print(f"FAIL {path}: {err}")
                 failures += 1
