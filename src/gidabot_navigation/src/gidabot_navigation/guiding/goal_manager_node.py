@@ -42,7 +42,7 @@ from gidabot_navigation.guiding.guiding_node import (
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.ros.log import RosLog
@@ -120,8 +120,8 @@ class GoalManagerNode:
       - ``~pending_rate`` (Hz wall, 1.0).
       - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``goal_manager.json`` there keeps
         the queue, the handled uids and the tour steps waiting across a restart of this node (written
-        atomically after every change, before what it produced is published); ``~state_max_age``
-        (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
+        atomically before what a change produced is published, other changes within 1 s: guiding/state.py);
+        ``~state_max_age`` (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
       - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
         ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
         ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
@@ -194,6 +194,8 @@ class GoalManagerNode:
                 if now >= next_pending:
                     next_pending = now + period
                     self.publish_diagnostics()
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
 
     def handle(self, kind: str, msg: object) -> list[Action]:
         now_ros, now_wall = rospy.get_time(), time.monotonic()
@@ -213,12 +215,13 @@ class GoalManagerNode:
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Save the state (with ``actions`` as the outbox) when it may have changed, then publish; once
-        published, save again without them (so a restart publishes them again only if it came in between)."""
-        if self.store is None or not (changed or actions):
+        """Publish ``actions``, saving the state with them as the outbox first (StateFile.commit: what
+        changes nothing writes nothing). A REJECTED answer is not kept: it changes no state."""
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, actions, self.execute)
+            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:

@@ -273,6 +273,8 @@ class NavigationNode:
                 self.publish_diagnostics()
         if self._active is not None:
             self._cancel(self._active[0])
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
 
     def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
         core = self.core
@@ -317,10 +319,10 @@ class NavigationNode:
         """Save the state (the durable actions as the outbox) when it may have changed, then carry the
         actions out; once published, save again without them."""
         durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
-        if self.store is None or not (changed or actions):
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, durable, self.execute)
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
