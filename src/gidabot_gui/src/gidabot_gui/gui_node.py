@@ -48,12 +48,13 @@ from gidabot_msgs.msg import (
 )
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
-MAX_TOUR_GOALS = 100
 COMMAND_REPLAY_S = 10.0   # wall s of visitor commands replayed to a late subscriber
 
 
@@ -90,20 +91,14 @@ def event_from_msg(m: NavEvent) -> NavEventData:
 
 
 def tour_from_msg(t: Tour) -> TourInfo | None:
-    """A catalog entry, or None if its goal lines are malformed (the store validated them already)."""
-    goals = []
-    for line in t.tour_goals_info[:MAX_TOUR_GOALS]:
-        parts = line.split(",", 2)
-        if len(parts) != 3:
-            return None
-        try:
-            floor = float(parts[0])
-        except ValueError:
-            return None
-        if not math.isfinite(floor):
-            return None
-        goals.append((floor, clip(parts[1].strip(), 32), clip(parts[2].strip(), 200)))
-    return TourInfo(clip(t.file_name, 64), clip(t.tour_name, 80), clip(t.language, 8), tuple(goals))
+    """A catalog entry, its goal lines read exactly as a tour file's (``tour_file.tour_from_lines``: spacing
+    and floors such as ``0.0`` tolerated), or None if they are malformed (the store validated them already)."""
+    try:
+        tour = tour_from_lines(t.file_name, t.tour_name.strip(), list(t.tour_goals_info[:MAX_GOALS]))
+    except (TourError, TourNameError):
+        return None
+    return TourInfo(tour.file_name, clip(t.tour_name, 80), clip(t.language, 8),
+                    tuple((g.floor, g.room, g.description) for g in tour.goals))
 
 
 def catalog_from_msg(m: TourCatalog) -> list[TourInfo]:
