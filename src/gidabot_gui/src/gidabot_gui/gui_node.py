@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -50,6 +48,7 @@ from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quate
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 
@@ -331,13 +330,9 @@ def _base36(n: int) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
-    stop_requested = threading.Event()
-
-    def on_signal(*_args: object) -> None:
-        stop_requested.set()          # the Qt loop polls it (Python handlers run between Qt events)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
+    # SIGINT/SIGTERM: the Qt loop (polling the guard) quits, then the guard shuts rospy down in a thread of
+    # its own and ends the process within 1 s of the signal, master frozen or not (issue 19.5)
+    guard = rospy_exit_guard("gui", main_loop=True)
     rospy.init_node("gui", argv=argv, disable_signals=True)
     try:
         from gidabot_navigation.ros.master_watch import keep_registered
@@ -395,14 +390,18 @@ def main(argv: list[str] | None = None) -> int:
         window.show()
 
     watchdog = QTimer()
-    watchdog.timeout.connect(lambda: (stop_requested.is_set() or rospy.is_shutdown()) and app.quit())
-    watchdog.start(200)
+    watchdog.timeout.connect(lambda: (guard.requested or rospy.is_shutdown()) and app.quit())
+    watchdog.start(100)
     rospy.loginfo(f"gui: {params.robot} ready ({'admin mode available' if admin else 'visitor mode'}, "
                   f"language {params.language}, speech {'on' if params.speech else 'off'})")
-    rc = 0 if stop_requested.is_set() else app.exec_()
+    rc = 0 if guard.requested else app.exec_()
     speaker.stop()
     node.shutdown()
-    rospy.signal_shutdown("gui closed")
+    guard.loop_stopped()
+    if guard.requested:
+        guard.spin(rospy.is_shutdown)     # the guard's thread shuts rospy down, never this one
+    else:
+        rospy.signal_shutdown("gui closed")
     return rc
 
 

@@ -45,6 +45,7 @@ from gidabot_navigation.guiding.guiding_node import (
 from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
@@ -174,10 +175,21 @@ class GoalManagerNode:
         self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     # -- the loop that owns the core --------------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the state is saved and the
+        guard told the loop has stopped (only then does it close the topics)."""
+        guard.set_wake(lambda: self._enqueue(None, ""))
+        try:
+            self._loop(guard)
+        finally:
+            if self.store is not None:
+                self.store.flush(self.core.state, force=True)
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         period = self.params.pending_period
         next_pending = time.monotonic()
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             try:
                 kind, msg = self.inbox.get(timeout=max(0.01, min(0.5, next_pending - time.monotonic())))
             except queue.Empty:
@@ -194,8 +206,6 @@ class GoalManagerNode:
                 if now >= next_pending:
                     next_pending = now + period
                     self.publish_diagnostics()
-        if self.store is not None:
-            self.store.flush(self.core.state, force=True)
 
     def handle(self, kind: str, msg: object) -> list[Action]:
         now_ros, now_wall = rospy.get_time(), time.monotonic()
@@ -257,7 +267,8 @@ class GoalManagerNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("goal_manager", argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard("goal_manager", main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node("goal_manager", argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()
     try:
         node = GoalManagerNode(Params.read())
@@ -265,5 +276,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"goal_manager cannot start: {err}")
         return 1
     rospy.loginfo(f"goal_manager of {node.robot} (floor {node.core.robot.floor:g}) running")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

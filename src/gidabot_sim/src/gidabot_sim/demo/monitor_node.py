@@ -16,6 +16,7 @@ import time
 import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 
 
@@ -73,7 +74,8 @@ class MonitorNode:
 
 
 def main() -> None:
-    rospy.init_node("gidabot_monitor", anonymous=True)
+    guard = rospy_exit_guard("monitor")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node("gidabot_monitor", anonymous=True, disable_signals=True)
     keep_registered()
     MonitorNode()
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)

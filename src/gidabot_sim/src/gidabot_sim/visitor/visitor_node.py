@@ -10,6 +10,7 @@ import rospy
 from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_sim.errors import SimConfigError
@@ -139,11 +140,12 @@ class VisitorNode:
 
 
 def main() -> None:
-    rospy.init_node("visitor")
+    guard = rospy_exit_guard("visitor")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node("visitor", disable_signals=True)
     keep_registered()
     try:
         VisitorNode()
     except (GidaBotError, KeyError) as err:
         rospy.logfatal("visitor: %s", err)
         raise SystemExit(2) from err
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)
