@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building, relocate_building
+from gidabot_navigation.interface import Node, global_name, relay_end_name
 from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, end_argv
 from gidabot_sim.runner.procs import ProcessGroup, free_port, robot_address, ros_env, start_master, wait_until
 
@@ -35,9 +36,10 @@ GUI_NODE = REPO / "src" / "gidabot_gui" / "nodes" / "gui"
 ROBOT = "Kbot"
 EXIT_BOUND = 2.0     # s (issue 19.5)
 ROS_NODES = {        # process name -> ROS node name (registered on the master once it runs)
-    "goal_manager": "/goal_manager", "multirobot_navigation": "/multirobot_navigation", "tour_store": "/tour_store",
-    "relay_supervisor": "/relay_supervisor", "relay_end": "/gidabot_relay_Kbot_Galtxagorri", "visitor": "/visitor",
-    "monitor": "/gidabot_monitor", "gui": "/gui", "chaos_probe": "/chaos_probe",
+    "goal_manager": global_name(Node.GOAL_MANAGER), "multirobot_navigation": global_name(Node.MULTIROBOT_NAVIGATION),
+    "tour_store": global_name(Node.TOUR_STORE), "relay_supervisor": global_name(Node.RELAY_SUPERVISOR),
+    "relay_end": relay_end_name(ROBOT, "Galtxagorri"), "visitor": global_name(Node.VISITOR),
+    "monitor": global_name(Node.MONITOR), "gui": global_name(Node.GUI), "chaos_probe": global_name(Node.CHAOS_PROBE),
 }   # the monitor is anonymous: /gidabot_monitor_<pid>_<ms>
 
 

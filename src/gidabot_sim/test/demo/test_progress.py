@@ -10,9 +10,10 @@ import pytest
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import Trip
+from gidabot_navigation.interface import Node, global_name, relay_end_name
 from gidabot_sim.demo.progress import Progress, Visit
 
-GM, NAV = "/goal_manager", "/multirobot_navigation"
+GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
 TOUR = "long_tour.tour"
 
 
@@ -22,8 +23,9 @@ def line(**kw) -> str:
 
 def via(robot: str) -> str:
     """The callerid of ``robot``'s messages on Tartalo's master (the monitor's)."""
-    return {"Kbot": "/gidabot_relay_Tartalo_Kbot", "Galtxagorri": "/gidabot_relay_Tartalo_Galtxagorri",
-            "MariSorgin": "/gidabot_relay_Tartalo_MariSorgin"}[robot]
+    if robot not in ("Kbot", "Galtxagorri", "MariSorgin"):
+        raise KeyError(robot)
+    return relay_end_name("Tartalo", robot)
 
 
 def goal(faculty, uid: str, origin: str, goal_id: str, step: int = -1, tour: str = TOUR, **kw) -> dict:

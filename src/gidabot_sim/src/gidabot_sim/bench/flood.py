@@ -58,7 +58,7 @@ def worker(argv: Sequence[str]) -> int:
     from diagnostic_msgs.msg import DiagnosticArray
 
     from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus, Tour, VisitorCommand
-    from gidabot_navigation.guiding.messages import ACCEPTED, Cmd
+    from gidabot_navigation.interface import ACCEPTED, Cmd, Node, Topic, global_name
 
     ap = argparse.ArgumentParser(prog="bench_flood worker")
     ap.add_argument("--building", required=True)
@@ -80,7 +80,7 @@ def worker(argv: Sequence[str]) -> int:
 
     def on_event(m: NavEvent) -> None:
         sender = (m._connection_header or {}).get("callerid", "")
-        if m.robot == args.robot and m.phase == ACCEPTED and sender == "/goal_manager" and \
+        if m.robot == args.robot and m.phase == ACCEPTED and sender == global_name(Node.GOAL_MANAGER) and \
                 m.location_id == answer.get("want"):
             answer["goal_uid"] = m.goal_uid
             answered.set()
@@ -90,11 +90,11 @@ def worker(argv: Sequence[str]) -> int:
             if st.name == f"guiding: goal_manager {args.robot}":
                 saves[0] = int(next((kv.value for kv in st.values if kv.key == "state_saves"), -1))
 
-    rospy.Subscriber("/gidabot/nav_events", NavEvent, on_event, queue_size=None, tcp_nodelay=True)
-    rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=10)
-    command = rospy.Publisher("visitor/command", VisitorCommand, queue_size=10)
-    hostile = {"/gidabot/goals": Goal, "/gidabot/cancels": Cancel, "/gidabot/nav_events": NavEvent,
-               "/gidabot/status": RobotStatus, "/gidabot/tours": Tour}
+    rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, on_event, queue_size=None, tcp_nodelay=True)
+    rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, on_diag, queue_size=10)
+    command = rospy.Publisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=10)
+    hostile = {Topic.GOALS: Goal, Topic.CANCELS: Cancel, Topic.NAV_EVENTS: NavEvent,
+               Topic.STATUS: RobotStatus, Topic.TOURS: Tour}
     pubs = {topic: rospy.Publisher(topic, cls, queue_size=10000) for topic, cls in hostile.items()}
 
     def invalid(k: int) -> tuple[str, genpy.Message]:
@@ -105,21 +105,21 @@ def worker(argv: Sequence[str]) -> int:
                      goal_id="nowhere" if kind == 1 else places[0], initial_floor=me.floor,
                      goal_floor=math.nan if kind == 2 else me.floor, language="en")
             g.goal_pose.orientation.w = 1.0
-            return "/gidabot/goals", g
+            return Topic.GOALS, g
         if kind == 3:
-            return "/gidabot/cancels", Cancel(uid=f"Mallory/cancel/{k}", goal_uid=f"{args.robot}/v/{k}",
+            return Topic.CANCELS, Cancel(uid=f"Mallory/cancel/{k}", goal_uid=f"{args.robot}/v/{k}",
                                               origin_robot="Mallory", reason="visitor")
         if kind == 4:
-            return "/gidabot/nav_events", NavEvent(uid=f"Mallory/event/{k}", robot="Mallory", phase=6,
+            return Topic.NAV_EVENTS, NavEvent(uid=f"Mallory/event/{k}", robot="Mallory", phase=6,
                                                    goal_uid=f"{args.robot}/v/{k}")
         if kind == 5:
-            return "/gidabot/nav_events", NavEvent(uid=f"Mallory/event/{k}", robot=args.robot, phase=250,
+            return Topic.NAV_EVENTS, NavEvent(uid=f"Mallory/event/{k}", robot=args.robot, phase=250,
                                                    goal_uid=f"{args.robot}/v/{k}")
         if kind == 6:
             s = RobotStatus(robot="Mallory", floor=math.nan, state="guiding")
             s.nav_pose.position.x = math.nan
-            return "/gidabot/status", s
-        return "/gidabot/tours", Tour(uid=f"Mallory/tour/{k}", file_name=f"../../escape{k}.tour",
+            return Topic.STATUS, s
+        return Topic.TOURS, Tour(uid=f"Mallory/tour/{k}", file_name=f"../../escape{k}.tour",
                                       editor_robot=args.robot, version=1, language="en",
                                       tour_goals_info=[f"{me.floor:g}, {places[0]}, x"])
 

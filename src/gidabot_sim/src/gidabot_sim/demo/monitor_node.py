@@ -21,6 +21,7 @@ import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
 from gidabot_navigation.guiding.guiding_node import sender, trip_from_msg
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 
@@ -37,11 +38,11 @@ class MonitorNode:
     def __init__(self) -> None:
         self._file = open(rospy.get_param("~out"), "a", encoding="utf-8")  # noqa: SIM115 - closed on shutdown
         self._lock = threading.Lock()
-        rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=200)
-        rospy.Subscriber("/gidabot/goals", Goal, self._on_goal, queue_size=200)
-        rospy.Subscriber("/gidabot/cancels", Cancel, self._on_cancel, queue_size=200)
+        rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=200)
+        rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
+        rospy.Subscriber(Topic.CANCELS, Cancel, self._on_cancel, queue_size=200)
         self._waiting = {str(r) for r in rospy.get_param("~robots", [])}
-        self._status_sub = (rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=20)
+        self._status_sub = (rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=20)
                             if self._waiting else None)
         rospy.on_shutdown(self._file.close)
 
@@ -79,8 +80,8 @@ class MonitorNode:
 
 
 def main() -> None:
-    guard = rospy_exit_guard("monitor")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
-    rospy.init_node("gidabot_monitor", anonymous=True, disable_signals=True)
+    guard = rospy_exit_guard(Node.MONITOR)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node(Node.MONITOR, anonymous=True, disable_signals=True)
     keep_registered()
     MonitorNode()
     guard.spin(rospy.is_shutdown)

@@ -27,9 +27,13 @@ from dataclasses import dataclass, field
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.state import trip_from_dict
+from gidabot_navigation.guiding.trips import involved
+from gidabot_navigation.interface import (
     ACCEPTED,
     GOAL_REACHED,
+    GUIDING_NODES,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REJECTED,
@@ -37,17 +41,14 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
-    Trip,
-    validate_trip,
+    global_name,
+    relay_end_name,
 )
-from gidabot_navigation.guiding.state import trip_from_dict
-from gidabot_navigation.guiding.trips import involved
-from gidabot_navigation.relay.end import relay_node_name
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
 FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
-GUIDING_NODES = ("/goal_manager", "/multirobot_navigation")    # a robot's guiding nodes (launch/guiding.launch)
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # what a robot's guiding nodes publish as
 
 
 @dataclass(frozen=True)
@@ -66,14 +67,14 @@ class Visit:
             return ""
         names = [r.name for r in self.building.robots]
         a, b = sorted((robot, self.monitor_robot), key=names.index)
-        return relay_node_name(a, b)
+        return relay_end_name(a, b)
 
     def sent_by(self, robot: str, callerid: object) -> bool:
         """Whether a message published by ``callerid`` can be ``robot``'s."""
         if self.building.find_robot(robot) is None:
             return False
         relay = self.publisher_of(robot)
-        return callerid in GUIDING_NODES if not relay else callerid == relay
+        return callerid in GUIDING_CALLERIDS if not relay else callerid == relay
 
     def trip(self, rec: dict) -> Trip | None:
         """The visit's trip a monitor goal record describes, or None (another visit's, invalid, forged)."""

@@ -46,7 +46,8 @@ from typing import Any
 
 from gidabot_navigation.building.geometry import quaternion_to_yaw
 from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
@@ -58,23 +59,20 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
-    Trip,
-    validate_trip,
+    Topic,
+    global_name,
+    relay_end_name,
 )
-from gidabot_navigation.relay.end import relay_node_name
-from gidabot_sim.demo.progress import GUIDING_NODES
+from gidabot_sim.demo.progress import GUIDING_CALLERIDS
+from gidabot_sim.errors import ReportError
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
 COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
 
 
-class ReportError(Exception):
-    """A run folder cannot be reported on (missing files, unreadable bags)."""
-
-
 @dataclass(frozen=True)
-class Event:
+class EventSample:
     t: float            # s, header stamp (sim time)
     robot: str
     goal_uid: str
@@ -107,7 +105,7 @@ class RobotRecord:
     name: str
     floor: float
     goal_uids: set[str] = field(default_factory=set)      # goals it validated and kept (received)
-    events: list[Event] = field(default_factory=list)      # events emitted by this robot's guiding nodes
+    events: list[EventSample] = field(default_factory=list)      # events emitted by this robot's guiding nodes
     accepted: set[str] = field(default_factory=set)        # goals its goal manager accepted
     navigated: set[str] = field(default_factory=set)       # goals its navigation worked on
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
@@ -133,7 +131,7 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
     """[start, end] sim-time intervals while the robot was guiding the visitor."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
@@ -207,7 +205,7 @@ def format_tables(report: dict) -> str:
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
     for robot, n in report.get("rejected_goals", {}).items():
-        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
+        lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
@@ -227,7 +225,7 @@ def _stamp(msg: object, fallback_ns: int) -> float:
 
 
 _UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
-GOAL_MANAGER, NAVIGATION = GUIDING_NODES
+GOAL_MANAGER, NAVIGATION = GUIDING_CALLERIDS
 
 
 def plausible_goal(msg: Any, building: Any | None) -> bool:
@@ -276,11 +274,11 @@ def _from_robot(callerid: str | None, robot: str, recorder: str, building: Any |
     if callerid is None:
         return True
     if robot == recorder:
-        return callerid in GUIDING_NODES
+        return callerid in GUIDING_CALLERIDS
     if building is None or building.find_robot(robot) is None or building.find_robot(recorder) is None:
         return False
     names = [r.name for r in building.robots]
-    return callerid == relay_node_name(*sorted((robot, recorder), key=names.index))
+    return callerid == relay_end_name(*sorted((robot, recorder), key=names.index))
 
 
 def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None = None,
@@ -292,7 +290,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
+                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE))]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
@@ -300,7 +298,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
                     continue
                 caller = _callerid(conn)
-                if conn.topic == "/gidabot/goals":
+                if conn.topic == Topic.GOALS:
                     if not (plausible_goal(msg, building) and _from_robot(caller, msg.origin_robot, name, building)):
                         rec.rejected_goals += 1
                         continue
@@ -308,12 +306,12 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
-                elif conn.topic == "/amcl_pose":
+                elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
-                elif conn.topic == "/gidabot/nav_events":
+                elif conn.topic == Topic.NAV_EVENTS:
                     if msg.robot == name and _from_robot(caller, name, name, building):
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
                         if msg.phase == ACCEPTED and caller in (None, GOAL_MANAGER):
                             rec.accepted.add(msg.goal_uid)
                         elif caller in (None, NAVIGATION) and msg.goal_uid:
