@@ -699,8 +699,12 @@ def main(argv: list[str] | None = None) -> int:
     except RelayConfigError as err:
         print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+
     # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
-    rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
+    guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True,
+                    disable_signals=True)
     watch = keep_registered()
     try:
         node = RelayEndNode(params, watch)
@@ -718,6 +722,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'HMAC-SHA256' if node.cfg.secret else 'NO authentication'}")
     rospy.on_shutdown(node.stop)
     node.run()
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0
 
 

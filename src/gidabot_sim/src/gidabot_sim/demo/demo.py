@@ -35,7 +35,7 @@ from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
-from gidabot_sim.demo.progress import Progress
+from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.errors import DemoError, ProcessError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
@@ -183,7 +183,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
-    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
+    visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
+    progress = Progress(total_goals=total, visit=visit, robots_total=len(building.robots))
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
                             seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
     failure = ""
