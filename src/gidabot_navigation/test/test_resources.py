@@ -29,3 +29,14 @@ def test_a_package_not_on_the_path(monkeypatch, tmp_path: Path) -> None:
     monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path))
     with pytest.raises(ResourceError, match="package gidabot_navigation not found on ROS_PACKAGE_PATH"):
         resource("tours")
+
+
+def test_no_runtime_module_walks_up_from_its_file() -> None:
+    """Resources come through the package (an install space has no checkout around it): no module of
+    the packages' python sources reaches a file by climbing from ``__file__``."""
+    offenders = [f"{path.relative_to(REPO)}:{n}: {line.strip()}"
+                 for path in sorted((REPO / "src").glob("*/src/**/*.py"))
+                 for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+                 if "__file__" in line and ("parents[" in line or ".parent" in line or "'..'" in line
+                                            or '".."' in line)]
+    assert not offenders, "modules that find files from __file__:\n" + "\n".join(offenders)

@@ -36,12 +36,11 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_navigation.resources import resource
 from gidabot_sim.bench.relay import Worker, percentile
+from gidabot_sim.runner.building_runner import node_executable
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, test_network
 
-REPO = Path(__file__).resolve().parents[5]
-FACULTY = REPO / "maps" / "faculty"
-NODES = REPO / "src" / "gidabot_navigation" / "nodes"
 LIMIT_S = 0.5          # s: a valid request answered within this under the flood (issue 19.7)
 MIN_RATE_SHARE = 0.9   # the flood must reach this share of --rate for the verdict to count
 FLOOD_ONLY_S = 4.0     # s of flood without requests, in which the goal manager's state writes are counted
@@ -216,22 +215,26 @@ def start_robot(group: ProcessGroup, building: Building, robot: str, tmp: Path) 
     r = building.robot(robot)
     env = ros_env(r.master_uri, r.ip, log_dir=tmp / "ros" / robot)
     common = [f"_building:={building.path}", f"_robot:={robot}"]
-    group.start(f"goal_manager_{robot}", [sys.executable, str(NODES / "goal_manager"), *common,
+    group.start(f"goal_manager_{robot}", [sys.executable, _node("goal_manager"), *common,
                                           f"_state_dir:={tmp / 'state' / robot}"], env)
-    group.start(f"navigation_{robot}", [sys.executable, str(NODES / "multirobot_navigation"), *common,
+    group.start(f"navigation_{robot}", [sys.executable, _node("multirobot_navigation"), *common,
                                         f"_state_dir:={tmp / 'state' / robot}"], env)
-    group.start(f"tour_store_{robot}", [sys.executable, str(NODES / "tour_store"), *common,
-                                        f"_tours_dir:={tmp / 'tours' / robot}", f"_seed_dir:={REPO / 'tours'}"], env)
+    group.start(f"tour_store_{robot}", [sys.executable, _node("tour_store"), *common,
+                                        f"_tours_dir:={tmp / 'tours' / robot}", f"_seed_dir:={resource('tours')}"], env)
     return env
+
+
+def _node(name: str) -> str:
+    return node_executable("gidabot_navigation", name)
 
 
 def run(tmp: Path, rate: float, requests: int, log) -> dict:
     net = test_network()
-    faculty = load_building(FACULTY)
+    faculty = load_building(resource("maps", "faculty"))
     with ProcessGroup(tmp / "logs") as group:
         uris = {r.name: start_master(group, f"master_{r.name}", robot_address(i, net))
                 for i, r in enumerate(faculty.robots)}
-        building = load_building(relocate_building(FACULTY, tmp / "building", uris))
+        building = load_building(relocate_building(resource("maps", "faculty"), tmp / "building", uris))
         workers = []
         try:
             for r in building.robots:
