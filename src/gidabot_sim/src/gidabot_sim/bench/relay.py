@@ -140,11 +140,11 @@ def worker(argv: Sequence[str]) -> int:
 # -- the orchestrator -------------------------------------------------------------------------------
 class Worker:
     def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str],
-                 command: list[str] | None = None) -> None:
-        """``command``: what runs the worker's command line (a robot's machine); none = this machine."""
+                 command: list[str] | None = None, module: str = "gidabot_sim.bench.relay") -> None:
+        """``python -m <module> worker <args>`` (the benchmark modules' workers speak this line protocol);
+        ``command``: what runs that command line (a robot's machine); none = this machine."""
         log = open(group.log_dir / f"{name}.log", "ab") if group.log_dir else subprocess.DEVNULL  # noqa: SIM115
-        self.proc = subprocess.Popen([*(command or []), sys.executable, "-m", "gidabot_sim.bench.relay", "worker",
-                                      *args],
+        self.proc = subprocess.Popen([*(command or []), sys.executable, "-m", module, "worker", *args],
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
                                      bufsize=1, start_new_session=True)
         if hasattr(log, "close"):

@@ -6,7 +6,8 @@
 
 from __future__ import annotations
 
+from importlib.resources import files
 from pathlib import Path
 
-SHIM_DIR = Path(__file__).resolve().parent
+SHIM_DIR = Path(str(files(__name__)))          # this package's own directory (it holds sitecustomize.py)
 OFFSET_ENV = "GIDABOT_CLOCK_OFFSET"
