@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import socket
 import time
-import xmlrpc.client
-from urllib.parse import urlparse
 
 import pytest
+from machines_system import assert_only_relay_links, assert_only_relay_ports_open
 from relay_system import GOAL, GOALS, RelayMesh, detection_delay, settle
 
 from gidabot_navigation.interface import Topic
@@ -27,22 +26,6 @@ CANCELS, CANCEL = Topic.CANCELS, "gidabot_msgs/Cancel"
 DETECT_S = 3.0
 RESUME_S = 2.0
 PARTITION_S = 40.0
-
-
-def _connects(host: str, port: int, timeout: float = 1.0) -> bool:
-    """A TCP connection to host:port can be opened (from the calling thread's machine)."""
-    try:
-        with socket.create_connection((host, port), timeout=timeout):
-            return True
-    except OSError:
-        return False
-
-
-def _node_port(uri: str, node: str) -> tuple[str, int]:
-    code, _, api = xmlrpc.client.ServerProxy(uri).lookupNode("/test", node)
-    assert code == 1, f"{node} is not registered with {uri}"
-    parsed = urlparse(api)
-    return parsed.hostname or "", int(parsed.port or 0)
 
 
 @pytest.fixture
@@ -60,33 +43,10 @@ def test_only_relay_links_cross_between_machines_and_forged_frames_are_counted(m
         mesh.wait_uid(r, GOALS, "through-the-firewall")
     links = {(a.name, b.name): sim.building.relay_link_port(a.name, b.name) for a, b in sim.building.relay_pairs()}
 
-    # masters and nodes answer on their own machine only; the relay ports are open to the network
-    for r in robots:
-        me = mesh.robot(r)
-        node = sim.call(r, _node_port, me.master_uri, "/relay_supervisor")
-        assert sim.call(r, _connects, me.ip, me.port) and sim.call(r, _connects, *node)
-        for other in [*robots, "intruder"]:
-            if other == r:
-                continue
-            assert not net.call(other, _connects, me.ip, me.port), f"{r}'s master reachable from {other}"
-            assert not net.call(other, _connects, *node), f"{r}'s relay supervisor reachable from {other}"
-        for port in sim.building.relay_ports(r):
-            assert net.call("intruder", _connects, me.ip, port), f"relay port {port} of {r} closed"
-
-    # every connection between two machines is a relay link, and every relay link is there once
-    address = {net.address(r): r for r in robots}
-    seen = set()
-    for r in robots:
-        for c in net.connections(r):
-            if c.peer not in address or c.peer == net.address(r):
-                continue                                        # loopback and this machine's own address
-            other = address[c.peer]
-            a, b = (r, other) if robots.index(r) < robots.index(other) else (other, r)
-            port = links[(a, b)]
-            listening = c.local_port if r == b else c.peer_port
-            assert listening == port, f"{r} <-> {other}: {c} is not their relay link (port {port})"
-            seen.add((a, b))
-    assert seen == set(links), f"relay links missing: {set(links) - seen}"
+    # masters and nodes answer on their own machine only; the relay ports are open to the network;
+    # every connection between two machines is a relay link, and every relay link is there
+    assert_only_relay_ports_open(net, sim.building, outsiders=["intruder"])
+    assert_only_relay_links(net, sim.building)
 
     # a frame forged on a machine that is not a robot: refused at the handshake, counted by the end it reached
     t, k = mesh.robot("Tartalo"), mesh.robot("Kbot")
