@@ -35,10 +35,10 @@ from gidabot_navigation.guiding.guiding_node import (
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
-from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Phase, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.params import param_number, param_text
@@ -226,7 +226,7 @@ class GoalManagerNode:
         if self.store is None:
             self.execute(actions)
         else:
-            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
             self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
