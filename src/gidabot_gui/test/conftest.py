@@ -64,7 +64,7 @@ class Clock:
 
 
 @dataclass
-class Outputs:
+class RecordingOutputs:
     """Records what the GUI would publish."""
 
     commands: list = field(default_factory=list)
@@ -84,7 +84,7 @@ class Outputs:
 @dataclass
 class Gui:
     window: Any
-    out: Outputs
+    out: RecordingOutputs
     speaker: Any
     clock: Clock
     tr: Any
@@ -125,7 +125,7 @@ class Gui:
         self.click(self.window.nav_buttons[key])
 
     def feed_all_status(self, building: Any, state: str = "idle", pending: int = 0, wait: float = 0.0) -> None:
-        from gidabot_gui.model import PendingData, RobotStatusData
+        from gidabot_gui.core.model import PendingData, RobotStatusData
 
         for r in building.robots:
             self.window.feed("status", RobotStatusData(r.name, r.floor, r.home.x, r.home.y, r.home.yaw, 0.0, 0.0,
@@ -151,10 +151,10 @@ class Gui:
 
 @pytest.fixture
 def make_gui(qapp: Any, faculty: Any, locale_dir: Path) -> Iterator[Callable[..., Gui]]:
-    from gidabot_gui.admin import PasswordCheck, sha256_hex
-    from gidabot_gui.i18n import Translator
-    from gidabot_gui.speech import NullSpeaker
-    from gidabot_gui.window import GuiConfig, MainWindow
+    from gidabot_gui.core.admin import PasswordCheck, sha256_hex
+    from gidabot_gui.core.i18n import Translator
+    from gidabot_gui.qt.speech import NullSpeaker
+    from gidabot_gui.qt.window import GuiConfig, MainWindow
 
     made: list[Any] = []
 
@@ -162,7 +162,7 @@ def make_gui(qapp: Any, faculty: Any, locale_dir: Path) -> Iterator[Callable[...
              admin_password: str | None = None, building: Any = None, **config: Any) -> Gui:
         b = building or faculty
         clock = Clock()
-        out = Outputs()
+        out = RecordingOutputs()
         speaker = NullSpeaker()
         tr = Translator(language, locale_dir)
         admin = PasswordCheck(sha256_hex(admin_password)) if admin_password is not None else None
@@ -189,8 +189,8 @@ def visible_text_problems(window: Any) -> list[str]:
     from PyQt5.QtGui import QTextDocument
     from PyQt5.QtWidgets import QLabel, QLineEdit, QListWidget, QPushButton
 
-    from gidabot_gui.pages import RowDelegate
-    from gidabot_gui.widgets import FitLabel, WrapButton
+    from gidabot_gui.qt.pages import RowDelegate
+    from gidabot_gui.qt.widgets import FitLabel, WrapButton
 
     window.grab()            # paint everything: the fitting flags are set while painting
     problems = []

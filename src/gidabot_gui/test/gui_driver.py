@@ -25,11 +25,11 @@ def main() -> int:
     from PyQt5.QtCore import QSocketNotifier, QTimer
     from PyQt5.QtWidgets import QApplication
 
+    from gidabot_gui.core.i18n import Translator
+    from gidabot_gui.core.inbox import Inbox
     from gidabot_gui.gui_node import GuiNode, Params
-    from gidabot_gui.i18n import Translator
-    from gidabot_gui.inbox import Inbox
-    from gidabot_gui.speech import NullSpeaker
-    from gidabot_gui.window import GuiConfig, MainWindow
+    from gidabot_gui.qt.speech import NullSpeaker
+    from gidabot_gui.qt.window import GuiConfig, MainWindow
     from gidabot_navigation.building.model import load_building
 
     rospy.init_node("gui", disable_signals=True)
@@ -58,13 +58,13 @@ def main() -> int:
     def handle(cmd: dict) -> dict:
         op = cmd.get("op")
         if op == "pick":
-            window.pick_destination(cmd["goal"])
+            window.visitor.pick_destination(cmd["goal"])
         elif op == "press":
             window.overlay.press(cmd["key"])
         elif op == "cancel":
-            window.press_cancel()
+            window.visitor.press_cancel()
         elif op == "continue":
-            window.press_continue(None)
+            window.visitor.press_continue(None)
         elif op == "quit":
             app.quit()
         elif op != "state":

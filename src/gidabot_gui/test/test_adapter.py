@@ -11,6 +11,8 @@ import pytest
 from geometry_msgs.msg import Pose
 from PyQt5.QtCore import QEventLoop, QTimer
 
+from gidabot_gui.core.inbox import Inbox
+from gidabot_gui.core.model import InitialPose, TourEdit
 from gidabot_gui.gui_node import (
     INITIAL_COVARIANCE,
     Receiver,
@@ -19,11 +21,9 @@ from gidabot_gui.gui_node import (
     initial_pose_to_msg,
     tour_edit_to_msg,
 )
-from gidabot_gui.inbox import Inbox
-from gidabot_gui.model import Command, InitialPose, TourEdit
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.guiding.messages import Cmd
+from gidabot_navigation.guiding.messages import Cmd, CommandData
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -46,8 +46,8 @@ def test_outgoing_messages() -> None:
     import rospy
 
     stamp = rospy.Time(12, 5)
-    cmd = Command(uid="Kbot/gui/cmd/3", visitor_id="gui", command=int(Cmd.SKIP), language="eu", goal_id="104",
-                  goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs")
+    cmd = CommandData(uid="Kbot/gui/cmd/3", visitor_id="gui", command=int(Cmd.SKIP), language="eu", goal_id="104",
+                      goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs")
     m = command_to_msg(cmd, stamp)
     assert (m.command, m.goal_id, m.tour_step, m.tour_file, m.goal_uid, m.language, m.visitor_id, m.uid) == (
         4, "104", 3, "real_world.tour", "Tartalo/gui/1", "eu", "gui", "Kbot/gui/cmd/3")
@@ -118,7 +118,7 @@ def test_hostile_records_do_not_break_the_window(make_gui, faculty) -> None:
     gui.process()
     card = gui.window.info_page.cards["Tartalo"]
     assert card.state_text == "Unknown state" and card.battery.format() == "Battery unknown"
-    assert gui.window.fleet.rejected == 2 and gui.window.flow.rejected == 2
+    assert gui.window.fleet.rejected == 2 and gui.window.visitor.flow.rejected == 2
 
 
 def test_responsive_with_10hz_status_from_8_robots(make_gui, big_building) -> None:

@@ -7,7 +7,7 @@ PKG="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 cd "$PKG"
 xgettext -L Python --from-code=UTF-8 -k -k_ -kn_:1,2 -kN_ --add-comments=TRANSLATORS: \
   --package-name=gidabot_gui --msgid-bugs-address="dev@gidabot.invalid" --sort-by-file --add-location=file --no-wrap \
-  -o locale/gidabot_gui.pot src/gidabot_gui/*.py
+  -o locale/gidabot_gui.pot $(find src/gidabot_gui -name "*.py" | sort)
 for lang in eu es; do
   po="locale/$lang/LC_MESSAGES/gidabot_gui.po"
   if [ -f "$po" ]; then

@@ -1,1 +1,1 @@
-"""GidaBot gui package."""
+"""GidaBot's touch-screen GUI: ``core`` (no Qt, no ROS), ``qt`` (widgets, no ROS), ``gui_node`` (the ROS node)."""

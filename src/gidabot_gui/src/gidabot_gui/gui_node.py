@@ -2,7 +2,7 @@
 
 Thin by design: it reads the parameters once, converts messages to the GUI's
 plain records (and back), and owns shutdown. Callbacks only convert and put the
-record in the :class:`~gidabot_gui.inbox.Inbox`, which the Qt thread drains;
+record in the :class:`~gidabot_gui.core.inbox.Inbox`, which the Qt thread drains;
 they never touch a widget. Publishing (``queue_size`` set) never blocks the UI.
 """
 
@@ -16,20 +16,18 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
-from gidabot_gui.admin import PasswordCheck
-from gidabot_gui.errors import ConfigError, GuiError
-from gidabot_gui.i18n import Translator, check_language
-from gidabot_gui.inbox import Inbox
-from gidabot_gui.model import (
-    Command,
+from gidabot_gui.core.admin import PasswordCheck
+from gidabot_gui.core.i18n import Translator, check_language, package_locale_dir
+from gidabot_gui.core.inbox import Inbox
+from gidabot_gui.core.model import (
     EditResultData,
     InitialPose,
-    NavEventData,
     PendingData,
     PoseData,
     RobotStatusData,
@@ -37,6 +35,7 @@ from gidabot_gui.model import (
     TourInfo,
     clip,
 )
+from gidabot_gui.errors import ConfigError, GuiError
 from gidabot_msgs.msg import (
     NavEvent,
     NavPose,
@@ -49,6 +48,7 @@ from gidabot_msgs.msg import (
 )
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.guiding.messages import CommandData, NavEventData
 from gidabot_navigation.ros.replay import ReplayPublisher
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
@@ -82,8 +82,8 @@ def pending_from_msg(m: PendingRequests) -> PendingData:
 
 
 def event_from_msg(m: NavEvent) -> NavEventData:
-    return NavEventData(uid=clip(m.uid), robot=clip(m.robot, 64), phase=int(m.phase), goal_uid=clip(m.goal_uid),
-                        floor=float(m.floor), language=clip(m.language, 8), way=clip(m.way, 16),
+    return NavEventData(uid=clip(m.uid), robot=clip(m.robot, 64), floor=float(m.floor), goal_uid=clip(m.goal_uid),
+                        phase=int(m.phase), language=clip(m.language, 8), way=clip(m.way, 16),
                         connector=clip(m.connector, 64), target_floor=float(m.target_floor),
                         location_id=clip(m.location_id, 64), tour_file=clip(m.tour_file, 64),
                         tour_step=int(m.tour_step))
@@ -115,7 +115,7 @@ def edit_result_from_msg(m: TourEditResult) -> EditResultData:
                           version=int(m.version), reason=clip(m.reason, 32), error=clip(m.error, 400))
 
 
-def command_to_msg(c: Command, stamp: rospy.Time) -> VisitorCommand:
+def command_to_msg(c: CommandData, stamp: rospy.Time) -> VisitorCommand:
     msg = VisitorCommand()
     msg.header.stamp = stamp
     msg.uid, msg.visitor_id, msg.command, msg.language = c.uid, c.visitor_id, c.command, c.language
@@ -304,7 +304,7 @@ class GuiNode:
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)
-    def send_command(self, cmd: Command) -> None:
+    def send_command(self, cmd: CommandData) -> None:
         rospy.loginfo(f"gui: visitor command {cmd.command} goal={cmd.goal_id!r} way={cmd.way!r} "
                       f"goal_uid={cmd.goal_uid!r} tour={cmd.tour_file!r}/{cmd.tour_step}")
         self.cmd_pub.publish(command_to_msg(cmd, rospy.Time.now()))
@@ -354,6 +354,7 @@ def main(argv: list[str] | None = None) -> int:
         params = Params.read()
         building = load_building(params.building)
         building.robot(params.robot)
+        locale_dir = Path(params.locale_dir) if params.locale_dir else package_locale_dir()
     except (GuiError, KeyError) as err:
         rospy.logfatal(f"gui: {err}")
         return 2
@@ -367,11 +368,11 @@ def main(argv: list[str] | None = None) -> int:
     from PyQt5.QtCore import QTimer
     from PyQt5.QtWidgets import QApplication
 
-    from gidabot_gui.speech import EspeakSpeaker, NullSpeaker
-    from gidabot_gui.window import GuiConfig, MainWindow
+    from gidabot_gui.qt.speech import EspeakSpeaker, NullSpeaker
+    from gidabot_gui.qt.window import GuiConfig, MainWindow
 
     app = QApplication(argv[:1])
-    tr = Translator(params.language, params.locale_dir or None)
+    tr = Translator(params.language, locale_dir)
     for lang in tr.missing:
         rospy.logwarn(f"gui: no compiled catalog for {lang} in {tr.locale_dir} (run tools/build-translations.sh); "
                       "texts fall back to English")

@@ -15,12 +15,13 @@ from PyQt5.QtWidgets import (
     QWidget,
 )
 
-from gidabot_gui.admin import TourDraft, floor_text, slug_file_name
-from gidabot_gui.i18n import LANGUAGE_NAMES, LANGUAGES, Translator
-from gidabot_gui.pages import KEY, MAIN, RowDelegate, fold, make_list, row
-from gidabot_gui.theme import DANGER, MUTED, Theme, icon
-from gidabot_gui.widgets import FitLabel, Keyboard, WrapButton
-from gidabot_navigation.building.model import Building
+from gidabot_gui.core.admin import TourDraft, floor_text, slug_file_name
+from gidabot_gui.core.i18n import LANGUAGE_NAMES, LANGUAGES, Translator
+from gidabot_gui.core.places import find_locations
+from gidabot_gui.qt.pages import KEY, MAIN, RowDelegate, make_list, row
+from gidabot_gui.qt.theme import DANGER, MUTED, Theme, icon
+from gidabot_gui.qt.widgets import FitLabel, Keyboard, WrapButton
+from gidabot_navigation.building.model import Building, Location
 
 
 class _FocusWatch(QObject):
@@ -112,13 +113,8 @@ class SearchPanel(QWidget):
         lay.addLayout(body, 1)
         self.retranslate()
 
-    def matches(self) -> list:
-        q = fold(self.field.text().strip())
-        lang = self.tr.language
-        out = [loc for loc in self.building.locations
-               if not q or q in fold(loc.id) or any(q in fold(n) for n in loc.names.values())
-               or q in fold(loc.name(lang))]
-        return sorted(out, key=lambda loc: (loc.floor, loc.id))
+    def matches(self) -> list[Location]:
+        return find_locations(self.building, self.field.text(), self.tr.language)
 
     def refresh(self) -> None:
         lang = self.tr.language

@@ -1,6 +1,6 @@
 """Every sentence the GUI shows or speaks about trips (ROS-free).
 
-Texts are built from records (:class:`~gidabot_gui.flow.Notice`, wait estimates)
+Texts are built from records (:class:`~gidabot_gui.core.flow.Notice`, wait estimates)
 each time they are shown, in the translator's current language, so a pop-up on
 screen is re-translated when the visitor switches language. Source strings are
 English; ``src/gidabot_gui/tools/update-translations.sh`` extracts them into the catalogs.
@@ -12,11 +12,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gidabot_gui.flow import Notice
-from gidabot_gui.i18n import N_, Translator
-from gidabot_gui.model import WAY_LIFT, TourInfo, finite
-from gidabot_gui.places import floor_name, place_name
-from gidabot_gui.plans import RequestPlan, RobotWait
+from gidabot_gui.core.flow import Notice
+from gidabot_gui.core.i18n import N_, Translator
+from gidabot_gui.core.model import WAY_LIFT, TourInfo, finite
+from gidabot_gui.core.places import floor_name, place_name
+from gidabot_gui.core.plans import RequestPlan, RobotWait
 from gidabot_navigation.building.model import Building
 
 

@@ -14,7 +14,7 @@ from PyQt5.QtCore import QPointF, QRectF, QSize, Qt, pyqtSignal
 from PyQt5.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainter, QPainterPath, QPen, QPixmap
 from PyQt5.QtWidgets import QSizePolicy, QWidget
 
-from gidabot_gui.theme import ACCENT, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
+from gidabot_gui.qt.theme import ACCENT, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
 from gidabot_navigation.building.model import Floor
 
 

@@ -12,8 +12,8 @@ import pytest
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.model import EditResultData, NavEventData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import Cmd, Phase
+from gidabot_gui.core.model import EditResultData, RobotStatusData, TourInfo
+from gidabot_navigation.guiding.messages import Cmd, NavEventData, Phase
 
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",
                 ((0, "014", "Technicians' Lab"), (0, "008", "Caretakers' Office"), (1, "101", "Secretary's Office"),
@@ -26,8 +26,9 @@ def event(gui, phase: Phase, goal_uid: str, robot: str = "Kbot", **kw) -> None:
     gui.clock.t += 0.5
     n = getattr(gui, "_ev", 0) + 1
     gui._ev = n
+    fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}      # unknown unless given
     gui.window.feed("nav_event", NavEventData(uid=f"{robot}/event/{n}", robot=robot, phase=int(phase),
-                                              goal_uid=goal_uid, **kw))
+                                              goal_uid=goal_uid, **fields))
     gui.process()
 
 
@@ -81,7 +82,7 @@ def test_lift_or_stairs_only_asked_when_floors_change(make_gui, faculty) -> None
 def test_go_to_floor_and_the_robot_upstairs(make_gui, faculty) -> None:
     gui = make_gui("Kbot")
     gui.feed_all_status(faculty)
-    gui.window.pick_destination("223")
+    gui.window.visitor.pick_destination("223")
     gui.press("go")
     gui.press("lift")
     uid = "Kbot/gui-test/1"
@@ -152,7 +153,7 @@ def test_tour_continue_from_the_popup(make_gui, faculty) -> None:
     gui = make_gui("Tartalo")
     gui.feed_all_status(faculty)
     gui.window.feed("catalog", [TOUR])
-    gui.window.start_tour("real_world.tour")
+    gui.window.visitor.start_tour("real_world.tour")
     gui.press("go")
     gui.press("stairs")
     g0 = "Tartalo/gui-test/1"
@@ -166,7 +167,7 @@ def test_switch_language_changes_everything_at_once(make_gui, faculty) -> None:
     gui = make_gui("Kbot")
     w = gui.window
     gui.feed_all_status(faculty)
-    w.pick_destination("223")
+    w.visitor.pick_destination("223")
     gui.press("go")
     gui.press("stairs")
     event(gui, Phase.ON_THE_WAY, "Kbot/gui-test/1", connector="stairs_west", location_id="stairs_west")
@@ -224,7 +225,7 @@ def test_offline_robot_shows_last_known_position(make_gui, faculty) -> None:
 def test_admin_mode_is_off_without_the_argument(make_gui) -> None:
     gui = make_gui("Kbot")
     assert not gui.window.admin_btn.isVisible()
-    gui.window.start_set_location()
+    gui.window.admin.start_set_location()
     assert not gui.window.floor_pages[1].setbar.isVisible()
 
 
@@ -242,14 +243,14 @@ def test_admin_password_then_set_location(make_gui, faculty) -> None:
     gui.feed_all_status(faculty)
     assert w.admin_btn.isVisible() and not w.set_location_btn.isVisible()
     gui.click(w.admin_btn)
-    panel = w.password_panel
+    panel = w.admin.password_panel
     type_text(gui, panel.keyboard, "robot41")
     gui.click(panel.unlock)
     assert w.overlay.title.text() == "Wrong password"
-    assert not w.admin_unlocked and panel.field.text() == ""
+    assert not w.admin.unlocked and panel.field.text() == ""
     type_text(gui, panel.keyboard, "robot42")
     gui.click(panel.keyboard.done_key)
-    assert w.admin_unlocked and not w.overlay.showing
+    assert w.admin.unlocked and not w.overlay.showing
     gui.click(w.set_location_btn)
     page = w.floor_pages[1]
     assert w.current_page == "floor:1" and page.setbar.isVisible() and not page.apply_btn.isEnabled()
@@ -271,19 +272,19 @@ def test_admin_password_then_set_location(make_gui, faculty) -> None:
     assert w.overlay.name == "location_sent"
     assert not page.setbar.isVisible()
     gui.click(w.admin_btn)                                          # lock again
-    assert not w.admin_unlocked and not w.set_location_btn.isVisible()
+    assert not w.admin.unlocked and not w.set_location_btn.isVisible()
 
 
 def test_admin_creates_edits_and_deletes_tours(make_gui, faculty) -> None:
     gui = make_gui("Kbot", admin_password="robot42")
     w = gui.window
     w.feed("catalog", [TOUR])
-    w.unlock_admin()
+    w.admin.unlock()
     gui.nav("tours")
     page = w.tours_page
     assert page.admin_row.isVisible()
     gui.click(page.new_btn)
-    ed = w.editor
+    ed = w.tour_editing.editor
     gui.click(ed.save_btn)                                          # empty: refused before sending
     assert not gui.out.edits and "Not saved" in ed.error.text()
     ed.name.setFocus()
@@ -311,8 +312,9 @@ def test_admin_creates_edits_and_deletes_tours(make_gui, faculty) -> None:
     # a refusal from the store is shown with its reason
     gui.click_row(page.tour_list, 0)
     gui.click(page.edit_btn)
-    assert w.editor.file.isReadOnly() and w.editor.file.text() == "real_world.tour"
-    gui.click(w.editor.save_btn)
+    editor = w.tour_editing.editor
+    assert editor.file.isReadOnly() and editor.file.text() == "real_world.tour"
+    gui.click(editor.save_btn)
     edit = gui.out.edits[-1]
     assert edit.file_name == "real_world.tour" and len(edit.goal_lines) == 5
     w.feed("edit_result", EditResultData(edit.uid, "real_world.tour", False, False, 0, "in_the_way",
@@ -336,7 +338,7 @@ def test_search_offices_and_pick(make_gui, faculty) -> None:
     assert offices.list.count() == len(faculty.locations_on(3))
     gui.click(offices.all_chip)
     gui.click(offices.search)
-    panel = w.search_panel
+    panel = w.visitor.search_panel
     type_text(gui, panel.keyboard, "larrea")
     assert panel.results.count() == 1
     gui.click_row(panel.results, 0)
@@ -350,9 +352,9 @@ def test_search_offices_and_pick(make_gui, faculty) -> None:
 def test_busy_robot_refuses_a_second_destination(make_gui, faculty) -> None:
     gui = make_gui("Kbot")
     gui.feed_all_status(faculty)
-    gui.window.pick_destination("103")
+    gui.window.visitor.pick_destination("103")
     gui.press("go")
-    gui.window.pick_destination("104")
+    gui.window.visitor.pick_destination("104")
     assert gui.window.overlay.name == "event:BUSY"
     assert len(gui.out.commands) == 1
 

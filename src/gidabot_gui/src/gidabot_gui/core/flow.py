@@ -2,8 +2,8 @@
 
 Inputs: the visitor's choices (request a destination, start a tour, Continue,
 skip to a stop, Cancel) and the NavEvents of this robot. Outputs: the
-:class:`~gidabot_gui.model.Command` records to publish on ``visitor/command``
-and :class:`Notice` records the window turns into pop-ups and speech.
+:class:`~gidabot_navigation.guiding.messages.CommandData` forms to publish on
+``visitor/command`` and :class:`Notice` records the window turns into pop-ups and speech.
 Time is wall time in seconds, passed in.
 
 Trips. Every trip this screen knows is kept by its goal uid. A request sent from
@@ -23,10 +23,10 @@ from collections import deque
 from dataclasses import dataclass, field
 from enum import Enum
 
+from gidabot_gui.core.model import TourInfo, clip
 from gidabot_gui.errors import GuiError
-from gidabot_gui.model import Command, NavEventData, TourInfo, clip
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import Cmd, Phase
+from gidabot_navigation.guiding.messages import Cmd, CommandData, NavEventData, Phase
 
 REQUEST_TIMEOUT = 20.0   # s (wall) without any event for a request before "no answer"
 SEEN_UIDS = 2000         # event uids remembered for de-duplication
@@ -50,7 +50,9 @@ class Mode(Enum):
 
 
 @dataclass
-class Trip:
+class ScreenTrip:
+    """A trip as this screen follows it (not the guiding nodes' Trip: what the visitor here does in it)."""
+
     uid: str
     activity: Activity
     local: bool                  # requested at this screen
@@ -107,7 +109,7 @@ class VisitorFlow:
         self.floor = building.robot(robot).floor
         self.visitor_id = visitor_id
         self.request_timeout = request_timeout
-        self.trips: dict[str, Trip] = {}
+        self.trips: dict[str, ScreenTrip] = {}
         self.tour: TourProgress | None = None
         self.mode = Mode.SINGLE
         self.rejected = 0
@@ -119,7 +121,7 @@ class VisitorFlow:
 
     # ------------------------------------------------------------------ views
     @property
-    def current(self) -> Trip | None:
+    def current(self) -> ScreenTrip | None:
         """The trip whose visitor is at this screen (None when idle)."""
         facing = [t for t in self.trips.values() if t.activity in FACING]
         return max(facing, key=lambda t: t.focus) if facing else None
@@ -129,7 +131,7 @@ class VisitorFlow:
         return self.current is not None
 
     @property
-    def coming(self) -> Trip | None:
+    def coming(self) -> ScreenTrip | None:
         """A trip whose robot (this one) drives alone to meet its visitor."""
         return next((t for t in self.trips.values() if t.activity is Activity.COMING), None)
 
@@ -148,21 +150,21 @@ class VisitorFlow:
                 and cur.tour_file == self.tour.file_name and step > self.tour.last_done)
 
     # ------------------------------------------------------------------ visitor actions
-    def _command(self, command: Cmd, language: str, **fields: object) -> Command:
+    def _command(self, command: Cmd, language: str, **fields: object) -> CommandData:
         self._seq += 1
         uid = f"{self.robot}/{self.visitor_id}/cmd/{self._seq}"
-        return Command(uid=uid, visitor_id=self.visitor_id, command=int(command), language=language,
+        return CommandData(uid=uid, visitor_id=self.visitor_id, command=int(command), language=language,
                        **fields)  # type: ignore[arg-type]
 
-    def _new_local(self, now: float, **fields: object) -> Trip:
+    def _new_local(self, now: float, **fields: object) -> ScreenTrip:
         self.trips.pop("", None)
         self._focus += 1
-        trip = Trip(uid="", activity=Activity.PENDING, local=True, since=now, focus=self._focus,
+        trip = ScreenTrip(uid="", activity=Activity.PENDING, local=True, since=now, focus=self._focus,
                     **fields)  # type: ignore[arg-type]
         self.trips[""] = trip
         return trip
 
-    def request(self, goal_id: str, way: str, language: str, now: float, start_id: str = "") -> Command:
+    def request(self, goal_id: str, way: str, language: str, now: float, start_id: str = "") -> CommandData:
         """The visitor confirmed ``goal_id`` (``way`` when floors change)."""
         goal = self.building.find_location(goal_id)
         if goal is None:
@@ -181,7 +183,7 @@ class VisitorFlow:
         cur = self.current
         return cur is None or cur.activity is Activity.STEP_DONE
 
-    def start_tour(self, tour: TourInfo, way: str, language: str, now: float, start_id: str = "") -> Command:
+    def start_tour(self, tour: TourInfo, way: str, language: str, now: float, start_id: str = "") -> CommandData:
         """Start (again) ``tour`` from its first stop."""
         if not self.can_start_tour():
             raise GuiError("a trip is already running at this robot; cancel it first")
@@ -197,7 +199,7 @@ class VisitorFlow:
                         tour_file=tour.file_name, tour_step=0)
         return self._command(Cmd.START_TOUR, language, tour_file=tour.file_name, way=way)
 
-    def continue_(self, language: str, now: float, goal_uid: str | None = None) -> Command | None:
+    def continue_(self, language: str, now: float, goal_uid: str | None = None) -> CommandData | None:
         """The visitor pressed Continue (at the meeting point, or after a tour stop)."""
         trip = self.trips.get(goal_uid) if goal_uid else self.current
         if trip is None or trip.activity not in (Activity.WAITING, Activity.STEP_DONE):
@@ -212,7 +214,7 @@ class VisitorFlow:
         return cmd
 
     def skip(self, step: int, goals: tuple[tuple[float, str, str], ...], language: str,
-             now: float) -> Command | None:
+             now: float) -> CommandData | None:
         """The visitor chose stop ``step`` (0-based) of the current tour as the next one."""
         if not self.can_skip_to(step) or not 0 <= step < len(goals):
             return None
@@ -223,14 +225,14 @@ class VisitorFlow:
         self._next_step(trip, step, now)
         return cmd
 
-    def _next_step(self, trip: Trip, step: int, now: float) -> None:
+    def _next_step(self, trip: ScreenTrip, step: int, now: float) -> None:
         self.trips.pop(trip.uid, None)
         if self.tour is not None:
             self.tour.running = step
         self._new_local(now, tour_file=trip.tour_file, tour_step=step, way=trip.way,
                         start_id=trip.goal_id)
 
-    def cancel(self, language: str, now: float) -> Command | None:
+    def cancel(self, language: str, now: float) -> CommandData | None:
         """The visitor pressed Cancel: drop the current trip (and the tour) here at once."""
         trip = self.current
         if trip is None:
@@ -290,13 +292,13 @@ class VisitorFlow:
                 self.trips[ev.goal_uid] = trip
         if trip is None and ev.goal_uid and phase in (Phase.ACCEPTED, Phase.ON_THE_WAY, Phase.GOING_TO_MEETING,
                                                       Phase.WAITING_VISITOR, Phase.TOUR_STEP_DONE):
-            trip = Trip(uid=ev.goal_uid, activity=Activity.QUEUED, local=False, since=now)
+            trip = ScreenTrip(uid=ev.goal_uid, activity=Activity.QUEUED, local=False, since=now)
             self.trips[ev.goal_uid] = trip
         if trip is not None:
             self._update_trip(trip, ev, now)
         return self._handle(phase, ev, trip)
 
-    def _update_trip(self, trip: Trip, ev: NavEventData, now: float) -> None:
+    def _update_trip(self, trip: ScreenTrip, ev: NavEventData, now: float) -> None:
         trip.since = now
         loc = self.building.find_location(ev.location_id) if ev.location_id else None
         if loc is not None and ev.phase not in (Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR):
@@ -310,17 +312,17 @@ class VisitorFlow:
             if ev.tour_step >= 0:
                 trip.tour_step = ev.tour_step
 
-    def _focus_on(self, trip: Trip) -> None:
+    def _focus_on(self, trip: ScreenTrip) -> None:
         self._focus += 1
         trip.focus = self._focus
 
-    def _tour_of(self, trip: Trip) -> TourProgress:
+    def _tour_of(self, trip: ScreenTrip) -> TourProgress:
         if self.tour is None or self.tour.file_name != trip.tour_file:
             self.tour = TourProgress(trip.tour_file)
         self.mode = Mode.TOUR
         return self.tour
 
-    def _handle(self, phase: Phase, ev: NavEventData, trip: Trip | None) -> Notice | None:
+    def _handle(self, phase: Phase, ev: NavEventData, trip: ScreenTrip | None) -> Notice | None:
         def notice(kind: Phase | str, **kw: object) -> Notice:
             name = kind.name if isinstance(kind, Phase) else kind
             return Notice(name, ev, goal_id=trip.goal_id if trip else ev.location_id,

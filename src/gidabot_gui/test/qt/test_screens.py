@@ -7,12 +7,14 @@ directory with GIDABOT_SCREENSHOT_DIR): each page in the three languages at
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.model import NavEventData, PendingData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import Phase
+from gidabot_gui.core.model import PendingData, RobotStatusData, TourInfo
+from gidabot_navigation.guiding.messages import NavEventData, Phase
 
 LANGS = ("en", "eu", "es")
 PAGES = ("floor:0", "floor:1", "floor:2", "floor:3", "offices", "tours", "info")
@@ -76,7 +78,7 @@ def test_pages_in_every_language_at_1280x800(make_gui, faculty, text_problems, l
     gui = make_gui("Kbot", language=language, size=(1280, 800), admin_password="x")
     w = gui.window
     populate(gui, faculty)
-    w.unlock_admin()                              # admin buttons too
+    w.admin.unlock()                              # admin buttons too
     problems = {}
     for page in PAGES:
         w.show_page(page)
@@ -89,8 +91,9 @@ def test_pages_in_every_language_at_1280x800(make_gui, faculty, text_problems, l
 
 def nav_event(gui, phase: Phase, goal_uid: str, robot: str = "Kbot", **kw) -> None:
     gui._n = getattr(gui, "_n", 0) + 1
+    fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}      # unknown unless given
     gui.window.feed("nav_event", NavEventData(uid=f"{robot}/event/{gui._n}", robot=robot, phase=int(phase),
-                                              goal_uid=goal_uid, **kw))
+                                              goal_uid=goal_uid, **fields))
     gui.process()
 
 
@@ -107,7 +110,7 @@ def test_popups(make_gui, faculty, text_problems, language) -> None:
     gui = make_gui("Kbot", language=language)
     populate(gui, faculty)
     w = gui.window
-    w.pick_destination("223")
+    w.visitor.pick_destination("223")
     check("confirm", gui, save=True)
     gui.press("go")
     check("way", gui)
@@ -138,7 +141,8 @@ def test_popups(make_gui, faculty, text_problems, language) -> None:
                          (Phase.CANCELLED_ELSEWHERE, {}), (Phase.REJECTED, {})):
         g = make_gui("Kbot", language=language)
         populate(g, faculty, offline="")
-        g.window.pick_destination(extra.get("location_id", "103") if extra.get("location_id") != "305" else "305")
+        g.window.visitor.pick_destination(extra.get("location_id", "103") if extra.get("location_id") != "305"
+                                          else "305")
         g.press("go")
         if g.window.overlay.name == "way":
             g.press("lift")
@@ -149,7 +153,7 @@ def test_popups(make_gui, faculty, text_problems, language) -> None:
 
     t = make_gui("Tartalo", language=language)
     populate(t, faculty)
-    t.window.start_tour("real_world.tour")
+    t.window.visitor.start_tour("real_world.tour")
     check("confirm_tour", t)
     t.press("go")
     t.press("stairs")
@@ -181,7 +185,7 @@ def test_admin_screens(make_gui, faculty, text_problems) -> None:
         if language == "en":
             gui.shot("admin-password-en")
         w.overlay.close_card()
-        w.unlock_admin()
+        w.admin.unlock()
         gui.click(w.set_location_btn)
         view = w.floor_pages[1].view
         tf = faculty.floor(1).transform
@@ -202,13 +206,13 @@ def test_admin_screens(make_gui, faculty, text_problems) -> None:
         problems[f"editor-{language}"] = text_problems(w)
         if language == "en":
             gui.shot("admin-tour-editor-en")
-        w.editor.name.setFocus()
+        w.tour_editing.editor.name.setFocus()
         gui.process()
         problems[f"editor-keyboard-{language}"] = text_problems(w)
         w.overlay.close_card()
         gui.nav("offices")
         gui.click(w.offices.search)
-        w.search_panel.field.setText("lab")
+        w.visitor.search_panel.field.setText("lab")
         gui.process()
         problems[f"search-{language}"] = text_problems(w)
         gui.shot(f"offices-search-{language}") if language == "en" else None

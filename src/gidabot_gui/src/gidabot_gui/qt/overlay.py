@@ -17,8 +17,8 @@ from PyQt5.QtCore import QRect, Qt, QTimer, pyqtSignal
 from PyQt5.QtGui import QColor, QPainter
 from PyQt5.QtWidgets import QFrame, QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
 
-from gidabot_gui.theme import ACCENT, TONES, Theme, icon, icon_pixmap
-from gidabot_gui.widgets import WrapButton
+from gidabot_gui.qt.theme import ACCENT, TONES, Theme, icon, icon_pixmap
+from gidabot_gui.qt.widgets import WrapButton
 
 
 @dataclass

@@ -15,8 +15,8 @@ import re
 import unicodedata
 from dataclasses import dataclass
 
+from gidabot_gui.core.model import InitialPose, TourEdit
 from gidabot_gui.errors import ConfigError, TourEditError
-from gidabot_gui.model import InitialPose, TourEdit
 from gidabot_navigation.building.geometry import BlueprintTransform
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError

@@ -1,13 +1,15 @@
-"""Names of places on a floor (ROS-free): the nearest location or connector to a position."""
+"""Places of the building (ROS-free): the nearest one to a position, their names, search by room or name."""
 
 from __future__ import annotations
 
 import math
+import unicodedata
 from dataclasses import dataclass
 
-from gidabot_navigation.building.model import Building
+from gidabot_navigation.building.model import Building, Location
 
 NEAR = 2.5   # m: closer than this the robot is "at" the place, else "near" it
+TAP_RADIUS = 4.5   # m: a tap on the blueprint picks the nearest location this close (stop poses are at the doors)
 
 
 @dataclass(frozen=True)
@@ -58,3 +60,35 @@ def floor_name(building: Building, floor: float, language: str) -> str:
     if f is None:
         return ""
     return f.names.get(language) or f.names["en"]
+
+
+def location_near(building: Building, floor: float, x: float, y: float, within: float = TAP_RADIUS) -> Location | None:
+    """The location of ``floor`` nearest to (x, y), if closer than ``within`` m."""
+    best, best_d = None, within
+    for loc in building.locations:
+        if loc.floor == floor:
+            d = ((loc.pose.x - x) ** 2 + (loc.pose.y - y) ** 2) ** 0.5
+            if d < best_d:
+                best, best_d = loc, d
+    return best
+
+
+def fold(text: str) -> str:
+    """Lower case without accents, for searching ("Reprografía" ~ "reprografia")."""
+    decomposed = unicodedata.normalize("NFKD", text)
+    return "".join(ch for ch in decomposed if not unicodedata.combining(ch)).casefold()
+
+
+def find_locations(building: Building, query: str, language: str, floor: float | None = None) -> list[Location]:
+    """The locations (of ``floor``, or of every floor) whose room number or name in any language holds
+    ``query`` (accents and case ignored), by floor and room."""
+    q = fold(query.strip())
+    out = []
+    for loc in building.locations:
+        if floor is not None and loc.floor != floor:
+            continue
+        if q and q not in fold(loc.id) and q not in fold(loc.name(language)) and \
+                not any(q in fold(n) for n in loc.names.values()):
+            continue
+        out.append(loc)
+    return sorted(out, key=lambda loc: (loc.floor, loc.id))

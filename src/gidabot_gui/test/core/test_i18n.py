@@ -9,9 +9,10 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_gui.i18n import LANGUAGES, Translator
+from gidabot_gui.core.i18n import LANGUAGES, Translator, format_number, package_locale_dir
+from gidabot_gui.errors import ConfigError
 
-PKG = Path(__file__).resolve().parents[1]
+PKG = Path(__file__).resolve().parents[2]
 SRC = PKG / "src" / "gidabot_gui"
 # identical in the three languages on purpose
 SAME = {"{who}: {pending}, {wait}"}
@@ -34,7 +35,7 @@ def msgids(pot_text: str) -> list[tuple[str, str]]:
 def test_catalogs_hold_every_string_of_the_code(tmp_path: Path) -> None:
     fresh = tmp_path / "fresh.pot"
     subprocess.run(["xgettext", "-L", "Python", "--from-code=UTF-8", "-k", "-k_", "-kn_:1,2", "-kN_", "--no-wrap",
-                    "-o", str(fresh), *sorted(str(p) for p in SRC.glob("*.py"))], check=True)
+                    "-o", str(fresh), *sorted(str(p) for p in SRC.rglob("*.py"))], check=True)
     in_code = set(msgids(fresh.read_text(encoding="utf-8")))
     committed = set(msgids((PKG / "locale" / "gidabot_gui.pot").read_text(encoding="utf-8")))
     assert in_code == committed, ("run bash src/gidabot_gui/tools/update-translations.sh; new: "
@@ -47,10 +48,10 @@ def test_catalogs_hold_every_string_of_the_code(tmp_path: Path) -> None:
 def test_no_translation_call_inside_f_strings() -> None:
     """xgettext cannot see _() calls inside f-strings: such texts would never be translated."""
     bad = []
-    for path in SRC.glob("*.py"):
+    for path in SRC.rglob("*.py"):
         for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
             if re.search(r"""\bf["'][^"']*\{[^}]*\b(_|n_)\(""", line):
-                bad.append(f"{path.name}:{n}: {line.strip()}")
+                bad.append(f"{path.relative_to(SRC)}:{n}: {line.strip()}")
     assert not bad
 
 
@@ -83,3 +84,15 @@ def test_language_switch_notifies(locale_dir) -> None:
     with pytest.raises(Exception, match="not one of"):
         tr.set_language("fr")
     assert set(LANGUAGES) == {"eu", "en", "es"}
+
+
+def test_catalogs_are_found_through_the_package(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    assert package_locale_dir() == PKG / "locale"                  # the source checkout (devel space)
+    monkeypatch.setenv("ROS_PACKAGE_PATH", str(tmp_path))
+    with pytest.raises(ConfigError, match="gidabot_gui is not on ROS_PACKAGE_PATH .*~locale_dir"):
+        package_locale_dir()
+
+
+def test_numbers_as_each_language_writes_them() -> None:
+    assert (format_number(2.345, 2, "en"), format_number(2.345, 1, "eu"), format_number(-0.5, 2, "es")) == (
+        "2.35", "2,3", "-0,50")

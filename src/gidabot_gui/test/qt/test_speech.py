@@ -8,7 +8,7 @@ import time
 import pytest
 from PyQt5.QtCore import QEventLoop, QTimer
 
-from gidabot_gui.speech import VOICES, EspeakSpeaker, NullSpeaker
+from gidabot_gui.qt.speech import VOICES, EspeakSpeaker, NullSpeaker
 
 pytestmark = pytest.mark.skipif(shutil.which("espeak-ng") is None, reason="espeak-ng is not installed")
 

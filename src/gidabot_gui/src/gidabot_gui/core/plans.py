@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gidabot_gui.model import WAY_LIFT, WAY_STAIRS, Fleet, TourInfo
+from gidabot_gui.core.model import WAY_LIFT, WAY_STAIRS, Fleet, TourInfo
 from gidabot_navigation.building.model import Building
 
 

@@ -1,7 +1,9 @@
 """Data the GUI receives and sends (ROS-free), and the live state of every robot.
 
 The ROS adapter converts messages to these plain records (and back), so the
-core, the widgets and their tests need no master. :class:`Fleet` keeps the
+core, the widgets and their tests need no master. NavEvents and visitor commands
+use the guiding nodes' forms (:class:`~gidabot_navigation.guiding.messages.NavEventData`,
+:class:`~gidabot_navigation.guiding.messages.CommandData`). :class:`Fleet` keeps the
 latest status, pose and pending list of every robot of the building and decides
 which robots are offline, in WALL time (monotonic seconds passed in): liveness
 is a network property, a starved CPU at 10x sim speed must not hide robots.
@@ -77,24 +79,6 @@ class PendingData:
 
 
 @dataclass(frozen=True)
-class NavEventData:
-    """gidabot_msgs/NavEvent."""
-
-    uid: str
-    robot: str
-    phase: int
-    goal_uid: str = ""
-    floor: float = math.nan
-    language: str = ""
-    way: str = ""
-    connector: str = ""
-    target_floor: float = math.nan
-    location_id: str = ""
-    tour_file: str = ""
-    tour_step: int = -1
-
-
-@dataclass(frozen=True)
 class TourInfo:
     """One tour of gidabot_msgs/TourCatalog."""
 
@@ -131,21 +115,6 @@ class EditResultData:
 
 
 # ---------------------------------------------------------------- outputs
-@dataclass(frozen=True)
-class Command:
-    """gidabot_msgs/VisitorCommand to publish on ``visitor/command``."""
-
-    uid: str
-    visitor_id: str
-    command: int
-    language: str
-    goal_id: str = ""
-    way: str = ""
-    goal_uid: str = ""
-    tour_file: str = ""
-    tour_step: int = -1
-
-
 @dataclass(frozen=True)
 class InitialPose:
     """geometry_msgs/PoseWithCovarianceStamped on ``initialpose`` (frame ``map`` of ``floor``)."""

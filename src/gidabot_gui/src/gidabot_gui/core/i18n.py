@@ -1,7 +1,10 @@
 """Translations of the GUI: gettext catalogs for Basque and Spanish, English source strings.
 
-Catalogs live in ``src/gidabot_gui/locale/<lang>/LC_MESSAGES/gidabot_gui.po`` and are
-compiled to ``.mo`` by ``tools/build-translations.sh`` (run by ``make setup``).
+Catalogs live in ``src/gidabot_gui/locale/<lang>/LC_MESSAGES/gidabot_gui.po``. They are
+found through the package (:func:`package_locale_dir`): in a source checkout that is
+``src/gidabot_gui/locale``, where ``tools/build-translations.sh`` (run by ``make setup``)
+compiles them to ``.mo``; in an install space ``share/gidabot_gui/locale``, where
+``catkin_make install`` puts the catalogs compiled by the package's CMake build.
 A :class:`Translator` holds the three catalogs and the current language; widgets
 ask it for every visible string each time they (re)translate, so a language
 switch changes every text at once. Names of floors, locations, connectors come
@@ -11,8 +14,11 @@ from the building file, which already has them in the three languages.
 from __future__ import annotations
 
 import gettext
+import os
 from collections.abc import Callable
 from pathlib import Path
+
+import rospkg
 
 from gidabot_gui.errors import ConfigError
 
@@ -20,12 +26,31 @@ DOMAIN = "gidabot_gui"
 LANGUAGES = ("eu", "en", "es")
 # Each language is offered under its own name (never translated).
 LANGUAGE_NAMES = {"eu": "Euskara", "en": "English", "es": "Español"}
-DEFAULT_LOCALE_DIR = Path(__file__).resolve().parents[2] / "locale"
+PACKAGE = "gidabot_gui"
+
+
+def package_locale_dir() -> Path:
+    """The ``locale`` directory of the gidabot_gui package (source checkout or install space).
+
+    Raises :class:`ConfigError` when the package cannot be found (no workspace sourced).
+    """
+    try:
+        return Path(rospkg.RosPack().get_path(PACKAGE)) / "locale"
+    except rospkg.ResourceNotFound as err:
+        raise ConfigError(f"package {PACKAGE} is not on ROS_PACKAGE_PATH "
+                          f"({os.environ.get('ROS_PACKAGE_PATH', '')!r}), so its translations cannot be found: "
+                          "source devel/setup.bash or install/setup.bash, or set ~locale_dir") from err
 
 
 def N_(message: str) -> str:  # noqa: N802 - the conventional gettext marker
     """Mark ``message`` for extraction; it is translated later, when shown."""
     return message
+
+
+def format_number(value: float, digits: int, language: str) -> str:
+    """``value`` with ``digits`` decimals as written in ``language`` (decimal comma in Basque and Spanish)."""
+    text = f"{value:.{digits}f}"
+    return text.replace(".", ",") if language in ("eu", "es") else text
 
 
 def check_language(language: object) -> str:
@@ -38,12 +63,13 @@ def check_language(language: object) -> str:
 class Translator:
     """The catalogs of the three languages and the language currently shown.
 
-    ``missing`` lists the languages whose compiled catalog was not found (their
-    texts fall back to English): the node logs it at start.
+    ``locale_dir`` holds the compiled catalogs (default: the package's, see
+    :func:`package_locale_dir`). ``missing`` lists the languages whose compiled
+    catalog was not found (their texts fall back to English): the node logs it at start.
     """
 
     def __init__(self, language: str = "en", locale_dir: str | Path | None = None) -> None:
-        self.locale_dir = Path(locale_dir) if locale_dir else DEFAULT_LOCALE_DIR
+        self.locale_dir = Path(locale_dir) if locale_dir else package_locale_dir()
         self.missing: list[str] = []
         self._catalogs: dict[str, gettext.NullTranslations] = {}
         for lang in LANGUAGES:

@@ -7,7 +7,6 @@ the decisions are in the window (controller) and the ROS-free core.
 from __future__ import annotations
 
 import html
-import unicodedata
 from collections.abc import Callable
 
 from PyQt5.QtCore import QModelIndex, QRect, QSize, Qt, pyqtSignal
@@ -30,19 +29,14 @@ from PyQt5.QtWidgets import (
     QWidget,
 )
 
-from gidabot_gui.floor_view import FloorView
-from gidabot_gui.i18n import Translator
-from gidabot_gui.theme import ACCENT, BORDER, MUTED, OFFLINE, OTHER_ROBOT, PRIMARY, TEXT, Theme, icon
-from gidabot_gui.widgets import WRAP, ButtonGrid, FitLabel, WrapButton, fit_font, touch_scroll
+from gidabot_gui.core.i18n import Translator
+from gidabot_gui.core.places import find_locations, location_near
+from gidabot_gui.qt.floor_view import FloorView
+from gidabot_gui.qt.theme import ACCENT, BORDER, MUTED, OFFLINE, OTHER_ROBOT, PRIMARY, TEXT, Theme, icon
+from gidabot_gui.qt.widgets import WRAP, ButtonGrid, FitLabel, WrapButton, fit_font, touch_scroll
 from gidabot_navigation.building.model import Building, Floor, Location
 
 KEY, BADGE, MAIN, SIDE, STATE = (Qt.UserRole + i for i in range(5))
-
-
-def fold(text: str) -> str:
-    """Lower case without accents, for searching ("Reprografía" ~ "reprografia")."""
-    decomposed = unicodedata.normalize("NFKD", text)
-    return "".join(ch for ch in decomposed if not unicodedata.combining(ch)).casefold()
 
 
 class RowDelegate(QStyledItemDelegate):
@@ -291,15 +285,10 @@ class FloorPage(Page):
         self.pose_set.emit(u0, v0, u1, v1)
 
     def _tapped(self, x: float, y: float) -> None:
-        """A tap on the blueprint picks the nearest location (stop poses are at the doors)."""
-        best, best_d = None, 4.5
-        for loc in self.building.locations:
-            if loc.floor == self.floor.id:
-                d = ((loc.pose.x - x) ** 2 + (loc.pose.y - y) ** 2) ** 0.5
-                if d < best_d:
-                    best, best_d = loc, d
-        if best is not None:
-            self.destination.emit(best.id)
+        """A tap on the blueprint picks the nearest location."""
+        loc = location_near(self.building, self.floor.id, x, y)
+        if loc is not None:
+            self.destination.emit(loc.id)
 
 
 # ---------------------------------------------------------------------- offices
@@ -360,17 +349,7 @@ class OfficesPage(Page):
         self.refresh()
 
     def matches(self, query: str, floor: float | None = None) -> list[Location]:
-        q = fold(query.strip())
-        lang = self.tr.language
-        out = []
-        for loc in self.building.locations:
-            if floor is not None and loc.floor != floor:
-                continue
-            if q and q not in fold(loc.id) and q not in fold(loc.name(lang)) and \
-                    not any(q in fold(n) for n in loc.names.values()):
-                continue
-            out.append(loc)
-        return sorted(out, key=lambda loc: (loc.floor, loc.id))
+        return find_locations(self.building, query, self.tr.language, floor)
 
     def refresh(self) -> None:
         t, lang = self.tr, self.tr.language

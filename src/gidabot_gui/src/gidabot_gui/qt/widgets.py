@@ -27,8 +27,8 @@ from PyQt5.QtWidgets import (
     QWidget,
 )
 
-from gidabot_gui.i18n import N_
-from gidabot_gui.theme import TOUCH, Theme
+from gidabot_gui.core.i18n import N_
+from gidabot_gui.qt.theme import TOUCH, Theme
 
 MIN_FONT_RATIO = 0.66
 WRAP = int(Qt.TextWordWrap)

@@ -1,0 +1,1 @@
+"""What the GUI decides and says: records, the visitor flow, texts, admin checks (imports neither Qt nor rospy)."""

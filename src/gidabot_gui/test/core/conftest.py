@@ -1,0 +1,40 @@
+"""Records the core tests share: a tour of the faculty, and statuses and NavEvents as the adapter hands them over."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import pytest
+
+from gidabot_gui.core.model import RobotStatusData, TourInfo
+from gidabot_navigation.guiding.messages import NavEventData, Phase
+
+
+@pytest.fixture
+def tour() -> TourInfo:
+    return TourInfo("real_world.tour", "Real-world tour", "en",
+                    ((0, "014", "Technicians' Lab"), (0, "008", "Caretakers' Office"),
+                     (1, "101", "Secretary's Office"), (2, "223", "M. Larrea's Office")))
+
+
+@pytest.fixture
+def status() -> Callable[..., RobotStatusData]:
+    """An idle robot's status at (x, y) unless told otherwise."""
+    def make(robot: str, floor: float, x: float = 30.0, y: float = 12.0, **kw: object) -> RobotStatusData:
+        base = dict(yaw=0.0, linear=0.0, angular=0.0, battery=0.9, state="idle", pending=0)
+        base.update(kw)
+        return RobotStatusData(robot, floor, x, y, **base)  # type: ignore[arg-type]
+
+    return make
+
+
+@pytest.fixture
+def ev() -> Callable[..., NavEventData]:
+    """A NavEvent of ``robot``; the fields a test leaves out are unknown (NaN floors, no language)."""
+    def make(phase: Phase, uid: str, goal_uid: str = "", robot: str = "Kbot", **kw: object) -> NavEventData:
+        fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}
+        return NavEventData(uid=uid, robot=robot, phase=int(phase), goal_uid=goal_uid,
+                            **fields)  # type: ignore[arg-type]
+
+    return make
