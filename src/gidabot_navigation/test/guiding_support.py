@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import (
+    ASSIGNED,
     CANCEL,
     CONTINUE,
     REQUEST,
@@ -248,9 +249,11 @@ class Bus:
         self.pump()
 
     # -- queries --------------------------------------------------------------------
-    def phases(self, robot: str | None = None, goal_uid: str | None = None) -> list[int]:
+    def phases(self, robot: str | None = None, goal_uid: str | None = None, assigned: bool = False) -> list[int]:
+        """The phases sent (by ``robot``, about ``goal_uid``); the requester's ASSIGNED only if ``assigned``."""
         return [e.phase for e in self.events
-                if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)]
+                if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)
+                and (assigned or e.phase != ASSIGNED)]
 
     def last(self, robot: str, phase: int) -> NavEventData:
         return [e for e in self.events if e.robot == robot and e.phase == phase][-1]

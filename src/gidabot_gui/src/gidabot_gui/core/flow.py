@@ -284,6 +284,8 @@ class VisitorFlow:
         except ValueError:
             self._reject(f"NavEvent {clip(ev.uid, 60)!r} has unknown phase {ev.phase!r}")
             return None
+        if phase in (Phase.ASSIGNED, Phase.DECLINED):
+            return None          # the legs' assignment between robots: nothing for the visitor here
         trip = self.trips.get(ev.goal_uid) if ev.goal_uid else None
         if trip is None and self._belongs_to_pending(ev):
             trip = self.trips.pop("")

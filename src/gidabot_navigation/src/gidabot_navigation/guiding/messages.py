@@ -48,11 +48,13 @@ class Phase(IntEnum):
     TOUR_FINISHED = 14
     PARTNER_LOST = 15
     PARTNER_BACK = 16
+    DECLINED = 17
+    ASSIGNED = 18
 
 
 (ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
  NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
- TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
+ TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK, DECLINED, ASSIGNED) = (int(p) for p in Phase)
 
 PHASE_NAMES = {
     ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
@@ -60,14 +62,27 @@ PHASE_NAMES = {
     UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
     CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
     REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
-    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back",
+    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back", DECLINED: "declined", ASSIGNED: "assigned",
 }
 # phases after which the emitting robot is done with the trip (it left its queue)
 FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
                           CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
-                          TOUR_FINISHED})
+                          TOUR_FINISHED, DECLINED})
 # phases that hand the visitor over to another floor (the start robot released the visitor)
 RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
+# phases of a robot serving a leg (multirobot_navigation): only the robot the leg is assigned to sends them
+SERVING_PHASES = frozenset({ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR,
+                            NO_ROBOT_ON_FLOOR, TOUR_STEP_DONE, TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK})
+
+# -- gidabot_msgs/Goal legs and their assignment states ------------------------------
+LEG_START = "start"      # from the start point (the whole trip on one floor; else to the connector)
+LEG_GOAL = "goal"        # on the goal floor of a cross-floor trip: meet the visitor, guide to the goal
+LEGS = (LEG_START, LEG_GOAL)
+LEG_NONE = 0             # no robot serves the leg (one-floor trip's goal leg, a floor without robot)
+LEG_PROPOSED = 1         # the origin robot asked that robot; it answers ACCEPTED or DECLINED
+LEG_COMMITTED = 2        # that robot serves the leg; never changes afterwards
+LEG_STATES = (LEG_NONE, LEG_PROPOSED, LEG_COMMITTED)
+LEG_STATE_NAMES = {LEG_NONE: "none", LEG_PROPOSED: "proposed", LEG_COMMITTED: "committed"}
 
 # -- gidabot_msgs/VisitorCommand commands -------------------------------------------
 class Cmd(IntEnum):
@@ -160,6 +175,12 @@ class Trip:
     tour_file: str = ""
     tour_step: int = -1
     stamp: float = 0.0            # s, ROS time when the visitor confirmed
+    # who serves each leg (docs/guiding.md, "Who serves a leg"): written only by origin_robot
+    start_robot: str = ""
+    start_state: int = LEG_NONE
+    goal_robot: str = ""
+    goal_state: int = LEG_NONE
+    attempt: int = 0              # version of the assignment; the highest wins
 
     @property
     def cross_floor(self) -> bool:
@@ -168,6 +189,26 @@ class Trip:
     @property
     def in_tour(self) -> bool:
         return bool(self.tour_file)
+
+    def leg_robot(self, leg: str) -> str:
+        return self.start_robot if leg == LEG_START else self.goal_robot
+
+    def leg_state(self, leg: str) -> int:
+        return self.start_state if leg == LEG_START else self.goal_state
+
+    def leg_of(self, robot: str) -> str | None:
+        """The leg this assignment names ``robot`` for (proposed or committed), or None."""
+        return next((leg for leg in LEGS if self.leg_state(leg) != LEG_NONE and self.leg_robot(leg) == robot), None)
+
+    def committed(self, leg: str) -> str:
+        """The robot serving ``leg`` once committed, else ""."""
+        return self.leg_robot(leg) if self.leg_state(leg) == LEG_COMMITTED else ""
+
+    def with_leg(self, leg: str, robot: str, state: int, attempt: int) -> Trip:
+        """This trip with ``leg`` given to ``robot`` in ``state``, as assignment ``attempt``."""
+        if leg == LEG_START:
+            return replace(self, start_robot=robot, start_state=state, attempt=attempt)
+        return replace(self, goal_robot=robot, goal_state=state, attempt=attempt)
 
 
 @dataclass(frozen=True)
@@ -188,6 +229,11 @@ class NavEventData:
     tour_step: int = -1
     detail: str = ""
     stamp: float = 0.0
+    leg: str = ""                 # LEG_START / LEG_GOAL: the leg of the trip the event is about
+    attempt: int = 0              # the Goal.attempt the emitting robot acted under (ACCEPTED / DECLINED: answered)
+    assignee: str = ""            # ASSIGNED: the robot that serves ``leg``
+    eta: float = 0.0              # s, ACCEPTED / ASSIGNED: until the serving robot is with the visitor (start leg)
+    #                               or at the meeting point (goal leg)
 
     @property
     def final(self) -> bool:
@@ -443,7 +489,7 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
     visitor = _text(trip.visitor_id, "visitor_id", MAX_ID, _ID_RE)
     a = _floor_of(building, trip.initial_floor, "initial_floor")
     b = _floor_of(building, trip.goal_floor, "goal_floor")
-    if not same_floor(a, robot.floor):
+    if building.has_robot(a) and not same_floor(a, robot.floor):
         raise GoalRejected("floor", f"initial_floor {format_floor(a)} is not the floor of origin robot {origin} "
                                     f"({format_floor(robot.floor)})")
     ix, iy = _finite(trip.initial_x, "initial_pose.x"), _finite(trip.initial_y, "initial_pose.y")
@@ -466,6 +512,13 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
     start_id = _text(trip.start_id, "start_id", MAX_ID, _ID_RE)
     if start_id and start_id != START_ROBOT and building.find_location(start_id) is None:
         raise GoalRejected("location", f"start_id {show(start_id)} is neither {START_ROBOT!r} nor a location")
+    if not building.has_robot(a):
+        # a tour going on from a floor without robot: the visitor starts at the last place visited there
+        start = building.find_location(start_id)
+        if start is None or not same_floor(start.floor, a) or math.hypot(ix - start.pose.x, iy - start.pose.y) \
+                > POSE_TOLERANCE:
+            raise GoalRejected("location", f"a trip from floor {format_floor(a)} (no robot) must start at a location "
+                                           f"of that floor, not at start_id {show(start_id)} ({ix:g}, {iy:g})")
     way = _text(trip.way, "way", 16)
     connector = _text(trip.connector, "connector", MAX_ID, _ID_RE)
     if way and way not in WAYS:
@@ -490,10 +543,40 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
         raise GoalRejected("language", f"language {show(language)} is not one of {', '.join(LANGUAGES)}")
     tour_file, tour_step = _tour(trip.tour_file, trip.tour_step, "goal")
     stamp = trip.stamp if isinstance(trip.stamp, (int, float)) and math.isfinite(trip.stamp) else 0.0
+    attempt = trip.attempt
+    if isinstance(attempt, bool) or not isinstance(attempt, int) or not 0 <= attempt < 2 ** 32:
+        raise GoalRejected("assignment", f"attempt {show(attempt)} is not an integer in 0..2^32-1")
+    legs = {leg: _leg(building, trip, leg, a if leg == LEG_START else b, a != b or leg == LEG_START)
+            for leg in LEGS}
     return replace(trip, uid=uid, origin_robot=origin, visitor_id=visitor, initial_floor=a, initial_x=ix,
                    initial_y=iy, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
                    way=way, connector=connector, start_id=start_id, goal_id=goal_id, language=language,
-                   tour_file=tour_file, tour_step=tour_step, stamp=float(stamp))
+                   tour_file=tour_file, tour_step=tour_step, stamp=float(stamp), start_robot=legs[LEG_START][0],
+                   start_state=legs[LEG_START][1], goal_robot=legs[LEG_GOAL][0], goal_state=legs[LEG_GOAL][1])
+
+
+def _leg(building: Building, trip: Trip, leg: str, floor: float, exists: bool) -> tuple[str, int]:
+    """Check one leg's assignment: a robot of the leg's floor proposed or committed when the floor has robots
+    (and the leg exists: a one-floor trip has only the start leg), else none."""
+    robot = _text(trip.leg_robot(leg), f"{leg}_robot", MAX_ID, _ID_RE)
+    state = trip.leg_state(leg)
+    if isinstance(state, bool) or state not in LEG_STATES:
+        raise GoalRejected("assignment", f"{leg}_state {show(state)} is not one of "
+                                         f"{', '.join(f'{k}={v}' for k, v in LEG_STATE_NAMES.items())}")
+    if not exists or not building.has_robot(floor):
+        if state != LEG_NONE or robot:
+            why = "a trip on one floor has no goal leg" if not exists else \
+                f"floor {format_floor(floor)} has no robot"
+            raise GoalRejected("assignment", f"{leg} leg assigned to {show(robot)} ({LEG_STATE_NAMES[state]}): {why}")
+        return "", LEG_NONE
+    if state == LEG_NONE:
+        raise GoalRejected("assignment", f"{leg} leg on floor {format_floor(floor)} has no robot assigned "
+                                         f"(robots there: {', '.join(r.name for r in building.robots_on(floor))})")
+    serving = building.find_robot(robot)
+    if serving is None or not same_floor(serving.floor, floor):
+        raise GoalRejected("assignment", f"{leg}_robot {show(robot)} is not a robot of floor {format_floor(floor)} "
+                                         f"({', '.join(r.name for r in building.robots_on(floor))})")
+    return robot, state
 
 
 def validate_cancel(building: Building, cancel: CancelData) -> CancelData:
@@ -523,8 +606,20 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
     tour_file, tour_step = _tour(event.tour_file, event.tour_step, "event")
     way = event.way if isinstance(event.way, str) and event.way in WAYS else ""
     language = event.language if event.language in LANGUAGES else "en"
+    if event.leg not in ("", *LEGS):
+        raise GoalRejected("leg", f"event leg {show(event.leg)} is not one of {', '.join(LEGS)} (or '')")
+    if isinstance(event.attempt, bool) or not isinstance(event.attempt, int) or not 0 <= event.attempt < 2 ** 32:
+        raise GoalRejected("assignment", f"event attempt {show(event.attempt)} is not an integer in 0..2^32-1")
+    assignee = _text(event.assignee, "event assignee", MAX_ID, _ID_RE)
+    if assignee and building.find_robot(assignee) is None:
+        raise GoalRejected("robot", f"event assignee {show(assignee)} is not a robot of building {building.id}")
+    if event.phase in (ACCEPTED, DECLINED, ASSIGNED) and (not goal_uid or not event.leg):
+        raise GoalRejected("leg", f"a {PHASE_NAMES[event.phase]} event needs a goal_uid and a leg")
+    if event.phase == ASSIGNED and not assignee:
+        raise GoalRejected("assignment", "an assigned event needs an assignee")
+    eta = event.eta if isinstance(event.eta, (int, float)) and math.isfinite(event.eta) and event.eta >= 0 else 0.0
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
-                   way=way, language=language)
+                   way=way, language=language, assignee=assignee, eta=float(eta))
 
 
 def validate_command(cmd: CommandData) -> CommandData:
