@@ -176,7 +176,7 @@ class Assigner:
         out: list[Output] = []
         for uid in list(self.legs):
             for leg, rec in list(self.legs.get(uid, {}).items()):
-                if rec.state != LEG_PROPOSED:
+                if rec.state != LEG_PROPOSED or uid not in self.legs:      # (given up by its other leg)
                     continue
                 rec.since = min(rec.since, now_wall)         # the monotonic clock restarted (host reboot)
                 if not online(rec.robot):
