@@ -54,9 +54,11 @@ def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
 
 
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:
+    """A goal record whose legs are committed to the (only) robots of floors a and b."""
     return {"k": "goal", "m": m, "c": caller or ("/goal_manager" if m == origin else f"/gidabot_relay_{origin}_{m}"),
             "w": w, "uid": uid, "origin": origin, "initial_floor": a, "goal_floor": b, "goal_id": "x",
-            "tour_step": 0}
+            "tour_step": 0, "attempt": 2, "start_robot": ROBOTS[int(a)], "start_state": gt.LEG_COMMITTED,
+            "goal_robot": ROBOTS[int(b)] if a != b else "", "goal_state": gt.LEG_COMMITTED if a != b else gt.LEG_NONE}
 
 
 def _ev(m: str, robot: str, goal: str, phase: int, uid: str, w: float = 0.0) -> dict:
@@ -69,6 +71,25 @@ ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 
 def _everywhere(rec_fn, *args, **kw) -> list[dict]:
     return [rec_fn(m, *args, **kw) for m in ROBOTS]
+
+
+def test_bookkeeping_follows_the_assignment_with_two_robots_on_a_floor() -> None:
+    """faculty6: a goal broadcast again with each new attempt is not a duplicate; the leg goes to Lamia after
+    Galtxagorri answered too late: Lamia is the robot that processed it, Galtxagorri is not involved."""
+    six = load_building(REPO / "maps" / "faculty6")
+    robots = [r.name for r in six.robots]
+    recs: list[dict] = []
+    for attempt, (goal_robot, state) in enumerate([("Galtxagorri", gt.LEG_PROPOSED), ("Lamia", gt.LEG_PROPOSED),
+                                                   ("Lamia", gt.LEG_COMMITTED)], start=2):
+        recs += [{**_goal(m, "T/v/1", "Tartalo", 0.0, 2.0), "attempt": attempt, "goal_robot": goal_robot,
+                  "goal_state": state} for m in robots]
+    for robot, phase, uid in (("Tartalo", gt.ACCEPTED, "T/e/1"), ("Galtxagorri", gt.ACCEPTED, "G/e/1"),
+                              ("Lamia", gt.ACCEPTED, "L/e/1"), ("Tartalo", gt.GO_TO_FLOOR, "T/e/2"),
+                              ("Lamia", gt.GOAL_REACHED, "L/e/2"), ("Tartalo", gt.ASSIGNED, "T/e/3")):
+        recs += [_ev(m, robot, "T/v/1", phase, uid) for m in robots]
+    fate = cc.Bookkeeping(six, recs).fates()["T/v/1"]
+    assert fate.involved == ["Tartalo", "Lamia"] and fate.processed_by == ["Tartalo", "Lamia"]
+    assert fate.completed and not fate.lost and fate.duplicated == []
 
 
 def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> None:
@@ -100,7 +121,7 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     fates = book.fates()
     assert set(fates) == {"T/v/1", "T/v/2", "K/v/3", "K/v/4"}
     assert fates["T/v/1"].completed and not fates["T/v/1"].lost and fates["T/v/1"].processed_by == ["Tartalo", "Kbot"]
-    assert fates["T/v/2"].lost and fates["T/v/2"].duplicated == ["delivered 2 times on Kbot's master"]
+    assert fates["T/v/2"].lost and fates["T/v/2"].duplicated == ["attempt 2 delivered 2 times on Kbot's master"]
     assert fates["K/v/3"].cancelled and not fates["K/v/3"].lost
     assert fates["K/v/4"].duplicated == ["Kbot accepted it 2 times"] and not fates["K/v/4"].lost
     assert book.foreign["event"] == 1

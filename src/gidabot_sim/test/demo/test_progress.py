@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from gidabot_sim.demo.progress import Progress
+from gidabot_sim.demo.progress import Progress, stops_done
 
 
 def line(**kw) -> str:
@@ -61,3 +61,21 @@ def test_an_unfinished_run_is_measured_up_to_its_newest_record() -> None:
     p.feed_line(line(kind="goal", uid="a", goal_id="014", tour_step=0, sim=100.0, wall=10.0))
     p.feed_line(line(kind="event", robot="Tartalo", phase=1, goal_uid="a", sim=160.0, wall=13.0))
     assert not p.finished and p.sim_seconds() == 60.0 and p.wall_seconds() == 3.0
+
+
+def test_stops_found_alone_count_as_done() -> None:
+    """Table 4 on faculty3: steps 4 and 5 are on floor 2 (no robot); the goal of step 4 sends the visitor there,
+    step 5 gets no goal; the tour goes on at step 6."""
+    assert stops_done({0, 1, 2, 3, 4, 6, 7}, frozenset({4, 5})) == set(range(8))
+    assert stops_done({0, 1, 2, 3}, frozenset({4, 5})) == {0, 1, 2, 3}      # not sent there yet
+    p = Progress(total_goals=8, alone=frozenset({4, 5}))
+    for k, phase in ((3, 13), (4, 7), (6, 13), (7, 14)):
+        p.feed_line(line(kind="event", robot="Kbot", phase=phase, goal_uid=f"g{k}", tour_step=k, sim=k, wall=k))
+    assert p.done == 5 and p.finished and p.outcome == "completed"      # steps 3..7 (5: found alone)
+
+
+def test_a_single_target_on_a_floor_without_robot_is_done_when_the_visitor_is_sent_there() -> None:
+    p = Progress(total_goals=1, tour_mode=False)
+    p.feed_line(line(kind="goal", uid="g", goal_id="223", sim=0, wall=0))
+    p.feed_line(line(kind="event", robot="Tartalo", phase=7, goal_uid="g", sim=50, wall=5))
+    assert p.finished and p.outcome == "completed" and p.done == 1

@@ -182,12 +182,12 @@ class TourWatch:
                     or r.get("c") not in cc.GUIDING_CALLERS or r.get("tour_file") != self.tour_file:
                 continue
             phase = r.get("phase")
-            if phase in (gt.TOUR_STEP_DONE, gt.TOUR_FINISHED):
+            if phase in (gt.TOUR_STEP_DONE, gt.TOUR_FINISHED, gt.NO_ROBOT_ON_FLOOR):   # (the last: found alone)
                 self.done.add(str(r.get("goal_uid")))
                 self.last_step_done = max(self.last_step_done, int(r.get("tour_step", -1)))
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
-            if phase == gt.TOUR_FINISHED and r.get("tour_step") == self.last_step:
-                self.finished = True
+            if phase == gt.TOUR_FINISHED and (r.get("tour_step") == self.last_step or r.get("leg") == gt.LEG_START):
+                self.finished = True            # (the start leg's: the tour ends on floors without robot)
             elif phase in (gt.UNREACHABLE, gt.TIMEOUT) or (phase == gt.PARTNER_OFFLINE and r.get("goal_uid")):
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
@@ -388,8 +388,7 @@ class ChaosRun:
         trip = self.watch.active()
         if trip is None:
             return []
-        robots = [self.building.robot_on(f) for f in trip]
-        return list(dict.fromkeys(r.name for r in robots if r is not None))
+        return list(dict.fromkeys(r.name for f in trip for r in self.building.robots_on(f)))
 
     def busy_robot(self, robots: list[str], wait: float = 15.0) -> str | None:
         """One of ``robots`` whose status says it is running a leg (driving, or waiting at a meeting point),
@@ -734,7 +733,7 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     tour = _load_tour(args.tour, building)
     if args.start_floor is None:
         args.start_floor = tour.goals[0].floor
-    if building.robot_on(args.start_floor) is None:
+    if not building.has_robot(args.start_floor):
         raise ChaosError(f"start floor {args.start_floor:g} has no robot")
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 50):
         raise ChaosError(f"--speed {args.speed:g}: expected a factor in (0, 50]")

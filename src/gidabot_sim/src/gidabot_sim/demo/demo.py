@@ -1,11 +1,12 @@
-"""``gidabot demo``: the simulated Faculty of Informatics running a tour, unattended.
+"""``gidabot demo``: the simulated Faculty of Informatics (or any building) running a tour, unattended.
 
-Starts four masters (Tartalo floor 0, Kbot 1, Galtxagorri 2, MariSorgin 3), the six
-relays (HMAC secret file), a simulator per floor, every robot's nodes and a
-simulated visitor per floor; runs the tour (default: the paper's real-world tour,
-Table 4); shows progress; records one rosbag per robot; then prints the paper's
-tables (3 and 5), sim time, wall time and where it wrote everything. Ctrl-C (or
-SIGTERM) stops everything cleanly and keeps the bags of the partial run.
+Starts one master per robot (the faculty: Tartalo floor 0, Kbot 1, Galtxagorri 2,
+MariSorgin 3), a relay per pair of robots (HMAC secret file), a simulator per robot,
+every robot's nodes and the simulated visitor (one node per robot's screen); runs the
+tour (default: the paper's real-world tour, Table 4); shows progress; records one
+rosbag per robot; then prints the paper's tables (3 and 5), sim time, wall time and
+where it wrote everything. Ctrl-C (or SIGTERM) stops everything cleanly and keeps the
+bags of the partial run.
 
     bin/gidabot demo                                   # Table 4 tour, headless
     bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
@@ -61,6 +62,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
                    help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
     p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
+    p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
+                   help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
     p.add_argument("--out", type=Path, default=REPO / "runs",
@@ -121,28 +124,32 @@ class Signals:
         return bool(self.received)
 
 
-def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float]:
-    """(label, number of goals, tour file name, start floor) of what the visitor does."""
+def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float, frozenset[int]]:
+    """(label, number of goals, tour file name, start floor, tour steps on floors without robot) of what the
+    visitor does."""
     if args.goal:
         if building.find_location(args.goal) is None:
             raise DemoError(f"--goal {args.goal!r} is not a location of {building.id}")
         start = args.start_floor if args.start_floor is not None else building.robots[0].floor
-        return f"goal-{args.goal}", 1, "", float(start)
+        return f"goal-{args.goal}", 1, "", float(start), frozenset()
     try:
         check_tour_file_name(args.tour.name)
         tour = parse_tour(args.tour.read_bytes(), args.tour.name, building, source=str(args.tour))
     except (OSError, TourError, TourNameError) as err:
         raise DemoError(f"{args.tour}: {err}") from err
     start = args.start_floor if args.start_floor is not None else tour.goals[0].floor
-    return args.tour.stem, len(tour.goals), args.tour.name, float(start)
+    alone = frozenset(k for k, g in enumerate(tour.goals) if not building.has_robot(g.floor))
+    return args.tour.stem, len(tour.goals), args.tour.name, float(start), alone
 
 
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
+    if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
+        raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
-    if building.robot_on(start_floor) is None:
+    if not building.has_robot(start_floor):
         raise DemoError(f"start floor {start_floor:g} has no robot (robots: "
                         f"{', '.join(f'{r.name} {r.floor:g}' for r in building.robots)})")
     if args.secret is not None and not args.secret.is_file():
@@ -155,7 +162,7 @@ def _validate(args: argparse.Namespace, building: Building, start_floor: float) 
 
 def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     building = load_building(args.building)
-    label, total, tour_name, start_floor = _visit(args, building)
+    label, total, tour_name, start_floor, alone = _visit(args, building)
     _validate(args, building, start_floor)
     skips = _skips(args.skip, total)
     if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
@@ -171,7 +178,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                    "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
                    "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
-               "start_floor": start_floor}
+               "start_floor": start_floor, "visit_time": args.visit_time}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
@@ -180,7 +187,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
-    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
+    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots),
+                        alone=alone)
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
                             seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
     failure = ""
@@ -206,9 +214,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     outcome = (f"interrupted ({stop.received})" if stop else failure or progress.outcome or "not finished")
     run = {
         "building": "building/building.yaml", "tour": tour_name or f"goal {args.goal}", "goals": total,
-        "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
-        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1), "speed": args.speed,
-        "way": args.way, "start_floor": start_floor, "skips": skips,
+        "completed": progress.done, "stops_alone": sorted(alone) if tour_name else None, "outcome": outcome,
+        "sim_s": progress.sim_seconds(), "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
+        "speed": args.speed, "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
     (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")

@@ -50,12 +50,13 @@ class MonitorNode:
         self._write("event", uid=m.uid, robot=m.robot, floor=m.floor, goal_uid=m.goal_uid, phase=m.phase,
                     way=m.way, connector=m.connector, target_floor=m.target_floor, location_id=m.location_id,
                     tour_file=m.tour_file, tour_step=m.tour_step, detail=m.detail[:200],
-                    stamp=m.header.stamp.to_sec())
+                    stamp=m.header.stamp.to_sec(), leg=m.leg, attempt=m.attempt, assignee=m.assignee, eta=m.eta)
 
     def _on_goal(self, m: Goal) -> None:
         self._write("goal", uid=m.uid, origin=m.origin_robot, initial_floor=m.initial_floor,
                     goal_floor=m.goal_floor, goal_id=m.goal_id, way=m.way, connector=m.connector,
-                    tour_file=m.tour_file, tour_step=m.tour_step)
+                    tour_file=m.tour_file, tour_step=m.tour_step, attempt=m.attempt, start_robot=m.start_robot,
+                    start_state=m.start_state, goal_robot=m.goal_robot, goal_state=m.goal_state)
 
     def _on_cancel(self, m: Cancel) -> None:
         self._write("cancel", uid=m.uid, goal_uid=m.goal_uid, origin=m.origin_robot, reason=m.reason)

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from gidabot_navigation.guiding.messages import (
     ACCEPTED,
     GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REJECTED,
@@ -21,6 +22,21 @@ from gidabot_navigation.guiding.messages import (
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
 FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
+# phases that complete a goal: reached, or the visitor sent to a floor without robot to find it alone
+COMPLETIONS = (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED, NO_ROBOT_ON_FLOOR)
+
+
+def stops_done(steps: set[int], alone: frozenset[int]) -> set[int]:
+    """The tour stops done, from the steps whose goal was completed: a goal that sends the visitor to a stop on
+    a floor without robot (``alone``: those steps) also covers the stops on such floors right after it, which
+    get no goal of their own (docs/guiding.md, tour mode)."""
+    done = set(steps)
+    for k in sorted(steps):
+        j = k + 1
+        while k in alone and j in alone:
+            done.add(j)
+            j += 1
+    return done
 
 
 @dataclass
@@ -30,9 +46,11 @@ class Progress:
     total_goals: int
     tour_mode: bool = True
     robots_total: int = 0
+    alone: frozenset[int] = frozenset()                          # tour steps on floors without robot
     robots_up: list[str] = field(default_factory=list)          # robots heard once, in order
     goals: dict[str, dict] = field(default_factory=dict)        # goal uid -> monitor record
-    completed: set[str] = field(default_factory=set)
+    completed: set[str] = field(default_factory=set)            # goal uids completed
+    steps: set[int] = field(default_factory=set)                # their tour steps
     robot: str = ""
     phase: str = "starting"
     finished: bool = False
@@ -84,10 +102,13 @@ class Progress:
         if phase != ACCEPTED:   # every robot involved accepts: not worth a line
             self.robot, self.phase = str(rec.get("robot", "")), PHASE_NAMES.get(phase, f"phase {phase}")
         uid = str(rec.get("goal_uid", ""))
-        if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and uid:
+        if phase in COMPLETIONS and uid:
             self.completed.add(uid)
+            step = rec.get("tour_step", -1)
+            if isinstance(step, int) and step >= 0:
+                self.steps.add(step)
         if not self.finished:
-            if phase == TOUR_FINISHED or (phase == GOAL_REACHED and not self.tour_mode):
+            if phase == TOUR_FINISHED or (phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR) and not self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
                 self._finish(f"{FAILURES[phase]} ({rec.get('robot')}: {rec.get('detail', '')})", rec)
@@ -96,6 +117,11 @@ class Progress:
     def _finish(self, outcome: str, rec: dict) -> None:
         self.finished, self.outcome = True, outcome
         self.last_sim, self.last_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
+
+    @property
+    def done(self) -> int:
+        """Goals done: the tour's stops (those found alone included), else the targets completed."""
+        return len(stops_done(self.steps, self.alone)) if self.tour_mode else len(self.completed)
 
     @property
     def goal_index(self) -> int:
@@ -120,7 +146,7 @@ class Progress:
             return (f"starting: {up} of {self.robots_total} robots up" + (f" ({', '.join(self.robots_up)})"
                                                                            if up else ""))
         return (f"goal {self.goal_index} of {self.total_goals} ({self.current_goal() or '-'}), "
-                f"{len(self.completed)} done | {self.robot or '-'}: {self.phase}")
+                f"{self.done} done | {self.robot or '-'}: {self.phase}")
 
     def sim_seconds(self) -> float:
         """Sim time from the first goal to the end (unfinished: to the newest record)."""

@@ -40,6 +40,7 @@ from gidabot_navigation.guiding.messages import (
     CANCELLED_HERE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
     TIMEOUT,
@@ -47,10 +48,10 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
 )
+from gidabot_sim.demo.progress import COMPLETIONS, stops_done
 
-LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
+LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
-COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
 
 
 class ReportError(Exception):
@@ -63,6 +64,7 @@ class Event:
     robot: str
     goal_uid: str
     phase: int
+    tour_step: int = -1
 
 
 @dataclass(frozen=True)
@@ -152,7 +154,11 @@ def robot_row(rec: RobotRecord) -> RobotRow:
 def analyse(records: list[RobotRecord], run: dict) -> dict:
     """The report as a JSON-able dict (``robots`` and ``tour``)."""
     rows = [robot_row(r) for r in records]
-    completed = {e.goal_uid for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid}
+    done = [e for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid]
+    if run.get("stops_alone") is not None:     # a tour: its stops, those found alone on floors without robot too
+        completed = stops_done({e.tour_step for e in done if e.tour_step >= 0}, frozenset(run["stops_alone"]))
+    else:
+        completed = {e.goal_uid for e in done}
     all_goals = set().union(*(r.goal_uids for r in records)) if records else set()
     time_s = sum(r.time_s for r in rows)
     dist = sum(r.distance_m for r in rows)
@@ -266,7 +272,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
                 elif conn.topic == "/gidabot/nav_events":
                     if msg.robot == name:
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
+                                                int(msg.tour_step)))
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))

@@ -1,16 +1,21 @@
 """The simulated visitor (ROS-free core): follows the robots' instructions unattended.
 
-The building runs one visitor node per floor, each on its robot's master; together
-they play one person. A node knows where the person is only from the navigation
-events every robot broadcasts (``/gidabot/nav_events``):
+The building runs one visitor node per robot, each on that robot's master (its touch
+screen); together they play one person. A node knows where the person is only from the
+navigation events every robot broadcasts (``/gidabot/nav_events``):
 
-* ``GO_TO_FLOOR`` from this floor's robot: the visitor leaves this floor;
+* the visit starts at one robot (``start_robot``: the first robot of the start floor);
+* ``GO_TO_FLOOR`` from this robot: the visitor leaves this floor;
 * ``GO_TO_FLOOR`` from another robot with ``target_floor`` = this floor: the
   visitor arrives here after walking (stairs: ``stairs_s_per_floor`` per floor;
   lift: ``lift_wait_s`` + ``lift_s_per_floor`` per floor);
-* ``WAITING_VISITOR`` from this floor's robot: press Continue once the visitor
-  has arrived (plus ``think_s``);
-* ``TOUR_STEP_DONE`` from this floor's robot: press Continue (or skip ahead, by
+* ``NO_ROBOT_ON_FLOOR`` of this visit's tour: the visitor walks to that floor, spends
+  ``visit_s`` at each stop of the tour on floors without robot (walking between their
+  floors), then walks to the floor of the tour's next stop with a robot: that is when
+  it arrives for that step there; of a single target: the visit is over (found alone);
+* ``WAITING_VISITOR`` from this robot: press Continue once the visitor has arrived
+  (plus ``think_s``);
+* ``TOUR_STEP_DONE`` from this robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
   ``TIMEOUT``, cancels: the visit is over (``finished``) -- only events about this
@@ -35,6 +40,7 @@ from gidabot_navigation.guiding.messages import (
     CONTINUE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
     REJECTED,
     REQUEST,
@@ -52,9 +58,10 @@ ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLI
 
 @dataclass(frozen=True)
 class VisitorConfig:
-    robot: str                       # robot of this floor
-    floor: float                     # this floor
+    robot: str                       # this node's robot
+    floor: float                     # its floor
     start_floor: float = 0.0         # where the visitor starts
+    start_robot: str = ""            # the robot where the visit starts ("" = any robot of the start floor)
     way: str = "stairs"              # "stairs" or "lift" for every floor change
     language: str = "en"
     stairs_s_per_floor: float = 20.0 # s of walking per floor by the stairs
@@ -67,6 +74,8 @@ class VisitorConfig:
     visitor_id: str = "sim-visitor"
     retry_s: float = 30.0            # s before asking again after "the robot on floor N is offline"
     retry_for_s: float = 1800.0      # s of such refusals before giving up
+    visit_s: float = 60.0            # s spent at a stop on a floor without robot (found alone)
+    robot_floors: tuple[float, ...] = ()   # the floors with a robot
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -107,6 +116,9 @@ class VisitorCore:
     _handled: set[str] = field(default_factory=set)            # event uids already seen
     retries: int = 0                                           # requests asked again after a refusal
     _refused_since: float | None = None                        # first refusal of the current request
+    tour_floors: tuple[float, ...] = ()                        # the floor of each step of the tour
+    step_arrivals: dict[int, float] = field(default_factory=dict)  # tour step -> arrival on its floor after
+    #                                                                the stops found alone before it
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
@@ -114,8 +126,8 @@ class VisitorCore:
     # -- inputs ------------------------------------------------------------
     @property
     def on_start_floor(self) -> bool:
-        """This node plays the visitor's first floor (the only one that starts the visit)."""
-        return math.isclose(self.cfg.floor, self.cfg.start_floor)
+        """This node's robot is where the visitor starts (the only one that starts the visit)."""
+        return math.isclose(self.cfg.floor, self.cfg.start_floor) and self.cfg.start_robot in ("", self.cfg.robot)
 
     def start(self, now: float) -> list[Command]:
         """Begin the visit: only the start floor's node does something, and only once.
@@ -168,12 +180,22 @@ class VisitorCore:
             elif math.isclose(target_floor, self.cfg.floor) and math.isfinite(floor):
                 self.arrivals[goal_uid] = now + self.cfg.walk_time(floor, self.cfg.floor)
             return
+        if phase == NO_ROBOT_ON_FLOOR and ours:
+            if mine:
+                self.present = False
+            if not self.cfg.tour_file:
+                self.finished, self.outcome = True, "found the goal alone on a floor without robot"
+            elif math.isfinite(floor):
+                self._walk_alone(now, floor, tour_step)
+            return
         if not mine:
             if phase in ENDS and phase != TOUR_FINISHED:
                 self.finished, self.outcome = True, f"phase {phase} from {robot}"
             return
         if phase == WAITING_VISITOR:
             self.waiting.add(goal_uid)
+            if goal_uid not in self.arrivals and tour_step in self.step_arrivals:
+                self.arrivals[goal_uid] = self.step_arrivals.pop(tour_step)
         elif phase == TOUR_STEP_DONE:
             self.present = True
             nxt = dict(self.cfg.skips).get(tour_step)
@@ -187,6 +209,23 @@ class VisitorCore:
         elif phase in ENDS:
             self.finished = True
             self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+
+    def on_tour(self, floors: tuple[float, ...]) -> None:
+        """The floor of each step of this visit's tour (from the tour store's catalog)."""
+        self.tour_floors = tuple(floors)
+
+    def _walk_alone(self, now: float, floor: float, step: int) -> None:
+        """Sent from ``floor`` to tour step ``step`` on a floor without robot: find it and the following such
+        stops alone, then walk to the next stop with a robot (its robot waits at the meeting point)."""
+        t, here = now, floor
+        for k in range(max(step, 0), len(self.tour_floors)):
+            there = self.tour_floors[k]
+            t += self.cfg.walk_time(here, there)
+            here = there
+            if any(math.isclose(there, f) for f in self.cfg.robot_floors):
+                self.step_arrivals[k] = t
+                return
+            t += self.cfg.visit_s
 
     def _refused(self, now: float, step: int) -> None:
         """Our own request was refused (a robot it needs is offline): ask again later, or give up."""

@@ -9,9 +9,10 @@ import rospy
 
 from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import GidaBotError, TourError, TourNameError
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.tours.tour_file import tour_from_lines
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.visitor.visitor import Command, VisitorConfig, VisitorCore
 
@@ -31,18 +32,19 @@ def _skips_param(raw: object) -> tuple[tuple[int, int], ...]:
 
 
 class VisitorNode:
-    """One floor's share of the simulated visitor, on that floor's robot's master.
+    """One robot's share of the simulated visitor (its touch screen), on that robot's master.
 
     Subscribes:
       /gidabot/nav_events (gidabot_msgs/NavEvent)   every robot's events (relayed)
       /gidabot/status (gidabot_msgs/RobotStatus)    to start once every robot is up (then unsubscribed)
-      tour_store/catalog (gidabot_msgs/TourCatalog) start floor, tour mode: start once the tour is stored here
+      tour_store/catalog (gidabot_msgs/TourCatalog) tour mode: the tour's floors (stops on floors without robot);
+                                                    the start robot starts once the tour is stored here
     Publishes:
       visitor/command (gidabot_msgs/VisitorCommand) Continue / skip / start, as the GUI would (the last 60 s
                                                     are sent again to a late subscriber: a restarted node)
     Params:
-      ~building (str)             building.yaml path;  ~robot (str) this floor's robot
-      ~start_floor (float, 0)     where the visitor starts (only that floor's node starts the visit)
+      ~building (str)             building.yaml path;  ~robot (str) this node's robot
+      ~start_floor (float, 0)     where the visitor starts: the node of its first robot starts the visit
       ~tour_file (str, "")        tour to start, or ~goal_id (str, "") a single target
       ~way (str, "stairs")        stairs | lift, for every floor change
       ~language (str, "en")       eu | en | es
@@ -52,6 +54,7 @@ class VisitorNode:
                                   walking time between floors (sim time)
       ~retry (float, 30 s), ~retry_for (float, 1800 s): a request of this visitor refused with
                                   PARTNER_OFFLINE is asked again after ~retry, for at most ~retry_for
+      ~visit_time (float, 60 s)   time spent at a tour stop on a floor without robot (sim time)
       ~start_delay (float, 2.0 s) after every robot reported status (sim time)
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
     """
@@ -59,8 +62,13 @@ class VisitorNode:
     def __init__(self) -> None:
         building = load_building(str(rospy.get_param("~building")))
         robot = building.robot(str(rospy.get_param("~robot")))
+        start_floor = _float_param("~start_floor", 0.0, -1e6)
+        starters = building.robots_on(start_floor)
         self.cfg = VisitorConfig(
-            robot=robot.name, floor=robot.floor, start_floor=_float_param("~start_floor", 0.0, -1e6),
+            robot=robot.name, floor=robot.floor, start_floor=start_floor,
+            start_robot=starters[0].name if starters else "",
+            robot_floors=tuple(sorted({r.floor for r in building.robots})),
+            visit_s=_float_param("~visit_time", 60.0),
             way=str(rospy.get_param("~way", "stairs")), language=str(rospy.get_param("~language", "en")),
             stairs_s_per_floor=_float_param("~stairs_s_per_floor", 20.0),
             lift_wait_s=_float_param("~lift_wait", 25.0),
@@ -77,11 +85,13 @@ class VisitorNode:
         if rate <= 0:
             raise SimConfigError(f"~rate: {rate!r} must be > 0 Hz")
         self.core = VisitorCore(self.cfg)
+        self.building = building
         self._lock = threading.Lock()
         self._seen: set[str] = set()
         self._all_up_at: float | None = None
-        # tour mode: wait until the tour store of this robot holds the tour (START_TOUR reads it there)
-        self._tour_ready = not (self.cfg.tour_file and self.core.on_start_floor)
+        # tour mode: the tour's floors, and the start robot waits until its tour store holds the tour (START_TOUR
+        # reads it there)
+        self._tour_ready = not self.cfg.tour_file
         self._seq = 0
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
         self.pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=50)
@@ -99,8 +109,16 @@ class VisitorNode:
                                location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
-        with self._lock:
-            if any(t.file_name == self.cfg.tour_file for t in msg.tours):
+        for t in msg.tours:
+            if t.file_name != self.cfg.tour_file:
+                continue
+            try:
+                tour = tour_from_lines(t.file_name, t.tour_name, list(t.tour_goals_info), self.building)
+            except (TourError, TourNameError) as err:
+                rospy.logwarn("visitor on %s: tour %s in the catalog is invalid: %s", self.cfg.robot, t.file_name, err)
+                return
+            with self._lock:
+                self.core.on_tour(tuple(g.floor for g in tour.goals))
                 self._tour_ready = True
 
     def _on_status(self, msg: RobotStatus) -> None:
