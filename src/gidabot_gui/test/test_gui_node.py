@@ -145,12 +145,15 @@ def test_launch_file_registers_the_documented_topics_and_stops_cleanly(kbot, tmp
         _code, _msg, (pubs, subs, _srvs) = master.getSystemState("/test")
         return ({t: n for t, n in pubs}, {t: n for t, n in subs})
 
-    wait_until(lambda: "/gui" in topics()[0].get("/visitor/command", []), 60, "the gui node's publishers")
+    subscribed = ("/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/nav_events",
+                  "/tour_store/catalog", "/tour_store/edit_result")
+    # the node registers its publishers, then its subscribers: wait for the last of them (a loaded machine)
+    wait_until(lambda: "/gui" in topics()[0].get("/visitor/command", [])
+               and all("/gui" in topics()[1].get(t, []) for t in subscribed), 60, "the gui node's topics")
     pubs, subs = topics()
     for topic in ("/visitor/command", "/initialpose", "/tour_store/edit"):
         assert "/gui" in pubs.get(topic, []), topic
-    for topic in ("/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/nav_events",
-                  "/tour_store/catalog", "/tour_store/edit_result"):
+    for topic in subscribed:
         assert "/gui" in subs.get(topic, []), topic
     published_by_gui = sorted(t for t, nodes in pubs.items() if "/gui" in nodes)
     assert published_by_gui == ["/initialpose", "/rosout", "/tour_store/edit", "/visitor/command"]
