@@ -231,7 +231,7 @@ class NavEventData:
     stamp: float = 0.0
     leg: str = ""                 # LEG_START / LEG_GOAL: the leg of the trip the event is about
     attempt: int = 0              # the Goal.attempt the emitting robot acted under (ACCEPTED / DECLINED: answered)
-    assignee: str = ""            # ASSIGNED: the robot that serves ``leg``
+    assignee: str = ""            # the other robot: ASSIGNED serves ``leg``; GO_TO_FLOOR waits; PARTNER_* partner
     eta: float = 0.0              # s, ACCEPTED / ASSIGNED: until the serving robot is with the visitor (start leg)
     #                               or at the meeting point (goal leg)
 

@@ -569,23 +569,25 @@ class NavigationCore:
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None          # the visitor was released / is here: the trip goes on
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail="the trip goes on")]
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner, detail="the trip goes on")]
         if self.liveness.online(leg.partner, now_wall):
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail=f"{leg.partner} is back; the trip goes on")]
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner,
+                                detail=f"{leg.partner} is back; the trip goes on")]
         actions: list[Action] = []
         if leg.partner_lost is None:
             leg.partner_lost = self.liveness.offline_since(leg.partner, now_wall) or now_wall
             wait = f"; waiting up to {self.cfg.partner_timeout:g} s for it" if leg.role is Role.GOAL else ""
-            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, detail=f"{leg.partner} is offline{wait}"))
+            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, assignee=leg.partner,
+                                       detail=f"{leg.partner} is offline{wait}"))
         if leg.role is Role.GOAL and now_wall - leg.partner_lost >= self.cfg.partner_timeout:
             detail = f"{leg.partner} has been offline for {now_wall - leg.partner_lost:.0f} s; the trip is given up"
             self.log.warning(f"{leg.trip.uid}: {detail}")
             actions += self._stop(leg)
             self._finish(leg.trip)
-            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, detail=detail),
+            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, assignee=leg.partner, detail=detail),
                         SendCancel(self._cancel(leg.trip, REASON_OFFLINE, detail, now_ros))]
         return actions
 

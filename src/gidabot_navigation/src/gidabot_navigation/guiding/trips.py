@@ -355,7 +355,7 @@ def queue_end(planner: TripPlanner, view: RobotView) -> tuple[float, float]:
 def rendezvous_eta(planner: TripPlanner, model: WaitModel, view: RobotView, point: tuple[float, float],
                    now_wall: float) -> float:
     """s until ``view.robot`` could be at ``point`` (on its floor) for a new trip: its queue, then the drive."""
-    ready = max(0.0, view.wait_new - max(0.0, now_wall - view.heard)) if view.queue else 0.0
+    ready = max(0.0, view.wait_new - max(0.0, now_wall - view.heard))
     drive = planner.leg_length(view.robot.floor, queue_end(planner, view), point)
     if not math.isfinite(drive):
         return math.inf
@@ -384,7 +384,7 @@ def rank_candidates(planner: TripPlanner, model: WaitModel, trip: Trip, leg: str
         if not math.isfinite(eta):
             continue
         if robot.name == prefer:
-            key = -math.inf if not view.queue else eta
+            key = -math.inf if not view.queue and view.wait_new <= 0 else eta
         else:
             key = eta + (prefer_gain if prefer else 0.0)
         ranked.append((key, index, Candidate(robot.name, eta)))
