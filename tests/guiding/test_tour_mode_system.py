@@ -67,7 +67,7 @@ def test_real_world_tour_with_a_skip_runs_to_the_end(stack: SimStack) -> None:
     tour = parse_tour((stack.sim.seed_tours / TOUR_FILE).read_bytes(), TOUR_FILE, building)
     assert len(tour.goals) == 8 and len({g.floor for g in tour.goals}) == 4
     steps = [k for k in range(len(tour.goals)) if not SKIP[0] < k < SKIP[1]]   # 0, 1, 2, 3, 5, 6, 7
-    robot_of = {k: building.robot_on(g.floor).name for k, g in enumerate(tour.goals)}
+    robot_of = {k: building.robots_on(g.floor)[0].name for k, g in enumerate(tour.goals)}
 
     def failed(m: dict) -> bool:
         if m["phase"] in FAILURES:

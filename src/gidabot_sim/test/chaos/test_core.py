@@ -166,7 +166,7 @@ def test_a_person_in_the_corridor_leaves_a_way_around(faculty) -> None:
     from gidabot_navigation.building.planning import Circle, GridPlanner
 
     floor = faculty.floor(1.0)
-    robot = faculty.robot_on(1.0)
+    [robot] = faculty.robots_on(1.0)
     start, goal = (robot.home.x, robot.home.y), (faculty.location("110").pose.x, faculty.location("110").pose.y)
     planner = GridPlanner(floor.map, robot.radius + 0.05)
     plan = planner.plan(start, goal).points

@@ -158,11 +158,6 @@ class Building:
                            f"{', '.join(r.name for r in self.robots)}")
         return found
 
-    def robot_on(self, floor: float) -> Robot | None:
-        """The first robot serving ``floor``, or None."""
-        robots = self.robots_on(floor)
-        return robots[0] if robots else None
-
     def robots_on(self, floor: float) -> list[Robot]:
         """The robots serving ``floor``, in the building's order; none: the visitor finds the place alone."""
         f = self.find_floor(floor)
