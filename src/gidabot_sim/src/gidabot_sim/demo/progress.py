@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 
 from gidabot_navigation.guiding.messages import (
     ACCEPTED,
+    ASSIGNED,
+    DECLINED,
     GOAL_REACHED,
     NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
@@ -99,7 +101,7 @@ class Progress:
             return False
         self.events += 1
         phase = int(rec.get("phase", -1))
-        if phase != ACCEPTED:   # every robot involved accepts: not worth a line
+        if phase not in (ACCEPTED, ASSIGNED, DECLINED):   # who serves which leg: not worth a line
             self.robot, self.phase = str(rec.get("robot", "")), PHASE_NAMES.get(phase, f"phase {phase}")
         uid = str(rec.get("goal_uid", ""))
         if phase in COMPLETIONS and uid:
