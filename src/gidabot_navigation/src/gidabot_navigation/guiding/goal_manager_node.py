@@ -210,7 +210,9 @@ class GoalManagerNode:
             if kind:
                 self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
             now = time.monotonic()
-            self.commit(self.core.tick(rospy.get_time(), now), False)
+            version = self.core.version         # the tick may drop a proposal held too long
+            actions = self.core.tick(rospy.get_time(), now)
+            self.commit(actions, self.core.version != version)
             if self.core.version != self._published_version or now >= next_pending:
                 self.publish_pending()
                 if now >= next_pending:
