@@ -222,3 +222,12 @@ def test_queue_end_is_where_the_last_leg_ends(faculty6) -> None:
     assert queue_end(p, RobotView(lamia, (start_leg,))) == (67.6, 12.0)      # the east staircase's meeting point
     goal_leg = trip(faculty6, 0, "223", goal_robot="Lamia", uid="g")
     assert queue_end(p, RobotView(lamia, (start_leg, goal_leg))) == (goal_leg.goal_x, goal_leg.goal_y)
+
+
+def test_a_robot_whose_pose_is_off_the_free_space_is_still_ranked(faculty6) -> None:
+    """A status with a pose in the map's margin (no localisation yet, or a bad one): the straight line."""
+    p, m = TripPlanner(faculty6), WaitModel()
+    t = trip(faculty6, 0, "223", goal_robot="Lamia")
+    views = {"Galtxagorri": RobotView(faculty6.robot("Galtxagorri"), pose=(0.0, 0.0))}
+    ranked = rank_candidates(p, m, t, LEG_GOAL, views, lambda r: True, 0.0)
+    assert {c.robot for c in ranked} == {"Galtxagorri", "Lamia"} and all(math.isfinite(c.eta) for c in ranked)

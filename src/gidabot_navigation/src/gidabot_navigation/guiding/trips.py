@@ -356,9 +356,10 @@ def rendezvous_eta(planner: TripPlanner, model: WaitModel, view: RobotView, poin
                    now_wall: float) -> float:
     """s until ``view.robot`` could be at ``point`` (on its floor) for a new trip: its queue, then the drive."""
     ready = max(0.0, view.wait_new - max(0.0, now_wall - view.heard))
-    drive = planner.leg_length(view.robot.floor, queue_end(planner, view), point)
-    if not math.isfinite(drive):
-        return math.inf
+    end = queue_end(planner, view)
+    drive = planner.leg_length(view.robot.floor, end, point)
+    if not math.isfinite(drive):       # a pose off the free space (localisation): the straight line will do
+        drive = math.hypot(point[0] - end[0], point[1] - end[1])
     return round(ready + model.drive_time(drive, view.robot), 1)
 
 
@@ -369,7 +370,7 @@ def rank_candidates(planner: TripPlanner, model: WaitModel, trip: Trip, leg: str
 
     ``prefer`` (the robot where the visitor stands, for the start leg) goes first when it is free, and
     another robot goes before it only if at least ``prefer_gain`` s sooner; ties keep the building's order.
-    A robot without a view is taken as idle at its home; one that cannot reach the point is left out.
+    A robot without a view is taken as idle at its home.
     """
     point = leg_point(planner, trip, leg)
     if point is None:
@@ -381,8 +382,6 @@ def rank_candidates(planner: TripPlanner, model: WaitModel, trip: Trip, leg: str
             continue
         view = views.get(robot.name) or RobotView(robot)
         eta = rendezvous_eta(planner, model, view, point, now_wall)
-        if not math.isfinite(eta):
-            continue
         if robot.name == prefer:
             key = -math.inf if not view.queue and view.wait_new <= 0 else eta
         else:
