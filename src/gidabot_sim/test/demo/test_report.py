@@ -192,3 +192,25 @@ def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path:
     assert row["time_s"] == pytest.approx(10.0)           # one ON_THE_WAY (in both parts) -> GOAL_REACHED
     assert out["rejected_goals"] == {"Tartalo": len(hostile)}
     assert "were not goals" in report.format_tables(out)
+
+
+def test_leg_audit_from_the_robots_records() -> None:
+    """Each leg's robot from every bag: committed in a goal, named in ASSIGNED, serving phases."""
+    t = report.RobotRecord("Tartalo", 0.0, assignments={("T/v/1", gt.LEG_START, "Tartalo", gt.LEG_COMMITTED),
+                                                         ("T/v/1", gt.LEG_GOAL, "Galtxagorri", gt.LEG_PROPOSED),
+                                                         ("T/v/1", gt.LEG_GOAL, "Lamia", gt.LEG_COMMITTED)})
+    t.events = [report.Event(1, "Tartalo", "T/v/1", gt.ASSIGNED, leg=gt.LEG_GOAL, assignee="Lamia"),
+                report.Event(2, "Tartalo", "T/v/1", gt.ON_THE_WAY, leg=gt.LEG_START),
+                report.Event(9, "Tartalo", "T/v/1", gt.GO_TO_FLOOR, leg=gt.LEG_START)]
+    galt = report.RobotRecord("Galtxagorri", 2.0, events=[report.Event(20, "Galtxagorri", "T/v/1", gt.ACCEPTED,
+                                                                       leg=gt.LEG_GOAL)])
+    lamia = report.RobotRecord("Lamia", 2.0, events=[report.Event(3, "Lamia", "T/v/1", gt.GOING_TO_MEETING,
+                                                                  leg=gt.LEG_GOAL)])
+    legs = report.leg_audit([t, galt, lamia])
+    assert legs == {"legs": 2, "double_served": [], "unserved": [], "served_by": {"Tartalo": 1, "Lamia": 1}}
+    galt.events.append(report.Event(21, "Galtxagorri", "T/v/1", gt.GOING_TO_MEETING, leg=gt.LEG_GOAL))
+    assert report.leg_audit([t, galt, lamia])["double_served"] == [["T/v/1", gt.LEG_GOAL, ["Galtxagorri", "Lamia"]]]
+    text = report.format_tables({**report.analyse([t, galt, lamia], {}), "tour": {
+        "time_s": 0, "distance_m": 0, "mean_velocity_mps": 0, "completed": 0, "goals": 1, "sim_s": 0, "wall_s": 0,
+        "sim_to_wall": 0}})
+    assert "Legs: 2, 1 served by two robots or more, 0 by none" in text

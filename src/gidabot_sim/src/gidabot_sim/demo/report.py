@@ -34,15 +34,22 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from gidabot_navigation.guiding.assignment import LegAudit, LegRecord
 from gidabot_navigation.guiding.messages import (
     ACCEPTED,
+    ASSIGNED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
     NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
+    SERVING_PHASES,
     TIMEOUT,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
@@ -65,6 +72,8 @@ class Event:
     goal_uid: str
     phase: int
     tour_step: int = -1
+    leg: str = ""          # the leg of the trip the robot acted on (docs/guiding.md, who serves a leg)
+    assignee: str = ""     # ASSIGNED: the robot that serves ``leg``
 
 
 @dataclass(frozen=True)
@@ -99,6 +108,7 @@ class RobotRecord:
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
     bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
     rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
+    assignments: set[tuple[str, str, str, int]] = field(default_factory=set)  # (goal uid, leg, robot, state)
 
     @property
     def track(self) -> list[PoseSample]:
@@ -177,7 +187,36 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected}
+            "rejected_goals": rejected, "legs": leg_audit(records)}
+
+
+def leg_audit(records: list[RobotRecord]) -> dict:
+    """Who served each leg, from every bag (docs/guiding.md, *Who serves a leg*): ``legs`` some robot was
+    asked to serve, ``double_served`` (two robots or more had it), ``unserved`` (nobody got it and its trip
+    never ended), ``served_by``: legs per robot."""
+    legs: dict[tuple[str, str], LegRecord] = {}
+    ended = {e.goal_uid for r in records for e in r.events if e.phase in LEG_ENDS and e.goal_uid}
+    for r in records:
+        for uid, leg, robot, state in r.assignments:
+            if state != LEG_NONE:
+                rec = legs.setdefault((uid, leg), LegRecord())
+                if state == LEG_COMMITTED:
+                    rec.committed.add(robot)
+        for e in r.events:
+            if e.goal_uid and e.leg in (LEG_START, LEG_GOAL):
+                rec = legs.setdefault((e.goal_uid, e.leg), LegRecord())
+                if e.phase == ASSIGNED:
+                    rec.assigned.add(e.assignee)
+                elif e.phase in SERVING_PHASES:
+                    rec.served.add(e.robot)
+    audit = LegAudit(legs, ended)
+    served_by: dict[str, int] = {}
+    for uid, leg in legs:
+        robot = audit.served_by(uid, leg)
+        if robot:
+            served_by[robot] = served_by.get(robot, 0) + 1
+    return {"legs": len(legs), "double_served": [list(x) for x in audit.double_served],
+            "unserved": [list(x) for x in audit.unserved], "served_by": served_by}
 
 
 def format_tables(report: dict) -> str:
@@ -194,6 +233,14 @@ def format_tables(report: dict) -> str:
     lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    legs = report.get("legs")
+    if legs:
+        verdict = "each served by exactly one robot" if not legs["double_served"] and not legs["unserved"] else \
+            f"{len(legs['double_served'])} served by two robots or more, {len(legs['unserved'])} by none"
+        lines.append(f"Legs: {legs['legs']}, {verdict} ("
+                     + ", ".join(f"{r} {n}" for r, n in sorted(legs["served_by"].items())) + ")")
+        lines += [f"  two robots on {uid} {leg}: {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
+        lines += [f"  nobody on {uid} {leg}" for uid, leg in legs["unserved"]]
     for robot, n in report.get("rejected_goals", {}).items():
         lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
@@ -264,6 +311,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                         rec.rejected_goals += 1
                         continue
                     rec.goal_uids.add(msg.uid)
+                    rec.assignments.update({(msg.uid, LEG_START, msg.start_robot, int(msg.start_state)),
+                                            (msg.uid, LEG_GOAL, msg.goal_robot, int(msg.goal_state))})
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
@@ -273,7 +322,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                 elif conn.topic == "/gidabot/nav_events":
                     if msg.robot == name:
                         rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
-                                                int(msg.tour_step)))
+                                                int(msg.tour_step), msg.leg, msg.assignee))
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
