@@ -30,14 +30,17 @@ TOURS = [
 ]
 
 
-def populate(gui, faculty, offline: str = "MariSorgin") -> None:
+# (x, y, yaw, linear, angular, battery, state, pending, wait) of each robot
+LIVELY = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 2, 210.0),
+          "Kbot": (27.5, 12.0, 0.0, 0.0, 0.0, 0.93, "idle", 0, 0.0),
+          "Galtxagorri": (35.5, 12.4, 1.57, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
+          "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
+
+
+def populate(gui, faculty, offline: str = "MariSorgin", where: dict = LIVELY) -> None:
     """A lively building: robots here and there, some busy, one gone offline."""
     w = gui.window
     w.feed("catalog", TOURS)
-    where = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 2, 210.0),
-             "Kbot": (27.5, 12.0, 0.0, 0.0, 0.0, 0.93, "idle", 0, 0.0),
-             "Galtxagorri": (35.5, 12.4, 1.57, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
-             "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
     for r in faculty.robots:
         x, y, yaw, v, om, bat, state, n, wait = where[r.name]
         w.feed("status", RobotStatusData(r.name, r.floor, x, y, yaw, v, om, bat, state, n, "", wait))
@@ -221,22 +224,13 @@ def test_admin_screens(make_gui, faculty, text_problems) -> None:
 
 # ------------------------------------------------------------ several robots per floor, floors without robot
 
-def populate_six(gui, faculty6) -> None:
-    """maps/faculty6: two robots on floors 1 and 2; Kbot busy guiding, Basajaun free, Lamia waiting."""
-    w = gui.window
-    w.feed("catalog", TOURS)
-    where = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 1, 120.0),
-             "Kbot": (20.0, 12.0, 3.1, 0.5, 0.0, 0.93, "guiding", 1, 240.0),
-             "Basajaun": (54.0, 12.0, 3.14, 0.0, 0.0, 0.81, "idle", 0, 0.0),
-             "Galtxagorri": (30.0, 12.0, 0.0, 0.0, 0.0, 0.55, "idle", 0, 0.0),
-             "Lamia": (67.0, 12.0, 0.0, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
-             "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
-    for r in faculty6.robots:
-        x, y, yaw, v, om, bat, state, n, wait = where[r.name]
-        w.feed("status", RobotStatusData(r.name, r.floor, x, y, yaw, v, om, bat, state, n, "", wait))
-        w.feed("pending", PendingData(r.name, r.floor, n, wait))
-    w.tick()
-    gui.process()
+# maps/faculty6: two robots on floors 1 and 2; Kbot busy guiding, Basajaun free, Lamia waiting
+SIX = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 1, 120.0),
+       "Kbot": (20.0, 12.0, 3.1, 0.5, 0.0, 0.93, "guiding", 1, 240.0),
+       "Basajaun": (54.0, 12.0, 3.14, 0.0, 0.0, 0.81, "idle", 0, 0.0),
+       "Galtxagorri": (30.0, 12.0, 0.0, 0.0, 0.0, 0.55, "idle", 0, 0.0),
+       "Lamia": (67.0, 12.0, 0.0, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
+       "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
 
 
 @pytest.mark.parametrize("language", LANGS)
@@ -244,7 +238,7 @@ def test_two_robots_per_floor(make_gui, faculty6, text_problems, language) -> No
     """Both robots of a floor on its tab, every robot on the Information tab, and the confirmation with the
     robot (and wait) of each leg: Basajaun comes to Kbot's visitor, Lamia meets them on floor 2."""
     gui = make_gui("Kbot", language=language, building=faculty6)
-    populate_six(gui, faculty6)
+    populate(gui, faculty6, offline="", where=SIX)
     w = gui.window
     problems = {}
     for page in ("floor:1", "floor:2", "info"):
