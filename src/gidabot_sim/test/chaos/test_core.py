@@ -49,8 +49,23 @@ def test_quick_profile_has_every_kind(faculty) -> None:
 
 def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
     tour = parse_tour((REPO / "tours" / "long_tour.tour").read_bytes(), "long_tour.tour", faculty)
-    table = cc.expected_table3(faculty, cc.tour_trips(tour, 0.0))
+    table = cc.expected_table3(faculty, cc.tour_trips(tour, 0.0, faculty))
     assert table == {"Tartalo": (15, 7), "Kbot": (15, 8), "Galtxagorri": (15, 8), "MariSorgin": (15, 6)}
+
+
+def test_expected_table3_with_two_robots_on_a_floor_and_a_floor_without() -> None:
+    """Table 4 on faculty3: 223 and 274 (floor 2, no robot) make one goal; on faculty6 the robots of a floor
+    share one row."""
+    three, six = (load_building(REPO / "maps" / name) for name in ("faculty3", "faculty6"))
+    tour = parse_tour((REPO / "tours" / "real_world.tour").read_bytes(), "real_world.tour", three)
+    assert cc.tour_trips(tour, 0.0, three) == [(0, 0), (0, 0), (0, 1), (1, 1), (1, 2), (2, 3), (3, 3)]
+    assert cc.expected_table3(three, cc.tour_trips(tour, 0.0, three)) == {
+        "Tartalo": (7, 3), "Kbot": (7, 3), "MariSorgin": (7, 2)}
+    six_table = cc.expected_table3(six, cc.tour_trips(tour, 0.0, six))
+    assert six_table == {"Tartalo": (8, 3), "Kbot+Basajaun": (8, 3), "Galtxagorri+Lamia": (8, 3), "MariSorgin": (8, 2)}
+    measured = {"Tartalo": (8, 3), "Kbot": (8, 3), "Basajaun": (8, 0), "Galtxagorri": (8, 1), "Lamia": (8, 2),
+                "MariSorgin": (8, 2)}
+    assert cc.fold_table3(six, measured) == six_table
 
 
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:

@@ -218,7 +218,7 @@ class ChaosRun:
         self.stopped = stop
         self.profile = cc.PROFILES[args.profile]
         self.schedule = cc.make_schedule(args.seed, building, self.profile)
-        self.trips = cc.tour_trips(tour, args.start_floor)
+        self.trips = cc.tour_trips(tour, args.start_floor, building)
         sched_s = cc.schedule_seconds(self.schedule)
         if args.speed is None:   # the tour must outlast the faults: ~100 s of sim time per goal
             args.speed = round(min(20.0, max(2.0, SIM_S_PER_GOAL * len(tour.goals) / (1.3 * sched_s))), 1)
@@ -811,7 +811,8 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
     result = cc.ChaosResult(
         seed=args.seed, tour=run.tour.file_name, speed=args.speed, faults=run.results, fates=fates,
         duplicated_cancels=book.duplicated_cancels(), table3_expected=cc.expected_table3(run.building, run.trips),
-        table3_measured=book.table3(fates), table3_bags=bags, tours_intact=False, tours_problems=[],
+        table3_measured=cc.fold_table3(run.building, book.table3(fates)),
+        table3_bags=cc.fold_table3(run.building, bags) if bags else {}, tours_intact=False, tours_problems=[],
         crashes=crashes, tracebacks=tbs, hostile_rejected=hostile, partner_lost=lost, partner_answered=answered,
         tour_completed=book.tour_finished(run.tour.file_name, len(run.tour.goals) - 1), outcome=outcome,
         run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s)

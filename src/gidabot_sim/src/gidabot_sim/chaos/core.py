@@ -314,22 +314,45 @@ def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_
 # Expected Table 3
 # ---------------------------------------------------------------------------
 
-def tour_trips(tour: Tour, start_floor: float) -> list[tuple[float, float]]:
-    """(start floor, goal floor) of every goal of a tour run from ``start_floor``."""
+def tour_trips(tour: Tour, start_floor: float, building: Building) -> list[tuple[float, float]]:
+    """(start floor, goal floor) of every goal of a tour run from ``start_floor``: a stop on a floor without
+    robot that follows another such stop gets no goal (the visitor finds it alone, docs/guiding.md)."""
     trips, here = [], start_floor
     for g in tour.goals:
+        if not (building.has_robot(here) or building.has_robot(g.floor)):
+            here = g.floor
+            continue
         trips.append((here, g.floor))
         here = g.floor
     return trips
 
 
+def table3_rows(building: Building) -> dict[str, list[str]]:
+    """The rows of Table 3: a robot, or the robots of a floor together ("Kbot+Basajaun"): which of them serves
+    a leg is decided trip by trip (docs/guiding.md, who serves a leg), only their sum is known in advance."""
+    rows: dict[str, list[str]] = {}
+    for f in building.floors:
+        robots = [r.name for r in building.robots_on(f.id)]
+        if robots:
+            rows["+".join(robots)] = robots
+    return rows
+
+
+def fold_table3(building: Building, table: dict[str, tuple[int, int]]) -> dict[str, tuple[int, int]]:
+    """A per-robot Table 3 in :func:`table3_rows`: received by each robot of the row, processed by all."""
+    return {row: (min(table.get(r, (0, 0))[0] for r in robots), sum(table.get(r, (0, 0))[1] for r in robots))
+            for row, robots in table3_rows(building).items()}
+
+
 def expected_table3(building: Building, trips: list[tuple[float, float]]) -> dict[str, tuple[int, int]]:
-    """robot -> (received, processed) without faults: every goal reaches every robot; a robot processes the
-    goals that start or end on its floor."""
+    """Table 3 row -> (received, processed) without faults: every goal reaches every robot; a floor's robots
+    process the goals with a leg on their floor: the start leg when the trip starts there, the goal leg
+    when it ends there coming from another floor."""
     out = {}
-    for r in building.robots:
-        processed = sum(1 for a, b in trips if math.isclose(a, r.floor) or math.isclose(b, r.floor))
-        out[r.name] = (len(trips), processed)
+    for row, robots in table3_rows(building).items():
+        floor = building.robot(robots[0]).floor
+        processed = sum(1 for a, b in trips if math.isclose(a, floor) or math.isclose(b, floor))
+        out[row] = (len(trips), processed)
     return out
 
 
