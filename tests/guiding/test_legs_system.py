@@ -36,7 +36,8 @@ from sim_stack import (
 )
 
 from gidabot_navigation.guiding.assignment import audit_legs
-from gidabot_navigation.guiding.messages import LEG_COMMITTED, LEG_GOAL, LEG_START, SERVING_PHASES, Trip
+from gidabot_navigation.guiding.messages import Trip
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_START, SERVING_PHASES
 from gidabot_sim.chaos.faults import LinkCuts
 from gidabot_sim.runner.procs import wait_until
 

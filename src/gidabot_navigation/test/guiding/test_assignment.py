@@ -19,7 +19,9 @@ from guiding_support import Bus
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.assignment import AssignConfig, Assigner, GaveUp, LegBook, Publish, audit_legs
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import NavEventData, SendEvent, SendGoal, Trip
+from gidabot_navigation.guiding.trips import Candidate
+from gidabot_navigation.interface import (
     ACCEPTED,
     ASSIGNED,
     CANCELLED_HERE,
@@ -36,12 +38,7 @@ from gidabot_navigation.guiding.messages import (
     PARTNER_OFFLINE,
     SERVING_PHASES,
     WAITING_VISITOR,
-    NavEventData,
-    SendEvent,
-    SendGoal,
-    Trip,
 )
-from gidabot_navigation.guiding.trips import Candidate
 
 GOAL_FLOOR = ("Galtxagorri", "Lamia")
 

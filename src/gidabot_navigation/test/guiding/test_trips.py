@@ -8,16 +8,7 @@ from dataclasses import replace
 import pytest
 
 from gidabot_navigation.errors import NoRouteError
-from gidabot_navigation.guiding.messages import (
-    GOING_TO_MEETING,
-    LEG_COMMITTED,
-    LEG_GOAL,
-    LEG_NONE,
-    LEG_START,
-    ON_THE_WAY,
-    WAITING_VISITOR,
-    Trip,
-)
+from gidabot_navigation.guiding.messages import Trip
 from gidabot_navigation.guiding.trips import (
     HeadProgress,
     RobotView,
@@ -29,6 +20,15 @@ from gidabot_navigation.guiding.trips import (
     queue_end,
     rank_candidates,
     role,
+)
+from gidabot_navigation.interface import (
+    GOING_TO_MEETING,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
+    ON_THE_WAY,
+    WAITING_VISITOR,
 )
 
 

@@ -8,9 +8,12 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, Phase, global_name, relay_end_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_sim.chaos import core as cc
+
+# callers as the probes record them
+GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -70,14 +73,14 @@ def test_expected_table3_with_two_robots_on_a_floor_and_a_floor_without() -> Non
 
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:
     """A goal record whose legs are committed to the (only) robots of floors a and b."""
-    return {"k": "goal", "m": m, "c": caller or ("/goal_manager" if m == origin else f"/gidabot_relay_{origin}_{m}"),
+    return {"k": "goal", "m": m, "c": caller or (GM if m == origin else relay_end_name(origin, m)),
             "w": w, "uid": uid, "origin": origin, "initial_floor": a, "goal_floor": b, "goal_id": "x",
-            "tour_step": 0, "attempt": 2, "start_robot": ROBOTS[int(a)], "start_state": gt.LEG_COMMITTED,
-            "goal_robot": ROBOTS[int(b)] if a != b else "", "goal_state": gt.LEG_COMMITTED if a != b else gt.LEG_NONE}
+            "tour_step": 0, "attempt": 2, "start_robot": ROBOTS[int(a)], "start_state": LEG_COMMITTED,
+            "goal_robot": ROBOTS[int(b)] if a != b else "", "goal_state": LEG_COMMITTED if a != b else LEG_NONE}
 
 
 def _ev(m: str, robot: str, goal: str, phase: int, uid: str, w: float = 0.0) -> dict:
-    caller = "/multirobot_navigation" if m == robot else f"/gidabot_relay_{robot}_{m}"
+    caller = NAV if m == robot else relay_end_name(robot, m)
     return {"k": "event", "m": m, "c": caller, "w": w, "uid": uid, "robot": robot, "goal_uid": goal, "phase": phase}
 
 
@@ -94,13 +97,13 @@ def test_bookkeeping_follows_the_assignment_with_two_robots_on_a_floor() -> None
     six = load_building(REPO / "maps" / "faculty6")
     robots = [r.name for r in six.robots]
     recs: list[dict] = []
-    for attempt, (goal_robot, state) in enumerate([("Galtxagorri", gt.LEG_PROPOSED), ("Lamia", gt.LEG_PROPOSED),
-                                                   ("Lamia", gt.LEG_COMMITTED)], start=2):
+    for attempt, (goal_robot, state) in enumerate([("Galtxagorri", LEG_PROPOSED), ("Lamia", LEG_PROPOSED),
+                                                   ("Lamia", LEG_COMMITTED)], start=2):
         recs += [{**_goal(m, "T/v/1", "Tartalo", 0.0, 2.0), "attempt": attempt, "goal_robot": goal_robot,
                   "goal_state": state} for m in robots]
-    for robot, phase, uid in (("Tartalo", gt.ACCEPTED, "T/e/1"), ("Galtxagorri", gt.ACCEPTED, "G/e/1"),
-                              ("Lamia", gt.ACCEPTED, "L/e/1"), ("Tartalo", gt.GO_TO_FLOOR, "T/e/2"),
-                              ("Lamia", gt.GOAL_REACHED, "L/e/2"), ("Tartalo", gt.ASSIGNED, "T/e/3")):
+    for robot, phase, uid in (("Tartalo", Phase.ACCEPTED, "T/e/1"), ("Galtxagorri", Phase.ACCEPTED, "G/e/1"),
+                              ("Lamia", Phase.ACCEPTED, "L/e/1"), ("Tartalo", Phase.GO_TO_FLOOR, "T/e/2"),
+                              ("Lamia", Phase.GOAL_REACHED, "L/e/2"), ("Tartalo", Phase.ASSIGNED, "T/e/3")):
         recs += [_ev(m, robot, "T/v/1", phase, uid) for m in robots]
     fate = cc.Bookkeeping(six, recs).fates()["T/v/1"]
     assert fate.involved == ["Tartalo", "Lamia"] and fate.processed_by == ["Tartalo", "Lamia"]
@@ -111,27 +114,27 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     recs: list[dict] = []
     # g1: Tartalo 0 -> Kbot 1, both accept, Kbot completes
     recs += _everywhere(_goal, "T/v/1", "Tartalo", 0.0, 1.0)
-    recs += _everywhere(_ev, "Tartalo", "T/v/1", gt.ACCEPTED, "T/e/1")
-    recs += _everywhere(_ev, "Kbot", "T/v/1", gt.ACCEPTED, "K/e/1")
-    recs += _everywhere(_ev, "Tartalo", "T/v/1", gt.GO_TO_FLOOR, "T/e/2")
-    recs += _everywhere(_ev, "Kbot", "T/v/1", gt.TOUR_STEP_DONE, "K/e/2")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.ACCEPTED, "T/e/1")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.ACCEPTED, "K/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.GO_TO_FLOOR, "T/e/2")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.TOUR_STEP_DONE, "K/e/2")
     # g2: accepted only by Tartalo, never completed -> lost; delivered twice on Kbot's master -> duplicated
     recs += _everywhere(_goal, "T/v/2", "Tartalo", 0.0, 1.0)
     recs.append(_goal("Kbot", "T/v/2", "Tartalo", 0.0, 1.0))
-    recs += _everywhere(_ev, "Tartalo", "T/v/2", gt.ACCEPTED, "T/e/3")
+    recs += _everywhere(_ev, "Tartalo", "T/v/2", Phase.ACCEPTED, "T/e/3")
     # g3: cancelled: not lost, not in Table 3
     recs += _everywhere(_goal, "K/v/3", "Kbot", 1.0, 1.0)
-    recs += [{"k": "cancel", "m": m, "c": "/goal_manager", "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
+    recs += [{"k": "cancel", "m": m, "c": GM, "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
               "reason": "visitor"} for m in ROBOTS]
     # g4: Kbot processed it twice (two ACCEPTED with different uids)
     recs += _everywhere(_goal, "K/v/4", "Kbot", 1.0, 1.0)
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.ACCEPTED, "K/e/4")
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.ACCEPTED, "K/e/5")
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.GOAL_REACHED, "K/e/6")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.ACCEPTED, "K/e/4")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.ACCEPTED, "K/e/5")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.GOAL_REACHED, "K/e/6")
     # hostile input: a goal from the probe and an event claiming to be a robot's, from a probe
-    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller="/chaos_probe"))
-    recs.append({"k": "event", "m": "Kbot", "c": "/chaos_probe", "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
-                 "phase": gt.GOAL_REACHED})
+    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller=PROBE))
+    recs.append({"k": "event", "m": "Kbot", "c": PROBE, "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
+                 "phase": Phase.GOAL_REACHED})
     book = cc.Bookkeeping(faculty, recs)
     fates = book.fates()
     assert set(fates) == {"T/v/1", "T/v/2", "K/v/3", "K/v/4"}
@@ -146,9 +149,11 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
 
 
 def test_partner_notices_must_be_answered(faculty) -> None:
-    recs = [_ev("Kbot", "Kbot", "g", gt.PARTNER_LOST, "a", 1.0), _ev("Kbot", "Kbot", "g", gt.PARTNER_BACK, "b", 2.0),
-            _ev("Kbot", "Kbot", "h", gt.PARTNER_LOST, "c", 3.0), _ev("Kbot", "Kbot", "h", gt.GOAL_REACHED, "d", 4.0),
-            _ev("Kbot", "Kbot", "i", gt.PARTNER_LOST, "e", 5.0)]
+    recs = [_ev("Kbot", "Kbot", "g", Phase.PARTNER_LOST, "a", 1.0),
+            _ev("Kbot", "Kbot", "g", Phase.PARTNER_BACK, "b", 2.0),
+            _ev("Kbot", "Kbot", "h", Phase.PARTNER_LOST, "c", 3.0),
+            _ev("Kbot", "Kbot", "h", Phase.GOAL_REACHED, "d", 4.0),
+            _ev("Kbot", "Kbot", "i", Phase.PARTNER_LOST, "e", 5.0)]
     assert cc.Bookkeeping(faculty, recs).partner_notices() == (3, 2, ["Kbot i"])
 
 

@@ -7,12 +7,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from gidabot_gui.core.model import WAY_LIFT, WAY_STAIRS, Fleet, TourInfo
+from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_navigation.building.model import Building, Location
 from gidabot_navigation.errors import NoRouteError
 from gidabot_navigation.guiding.assignment import AssignConfig
-from gidabot_navigation.guiding.messages import LEG_COMMITTED, LEG_GOAL, LEG_START, START_ROBOT, Trip
+from gidabot_navigation.guiding.messages import START_ROBOT, Trip
 from gidabot_navigation.guiding.trips import WaitModel, rank_candidates
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_START, WAY_LIFT, WAY_STAIRS
 
 
 @dataclass(frozen=True)

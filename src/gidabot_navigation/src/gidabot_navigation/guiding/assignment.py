@@ -39,7 +39,10 @@ from typing import Any
 
 from gidabot_navigation.building.model import format_floor
 from gidabot_navigation.errors import GuidingError
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import NavEventData, SeenSet, Trip
+from gidabot_navigation.guiding.state import GuidingStateError, number, str_list, trip_from_dict, trip_to_dict
+from gidabot_navigation.guiding.trips import Candidate, leg_floor
+from gidabot_navigation.interface import (
     ACCEPTED,
     ASSIGNED,
     DECLINED,
@@ -49,12 +52,7 @@ from gidabot_navigation.guiding.messages import (
     LEG_PROPOSED,
     LEGS,
     SERVING_PHASES,
-    NavEventData,
-    SeenSet,
-    Trip,
 )
-from gidabot_navigation.guiding.state import GuidingStateError, number, str_list, trip_from_dict, trip_to_dict
-from gidabot_navigation.guiding.trips import Candidate, leg_floor
 
 
 @dataclass(frozen=True)

@@ -32,40 +32,14 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from gidabot_navigation.building.model import LANGUAGES, Building, Location, format_floor
-from gidabot_navigation.errors import GoalRejected, GuidingError, NoRouteError
+from gidabot_navigation.building.model import Building, Location, format_floor
+from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError, NoRouteError
 from gidabot_navigation.guiding.assignment import AssignConfig, Assigned, Assigner, GaveUp, LegBook, Output, Publish
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCEL,
-    CANCELLED_HERE,
-    CONTINUE,
-    DECLINED,
-    GOING_TO_MEETING,
-    LEG_COMMITTED,
-    LEG_PROPOSED,
-    LEG_START,
     MAX_UID,
-    NO_ROBOT_ON_FLOOR,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     PHASE_OF_REASON,
-    REASON_ADMIN,
-    REASON_OFFLINE,
-    REASON_VISITOR,
-    REJECTED,
-    RELEASE_PHASES,
-    REQUEST,
     START_ROBOT,
-    START_TOUR,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
-    WAY_STAIRS,
-    WAYS,
     Action,
     CancelData,
     CommandData,
@@ -85,7 +59,6 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.state import (
     REMEMBERED_UIDS,
-    GuidingStateError,
     dataclass_from_dict,
     number,
     str_list,
@@ -105,6 +78,36 @@ from gidabot_navigation.guiding.trips import (
     rank_candidates,
     rendezvous_eta,
 )
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    ASSIGNED,
+    CANCEL,
+    CANCELLED_HERE,
+    CONTINUE,
+    DECLINED,
+    DEFAULT_LANGUAGE,
+    GOING_TO_MEETING,
+    LANGUAGES,
+    LEG_COMMITTED,
+    LEG_PROPOSED,
+    LEG_START,
+    NO_ROBOT_ON_FLOOR,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    REASON_ADMIN,
+    REASON_OFFLINE,
+    REASON_VISITOR,
+    REJECTED,
+    RELEASE_PHASES,
+    REQUEST,
+    START_TOUR,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+    WAITING_VISITOR,
+    WAY_STAIRS,
+    WAYS,
+)
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.tour_file import MAX_GOALS
 
@@ -119,7 +122,7 @@ class GoalManagerConfig:
 
     robot: str
     default_way: str = WAY_STAIRS
-    default_language: str = "en"
+    default_language: str = DEFAULT_LANGUAGE
     offline_after: float = 5.0
     max_queue: int = 50
     wait: WaitModel = field(default_factory=WaitModel)

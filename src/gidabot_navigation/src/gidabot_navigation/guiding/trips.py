@@ -24,7 +24,8 @@ from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, Connector, Robot, format_floor
 from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import NoRouteError, PlanningError
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import Trip
+from gidabot_navigation.interface import (
     GOING_TO_MEETING,
     LEG_GOAL,
     LEG_NONE,
@@ -32,7 +33,6 @@ from gidabot_navigation.guiding.messages import (
     ON_THE_WAY,
     WAITING_VISITOR,
     WAY_LIFT,
-    Trip,
 )
 
 DEFAULT_RADIUS = 0.3     # m, footprint radius used on a floor without a robot (the visitor's way)

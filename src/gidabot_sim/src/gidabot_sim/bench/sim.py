@@ -35,9 +35,11 @@ from tempfile import TemporaryDirectory
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_sim.bench.closed_loop import FloorLoop
+from gidabot_sim.errors import ProcessError
 from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec
 
@@ -136,7 +138,7 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
         pids: dict[str, int] = {}
 
         def found() -> bool:
-            for node in ("/sim", "/move_base", "/amcl"):
+            for node in (global_name(Node.SIM), global_name(Node.MOVE_BASE), global_name(Node.AMCL)):
                 pid = pids.get(node) or _node_pid(uri, node)
                 if pid:
                     pids[node] = pid
@@ -197,9 +199,9 @@ def ros_driver(goals: list[list[float]]) -> int:
 
     rospy.init_node("bench_driver", disable_signals=True)
     scans = [0]
-    scan_sub = rospy.Subscriber("base_scan", LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
+    scan_sub = rospy.Subscriber(Topic.BASE_SCAN, LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
                                 queue_size=50)
-    client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+    client = actionlib.SimpleActionClient(Topic.MOVE_BASE, MoveBaseAction)
     deadline = time.monotonic() + 60.0
     while not client.wait_for_server(rospy.Duration(0.5)):     # sim time: the clock may not run yet
         if time.monotonic() > deadline:

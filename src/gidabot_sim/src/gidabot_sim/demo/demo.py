@@ -32,11 +32,13 @@ from typing import TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
 from gidabot_sim.demo.progress import Progress
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding
+from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
@@ -61,7 +63,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="floor where the visitor starts (default: the tour's first floor, else 0)")
     p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
                    help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
-    p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
+    p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from gidabot_navigation.guiding.assignment import LegAudit, LegRecord
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     ASSIGNED,
     CANCELLED_ELSEWHERE,
@@ -54,19 +54,18 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    Topic,
+    global_name,
 )
 from gidabot_sim.demo.progress import COMPLETIONS, stops_done
+from gidabot_sim.errors import ReportError
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
 
 
-class ReportError(Exception):
-    """A run folder cannot be reported on (missing files, unreadable bags)."""
-
-
 @dataclass(frozen=True)
-class Event:
+class EventSample:
     t: float            # s, header stamp (sim time)
     robot: str
     goal_uid: str
@@ -102,7 +101,7 @@ class RobotRecord:
     name: str
     floor: float
     goal_uids: set[str] = field(default_factory=set)
-    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    events: list[EventSample] = field(default_factory=list)      # events emitted by this robot
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
@@ -127,7 +126,7 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
     """[start, end] sim-time intervals while the robot was guiding the visitor."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
@@ -242,7 +241,7 @@ def format_tables(report: dict) -> str:
         lines += [f"  two robots on {uid} {leg}: {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
         lines += [f"  nobody on {uid} {leg}" for uid, leg in legs["unserved"]]
     for robot, n in report.get("rejected_goals", {}).items():
-        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
+        lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
@@ -299,14 +298,14 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
+                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE))]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
                 except Exception:  # noqa: BLE001 - rosbags raises several types; one bad message is skipped
                     rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
                     continue
-                if conn.topic == "/gidabot/goals":
+                if conn.topic == Topic.GOALS:
                     if not plausible_goal(msg, building):
                         rec.rejected_goals += 1
                         continue
@@ -316,13 +315,13 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
-                elif conn.topic == "/amcl_pose":
+                elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
-                elif conn.topic == "/gidabot/nav_events":
+                elif conn.topic == Topic.NAV_EVENTS:
                     if msg.robot == name:
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
-                                                int(msg.tour_step), msg.leg, msg.assignee))
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
+                                                      int(msg.tour_step), msg.leg, msg.assignee))
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
