@@ -22,6 +22,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 # gidabot bench <name>
 BENCHES: dict[str, tuple[str, str]] = {
+    "flood": ("gidabot_sim.bench.flood", "a valid request answered under 1000 invalid messages/s per master"),
     "relay": ("gidabot_sim.bench.relay", "relay latency vs direct, and 4/8-robot meshes"),
     "sim": ("gidabot_sim.bench.sim", "planner time per floor and simulator real-time factor"),
 }

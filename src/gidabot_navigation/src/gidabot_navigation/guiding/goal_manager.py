@@ -225,15 +225,21 @@ class GoalManagerCore:
         """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
         stamp) is ignored."""
         key = cmd.key
-        if key and not self._commands_seen.add(key):
+        if key and key in self._commands_seen:
             self.stats.inc("duplicate_commands")
             return []
         try:
             cmd = validate_command(cmd)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("command", f"visitor command refused: {err}")
             return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+        actions = self._command(cmd, now_ros, now_wall)
+        if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in actions)):
+            self._commands_seen.add(key)      # a refused command is not remembered: it changes no state
+        return actions
+
+    def _command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         if cmd.command == REQUEST:
             if not cmd.goal_id:
                 return [self._event(REJECTED, None, now_ros, detail="request without a goal_id")]
@@ -250,16 +256,17 @@ class GoalManagerCore:
         """A goal from /gidabot/goals (or made here): the newest assignment of a trip decides whether this robot
         holds it; a leg newly proposed here is answered."""
         uid = trip.uid if isinstance(trip.uid, str) and len(trip.uid) <= MAX_UID else ""
-        if uid and self._goals_seen.add(uid):
+        if uid and uid not in self._goals_seen:      # a trip's goal comes again per attempt: counted once
             self.stats.inc("received")
         try:
             trip = validate_trip(self.building, trip)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
             if trip.origin_robot == self.me:
                 return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
             return []
+        self._goals_seen.add(trip.uid)
         return self._on_snapshot(trip, now_ros, now_wall)
 
     def _on_snapshot(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
@@ -418,25 +425,29 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("event", f"nav event rejected: {err}")
             return []
+        answer = bool(ev.leg) and ev.goal_uid in self.assigner    # about a leg this robot is assigning
+        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)
+                                   or answer):
+            return []        # nothing here depends on it: not even remembered, so it changes no state
         if not self._events_seen.add(ev.uid):
             return []
-        if ev.robot == self.me and ev.goal_uid and from_relay:
+        if ev.robot == self.me and from_relay:
             self.stats.inc("rejected_spoofed")
             self.warn.warning("spoofed", f"event {ev.uid} claims to come from {self.me} but came through a relay")
             return []
-        if ev.phase in RELEASE_PHASES and ev.goal_uid:
+        if ev.phase in RELEASE_PHASES:
             self._releases[ev.goal_uid] = now_ros
             while len(self._releases) > 1000:
                 self._releases.popitem(last=False)
         actions: list[Action] = []
-        if ev.goal_uid in self.assigner and ev.leg:
+        if answer:
             if ev.phase in (ACCEPTED, DECLINED):
                 actions = self._assign(self.assigner.on_answer(ev.goal_uid, ev.leg, ev.robot, ev.attempt,
                                                                ev.phase == ACCEPTED, ev.eta, ev.detail, now_wall),
                                        now_ros, now_wall)
             elif ev.final:
                 self.assigner.on_done(ev.goal_uid, ev.leg, ev.robot)
-        if ev.robot != self.me or not ev.goal_uid:
+        if ev.robot != self.me:
             return actions
         trip = self._held(ev.goal_uid)
         if ev.phase == TOUR_STEP_DONE and ev.tour_file:
@@ -767,5 +778,6 @@ class GoalManagerCore:
                           leg=(trip.leg_of(self.me) or "") if trip else "", attempt=trip.attempt if trip else 0)
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
-        self._events_seen.add(ev.uid)
+        if ev.goal_uid and phase != REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
+            self._events_seen.add(ev.uid)
         return SendEvent(ev)

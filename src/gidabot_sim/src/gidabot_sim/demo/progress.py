@@ -1,16 +1,40 @@
-"""Progress of a run, from the monitor's JSON lines (ROS-free)."""
+"""Progress of a run, from the monitor's JSON lines (ROS-free).
+
+The visit ends only on events about *its own* trips from the robots those trips involve
+(docs/demo.md), never on whatever else is on the bus (another visitor, a hostile publisher):
+
+- a goal is one of the visit's trips if it is the visit's (its tour file; in single-target
+  mode its goal and no tour), valid (``guiding.messages.validate_trip`` against the
+  building, as every goal manager checks it) and published by its origin robot's goal
+  manager;
+- an event counts if it is about one of those trips, its robot is involved in the trip
+  (the trip's origin, or a robot one of its assignments named for a leg: docs/guiding.md,
+  *Who serves a leg*) and it was published by that robot's guiding nodes.
+
+"Published by" is the publisher's node (``callerid``, recorded by the monitor): on the
+monitor's master a robot's own goal manager or navigation, for any other robot the relay
+end of the monitor's robot and that robot (a relay carries a robot's events only from its
+master). Only a REJECTED answer to the visitor's own request (no trip yet: a robot of the
+start floor, about the visit's tour or goal) ends a visit without a trip.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import json
+import math
 from dataclasses import dataclass, field
 
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.state import trip_from_dict
 from gidabot_navigation.interface import (
     ACCEPTED,
     ASSIGNED,
     DECLINED,
     GOAL_REACHED,
+    GUIDING_NODES,
     NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
     PHASE_NAMES,
@@ -19,6 +43,8 @@ from gidabot_navigation.interface import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    global_name,
+    relay_end_name,
 )
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
@@ -39,6 +65,53 @@ def stops_done(steps: set[int], alone: frozenset[int]) -> set[int]:
             done.add(j)
             j += 1
     return done
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # what a robot's guiding nodes publish as
+
+
+@dataclass(frozen=True)
+class Visit:
+    """What the visit is and where the monitor listens: who may steer its progress."""
+
+    building: Building
+    monitor_robot: str            # the robot whose master the monitor runs on
+    tour_file: str = ""           # the visit's tour ("" = one target)
+    goal_id: str = ""             # the target of a single-target visit
+    start_floor: float = math.nan
+
+    def publisher_of(self, robot: str) -> str:
+        """The node that publishes ``robot``'s messages on the monitor's master ("" = one of its own guiding nodes)."""
+        if robot == self.monitor_robot:
+            return ""
+        names = [r.name for r in self.building.robots]
+        a, b = sorted((robot, self.monitor_robot), key=names.index)
+        return relay_end_name(a, b)
+
+    def sent_by(self, robot: str, callerid: object) -> bool:
+        """Whether a message published by ``callerid`` can be ``robot``'s."""
+        if self.building.find_robot(robot) is None:
+            return False
+        relay = self.publisher_of(robot)
+        return callerid in GUIDING_CALLERIDS if not relay else callerid == relay
+
+    def trip(self, rec: dict) -> Trip | None:
+        """The visit's trip a monitor goal record describes, or None (another visit's, invalid, forged)."""
+        fields = {k: v for k, v in rec.items() if k in Trip.__dataclass_fields__}
+        try:
+            trip = validate_trip(self.building, trip_from_dict(fields))
+        except (GidaBotError, TypeError, ValueError):
+            return None
+        ours = trip.tour_file == self.tour_file if self.tour_file else \
+            (trip.goal_id == self.goal_id and not trip.tour_file)
+        return trip if ours and self.sent_by(trip.origin_robot, rec.get("callerid")) else None
+
+    def answers_request(self, rec: dict) -> bool:
+        """A REJECTED answer to the visitor's own request (no trip yet) from a robot of the start floor."""
+        robot = str(rec.get("robot", ""))
+        starters = {r.name for r in self.building.robots_on(self.start_floor)} if math.isfinite(self.start_floor) \
+            else set()
+        about = rec.get("tour_file") == self.tour_file if self.tour_file else rec.get("location_id") == self.goal_id
+        return (robot in starters and about and not rec.get("goal_uid")
+                and self.sent_by(robot, rec.get("callerid")))
 
 
 @dataclass
@@ -46,7 +119,7 @@ class Progress:
     """What happened so far: goals issued and completed, the latest phase, the end."""
 
     total_goals: int
-    tour_mode: bool = True
+    visit: Visit
     robots_total: int = 0
     alone: frozenset[int] = frozenset()                          # tour steps on floors without robot
     robots_up: list[str] = field(default_factory=list)          # robots heard once, in order
@@ -65,6 +138,14 @@ class Progress:
     latest_sim: float | None = None    # the newest record (an unfinished run is measured up to it)
     latest_wall: float | None = None
     states: dict[str, str] = field(default_factory=dict)
+    trips: dict[str, Trip] = field(default_factory=dict)          # goal uid -> the visit's trip
+    named: dict[str, set[str]] = field(default_factory=dict)      # goal uid -> its origin and every robot any
+                                                                  # of its assignments named for a leg
+    ignored: int = 0                   # goals and events that are not the visit's (other visits, hostile input)
+
+    @property
+    def tour_mode(self) -> bool:
+        return bool(self.visit.tour_file)
 
     def feed_line(self, line: str) -> bool:
         """Take one JSON line; return True when the visible progress changed."""
@@ -90,30 +171,41 @@ class Progress:
             return False
         if kind == "goal":
             uid = str(rec.get("uid"))
-            if uid in self.goals:
+            trip = self.visit.trip(rec)
+            if trip is None:
+                self.ignored += 1
                 return False
-            self.goals[uid] = rec
-            self.robot, self.phase = str(rec.get("origin", "")), "new goal"
+            self.named.setdefault(uid, {trip.origin_robot}).update(r for r in (trip.start_robot, trip.goal_robot) if r)
+            if uid in self.goals:          # the same trip again with a newer assignment (docs/guiding.md)
+                return False
+            self.goals[uid], self.trips[uid] = rec, trip
+            self.robot, self.phase = trip.origin_robot, "new goal"
             if self.first_sim is None:
                 self.first_sim, self.first_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
             return True
         if kind != "event":
             return False
+        phase = rec.get("phase")
+        robot = str(rec.get("robot", ""))
+        trip = self.trips.get(str(rec.get("goal_uid", "")))
+        known = isinstance(phase, int) and not isinstance(phase, bool) and phase in PHASE_NAMES
+        ours = (known and trip is not None and self.visit.sent_by(robot, rec.get("callerid"))
+                and robot in self.named.get(trip.uid, ()))
+        if not ours and not (known and phase == REJECTED and self.visit.answers_request(rec)):
+            self.ignored += 1
+            return False
         self.events += 1
-        phase = int(rec.get("phase", -1))
         if phase not in (ACCEPTED, ASSIGNED, DECLINED):   # who serves which leg: not worth a line
-            self.robot, self.phase = str(rec.get("robot", "")), PHASE_NAMES.get(phase, f"phase {phase}")
-        uid = str(rec.get("goal_uid", ""))
-        if phase in COMPLETIONS and uid:
-            self.completed.add(uid)
-            step = rec.get("tour_step", -1)
-            if isinstance(step, int) and step >= 0:
-                self.steps.add(step)
+            self.robot, self.phase = robot, PHASE_NAMES.get(phase, f"phase {phase}")
+        if phase in COMPLETIONS and trip is not None:
+            self.completed.add(trip.uid)
+            if trip.tour_step >= 0:
+                self.steps.add(trip.tour_step)
         if not self.finished:
             if phase == TOUR_FINISHED or (phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR) and not self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
-                self._finish(f"{FAILURES[phase]} ({rec.get('robot')}: {rec.get('detail', '')})", rec)
+                self._finish(f"{FAILURES[phase]} ({robot}: {rec.get('detail', '')})", rec)
         return True
 
     def _finish(self, outcome: str, rec: dict) -> None:
