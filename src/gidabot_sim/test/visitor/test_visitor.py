@@ -174,3 +174,29 @@ def test_a_single_target_on_a_floor_without_robot_ends_the_visit() -> None:
     tartalo = v.VisitorCore(cfg("Tartalo", 0, goal_id="223"))
     tartalo.on_event(10.0, "e1", "Tartalo", Phase.NO_ROBOT_ON_FLOOR, "g", 0, 2, location_id="223")
     assert tartalo.finished and "alone" in tartalo.outcome and not tartalo.present
+
+
+def test_a_visitor_who_cancels_presses_cancel_for_its_latest_trip_at_its_start_robot() -> None:
+    start = v.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="305", cancel_after_s=40.0,
+                              visitor_id="visitor3"))
+    [ask] = start.start(100.0)
+    assert ask.command == Cmd.REQUEST and start.step(139.0) == []
+    assert start.step(141.0) == []               # no trip yet: nothing to cancel
+    start.on_goal("Kbot/visitor3/1")
+    [cmd] = start.step(142.0)
+    assert (cmd.command, cmd.goal_uid) == (Cmd.CANCEL, "Kbot/visitor3/1")
+    assert start.step(200.0) == []               # once
+    done = v.VisitorCore(cfg("Kbot", 1, start_floor=1, goal_id="104", cancel_after_s=40.0))
+    done.start(0.0)
+    done.on_goal("g")
+    done.on_event(30.0, "e1", "Kbot", Phase.GOAL_REACHED, "g", 1, 1)
+    assert done.finished and done.step(100.0) == []  # reached first: no cancel
+
+
+def test_a_no_show_never_continues_at_the_meeting_point() -> None:
+    up = v.VisitorCore(cfg("MariSorgin", 3, start_floor=0, start_robot="Tartalo", no_show=True, think_s=0))
+    up.on_event(10.0, "e1", "MariSorgin", Phase.WAITING_VISITOR, "g1", 3, 3)
+    up.on_event(12.0, "e2", "Tartalo", Phase.GO_TO_FLOOR, "g1", 0, 3)
+    assert up.step(1000.0) == []
+    up.on_event(1300.0, "e3", "MariSorgin", Phase.TIMEOUT, "g1", 3, 3)
+    assert up.finished

@@ -71,8 +71,10 @@ from gidabot_navigation.interface import (
     global_name,
     relay_end_name,
 )
+from gidabot_sim.demo.crowd import Crowd
 from gidabot_sim.demo.progress import COMPLETIONS, GUIDING_CALLERIDS, stops_done
-from gidabot_sim.errors import ReportError
+from gidabot_sim.errors import ReportError, SimConfigError
+from gidabot_sim.visitor.population import VisitorPlan, plans_from_list
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
@@ -234,6 +236,72 @@ def leg_audit(records: list[RobotRecord]) -> dict:
             "unserved": [list(x) for x in audit.unserved], "served_by": served_by}
 
 
+PASSED_VERDICT, FAILED_VERDICT = "PASSED", "FAILED"
+COLLISIONS_NOT_MEASURED = "robot-robot collisions are not measured: the simulator does not publish a count"
+
+
+def crowd_report(folder: Path, run: dict, report: dict) -> dict:
+    """The many-visitors part of a run's report (``gidabot demo --visitors``; docs/demo.md): per visitor and per
+    robot from the monitor's records (:mod:`gidabot_sim.demo.crowd`), the legs' audit from the bags, a verdict."""
+    building = _run_building(folder, run)
+    try:
+        plans = plans_from_list(run["population"], building) if building is not None else \
+            tuple(VisitorPlan.from_dict(p) for p in run["population"])
+    except SimConfigError as err:
+        raise ReportError(f"{folder / 'run.json'}: population: {err}") from err
+    crowd = Crowd(plans)
+    monitor = folder / "monitor.jsonl"
+    try:
+        with open(monitor, encoding="utf-8") as lines:
+            for line in lines:
+                crowd.feed_line(line)
+    except OSError as err:
+        raise ReportError(f"{monitor}: cannot read ({err.strerror})") from err
+    summary = crowd.summary([r["name"] for r in run.get("robots", [])])
+    legs = report["legs"]
+    problems = list(summary["problems"])
+    problems += [f"leg {leg} of {uid} served by {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
+    problems += [f"leg {leg} of {uid} served by nobody" for uid, leg in legs["unserved"]]
+    if run.get("outcome") not in (None, "completed"):
+        problems.append(f"the run did not finish: {run.get('outcome')}")
+    return {"visitors": summary["visitors"], "completed": summary["completed"], "cancelled": summary["cancelled"],
+            "timed_out": summary["timed_out"], "failed": summary["failed"], "unfinished": summary["unfinished"],
+            "collisions": None, "collisions_note": COLLISIONS_NOT_MEASURED,
+            "legs_double_served": len(legs["double_served"]), "legs_unserved": len(legs["unserved"]),
+            "wait_mean_s": summary["wait_mean_s"], "wait_p95_s": summary["wait_p95_s"], "seed": run.get("seed"),
+            "population": summary, "problems": problems,
+            "verdict": FAILED_VERDICT if problems else PASSED_VERDICT}
+
+
+def format_crowd(report: dict) -> list[str]:
+    """The many-visitors tables: per robot, per visitor, overall, the verdict."""
+    pop = report["population"]
+    lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
+                 f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report['failed']} failed, "
+                 f"{report['unfinished']} unfinished; chosen: " + ", ".join(f"{k} {n}" for k, n in
+                                                                             pop["intents"].items())]
+    wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
+    p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
+    lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")
+    head = f"{'Robot':<12} {'Legs':>5} {'Busy':>6} {'Queue max':>10} {'Queue mean':>11}"
+    lines += ["", head, "-" * len(head)]
+    lines += [f"{r['robot']:<12} {r['legs_served']:>5} {100 * r['busy_fraction']:>5.0f}% {r['queue_max']:>10} "
+              f"{r['queue_mean']:>11.2f}" for r in pop["per_robot"]]
+    head = f"{'Visitor':<11} {'At':<12} {'Target':<18} {'Way':<7} {'Chose':<9} {'Arrive':>7} {'Wait':>7} " \
+           f"{'Trip':>7}  Outcome"
+    lines += ["", head, "-" * len(head)]
+    for v in pop["per_visitor"]:
+        wait_s = "-" if v["wait_s"] is None else f"{v['wait_s']:.0f}"
+        trip_s = "-" if v["trip_s"] is None else f"{v['trip_s']:.0f}"
+        lines.append(f"{v['visitor']:<11} {v['robot']:<12} {v['target']:<18} {v['way']:<7} {v['intent']:<9} "
+                     f"{v['arrive_s']:>7.0f} {wait_s:>7} {trip_s:>7}  {v['outcome']}"
+                     + ("" if v["as_chosen"] else "  <- not as chosen"))
+    lines += ["", f"Collisions: {COLLISIONS_NOT_MEASURED}" if report["collisions"] is None else
+              f"Collisions (robot-robot): {report['collisions']}"]
+    lines.append(f"Verdict: {report['verdict']}" + "".join(f"\n  {p}" for p in report["problems"]))
+    return lines
+
+
 def format_tables(report: dict) -> str:
     lines = ["Goal messages per robot (paper Table 3) and guiding data (paper Table 5)", ""]
     head = f"{'Robot':<12} {'Floor':>5} {'Received':>9} {'Processed':>10} {'Time (s)':>9} {'Dist. (m)':>10} " \
@@ -260,6 +328,8 @@ def format_tables(report: dict) -> str:
         lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
+    if "population" in report:
+        lines += format_crowd(report)
     return "\n".join(lines)
 
 
@@ -515,6 +585,8 @@ def main(argv: list[str]) -> int:
     try:
         run, records = load_run(args.run)
         report = analyse(records, run)
+        if run.get("population") is not None:
+            report.update(crowd_report(args.run, run, report))
         report["run_folder"] = str(args.run.resolve())
         if not args.no_plots:
             report["plots"] = [str(p) for p in plot_paths(args.run, run, records)]
@@ -528,4 +600,4 @@ def main(argv: list[str]) -> int:
         print(format_tables(report))
         for p in report.get("plots", []):
             print(f"wrote {p}")
-    return 0
+    return 1 if report.get("verdict") == FAILED_VERDICT else 0

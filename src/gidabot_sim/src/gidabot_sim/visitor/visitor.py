@@ -24,6 +24,12 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
   robot of the next floor is offline right now): like a person told so, the visitor
   asks again after ``retry_s``, for at most ``retry_for_s``, then gives up.
 
+One visitor of a population (``gidabot demo --visitors K``; each node then runs one core per
+visitor, fed only the events of that visitor's trips) may also choose to cancel: at its start
+robot's screen, ``cancel_after_s`` after asking, it presses Cancel for its latest trip unless the
+visit is over; or never to turn up (``no_show``): it ignores ``WAITING_VISITOR`` away from its
+start floor, so the robot waiting at the meeting point gives up.
+
 Time is passed in (sim seconds); :meth:`VisitorCore.step` returns the commands
 that are due, so tests need no clock.
 """
@@ -35,6 +41,7 @@ from dataclasses import dataclass, field
 
 from gidabot_navigation.interface import (
     ACCEPTED,
+    CANCEL,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     CONTINUE,
@@ -79,6 +86,10 @@ class VisitorConfig:
     retry_for_s: float = 1800.0      # s of such refusals before giving up
     visit_s: float = 60.0            # s spent at a stop on a floor without robot (found alone)
     robot_floors: tuple[float, ...] = ()   # the floors with a robot
+    # one visitor of a population (gidabot_sim.visitor.population): when it asks, and what it chooses
+    arrive_s: float = 0.0            # s after every robot is up (the node starts the visit then)
+    cancel_after_s: float = -1.0     # >= 0: presses Cancel this long after asking, if the visit is not over
+    no_show: bool = False            # never turns up at a meeting point on another floor (that robot times out)
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -123,6 +134,9 @@ class VisitorCore:
     tour_floors: tuple[float, ...] = ()                        # the floor of each step of the tour
     step_arrivals: dict[int, float] = field(default_factory=dict)  # tour step -> arrival on its floor after
     #                                                                the stops found alone before it
+    asked_at: float | None = None                              # when the visit started (the button pressed)
+    goal_uids: list[str] = field(default_factory=list)         # this visitor's trips, oldest first
+    cancel_sent: bool = False
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
@@ -141,7 +155,7 @@ class VisitorCore:
         """
         if self.started or not self.on_start_floor:
             return []
-        self.started = True
+        self.started, self.asked_at = True, now
         c = self.cfg
         if c.tour_file:
             cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
@@ -197,6 +211,8 @@ class VisitorCore:
                 self.finished, self.outcome = True, f"phase {phase} from {robot}"
             return
         if phase == WAITING_VISITOR:
+            if self.cfg.no_show and not self.on_start_floor:
+                return                       # it never comes: the robot waiting here gives up (TIMEOUT)
             self.waiting.add(goal_uid)
             if goal_uid not in self.arrivals and tour_step in self.step_arrivals:
                 self.arrivals[goal_uid] = self.step_arrivals.pop(tour_step)
@@ -213,6 +229,11 @@ class VisitorCore:
         elif phase in ENDS:
             self.finished = True
             self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+
+    def on_goal(self, goal_uid: str) -> None:
+        """A trip made for this visitor (its Goal names the visitor)."""
+        if goal_uid not in self.goal_uids:
+            self.goal_uids.append(goal_uid)
 
     def on_tour(self, floors: tuple[float, ...]) -> None:
         """The floor of each step of this visit's tour (from the tour store's catalog)."""
@@ -259,6 +280,12 @@ class VisitorCore:
                 self._due.append(_Due(now + self.cfg.think_s, ButtonPress(CONTINUE, goal_uid=goal_uid,
                                                                           way=self.cfg.way,
                                                                           language=self.cfg.language)))
+        c = self.cfg
+        if (c.cancel_after_s >= 0 and self.asked_at is not None and now >= self.asked_at + c.cancel_after_s
+                and self.goal_uids and not self.finished and not self.cancel_sent):
+            self.cancel_sent = True          # at the screen where it asked, about its latest trip
+            self._due.append(_Due(now, ButtonPress(CANCEL, goal_uid=self.goal_uids[-1], tour_file=c.tour_file,
+                                                   way=c.way, language=c.language)))
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]
         return [d.press for d in sorted(ready, key=lambda d: d.at)]
