@@ -285,3 +285,46 @@ def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
     assert row["time_s"] == pytest.approx(18.0)           # 10 -> 20 and 22 -> 30: no hostile ON_THE_WAY
     assert out["tour"]["completed"] == 2
     assert out["rejected_goals"] == {"Kbot": 3}
+
+
+def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_fail(tmp_path: Path) -> None:
+    """Two visitors at Kbot: one completes, one was to complete but timed out: FAILED, exit 1; collisions are
+    reported as not measured (None), never as 0."""
+    pytest.importorskip("gidabot_msgs.msg")
+    gm, nav = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
+    msgs = [(Topic.GOALS, _goal("Kbot/a/1", "Kbot", "104", visitor_id="a"), 1.0, gm),
+            (Topic.GOALS, _goal("Kbot/b/1", "Kbot", "110", visitor_id="b"), 2.0, gm),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ACCEPTED, 1.5), 1.5, gm),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ON_THE_WAY, 5.0), 5.0, nav),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.GOAL_REACHED, 40.0), 40.0, nav),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/b/1", Phase.TIMEOUT, 400.0), 400.0, nav)]
+    _bag(tmp_path / "Kbot.bag", msgs)
+    monitor = [{"kind": "goal", "uid": "Kbot/a/1", "visitor_id": "a", "sim": 1.0, "wall": 0.1, "start_robot": "Kbot",
+                "start_state": LEG_COMMITTED, "attempt": 1},
+               {"kind": "goal", "uid": "Kbot/b/1", "visitor_id": "b", "sim": 2.0, "wall": 0.2, "start_robot": "Kbot",
+                "start_state": LEG_COMMITTED, "attempt": 1},
+               {"kind": "event", "uid": "Kbot/event/1", "robot": "Kbot", "goal_uid": "Kbot/a/1",
+                "phase": Phase.ON_THE_WAY, "sim": 5.0},
+               {"kind": "event", "uid": "Kbot/event/2", "robot": "Kbot", "goal_uid": "Kbot/a/1",
+                "phase": Phase.GOAL_REACHED, "sim": 40.0},
+               {"kind": "event", "uid": "Kbot/event/3", "robot": "Kbot", "goal_uid": "Kbot/b/1",
+                "phase": Phase.TIMEOUT, "sim": 400.0}]
+    (tmp_path / "monitor.jsonl").write_text("".join(json.dumps(r) + "\n" for r in monitor))
+    population = [{"visitor_id": v, "arrive_s": 0.0, "robot": "Kbot", "way": "stairs", "goal_id": g}
+                  for v, g in (("a", "104"), ("b", "110"))]
+    run = {"tour": "2 visitors", "goals": 2, "building": str(REPO / "maps" / "faculty"), "outcome": "completed",
+           "seed": 5, "visitors": 2, "population": population,
+           "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}]}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 1
+    out = json.loads((tmp_path / "report.json").read_text())
+    assert (out["visitors"], out["completed"], out["timed_out"], out["verdict"]) == (2, 1, 1, "FAILED")
+    assert out["collisions"] is None and "not measured" in out["collisions_note"]
+    assert (out["legs_double_served"], out["legs_unserved"], out["wait_mean_s"], out["wait_p95_s"]) == (0, 0, 4.0, 4.0)
+    assert out["problems"] == ["b (complete, 110 from Kbot): timed out"]
+    assert out["population"]["per_robot"][0]["legs_served"] == 2
+    text = report.format_tables(out)
+    assert "Visitors: 2 (seed 5): 1 completed" in text and "Verdict: FAILED" in text
+    population[1]["no_show"] = True                 # it never came: timing out is as it chose
+    (tmp_path / "run.json").write_text(json.dumps({**run, "population": population}))
+    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0
