@@ -27,6 +27,11 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
   a sample every 0.1 m, whatever the sim speed; bags without it: the robot's
   ``/gidabot/poses``); and the tour total;
+* a run with many visitors (``gidabot demo --visitors``: ``population`` in ``run.json``): per
+  robot legs served, busy fraction and queue length, per visitor wait and trip time, the mean
+  and 95th percentile wait, visits completed, cancelled and timed out (:mod:`gidabot_sim.demo.crowd`
+  over the run's ``monitor.jsonl``), and a verdict: FAILED (exit 1) on a visit that did not end as
+  its visitor chose, a lost or duplicated goal, a leg served by two robots or by none;
 * one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
   thick while guiding the visitor, thin dashed while driving alone (to a meeting
   point, back to the visitor), the tour's goals numbered by step.
