@@ -15,7 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 from machines_system import assert_only_relay_links, assert_only_relay_ports_open
-from sim_stack import CONTINUE, GO_TO_FLOOR, GOAL_REACHED, GOALS, ROBOTS, WAITING_VISITOR, SimStack
+from sim_stack import CONTINUE, GO_TO_FLOOR, GOAL_REACHED, GOALS, WAITING_VISITOR, SimStack
 
 from gidabot_sim.runner.procs import wait_until
 
@@ -53,7 +53,7 @@ def test_a_cross_floor_trip_completes_with_only_relay_links_between_the_machines
     stack.wait_event("Kbot", GOAL_REACHED, uid, timeout=10, on="Tartalo")      # the news crossed back
     print(f"[machines] floor 0 -> 1 by the stairs across machines: {time.monotonic() - wall0:.1f} s wall; "
           f"{crossing} connections between machines, every one a relay link")
-    for r in ROBOTS:     # the goal reached every robot's master once
+    for r in stack.robots:     # the goal reached every robot's master once
         stack.rec[r].wait(GOALS, lambda m: m["uid"] == uid, 10, f"the goal at {r}")
         assert [m["uid"] for m in stack.rec[r].msgs(GOALS)].count(uid) == 1, r
     for r in ("Tartalo", "Kbot"):
