@@ -65,7 +65,8 @@ def test_quick_chaos_run_keeps_every_promise(tmp_path: Path, machines: bool) -> 
         assert all(counts[k] >= 1 for k in ("partition", "links_flapping", "one_way_loss", "lossy_link",
                                              "machine_down")), counts
         assert counts["clock_offset"] == 4 and doc["relay_counters"]["link_losses"] > 0
-    assert doc["accepted"] == 4 and doc["completed"] == 4, doc
+    # a trip the system ended (e.g. its partner offline) is asked for again by the visitor: one more goal
+    assert doc["completed"] == 4 and doc["accepted"] == 4 + len(doc["ended_by_system"]), doc
     assert doc["lost"] == 0 and doc["duplicated"] == 0 and doc["cancels_duplicated"] == 0, doc
     assert all(r["passed"] for r in doc["requests"]) and len(doc["requests"]) == 4, doc["requests"]
     assert isinstance(doc["max_recovery_s"], float) and doc["max_recovery_s"] <= 5.0, doc["faults"]
