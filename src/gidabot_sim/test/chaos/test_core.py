@@ -141,6 +141,29 @@ def test_bookkeeping_follows_the_assignment_with_two_robots_on_a_floor() -> None
     assert fate.completed and not fate.lost and fate.duplicated == []
 
 
+def test_a_robot_answers_each_proposal_and_ends_each_leg_once(faculty) -> None:
+    """An ACCEPTED answers the proposal of one attempt (a leg proposed again, e.g. after the answer was held by a
+    cut link, is answered again); a final event ends one leg (the start robot's GO_TO_FLOOR, then its give-up of
+    the goal leg as the origin). Twice the same answer, or two ends of one leg, is a duplicate."""
+    def ev(robot: str, goal: str, phase: int, uid: str, leg: str, attempt: int = 0) -> list[dict]:
+        return [dict(r, leg=leg, attempt=attempt) for r in _everywhere(_ev, robot, goal, phase, uid)]
+
+    recs = _everywhere(_goal, "T/v/5", "Tartalo", 0.0, 1.0) + _everywhere(_goal, "T/v/6", "Tartalo", 0.0, 1.0)
+    recs += ev("Tartalo", "T/v/5", Phase.ACCEPTED, "T/e/50", "start", 1)
+    recs += ev("Kbot", "T/v/5", Phase.ACCEPTED, "K/e/50", "goal", 1)
+    recs += ev("Kbot", "T/v/5", Phase.ACCEPTED, "K/e/51", "goal", 2)
+    recs += ev("Tartalo", "T/v/5", Phase.GO_TO_FLOOR, "T/e/51", "start")
+    recs += ev("Tartalo", "T/v/5", Phase.PARTNER_OFFLINE, "T/e/52", "goal")
+    recs += ev("Kbot", "T/v/6", Phase.ACCEPTED, "K/e/60", "goal", 1)
+    recs += ev("Kbot", "T/v/6", Phase.ACCEPTED, "K/e/61", "goal", 1)
+    recs += ev("Kbot", "T/v/6", Phase.TIMEOUT, "K/e/62", "goal")
+    recs += ev("Kbot", "T/v/6", Phase.GOAL_REACHED, "K/e/63", "goal")
+    fates = cc.Bookkeeping(faculty, recs).fates()
+    assert fates["T/v/5"].duplicated == []
+    assert fates["T/v/6"].duplicated == ["Kbot accepted it 2 times (its goal leg, attempt 1)",
+                                         "Kbot ended it 2 times (its goal leg)"]
+
+
 def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> None:
     recs: list[dict] = []
     # g1: Tartalo 0 -> Kbot 1, both accept, Kbot completes

@@ -565,13 +565,17 @@ class Bookkeeping:
                             involved)
             completes = goal_robot or (start_robot if math.isclose(a, b) else "")
             accepted_by: dict[str, set[str]] = defaultdict(set)
-            finals: dict[str, set[str]] = defaultdict(set)
+            # a robot answers each proposal of a leg (attempt) and ends each leg it served once
+            answers: dict[tuple[str, str, int], set[str]] = defaultdict(set)
+            finals: dict[tuple[str, str], set[str]] = defaultdict(set)
             for ev in by_goal.get(uid, []):
                 robot, phase = str(ev.get("robot")), int(ev.get("phase", -1))
+                leg = str(ev.get("leg", ""))
                 if phase == ACCEPTED:
                     accepted_by[robot].add(str(ev.get("uid")))
+                    answers[(robot, leg, int(ev.get("attempt", 0)))].add(str(ev.get("uid")))
                 if phase in FINAL_PHASES:
-                    finals[robot].add(str(ev.get("uid")))
+                    finals[(robot, leg)].add(str(ev.get("uid")))
                 if phase in COMPLETIONS and completes and robot == completes:
                     fate.completed = True
                 if phase in (NO_ROBOT_ON_FLOOR, TOUR_FINISHED) and not goal_robot and start_robot \
@@ -584,12 +588,13 @@ class Bookkeeping:
             fate.processed_by = sorted(set(accepted_by) & set(involved), key=lambda r: list(self.robots).index(r))
             fate.cancel_reasons = cancels.get(uid, [])
             fate.cancelled = bool(fate.cancel_reasons)
-            for robot, uids in accepted_by.items():
+            for (robot, leg, attempt), uids in answers.items():
                 if len(uids) > 1:
-                    fate.duplicated.append(f"{robot} accepted it {len(uids)} times")
-            for robot, uids in finals.items():
+                    fate.duplicated.append(f"{robot} accepted it {len(uids)} times"
+                                           + (f" (its {leg} leg, attempt {attempt})" if leg else ""))
+            for (robot, leg), uids in finals.items():
                 if len(uids) > 1:
-                    fate.duplicated.append(f"{robot} ended it {len(uids)} times")
+                    fate.duplicated.append(f"{robot} ended it {len(uids)} times" + (f" (its {leg} leg)" if leg else ""))
             per_master = Counter((str(r.get("m")), r.get("attempt", 0)) for r in self.goal_records[uid])
             for (master, attempt), n in per_master.items():
                 if n > 1:

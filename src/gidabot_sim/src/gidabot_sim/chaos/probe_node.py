@@ -161,7 +161,8 @@ class ChaosProbeNode:
     def _on_event(self, m: Any) -> None:
         self._write("event", m, uid=self._clip(m.uid), robot=self._clip(m.robot, 64), goal_uid=self._clip(m.goal_uid),
                     phase=int(m.phase), s=_num(m.header.stamp.to_sec()), tour_file=self._clip(m.tour_file, 64),
-                    tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), assignee=self._clip(m.assignee, 64),
+                    tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), attempt=int(m.attempt),
+                    assignee=self._clip(m.assignee, 64),
                     location_id=self._clip(m.location_id, 64), detail=self._clip(m.detail, 200))
 
     def _on_tour(self, m: Any) -> None:
