@@ -32,3 +32,7 @@ class ObstacleRejected(SimError):
 
 class GoalRejected(SimError):
     """A navigation goal is invalid (not finite, invalid quaternion, wrong frame)."""
+
+
+class StepDoneRejected(SimError):
+    """A lockstep participant's answer (gidabot_msgs/StepDone) is malformed, or one participant too many."""

@@ -349,7 +349,7 @@ class ChaosRun:
         """Wall time by which ``source``'s ``topic`` (status / pending) reached every master in ``masters``
         after ``since`` (the latest of the first deliveries), None if not within ``timeout``."""
         deadline = time.monotonic() + timeout
-        stamped = self.sim_time(since) - 0.1       # the clock is published every 0.05 s of sim time
+        stamped = self.sim_time(since) - 0.1       # (a stamp is the floor's latest step)
         while time.monotonic() < deadline and not self.stopped():
             firsts = [self.probes[m].first(topic, since, stamped).get(source) for m in masters]
             if all(t is not None for t in firsts):
@@ -359,9 +359,9 @@ class ChaosRun:
         return None
 
     def sim_time(self, wall: float) -> float:
-        """The sim time every floor's clock showed at wall time ``wall`` (docs/simulator.md)."""
+        """The slowest floor's sim time at wall time ``wall`` (docs/simulator.md: each floor has its own clock)."""
         assert self.sim is not None
-        return (wall - self.sim.start_wall) * float(self.args.speed)
+        return self.sim.sim_time_at(wall)
 
     def link_recovered(self, a: str, b: str, since: float) -> float | None:
         ta = self.first_everywhere("status", a, [b], since)

@@ -1,4 +1,8 @@
-"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`)."""
+"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`).
+
+A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): it answers every
+ground-truth message, so the world does not step on before the estimate for it is out.
+"""
 
 from __future__ import annotations
 
@@ -18,6 +22,7 @@ from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
 from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros.participant import StepAnswers, own_time
 from gidabot_sim.world.clock import Periodic
 
 
@@ -49,6 +54,9 @@ class AmclNode:
       ``~noise_tau`` (s, 3): its correlation time; ``~update_min_d`` (m, 0.1), ``~update_min_a`` (rad, 0.1);
       ``~tf_rate`` (Hz sim, 10), ``~transform_tolerance`` (s, 0.1); ``~global_frame_id`` (map),
       ``~odom_frame_id`` (odom); ``~seed`` (int, -1 = random).
+    Lockstep (docs/simulator.md): ROS time is the stamp of the latest ground truth (no ``/clock``); every
+      ground-truth message is answered on ``/sim/step_done`` (gidabot_msgs/StepDone) once its estimate (if
+      any) is published, naming ``amcl_pose`` then.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -76,7 +84,10 @@ class AmclNode:
         self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=5, latch=True)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
-        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10)
+        self.set_time = own_time()
+        self.answers = StepAnswers(inputs=["base_pose_ground_truth"])
+        self.answers.answer(0.0, idle=True)          # known to the simulator from the start
+        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
     def _follow_odom(self) -> None:
         """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
@@ -96,11 +107,17 @@ class AmclNode:
                 self.core.on_odom(msg.header.stamp.to_sec(), pose)
 
     def _on_truth(self, msg: Odometry) -> None:
+        t = msg.header.stamp.to_sec()
+        self.set_time(t)
+        published = self._estimate(msg, t)
+        self.answers.answer(t, idle=True, outputs=["amcl_pose"] if published else [])
+
+    def _estimate(self, msg: Odometry, t: float) -> bool:
+        """Process one ground truth; True when an estimate was published."""
         truth = _pose2d(msg)
         if truth is None:
             self.rejected.reject("base_pose_ground_truth", "amcl: ignoring a non-finite ground-truth pose")
-            return
-        t = msg.header.stamp.to_sec()
+            return False
         self._follow_odom()
         with self.lock:
             estimate = self.core.on_truth(t, truth)
@@ -116,6 +133,7 @@ class AmclNode:
         if map_odom is not None:
             self.tf_pub.publish(TFMessage(transforms=[ru.transform(self.global_frame, self.odom_frame, map_odom,
                                                                    t + self.tolerance)]))
+        return estimate is not None
 
 
 def main() -> None:

@@ -1,16 +1,20 @@
-"""ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`)."""
+"""ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`).
+
+A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): its control cycles run at
+the simulator's steps, and the world does not step on while a goal runs before it has answered.
+"""
 
 from __future__ import annotations
 
 import math
 import queue
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
 import actionlib
 import rospy
-import rospy.rostime
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import Odometry
@@ -18,7 +22,7 @@ from nav_msgs.msg import Path as PathMsg
 from nav_msgs.srv import GetPlan, GetPlanResponse
 from std_srvs.srv import Empty, EmptyResponse
 
-from gidabot_msgs.msg import ObstacleArray
+from gidabot_msgs.msg import ObstacleArray, SimStep
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.planning import Path
@@ -30,7 +34,8 @@ from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.world.clock import Periodic, next_cycle
+from gidabot_sim.ros.participant import STEP_TOPIC, StepAnswers, own_time, synchronous_publisher
+from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D
 from gidabot_sim.world.world import obstacle_shape
 
@@ -87,9 +92,12 @@ class MoveBaseNode:
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
       ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
-      ``~stall_threshold`` (s, 1: a longer gap between two control cycles means this process was starved
-      or frozen; that time is not held against the goal's patience timers).
-      All times are sim time.
+      ``~input_wait`` (wall s, 1: how long a step waits for the odom / amcl_pose it names before the cycle runs
+      with what it has; counted as ``late_inputs``). All other times are sim time.
+    Lockstep (docs/simulator.md): ROS time comes from ``/sim/step`` (gidabot_msgs/SimStep), not ``/clock``; a
+      control cycle runs at the steps (at most ``~controller_frequency``) while a goal runs, with the odometry
+      and localisation the step names, and is answered on ``/sim/step_done`` (gidabot_msgs/StepDone); idle,
+      it answers nothing and the world does not wait for it.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -116,7 +124,8 @@ class MoveBaseNode:
                                            goal_tolerance=num("~default_tolerance", 0.5))
         self.spacing = num("~plan_point_spacing", floor.map.resolution)
         self.feedback_due = Periodic(num("~feedback_rate", 5.0))
-        self.rate_hz = config.controller_frequency
+        self.control_due = Periodic(config.controller_frequency)
+        self.input_wait = num("~input_wait", 1.0)
         self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
         self.robot = robot.name
         self.tracker = PoseTracker()
@@ -126,7 +135,14 @@ class MoveBaseNode:
         self.wake = threading.Event()
         self.plans_published = 0
         self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
-        self.cmd_pub = rospy.Publisher("cmd_vel", Twist, queue_size=5)
+        self.set_time = own_time()
+        self.answers = StepAnswers()
+        self.odom_topic, self.amcl_topic = rospy.resolve_name("odom"), rospy.resolve_name("amcl_pose")
+        self.received: dict[str, float] = {}          # input topic -> stamp of its newest message (sim s)
+        self.inputs_cond = threading.Condition()
+        self.step: tuple[float, dict[str, float]] | None = None      # the newest SimStep: time, input stamps
+        self.late_inputs = 0
+        self.cmd_pub = synchronous_publisher("cmd_vel", Twist)       # to the simulator, before the answer
         self.goal_pub = rospy.Publisher("move_base/current_goal", PoseStamped, queue_size=2)
         self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
         self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=2)
@@ -138,6 +154,7 @@ class MoveBaseNode:
         rospy.Subscriber(str(rospy.get_param("~obstacles_topic", "/sim/obstacles")), ObstacleArray,
                          lambda msg: self._event("obstacles", msg), queue_size=10)
         rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal, queue_size=2)
+        rospy.Subscriber(STEP_TOPIC, SimStep, self._on_step, queue_size=10, tcp_nodelay=True)
         rospy.Service("move_base/make_plan", GetPlan, self._make_plan)
         rospy.Service("move_base/clear_costmaps", Empty, self._clear_costmaps)
         self.server.start()
@@ -146,6 +163,16 @@ class MoveBaseNode:
     def _event(self, kind: str, msg: Any = None) -> None:
         self.events.put((kind, msg))
         self.wake.set()
+
+    def _on_step(self, msg: SimStep) -> None:
+        stamps = zip(msg.topics, msg.stamps, strict=False)     # (a malformed step names fewer inputs)
+        self.step = (msg.stamp.to_sec(), {topic: s.to_sec() for topic, s in stamps})
+        self.wake.set()
+
+    def _received(self, topic: str, stamp: float) -> None:
+        with self.inputs_cond:
+            self.received[topic] = max(self.received.get(topic, -math.inf), stamp)
+            self.inputs_cond.notify_all()
 
     def _on_odom(self, msg: Odometry) -> None:
         p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
@@ -156,6 +183,7 @@ class MoveBaseNode:
         with self.tracker_lock:
             self.tracker.on_odom(msg.header.stamp.to_sec(), Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
                                  Twist2D(v.linear.x, v.linear.y, v.angular.z))
+        self._received(self.odom_topic, msg.header.stamp.to_sec())
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         try:
@@ -165,6 +193,7 @@ class MoveBaseNode:
             return
         with self.tracker_lock:
             self.tracker.on_estimate(msg.header.stamp.to_sec(), pose)
+        self._received(self.amcl_topic, msg.header.stamp.to_sec())
 
     def _on_simple_goal(self, msg: PoseStamped) -> None:
         goal = MoveBaseActionGoal()
@@ -213,7 +242,7 @@ class MoveBaseNode:
             elif kind == "preempt":
                 if not self.server.is_new_goal_available() and self.server.is_active():
                     self.core.cancel()
-                    self.cmd_pub.publish(ru.twist_msg(ZERO))
+                    self._command(ZERO)
                     self.server.set_preempted(MoveBaseResult(), "Goal cancelled")
             elif kind == "obstacles":
                 latest_obstacles = msg           # each array is the whole set: only the newest matters
@@ -233,7 +262,7 @@ class MoveBaseNode:
         except GidaBotError as err:
             self.rejected.reject("goal", f"move_base: aborting on goal: {err}")
             self.core.cancel()
-            self.cmd_pub.publish(ru.twist_msg(ZERO))
+            self._command(ZERO)
             self.server.set_aborted(MoveBaseResult(), f"Aborting on goal because it was sent with an invalid "
                                     f"pose: {err}")
             return
@@ -264,7 +293,7 @@ class MoveBaseNode:
             result = self.core.step(now)
             path, goal, plans_after = self.core.path, self.core.goal, self.core.plans
         if result.cmd is not None:
-            self.cmd_pub.publish(ru.twist_msg(result.cmd))
+            self._command(result.cmd)
         if result.outcome == SUCCEEDED and self.server.is_active():
             self.server.set_succeeded(MoveBaseResult(), result.text)
         elif result.outcome == ABORTED and self.server.is_active():
@@ -280,10 +309,14 @@ class MoveBaseNode:
             if self.plan_pub.get_num_connections():
                 self.plan_pub.publish(path_msg(path.plan, goal.yaw, self.spacing, now))
 
+    def _command(self, cmd: Twist2D) -> None:
+        self.cmd_pub.publish(ru.twist_msg(cmd))
+        self.answers.command_sent()
+
     def run(self, guard: ExitGuard) -> None:
-        """The control loop at ``~controller_frequency`` (ROS time) until shutdown. Stops at the first
-        signal (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only
-        then closes the topics (see :mod:`gidabot_navigation.ros.exit_guard`)."""
+        """The control loop, at the simulator's steps, until shutdown. Stops at the first signal
+        (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only then closes the
+        topics (see :mod:`gidabot_navigation.ros.exit_guard`)."""
         guard.set_wake(self.wake.set)
         try:
             self._loop(lambda: rospy.is_shutdown() or guard.requested)
@@ -293,30 +326,51 @@ class MoveBaseNode:
         finally:
             guard.loop_stopped()
 
-    def _loop(self, stop: Callable[[], bool]) -> None:
-        period = 1.0 / self.rate_hz
-        due = rospy.get_time()
-        while not stop():
-            if self.core.state is State.IDLE and self.events.empty():
-                self.wake.wait(0.5)           # idle: sleep until a goal (or an obstacle update) arrives
-                self.wake.clear()
-                if self.events.empty():
-                    continue
-            self._cycle()
-            due = next_cycle(due, period, rospy.get_time())
-            self._sleep_until(due, period, stop)
+    def _busy(self) -> bool:
+        return self.core.state is not State.IDLE or not self.events.empty()
 
-    @staticmethod
-    def _sleep_until(t: float, period: float, stop: Callable[[], bool]) -> None:
-        """rospy.Rate.sleep in ROS time, but ending within 50 ms wall of ``stop()`` (rospy's sleep only
-        notices a shutdown, and every 0.5 s while the clock stands still) and at a jump back in time."""
-        cond = rospy.rostime.get_rostime_cond()       # notified at every /clock message
+    def _loop(self, stop: Callable[[], bool]) -> None:
+        """At every step newer than the last one answered: a control cycle (when due) while a goal runs, then the
+        answer; idle, nothing (one answer says so). An event while idle (a goal) is handled at once, at the
+        latest step's time, and the answer says the world must now wait for this node."""
+        done, active = 0.0, False
+        self.answers.answer(done, idle=True)           # known to the simulator from the start
         while not stop():
-            now = rospy.get_time()
-            if now >= t or now < t - 2 * period:
-                return
-            with cond:
-                cond.wait(min(0.05, t - now))
+            self.wake.wait(0.5)
+            self.wake.clear()
+            step = self.step
+            if step is not None and step[0] > done + 1e-9:
+                t, stamps = step
+                self.set_time(t)
+                if active or self._busy():
+                    if self.control_due.due(t):
+                        self._wait_inputs(stamps, stop)
+                        self._cycle()
+                    busy = self._busy()
+                    if busy or active:                 # answered while busy, and once more to say it is idle
+                        self.answers.answer(t, idle=not busy)
+                    active = busy
+                done = t
+            elif not active and self._busy():          # a goal (or obstacles) between two steps, while idle
+                self._cycle()
+                active = self._busy()
+                if active:
+                    self.answers.answer(done, idle=False)
+
+    def _wait_inputs(self, stamps: dict[str, float], stop: Callable[[], bool]) -> None:
+        """Until the odometry and localisation the step names have arrived (they travel on other connections
+        than the step), at most ``~input_wait`` wall seconds."""
+        need = {topic: stamps[topic] for topic in (self.odom_topic, self.amcl_topic) if topic in stamps}
+        deadline = time.monotonic() + self.input_wait
+        with self.inputs_cond:
+            while any(self.received.get(topic, -math.inf) < s - 1e-6 for topic, s in need.items()):
+                left = deadline - time.monotonic()
+                if left <= 0.0 or stop():
+                    self.late_inputs += 1
+                    rospy.logwarn_throttle(10.0, f"move_base: inputs of a step still missing after "
+                                                 f"{self.input_wait:g} s ({self.late_inputs} so far)")
+                    return
+                self.inputs_cond.wait(min(left, 0.05))
 
 
 def main() -> None:

@@ -36,6 +36,7 @@ from pathlib import Path
 from gidabot_navigation.building.model import Building, load_building, relocate_building
 from gidabot_sim.errors import SimError
 from gidabot_sim.runner.procs import ProcessError, ProcessGroup, ros_env, start_master
+from gidabot_sim.world.timeline import Clock, Timeline
 
 REPO = Path(__file__).resolve().parents[5]
 ROBOT_LAUNCH = REPO / "launch" / "robot.launch"
@@ -43,12 +44,14 @@ MONITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "monitor"
 VISITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "visitor"
 RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
+# and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
 RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
                    "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
-                   "/visitor/command", "/amcl_pose")
+                   "/visitor/command", "/amcl_pose", "/diagnostics")
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
+CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
 
 
 class DemoError(SimError):
@@ -154,11 +157,20 @@ def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
 @dataclass
 class SimulatedBuilding:
     """The simulated building's processes. ``addresses`` (one per robot, building order) replace
-    the building file's own master addresses (tests use a per-session loopback network)."""
+    the building file's own master addresses (tests use a per-session loopback network).
+
+    Time: every floor's simulator shares the run's timeline (``<run>/timeline``, slot = the robot's index):
+    ``speed`` is the ceiling of every floor's clock (None: none, ``--speed max``; :meth:`set_ceiling` changes
+    it while the run goes), no floor runs more than ``max_drift`` sim seconds ahead of the slowest live one,
+    and :meth:`clocks` tells where each floor is. ``seed``: the simulated noise of robot ``i`` is seeded with
+    ``seed + i`` (None: random)."""
 
     building_dir: Path
     run_dir: Path
-    speed: float = 10.0
+    speed: float | None = 10.0
+    seed: int | None = None
+    max_drift: float | None = 1.0             # sim s
+    peer_timeout: float = 5.0                 # wall s a frozen floor holds the others up at most
     gui: bool = False
     record: bool = True
     relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
@@ -184,6 +196,8 @@ class SimulatedBuilding:
         self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
         self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
         self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
+        self.timeline: Timeline | None = None
+        self._history: list[tuple[float, float]] = []    # (wall, slowest floor's sim time), see clocks()
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -220,6 +234,8 @@ class SimulatedBuilding:
         if self.relay_secret is None:
             self.relay_secret = write_secret(self.run_dir / "relay.secret")
         self.start_wall = time.time() + self.start_delay
+        self.timeline = Timeline.create(self.run_dir / "timeline", len(self.building.robots), self.speed,
+                                        self.max_drift, self.peer_timeout, self.start_wall)
         for robot in self.building.robots:
             check()
             if self.record:
@@ -238,6 +254,28 @@ class SimulatedBuilding:
         self.procs.start("monitor", [sys.executable, str(MONITOR_NODE), f"_out:={self.monitor_file}",
                                      f"_robots:={robots}"], self.env(first.name))
 
+    def clocks(self) -> dict[str, Clock]:
+        """Each robot's floor clock (sim time, heartbeat, timing counters), from the timeline; also kept (a
+        while) for :meth:`sim_time_at`."""
+        if self.timeline is None or self.building is None:
+            return {}
+        clocks = {r.name: c for r, c in zip(self.building.robots, self.timeline.clocks(), strict=True)}
+        self._history.append((time.time(), min(c.sim for c in clocks.values())))
+        del self._history[:-CLOCK_HISTORY]
+        return clocks
+
+    def sim_time_at(self, wall: float) -> float:
+        """The slowest floor's sim time at wall time ``wall`` (at most that: the latest look at the clocks before
+        it; the floors' clocks run at their own pace)."""
+        self.clocks()
+        before = [sim for w, sim in self._history if w <= wall]
+        return before[-1] if before else (self._history[0][1] if self._history else 0.0)
+
+    def set_ceiling(self, speed: float | None) -> None:
+        """A new speed ceiling for every floor, from now on (None: none)."""
+        if self.timeline is not None:
+            self.timeline.set_ceiling(speed)
+
     def env(self, robot: str) -> dict[str, str]:
         if self.building is None:
             raise DemoError("the building is not started")
@@ -245,10 +283,15 @@ class SimulatedBuilding:
         return ros_env(r.master_uri, r.ip, log_dir=self.run_dir / "ros" / robot)
 
     def launch_args(self, robot: str) -> list[str]:
+        assert self.building is not None
         tours_dir = self.run_dir / "tours" / robot
+        index = [r.name for r in self.building.robots].index(robot)
         args = {
-            "building": str(self.building_file), "robot": robot, "sim": "true", "speed": f"{self.speed:g}",
-            "start_wall": f"{self.start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
+            "building": str(self.building_file), "robot": robot, "sim": "true",
+            "speed": "max" if self.speed is None else f"{self.speed:g}", "start_wall": f"{self.start_wall:.3f}",
+            "timeline": str(self.run_dir / "timeline"), "timeline_slot": str(index),
+            "seed": str(-1 if self.seed is None else self.seed + index),
+            "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),
         }
@@ -305,7 +348,9 @@ class SimulatedBuilding:
         return up
 
     def housekeeping(self) -> None:
-        """Stop the recorders a restarted master made obsolete, once their successors have run a while."""
+        """Stop the recorders a restarted master made obsolete, once their successors have run a while; look at
+        the floors' clocks (:meth:`sim_time_at`)."""
+        self.clocks()
         now = time.monotonic()
         for name, due in list(self.retired.items()):
             if due is not None and now >= due and self.procs.alive(name):
@@ -406,6 +451,9 @@ class SimulatedBuilding:
         for name in robots:
             self.procs.stop(name, grace=20.0)
         self.procs.close()
+        if self.timeline is not None:
+            self.timeline.close()
+            self.timeline = None
         for info in self.leftovers():   # a node whose roslaunch did not stop it (own session: own group)
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 if info.pgid == info.pid:

@@ -1,23 +1,25 @@
-"""ROS adapter of the floor simulator: the ``/sim`` node (core: :mod:`gidabot_sim.world.world`).
+"""ROS adapter of the floor simulator: the ``/sim`` node (cores: :mod:`gidabot_sim.world.world`,
+:mod:`gidabot_sim.world.lockstep`).
 
-One node per floor (per master), like one of the paper's Gazebo worlds. It owns sim
-time: it publishes ``/clock`` from the wall clock with the shared formula
-(:mod:`gidabot_sim.world.clock`) and steps the world's physics to it.
+One node per floor (per master), like one of the paper's Gazebo worlds. It owns sim time: the
+floor's clock advances only by the steps it computes, in lockstep with the floor's controllers
+(the move_base and amcl stand-ins), within the building's drift bound and under its speed ceiling
+(docs/simulator.md, "Simulated time").
 """
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import queue
+import threading
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import rospy
-import rospy.impl.simtime
-import rospy.rostime
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
@@ -26,7 +28,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, LaserScan
 from tf2_msgs.msg import TFMessage
 
-from gidabot_msgs.msg import Obstacle, ObstacleArray
+from gidabot_msgs.msg import Obstacle, ObstacleArray, SimStep, StepDone
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
@@ -34,11 +36,16 @@ from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.world.clock import Periodic, SimClock, tick_period
+from gidabot_sim.ros.participant import STEP_DONE_TOPIC, STEP_TOPIC, own_time, synchronous_publisher
+from gidabot_sim.world.clock import MAX_SPEED, Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits
+from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
+from gidabot_sim.world.timeline import Clock as TimelineClock
+from gidabot_sim.world.timeline import Timeline
 from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
 
-MAX_EVENTS_PER_TICK = 200     # inputs applied per /clock tick; a flood waits for the next ticks
+MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
+HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
 
 
 def _num(name: str, default: float, low: float = 0.0, high: float = math.inf, strict: bool = False) -> float:
@@ -68,12 +75,15 @@ class SimParams:
     robots: tuple[str, ...]
     floor: float
     poses: tuple[Pose2D | None, ...]
-    speed: float
+    speed: float | None
     start_wall: float
     dt: float
+    step: float
+    participant_timeout: float
+    max_drift: float | None
+    timeline: str
+    timeline_slot: int
     cmd_timeout: float
-    max_catchup: float
-    clock_step: float
     clock_rate_max: float
     odom_rate: float
     truth_rate: float
@@ -111,15 +121,20 @@ class SimParams:
                                idle_per_hour=_num("~battery_idle_per_hour", 0.05),
                                per_km=_num("~battery_per_km", 0.25))
         seed = int(rospy.get_param("~seed", -1))
+        speed = rospy.get_param("~speed", 1.0)
+        drift = _num("~max_drift", 1.0)
         return SimParams(
             building=building, robots=tuple(robots), floor=float(rospy.get_param("~floor", math.nan)),
-            poses=tuple(poses), speed=_num("~speed", 1.0, 0.0, 1000.0, strict=True),
+            poses=tuple(poses),
+            speed=None if speed == "max" else _num("~speed", 1.0, 0.0, MAX_SPEED, strict=True),
             start_wall=_num("~start_wall", 0.0), dt=_num("~physics_dt", 0.02, 0.0, 0.2, strict=True),
+            step=_num("~step", 0.1, 0.0, 10.0, strict=True),
+            participant_timeout=_num("~participant_timeout", 2.0, 0.0, strict=True),
+            max_drift=drift or None, timeline=str(rospy.get_param("~timeline", "")),
+            timeline_slot=int(_num("~timeline_slot", 0.0, 0.0, 63.0)),
             cmd_timeout=_num("~cmd_timeout", 0.2, 0.0, strict=True),
-            max_catchup=_num("~max_catchup", 10.0, 0.0, strict=True),
-            clock_step=_num("~clock_step", 0.05, 0.0, 10.0, strict=True),
             clock_rate_max=_num("~clock_rate_max", 100.0, 0.0, 1000.0, strict=True),
-            odom_rate=_num("~odom_rate", 20.0, 0.0, 1000.0, strict=True),
+            odom_rate=_num("~odom_rate", 10.0, 0.0, 1000.0, strict=True),
             truth_rate=_num("~truth_rate", 5.0, 0.0, 1000.0, strict=True),
             rest_rate=_num("~rest_rate", 1.0, 0.0, 1000.0, strict=True),
             laser_rate=_num("~laser_rate", 10.0, 0.0, 1000.0, strict=True),
@@ -133,18 +148,22 @@ class _RobotIO:
 
     def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
         self.index, self.prefix = index, prefix
+        # the lockstep participants' inputs, by resolved name (SimStep and StepDone name them so)
+        self.odom_topic = rospy.resolve_name(f"{prefix}odom")
+        self.truth_topic = rospy.resolve_name(f"{prefix}base_pose_ground_truth")
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
         self.odom = rospy.Publisher(f"{prefix}odom", Odometry, queue_size=5)
         self.truth = rospy.Publisher(f"{prefix}base_pose_ground_truth", Odometry, queue_size=5)
         self.scan = rospy.Publisher(f"{prefix}base_scan", LaserScan, queue_size=2)
         self.battery = rospy.Publisher(f"{prefix}battery", BatteryState, queue_size=2)
-        rospy.Subscriber(f"{prefix}cmd_vel", Twist, node.enqueue, callback_args=("cmd_vel", index), queue_size=5)
+        rospy.Subscriber(f"{prefix}cmd_vel", Twist, node.enqueue, callback_args=("cmd_vel", index), queue_size=50,
+                         tcp_nodelay=True)
         rospy.Subscriber(f"{prefix}initialpose", PoseWithCovarianceStamped, node.enqueue,
                          callback_args=("initialpose", index), queue_size=5)
 
 
 class SimNode:
-    """Simulates one floor: its map, robots, laser, battery and run-time obstacles; owns ``/clock``.
+    """Simulates one floor: its map, robots, laser, battery and run-time obstacles; owns its sim time.
 
     Per robot (no prefix with one robot; ``robot_<i>/`` with several, as stage_ros does):
       Subscribes:
@@ -165,28 +184,39 @@ class SimNode:
       tf: ``odom -> base_footprint`` (while /tf has subscribers); static ``base_footprint -> base_link``
         and ``base_link -> base_laser_link``.
     Floor-wide:
-      ``/clock`` (rosgraph_msgs/Clock): sim time = (wall - ``~start_wall``) * ``~speed``, about every
-        ``~clock_step`` sim seconds but at most ``~clock_rate_max`` per wall second; nothing before
-        ``~start_wall``.
+      ``/clock`` (rosgraph_msgs/Clock): the sim time of the latest step, at most ``~clock_rate_max`` times
+        per wall second; nothing before ``~start_wall``.
+      ``/sim/step`` (gidabot_msgs/SimStep): the lockstep participants' step and clock, at every step while
+        one of them is not idle, else with ``/clock``; ``/sim/step_done`` (gidabot_msgs/StepDone, subscribed):
+        their answers (docs/simulator.md, "Lockstep").
       ``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` (latched), service ``static_map``
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
       ``~obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
       ``~obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
-        wall seconds (speed, sim time, achieved factor, lag, counters of rejected input, stalls, scans).
+        wall seconds: speed ceiling, sim time, achieved factor, wall time behind the ceiling and waiting
+        (for controllers, for other floors, for the ceiling), each participant's stops owed / answered /
+        missed and timeouts, counters of rejected input, stalls, scans, batteries.
     Params:
       ``~building`` (str), ``~robot`` (str) or ``~robots`` (list of str): robots of the building file
         simulated here (their drive, limits, radius); ``~floor`` (default: the first robot's);
       ``~initial_pose`` ([x, y, yaw], m/rad; default the robot's home) or ``~initial_poses`` (one per robot);
-      ``~speed`` (sim s per wall s, 1), ``~start_wall`` (s since the epoch, 0 = now);
-      ``~physics_dt`` (s, 0.02), ``~cmd_timeout`` (s, 0.2), ``~max_catchup`` (s, 10: a longer stall of
-        the process is skipped, not simulated); ``~clock_step`` (s, 0.05), ``~clock_rate_max`` (Hz, 100);
-      ``~odom_rate`` (Hz, 20), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
-        ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per /clock tick);
+      ``~speed`` (sim s per wall s, 1; ``max``: no ceiling): a ceiling, never a promise; ``~start_wall`` (s since
+        the epoch, 0 = now): when sim time 0 starts;
+      ``~step`` (sim s, 0.1: the controllers' period), ``~physics_dt`` (s, 0.02; ``~step`` is a multiple of it),
+        ``~participant_timeout`` (wall s, 2: a participant that has not answered by then is absent until it
+        answers again), ``~timeline`` (path of the building's timeline file, '' = none) and ``~timeline_slot``
+        (this floor's slot): the other floors' clocks, the drift bound and the ceiling (which then replaces
+        ``~speed``); ``~cmd_timeout`` (s, 0.2), ``~clock_rate_max`` (Hz wall, 100);
+      ``~odom_rate`` (Hz, 10), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
+        ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per step);
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 3 pi/2), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1).
+    Restart: the floor's time goes on from where it was (the timeline's slot; without one, ``~resume_at``,
+      saved every ``~diagnostics_period``), never back; the robot restarts at its initial pose, obstacles
+      are lost.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM, whatever state the master
       and the subscribers are in (:mod:`gidabot_navigation.ros.exit_guard`).
     """
@@ -205,8 +235,11 @@ class SimNode:
             self.floor = building.floor(floor_id)
         except KeyError as err:
             raise SimConfigError(f"~floor: {err}") from err
+        substeps = params.step / params.dt
+        if abs(substeps - round(substeps)) > 1e-6:
+            raise SimConfigError(f"~step: {params.step:g} s must be a multiple of ~physics_dt ({params.dt:g} s)")
         self.world = World(self.floor.map, dt=params.dt, cmd_timeout=params.cmd_timeout,
-                           max_catchup=params.max_catchup, rng=np.random.default_rng(params.seed))
+                           rng=np.random.default_rng(params.seed))
         for robot, pose in zip(robots, params.poses, strict=True):
             spec = RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), params.laser, params.battery)
             try:
@@ -214,14 +247,14 @@ class SimNode:
             except SimError as err:
                 raise SimConfigError(f"robot {robot.name}: initial pose: {err}") from err
         self.log = ru.CountingLog(rospy.logerr)
-        self.events: queue.SimpleQueue = queue.SimpleQueue()
+        self.events: queue.SimpleQueue = queue.SimpleQueue()        # initialpose, obstacles: a flood waits
+        self.lock_events: queue.SimpleQueue = queue.SimpleQueue()   # cmd_vel and answers: always applied
+        self.wake = threading.Event()
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
-        # /clock is published synchronously (no queue thread per subscriber): tiny messages, 100 per wall
-        # second, and a tick must not wait behind a queue (rospy warns about queue_size=None: intended)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SyntaxWarning)
-            self.clock_pub = rospy.Publisher("/clock", Clock, queue_size=None)
+        # /clock and the steps are written in this thread, at once and in order (tiny messages)
+        self.clock_pub = synchronous_publisher("/clock", Clock)
+        self.step_pub = synchronous_publisher(STEP_TOPIC, SimStep)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
         self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
         self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
@@ -229,6 +262,7 @@ class SimNode:
         self.obstacles_pub = rospy.Publisher("~obstacles", ObstacleArray, queue_size=1, latch=True)
         self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
         rospy.Subscriber("~obstacle", Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
+        rospy.Subscriber(STEP_DONE_TOPIC, StepDone, self._on_step_done, queue_size=200, tcp_nodelay=True)
         self.map_msg = ru.occupancy_grid(self.floor.map, 0.0)
         rospy.Service("static_map", GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.odom_due = Periodic(params.odom_rate)
@@ -237,29 +271,67 @@ class SimNode:
         self.laser_due = Periodic(params.laser_rate)
         self.battery_due = Periodic(params.battery_rate)
         self.tf_due = Periodic(params.odom_rate)
-        self.clock = SimClock.create(params.speed, params.start_wall, time.time())
-        if params.start_wall == 0.0:     # "now": keep it, so a respawned simulator continues the same timeline
-            rospy.set_param("~start_wall", self.clock.start_wall)
-        self.period = tick_period(params.speed, params.clock_step, params.clock_rate_max)
-        self._diag = {"wall": time.time(), "sim": 0.0}
-        self.late_ticks = 0
+        self.timeline = Timeline.open(params.timeline) if params.timeline else None
+        wall = time.time()
+        resume = self._resume_time()
+        start_wall = wall if resume > 0.0 or params.start_wall == 0.0 else params.start_wall
+        speed = self.timeline.ceiling if self.timeline is not None else params.speed
+        drift = self.timeline.max_drift if self.timeline is not None else params.max_drift
+        self.stepper = Stepper(params.step, Pacer(speed, start_wall, resume), Lockstep(params.participant_timeout),
+                               max_drift=drift if self.timeline is not None else None, start=resume)
+        self.world.start_at(resume)
+        self.start_wall = start_wall
+        self.lockstep = self.stepper.lockstep
+        self.set_time = own_time()
+        self._clock_wall = -math.inf       # wall time of the latest /clock
+        self._step_sent = -math.inf        # sim time of the latest SimStep
+        self._heartbeat = -math.inf
+        self._diag = {"wall": wall, "sim": resume, "next": wall + params.diagnostics_period}
         self.scans = 0
+
+    def _resume_time(self) -> float:
+        """Sim time to start from: 0 for a new floor; where a restarted simulator's floor was (never earlier)."""
+        if self.timeline is not None:
+            return self.timeline.read(self.p.timeline_slot).sim
+        value = rospy.get_param("~resume_at", 0.0)
+        return float(value) if isinstance(value, (int, float)) and math.isfinite(value) and value > 0 else 0.0
 
     # -- callbacks: enqueue only -------------------------------------------------
     def enqueue(self, msg: Any, args: tuple[str, int]) -> None:
-        self.events.put((args[0], args[1], msg))
+        if args[0] == "cmd_vel":
+            self.lock_events.put(("cmd_vel", args[1], msg, msg._connection_header.get("callerid", "")))
+        else:
+            self.events.put((args[0], args[1], msg))
+        self.wake.set()
 
-    def _drain(self) -> None:
-        """Apply the queued inputs (at most ``MAX_EVENTS_PER_TICK``; obstacle changes update the world once)."""
-        for _ in range(MAX_EVENTS_PER_TICK):
+    def _on_step_done(self, msg: StepDone) -> None:
+        self.lock_events.put(("step_done", -1, msg, ""))
+        self.wake.set()
+
+    def _drain(self, wall: float) -> None:
+        """Apply the queued commands and answers (all), then other inputs (at most ``MAX_EVENTS_PER_STEP``;
+        obstacle changes update the world once)."""
+        while True:
+            try:
+                kind, index, msg, caller = self.lock_events.get_nowait()
+            except queue.Empty:
+                break
+            try:
+                if kind == "cmd_vel":
+                    self.lockstep.command(caller)
+                    self.world.set_command(index, *ru.twist_of(msg))
+                else:
+                    self.lockstep.answer(Answer(msg.node, msg.session, msg.done.to_sec(), msg.idle, tuple(msg.inputs),
+                                                tuple(msg.outputs), msg.commands), wall)
+            except (GidaBotError, ValueError, TypeError) as err:
+                self.log.reject(kind, str(err))
+        for _ in range(MAX_EVENTS_PER_STEP):
             try:
                 kind, index, msg = self.events.get_nowait()
             except queue.Empty:
                 break
             try:
-                if kind == "cmd_vel":
-                    self.world.set_command(index, *ru.twist_of(msg))
-                elif kind == "initialpose":
+                if kind == "initialpose":
                     self.world.rebuild()         # check the pose against the obstacles as they are now
                     self._relocate(index, msg)
                 elif kind == "obstacle":
@@ -268,6 +340,14 @@ class SimNode:
                 self.log.reject(kind, str(err))
         if self.world.rebuild():
             self._publish_obstacles()
+        for node in self.lockstep.timed_out:
+            rospy.logwarn(f"sim: {node} has not answered for {self.lockstep.timeout:g} s: the world goes on without "
+                          "it until it answers again")
+        for node in self.lockstep.rejoined:
+            rospy.loginfo(f"sim: {node} answers again")
+        self.lockstep.timed_out.clear()
+        self.lockstep.rejoined.clear()
+
 
     def _relocate(self, index: int, msg: PoseWithCovarianceStamped) -> None:
         wanted = ru.initialpose_to_pose2d(msg)
@@ -327,8 +407,10 @@ class SimNode:
             if (rest_due if resting else odom_due) and io.odom.get_num_connections():
                 io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom,
                                                robot.vel, t))
+                self.lockstep.published(io.odom_topic, t)
             if (rest_due if resting else truth_due) and io.truth.get_num_connections():
                 io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
+                self.lockstep.published(io.truth_topic, t)
             if tf_due and self.tf_pub.get_num_connections():
                 transforms.append(ru.transform(io.frame["odom"], io.frame["base_footprint"], robot.odom, t))
             if laser_due and io.scan.get_num_connections():
@@ -380,54 +462,84 @@ class SimNode:
         msg.location = robot.spec.name
         return msg
 
+
+    def _publish_step(self, t: float) -> None:
+        stamps = self.lockstep.stamps
+        self.step_pub.publish(SimStep(stamp=ru.stamp(t), topics=list(stamps),
+                                      stamps=[ru.stamp(s) for s in stamps.values()]))
+        self._step_sent = t
+
+    def _publish_stop(self, t: float, wall: float) -> None:
+        """Everything of the stop the world just reached: sensors, then the participants' step and /clock."""
+        self._publish_sensors()
+        clock_due = wall - self._clock_wall >= 1.0 / self.p.clock_rate_max
+        if clock_due or self.lockstep.active():
+            self._publish_step(t)
+        if clock_due:
+            self.clock_pub.publish(Clock(clock=ru.stamp(t)))
+            self._clock_wall = wall
+        self.set_time(t)
+        self._write_timeline(wall)
+
+    def _write_timeline(self, wall: float) -> None:
+        self._heartbeat = wall
+        if self.timeline is None:
+            return
+        s = self.stepper
+        self.timeline.write(self.p.timeline_slot, TimelineClock(
+            sim=s.t, wall=wall, behind=s.behind(wall), wait_controllers=s.waited["controllers"],
+            wait_floors=s.waited["floors"], wait_ceiling=s.waited["ceiling"], steps=s.steps,
+            timeouts=sum(p.timeouts for p in self.lockstep.participants.values()), max_lead=s.max_lead,
+            pid=os.getpid()))
+
+    def _follow_ceiling(self, wall: float) -> None:
+        if self.timeline is not None:
+            self.stepper.pacer.set_speed(self.timeline.ceiling, self.stepper.t, wall)
+
     def _diagnostics(self, wall: float) -> None:
         d = self._diag
-        span = wall - d["wall"]
-        if span < self.p.diagnostics_period:
+        if wall < d["next"]:
             return
-        achieved = (self.world.time - d["sim"]) / span if span > 0 else 0.0
-        lag = self.clock.sim_time(wall) - self.world.time
+        s = self.stepper
+        span = wall - d["wall"]
+        achieved = (s.t - d["sim"]) / span if span > 0 else 0.0
+        speed = s.pacer.speed
         values = {
-            "floor": self.floor.label, "speed": f"{self.p.speed:g}", "sim_time": f"{self.world.time:.2f}",
-            "achieved_factor": f"{achieved:.2f}", "lag_s": f"{lag:.3f}", "late_ticks": str(self.late_ticks),
-            "skipped_s": f"{self.world.skipped:.2f}", "obstacles": str(len(self.world.obstacles)),
-            "stalls": str(sum(r.stalls for r in self.world.robots)), "laser_scans": str(self.scans),
+            "floor": self.floor.label, "speed": "max" if speed is None else f"{speed:g}", "sim_time": f"{s.t:.2f}",
+            "wall_time": f"{wall:.3f}", "achieved_factor": f"{achieved:.2f}", "behind_s": f"{s.behind(wall):.3f}",
+            "wait_controllers_s": f"{s.waited['controllers']:.3f}", "wait_floors_s": f"{s.waited['floors']:.3f}",
+            "wait_ceiling_s": f"{s.waited['ceiling']:.3f}", "steps": str(s.steps), "max_lead_s": f"{s.max_lead:.2f}",
+            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for r in self.world.robots)),
+            "laser_scans": str(self.scans),
         }
-        for kind in ("cmd_vel", "initialpose", "obstacle"):
+        for node, stats in self.lockstep.stats().items():
+            values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
+        for kind in ("cmd_vel", "initialpose", "obstacle", "step_done"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
         for robot in self.world.robots:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
-        status = DiagnosticStatus(level=DiagnosticStatus.OK if lag < 1.0 + self.p.speed * self.period
-                                  else DiagnosticStatus.WARN,
+        absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)
+        behind = s.behind(wall) - d.get("behind", 0.0) > 0.1 * span
+        status = DiagnosticStatus(level=DiagnosticStatus.WARN if absent or behind else DiagnosticStatus.OK,
                                   name=f"sim: floor {self.floor.label}",
-                                  message="running" if lag < 1.0 else "lagging behind the clock",
+                                  message=(f"going on without {', '.join(absent)}" if absent else
+                                           "behind its speed ceiling" if behind else "running"),
                                   hardware_id=",".join(r.spec.name for r in self.world.robots),
                                   values=[KeyValue(k, v) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])
-        msg.header.stamp = ru.stamp(self.world.time)
+        msg.header.stamp = ru.stamp(s.t)
         self.diag_pub.publish(msg)
-        d.update(wall=wall, sim=self.world.time)
-
-    def _stop_listening_to_own_clock(self) -> None:
-        """With /use_sim_time, rospy subscribed this node to /clock to drive rospy.Time; the simulator is
-        the clock, so it sets rospy's time itself at every tick (:meth:`_set_own_time`) instead of
-        receiving its own 100 messages per wall second. Uses rospy internals, so only when present."""
-        sub = getattr(rospy.impl.simtime, "_clock_sub", None)
-        self._own_time = getattr(rospy.rostime, "_set_rostime", None) if sub is not None else None
-        if sub is not None and self._own_time is not None:
-            sub.unregister()
-
-    def _set_own_time(self, now: Any) -> None:
-        if self._own_time is not None:
-            self._own_time(now)
+        if self.timeline is None:     # a restarted simulator goes on from here, ahead of any stamp seen so far
+            lead = max(achieved, speed or 0.0) * self.p.diagnostics_period * 2.0 + self.p.step
+            rospy.set_param("~resume_at", s.t + lead)
+        d.update(wall=wall, sim=s.t, next=wall + self.p.diagnostics_period, behind=s.behind(wall))
 
     # -- main loop -----------------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """Tick on the wall clock until shutdown: events, physics to the clock, /clock, sensors.
-
-        Stops at the first signal (``guard.requested``, checked every tick, i.e. every <= 0.2 s wall) and
-        tells the guard, which only then closes the topics (rospy's own handler closed them from inside
-        this loop, possibly in the middle of a publish: see :mod:`gidabot_navigation.ros.exit_guard`)."""
+        """Step the world until shutdown (see the module docstring). Stops at the first signal
+        (``guard.requested``, checked at least every 50 ms wall) and tells the guard, which only then closes the
+        topics (rospy's own handler closed them from inside this loop, possibly in the middle of a publish:
+        see :mod:`gidabot_navigation.ros.exit_guard`)."""
         try:
             self._loop(guard)
         except rospy.ROSException:
@@ -435,41 +547,42 @@ class SimNode:
                 raise
         finally:
             guard.loop_stopped()
+            if self.timeline is not None:
+                self.timeline.close()
 
     def _loop(self, guard: ExitGuard) -> None:
-        self._stop_listening_to_own_clock()
-        started = False
-        next_tick = time.time()
+        s = self.stepper
+        while not rospy.is_shutdown() and not guard.requested and time.time() < self.start_wall:
+            rospy.loginfo_once(f"sim: waiting {self.start_wall - time.time():.1f} s for start_wall")
+            self.wake.clear()
+            self._drain(time.time())
+            self.wake.wait(min(self.start_wall - time.time(), 0.05))
+        wall = time.time()
+        self._publish_static()
+        self._publish_stop(s.t, wall)
+        speed = s.pacer.speed
+        rospy.loginfo(f"sim: floor {self.floor.label} running from {s.t:.1f} s, speed ceiling "
+                      f"{'none' if speed is None else f'{speed:g}x'}, a step every {s.step:g} s"
+                      + ("" if self.timeline is None else
+                         f", timeline {self.timeline.path} slot {self.p.timeline_slot}"))
         while not rospy.is_shutdown() and not guard.requested:
+            self.wake.clear()
             wall = time.time()
-            target = self.clock.sim_time(wall)
-            if target < 0.0:
-                rospy.loginfo_once(f"sim: waiting {-target / self.p.speed:.1f} s for start_wall")
-                self._drain()
-                time.sleep(min(-target / self.p.speed, 0.2))
-                next_tick = time.time()
+            self._drain(wall)
+            self._follow_ceiling(wall)
+            peers = self.timeline.slowest_peer(self.p.timeline_slot, wall) if self.timeline is not None else None
+            wait = s.check(wall, peers)
+            if wait is None:
+                self.world.advance_to(s.advance(wall))
+                self._publish_stop(s.t, wall)
+                self._diagnostics(wall)
                 continue
-            if not started:
-                self.world.start_at(target)
-                self._diag.update(wall=wall, sim=target)
-                self._publish_static()
-                started = True
-                rospy.loginfo(f"sim: floor {self.floor.label} running at {self.p.speed:g}x, "
-                              f"/clock every {self.period * 1000:.0f} ms wall")
-            self._drain()
-            self.world.advance_to(target)
-            now = ru.stamp(target)
-            self.clock_pub.publish(Clock(clock=now))
-            self._set_own_time(now)
-            self._publish_sensors()
+            if wait.reason == CONTROLLERS and self._step_sent < s.t:
+                self._publish_step(s.t)          # a participant woke up and owes a stop it was not sent
+            if wall - self._heartbeat >= HEARTBEAT:
+                self._write_timeline(wall)
             self._diagnostics(wall)
-            next_tick += self.period
-            now = time.time()
-            if next_tick < now:             # starved: resynchronise, the next tick catches up more
-                self.late_ticks += 1
-                next_tick = now
-            else:
-                time.sleep(next_tick - now)
+            self.wake.wait(max(0.0, min(wait.until - wall, HEARTBEAT)))
 
 
 def main() -> None:
