@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import pytest
 
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.world.timeline import Clock, Timeline
+from gidabot_sim.world.timeline import HEADER, Clock, Timeline
 
 
 def test_floors_see_each_other_and_the_runner_sets_the_ceiling(tmp_path: Path) -> None:
@@ -42,3 +43,14 @@ def test_what_is_not_a_timeline_is_refused_with_the_reason(tmp_path: Path) -> No
             t.read(1)
         with pytest.raises(SimConfigError, match="ceiling"):
             t.set_ceiling(-1.0)
+
+
+def test_a_slot_left_in_the_middle_of_a_write_is_still_read(tmp_path: Path) -> None:
+    """A writer stopped (SIGSTOP, preempted, killed) between its two sequence updates must not stop the
+    readers: they get the fields as they are."""
+    with Timeline.create(tmp_path / "t", 1, None, None) as t:
+        t.write(0, Clock(sim=5.0, wall=1.0))
+        off = HEADER.size
+        seq = struct.unpack_from("<Q", t._mem, off)[0]
+        struct.pack_into("<Q", t._mem, off, seq | 1)          # as a writer leaves it mid-write
+        assert t.read(0).sim == 5.0

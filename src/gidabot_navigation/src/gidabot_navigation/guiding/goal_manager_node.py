@@ -45,10 +45,12 @@ from gidabot_navigation.guiding.guiding_node import (
 from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
+from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
+LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
 DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
 
 
@@ -139,6 +141,7 @@ class GoalManagerNode:
             rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
                           f"{len(outbox)} message(s) not yet published from {self.params.state_dir}")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self.dropped = 0
         self._published_version = -1
         self._latest_pose: tuple[float, float, float] | None = None
@@ -179,9 +182,10 @@ class GoalManagerNode:
         next_pending = time.monotonic()
         while not rospy.is_shutdown():
             try:
-                kind, msg = self.inbox.get(timeout=max(0.01, min(0.5, next_pending - time.monotonic())))
+                kind, msg = self.inbox.get(timeout=max(0.01, min(LOOP_PERIOD, next_pending - time.monotonic())))
             except queue.Empty:
                 kind, msg = "", None
+            self.loop.tick(rospy.get_time(), time.monotonic())
             pose = self._latest_pose          # never reset: no race with the callback
             if pose is not None:
                 self.core.on_pose(*pose)
@@ -243,6 +247,7 @@ class GoalManagerNode:
 
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
+        stats.update(self.loop.values())
         stats.update(queue_dropped=self.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
                      plans=self.core.planner.plans,
                      state_saves=self.store.saves if self.store else 0,

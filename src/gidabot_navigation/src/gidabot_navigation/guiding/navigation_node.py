@@ -67,6 +67,7 @@ from gidabot_navigation.guiding.navigation import (
     NavigationCore,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
+from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
@@ -75,6 +76,7 @@ DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may ch
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
 MAX_HANDLES = 16
+LOOP_PERIOD = 0.2          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
 STATUS_WALL_PERIOD = 1.0   # wall s: a status at least this often, even when the sim clock is slow or stopped
 STATES = {GoalStatus.SUCCEEDED: SUCCEEDED, GoalStatus.ABORTED: ABORTED, GoalStatus.REJECTED: REJECTED_BY_SERVER,
           GoalStatus.PREEMPTED: PREEMPTED, GoalStatus.RECALLED: RECALLED, GoalStatus.LOST: LOST}
@@ -172,6 +174,7 @@ class NavigationNode:
                           + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
                           + f"; {len(outbox)} message(s) not yet published")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self.dropped = 0
         self.ignored_pending = 0
         self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
@@ -258,10 +261,11 @@ class NavigationNode:
             if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
                 self.publish_status()      # liveness never depends on the (sim) clock running
             try:
-                kind, msg = self.inbox.get(timeout=0.2)
+                kind, msg = self.inbox.get(timeout=LOOP_PERIOD)
             except queue.Empty:
                 kind, msg = "", None
             now_ros, now_wall = rospy.get_time(), time.monotonic()
+            self.loop.tick(now_ros, now_wall)
             self._apply_latest()
             self.core.on_move_base_available(self._server_up(), now_ros)
             if kind:
@@ -407,6 +411,7 @@ class NavigationNode:
         stats.update(state_saves=self.store.saves if self.store else 0,
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
+        stats.update(self.loop.values())
         stats.update(queue_dropped=self.dropped, ignored_pending=self.ignored_pending,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,

@@ -361,9 +361,14 @@ def main(argv: list[str] | None = None) -> int:
                 f"(idle {m['idle_cpu_percent_per_relay']:.2f}), latency p50 {m['p50_ms']:.2f} ms p99 "
                 f"{m['p99_ms']:.2f} ms max {m['max_ms']:.1f} ms, lost {m['lost']}, duplicated {m['duplicated']} "
                 f"of {m['deliveries']} deliveries")
+    # the targets printed above; a mesh must lose and duplicate nothing
+    res["pass"] = (res["added_p50_ms"] <= 1.0 and res["added_p99_ms"] < 5.0
+                   and all(m["lost"] == 0 and m["duplicated"] == 0 for m in res["mesh"]))
     if args.json:
         print(json.dumps(res, sort_keys=True))
-    return 0
+    else:
+        log("PASS" if res["pass"] else "FAIL")
+    return 0 if res["pass"] else 1
 
 
 if __name__ == "__main__":

@@ -34,6 +34,7 @@ from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
 from gidabot_sim.demo.progress import Progress
+from gidabot_sim.demo.timing import RunTiming
 from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
 from gidabot_sim.runner.procs import ProcessError, robot_address
 
@@ -46,6 +47,8 @@ DEFAULT_SPEED = 20.0
 STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
 START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
 STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
+LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
@@ -58,8 +61,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
     p.add_argument("--start-floor", type=float, default=None,
                    help="floor where the visitor starts (default: the tour's first floor, else 0)")
-    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
-                   help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
+    p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
+                   help=f"ceiling of sim seconds per wall second, the same on every floor (default "
+                        f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
+    p.add_argument("--seed", type=int, default=None,
+                   help="seed of the simulated sensor and localisation noise (robot i: SEED + i); default random")
     p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
@@ -77,6 +83,20 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--net", type=int, default=None, metavar="N",
                    help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
     return p.parse_args(argv)
+
+
+def _speed(text: str) -> float | None:
+    """``--speed``: a factor, or ``max`` (None: no fixed ceiling)."""
+    if text == "max":
+        return None
+    try:
+        return float(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a factor (sim s per wall s) or 'max'") from err
+
+
+def speed_label(speed: float | None) -> str:
+    return "max" if speed is None else f"{speed:g}x"
 
 
 def _skips(values: list[str], goals: int) -> list[list[int]]:
@@ -138,8 +158,8 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 
 
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
-    if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
-        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
+    if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
+        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
     if building.robot_on(start_floor) is None:
@@ -158,8 +178,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     label, total, tour_name, start_floor = _visit(args, building)
     _validate(args, building, start_floor)
     skips = _skips(args.skip, total)
+    speed = args.speed or MAX_SPEED_GUESS   # what the wall-time rates and the timeout assume
     if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
-        args.timeout = START_STOP_S + SIM_S_PER_GOAL * total / args.speed
+        args.timeout = START_STOP_S + SIM_S_PER_GOAL * total / min(speed, DEFAULT_SPEED)
 
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
@@ -168,26 +189,29 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     if tour_name:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
-                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
-                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
-          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, speed {args.speed:g}x"
+          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, "
+          f"speed {speed_label(args.speed)}{'' if args.seed is None else f', seed {args.seed}'}"
           f"{', GUIs' if args.gui else ', headless'}\nrun folder: {run_dir}", file=out, flush=True)
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
     progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
-    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
-                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
+    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, seed=args.seed, gui=args.gui,
+                            relay_secret=args.secret, seed_tours=seed, addresses=addresses, common_args=launch_args,
+                            visitor=visitor)
+    timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:
         sim.start(cancelled=lambda: bool(stop))
-        failure = _follow(sim, progress, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
+        failure = _follow(sim, progress, timing, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
@@ -207,7 +231,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     run = {
         "building": "building/building.yaml", "tour": tour_name or f"goal {args.goal}", "goals": total,
         "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
-        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1), "speed": args.speed,
+        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
+        "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
+        "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
@@ -227,23 +253,39 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     return EXIT_OK if code == 0 and progress.outcome == "completed" else EXIT_FAILED
 
 
-def _follow(sim: SimulatedBuilding, progress: Progress, args: argparse.Namespace, wall_begin: float,
-            out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
+def clocks_line(timing: RunTiming) -> str:
+    """The floors' achieved factors since the tour started, and their time behind the ceiling."""
+    summary = timing.summary()["floors"]
+    if not summary:
+        return ""
+    factors = " ".join(f"{f['achieved_factor']:.0f}" for f in summary.values())
+    behind = max(f["behind_s"] for f in summary.values())
+    return f" | sim/wall {factors}, behind {behind:.1f} s, drift {timing.max_drift:.1f} s"
+
+
+def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args: argparse.Namespace,
+            wall_begin: float, out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
     """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
     assert sim.monitor_file is not None
     shown = ""
     deadline = wall_begin + args.timeout
-    next_track = 0.0
+    next_track = next_look = 0.0
     with open(sim.monitor_file, encoding="utf-8") as feed:
         while not progress.finished and not stop:
+            if time.monotonic() >= next_look:
+                timing.look(sim.clocks(), time.time(), bool(progress.goals))
+                next_look = time.monotonic() + LOOK_PERIOD
             line = feed.readline()
             if line:
                 if progress.feed_line(line):
                     if tour_cpu is not None and not tour_cpu and progress.goals:
                         tour_cpu.append(CpuSnapshot(time.time(), sim.cpu_usage()))
+                    if progress.goals and not timing.first or progress.finished:
+                        timing.look(sim.clocks(), time.time(), True)    # the tour's start and end, exactly
                     text = progress.line()
                     if text != shown:
-                        print(f"[{time.time() - wall_begin:6.1f} s] {text}", file=out, flush=True)
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}", file=out,
+                              flush=True)
                         shown = text
                 continue
             if time.monotonic() >= next_track:   # know every node, so that stop() finds them all

@@ -19,7 +19,13 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   ``/gidabot/poses``); and the tour total;
 * one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
   thick while guiding the visitor, thin dashed while driving alone (to a meeting
-  point, back to the visitor), the tour's goals numbered by step.
+  point, back to the visitor), the tour's goals numbered by step;
+* the run's timing (:func:`timing_report`): per floor over the tour, the achieved factor and
+  the wall time its clock was behind its speed ceiling (``run.json``, from the floors' timeline),
+  each lockstep controller's answers against the steps it owed (move_base, amcl: its rate in
+  sim time against nominal) and each guiding node's loop rate against nominal (the floor's
+  ``/diagnostics`` in its bag), the largest drift between floors; the run is *degraded* when a
+  floor was behind for more than 1 % of the tour or a rate fell below 80 % of nominal.
 """
 
 from __future__ import annotations
@@ -51,6 +57,9 @@ from gidabot_navigation.guiding.messages import (
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
 COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
+TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
+MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
+MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
 
 
 class ReportError(Exception):
@@ -84,6 +93,18 @@ class GoalInfo:
     yaw: float = 0.0    # rad: the robot stops facing the door, so the room is that way
 
 
+@dataclass(frozen=True)
+class DiagSample:
+    """One status of the floor's ``/diagnostics`` (the simulator's, a guiding node's)."""
+
+    t: float                 # s, header stamp (the floor's sim time)
+    name: str
+    values: tuple[tuple[str, str], ...]
+
+    def get(self, key: str, default: str = "") -> str:
+        return dict(self.values).get(key, default)
+
+
 @dataclass
 class RobotRecord:
     """What one robot's bag says."""
@@ -97,6 +118,7 @@ class RobotRecord:
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
     bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
     rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
+    diagnostics: list[DiagSample] = field(default_factory=list)  # its floor's timing statuses, time-ordered
 
     @property
     def track(self) -> list[PoseSample]:
@@ -170,8 +192,104 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     }
     unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
+    timing = timing_report(records, run)
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected}
+            "rejected_goals": rejected, "timing": timing, "degraded": timing["degraded"]}
+
+
+# ---------------------------------------------------------------------------
+# Timing: can the run's sim time be trusted?
+# ---------------------------------------------------------------------------
+
+def _bracket(samples: list[DiagSample], start: float, end: float) -> tuple[DiagSample, DiagSample] | None:
+    """The samples around [start, end] (sim time): the last at or before ``start`` (else the first), the first at
+    or after ``end`` (else the last)."""
+    if len(samples) < 2:
+        return None
+    a = next((d for d in reversed(samples) if d.t <= start), samples[0])
+    b = next((d for d in samples if d.t >= end), samples[-1])
+    return (a, b) if b.t > a.t else None
+
+
+def _number(sample: DiagSample, key: str) -> float:
+    try:
+        value = float(sample.get(key, "nan"))
+    except ValueError:
+        return math.nan
+    return value
+
+
+def controller_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
+    """Each lockstep participant of the floor's simulator over [start, end]: the steps it owed and answered in time
+    (its achieved rate against its nominal one), the times the world stopped waiting for it."""
+    pair = _bracket([d for d in samples if d.name.startswith("sim: floor ")], start, end)
+    if pair is None:
+        return {}
+    out = {}
+    for key, text in pair[1].values:
+        if not key.startswith("participant "):
+            continue
+        try:
+            after, before = json.loads(text), json.loads(pair[0].get(key, "{}"))
+        except json.JSONDecodeError:
+            continue
+        delta = {k: after.get(k, 0) - before.get(k, 0) for k in ("owed", "answered", "timeouts", "waited_s")}
+        owed = delta["owed"]
+        out[key[len("participant "):]] = {"owed": owed, "answered": delta["answered"],
+                                          "rate_pct": round(100.0 * delta["answered"] / owed, 1) if owed else 100.0,
+                                          "timeouts": delta["timeouts"], "waited_s": round(delta["waited_s"], 3)}
+    return out
+
+
+def loop_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
+    """Each guiding node's main loop over [start, end]: iterations per sim second, against its nominal rate (it
+    wakes at least ``loop_nominal_hz`` times per wall second: at the floor's achieved factor, that many per sim
+    second divided by it), and the longest wall gap between two iterations so far."""
+    names = sorted({d.name for d in samples if d.name.startswith("guiding: ")})
+    out = {}
+    for name in names:
+        pair = _bracket([d for d in samples if d.name == name], start, end)
+        if pair is None:
+            continue
+        a, b = pair
+        count = _number(b, "loop_count") - _number(a, "loop_count")
+        ros = _number(b, "loop_ros") - _number(a, "loop_ros")
+        wall = _number(b, "loop_wall") - _number(a, "loop_wall")
+        nominal = _number(b, "loop_nominal_hz")
+        if not all(math.isfinite(v) for v in (count, ros, wall, nominal)) or ros <= 0 or wall <= 0:
+            continue
+        out[name[len("guiding: "):]] = {
+            "loops": int(count), "hz_sim": round(count / ros, 3), "nominal_hz_sim": round(nominal * wall / ros, 3),
+            "rate_pct": round(100.0 * count / (nominal * wall), 1),
+            "max_gap_wall_s": round(_number(b, "loop_max_gap_wall_s"), 3)}
+    return out
+
+
+def timing_report(records: list[RobotRecord], run: dict) -> dict:
+    """Per floor over the tour (``run.json``'s ``timing``, from the timeline): achieved factor, wall time behind
+    the speed ceiling and waiting; from the bags: its controllers' and guiding loops' rates. ``degraded``: a floor
+    behind for more than ``MAX_BEHIND_PCT`` % of the tour, or a rate below ``MIN_RATE_PCT`` % of nominal (None:
+    the run has no timing)."""
+    timing = run.get("timing") or {}
+    floors: dict[str, dict] = {}
+    reasons = []
+    for rec in records:
+        floor = dict((timing.get("floors") or {}).get(rec.name) or {})
+        if not floor:
+            continue
+        start, end = float(floor.get("sim_start", 0.0)), float(floor.get("sim_end", math.inf))
+        floor["controllers"] = controller_rates(rec.diagnostics, start, end)
+        floor["guiding"] = loop_rates(rec.diagnostics, start, end)
+        floors[rec.name] = floor
+        if floor.get("behind_pct", 0.0) > MAX_BEHIND_PCT:
+            reasons.append(f"{rec.name}'s clock was behind its speed ceiling for {floor['behind_s']:.1f} s "
+                           f"({floor['behind_pct']:.1f} % of the tour)")
+        for kind in ("controllers", "guiding"):
+            for node, rate in floor[kind].items():
+                if rate["rate_pct"] < MIN_RATE_PCT:
+                    reasons.append(f"{rec.name}'s {node} ran at {rate['rate_pct']:.0f} % of its nominal rate")
+    return {"floors": floors, "max_drift_s": timing.get("max_drift_s"), "degraded": bool(reasons) if floors else None,
+            "reasons": reasons}
 
 
 def format_tables(report: dict) -> str:
@@ -188,11 +306,33 @@ def format_tables(report: dict) -> str:
     lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    lines += format_timing(report.get("timing") or {})
     for robot, n in report.get("rejected_goals", {}).items():
         lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
+
+
+def format_timing(timing: dict) -> list[str]:
+    floors = timing.get("floors") or {}
+    if not floors:
+        return []
+    nodes = sorted({n.rsplit("/", 1)[-1] for f in floors.values() for n in (*f["controllers"], *f["guiding"])})
+    lines = ["", "Timing over the tour, per floor (docs/simulator.md): achieved sim/wall factor, wall time behind the "
+                 "speed ceiling, rates against nominal (%)", ""]
+    head = f"{'Robot':<12} {'sim/wall':>8} {'behind (s)':>10} {'behind %':>8} " + " ".join(
+        f"{n[:12]:>12}" for n in nodes)
+    lines += [head, "-" * len(head)]
+    for robot, f in floors.items():
+        rates = {n.rsplit("/", 1)[-1]: r["rate_pct"] for kind in ("controllers", "guiding") for n, r in f[kind].items()}
+        lines.append(f"{robot:<12} {f['achieved_factor']:>8.1f} {f['behind_s']:>10.2f} {f['behind_pct']:>8.2f} "
+                     + " ".join(f"{rates[n]:>12.0f}" if n in rates else f"{'-':>12}" for n in nodes))
+    drift = timing.get("max_drift_s")
+    lines.append("")
+    lines.append(("largest drift between floors: " + (f"{drift:.1f} s sim" if drift is not None else "not measured"))
+                 + ("; DEGRADED: " + "; ".join(timing["reasons"]) if timing.get("degraded") else "; not degraded"))
+    return lines
 
 
 # ---------------------------------------------------------------------------
@@ -246,7 +386,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose")]
+                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose",
+                                     "/diagnostics")]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
@@ -261,6 +402,10 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
+                elif conn.topic == "/diagnostics":
+                    t = _stamp(msg, t_ns)
+                    rec.diagnostics.extend(DiagSample(t, st.name, tuple((kv.key, kv.value) for kv in st.values))
+                                           for st in msg.status if st.name.startswith(TIMING_STATUSES))
                 elif conn.topic == "/amcl_pose":
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
@@ -276,6 +421,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     rec.events = sorted(dict.fromkeys(rec.events), key=lambda e: e.t)
     rec.poses = sorted(set(rec.poses), key=lambda p: p.t)
     rec.local_poses = sorted(set(rec.local_poses), key=lambda p: p.t)
+    rec.diagnostics = sorted(set(rec.diagnostics), key=lambda d: d.t)
     return rec
 
 
