@@ -11,7 +11,7 @@ from gidabot_sim.errors import SimConfigError, StepDoneRejected
 from gidabot_sim.world.clock import Pacer
 from gidabot_sim.world.lockstep import CEILING, CONTROLLERS, FLOORS, MAX_PARTICIPANTS, Answer, Lockstep, Stepper
 
-TRUTH = "/base_pose_ground_truth"
+TRUTH, ODOM = "/base_pose_ground_truth", "/odom"
 
 
 def stepper(speed: float | None = None, timeout: float = 2.0, max_drift: float | None = None) -> Stepper:
@@ -51,6 +51,17 @@ def test_a_controller_that_has_not_answered_holds_the_world_at_its_stop() -> Non
     assert stats["waited_s"] == pytest.approx(0.003)
 
 
+def test_a_driving_participant_gets_its_inputs_at_every_stop_also_when_it_wakes_up_in_the_middle_of_one() -> None:
+    lock = Lockstep()
+    lock.answer(Answer("/move_base", 7, done=0.0, idle=True), 0.0)
+    assert lock.inputs_due() == set()
+    lock.published(ODOM, 4.0)                              # at rest: odometry once a second
+    lock.answer(Answer("/move_base", 7, done=4.0, idle=False, inputs=(ODOM,)), 1.0)   # a goal at 4.3
+    assert lock.inputs_due() == {ODOM} and lock.missing_inputs(4.3) == {ODOM}
+    lock.published(ODOM, 4.3)
+    assert lock.missing_inputs(4.3) == set()
+
+
 def test_an_answer_waits_for_the_commands_it_says_were_sent_on_the_other_connection() -> None:
     s = stepper()
     s.lockstep.answer(Answer("/move_base", 7, done=0.0, commands=1), 0.0)     # its cmd_vel has not arrived yet
@@ -71,9 +82,8 @@ def test_an_idle_participant_owes_only_the_stops_that_published_its_inputs() -> 
     s.lockstep.published(TRUTH, 0.5)
     wait = s.check(0.0)
     assert wait is not None and wait.who == ("/amcl",)
-    s.lockstep.answer(Answer("/amcl", 3, done=0.5, idle=True, inputs=(TRUTH,), outputs=("/amcl_pose",)), 0.0)
+    s.lockstep.answer(Answer("/amcl", 3, done=0.5, idle=True, inputs=(TRUTH,)), 0.0)
     assert s.check(0.0) is None
-    assert s.lockstep.stamps["/amcl_pose"] == 0.5          # the next step message tells move_base to wait for it
     assert s.lockstep.stats()["/amcl"]["owed"] == 0        # counted when the world leaves the stop
     s.advance(0.0)
     assert s.lockstep.stats()["/amcl"]["owed"] == 1
@@ -129,7 +139,7 @@ def test_malformed_answers_and_one_participant_too_many_are_refused_with_what_is
     lock = Lockstep()
     for bad, match in ((Answer("", 1, 0.0), "node"), (Answer("/x", 1, math.nan), "done"),
                        (Answer("/x", 1, -1.0), "done"), (Answer("/x", 1, 0.0, inputs=("\n",)), "inputs"),
-                       (Answer("/x", 1, 0.0, outputs=("a",) * 17), "outputs"),
+                       (Answer("/x", 1, 0.0, inputs=("a",) * 17), "inputs"),
                        (Answer("/x", 1, 0.0, commands=-1), "commands")):
         with pytest.raises(StepDoneRejected, match=match):
             lock.answer(bad, 0.0)

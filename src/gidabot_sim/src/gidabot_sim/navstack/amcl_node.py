@@ -56,7 +56,7 @@ class AmclNode:
       ``~odom_frame_id`` (odom); ``~seed`` (int, -1 = random).
     Lockstep (docs/simulator.md): ROS time is the stamp of the latest ground truth (no ``/clock``); every
       ground-truth message is answered on ``/sim/step_done`` (gidabot_msgs/StepDone) once its estimate (if
-      any) is published, naming ``amcl_pose`` then.
+      any) is published.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -85,8 +85,9 @@ class AmclNode:
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
         self.set_time = own_time()
-        self.answers = StepAnswers(inputs=["base_pose_ground_truth"])
-        self.answers.answer(0.0, idle=True)          # known to the simulator from the start
+        self.answers = StepAnswers()
+        self.truth_topic = rospy.resolve_name("base_pose_ground_truth")
+        self.answers.answer(0.0, idle=True, inputs=[self.truth_topic])     # known to the simulator from the start
         rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
     def _follow_odom(self) -> None:
@@ -109,15 +110,15 @@ class AmclNode:
     def _on_truth(self, msg: Odometry) -> None:
         t = msg.header.stamp.to_sec()
         self.set_time(t)
-        published = self._estimate(msg, t)
-        self.answers.answer(t, idle=True, outputs=["amcl_pose"] if published else [])
+        self._estimate(msg, t)
+        self.answers.answer(t, idle=True, inputs=[self.truth_topic])
 
-    def _estimate(self, msg: Odometry, t: float) -> bool:
-        """Process one ground truth; True when an estimate was published."""
+    def _estimate(self, msg: Odometry, t: float) -> None:
+        """Process one ground truth: publish the estimate (when due) and tf."""
         truth = _pose2d(msg)
         if truth is None:
             self.rejected.reject("base_pose_ground_truth", "amcl: ignoring a non-finite ground-truth pose")
-            return False
+            return
         self._follow_odom()
         with self.lock:
             estimate = self.core.on_truth(t, truth)
@@ -133,7 +134,6 @@ class AmclNode:
         if map_odom is not None:
             self.tf_pub.publish(TFMessage(transforms=[ru.transform(self.global_frame, self.odom_frame, map_odom,
                                                                    t + self.tolerance)]))
-        return estimate is not None
 
 
 def main() -> None:

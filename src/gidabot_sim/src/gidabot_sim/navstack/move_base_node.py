@@ -1,7 +1,8 @@
 """ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`).
 
-A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): its control cycles run at
-the simulator's steps, and the world does not step on while a goal runs before it has answered.
+A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): while a goal runs, its
+control cycles run on the odometry of each of the simulator's steps, and the world does not step on before
+it has answered.
 """
 
 from __future__ import annotations
@@ -9,7 +10,6 @@ from __future__ import annotations
 import math
 import queue
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -22,7 +22,7 @@ from nav_msgs.msg import Path as PathMsg
 from nav_msgs.srv import GetPlan, GetPlanResponse
 from std_srvs.srv import Empty, EmptyResponse
 
-from gidabot_msgs.msg import ObstacleArray, SimStep
+from gidabot_msgs.msg import ObstacleArray
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.planning import Path
@@ -34,7 +34,7 @@ from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.ros.participant import STEP_TOPIC, StepAnswers, own_time, synchronous_publisher
+from gidabot_sim.ros.participant import StepAnswers, own_time, synchronous_publisher
 from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D
 from gidabot_sim.world.world import obstacle_shape
@@ -91,13 +91,12 @@ class MoveBaseNode:
       ``~footprint_padding`` (m, 0.05: added to the radius for planning),
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
-      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
-      ``~input_wait`` (wall s, 1: how long a step waits for the odom / amcl_pose it names before the cycle runs
-      with what it has; counted as ``late_inputs``). All other times are sim time.
-    Lockstep (docs/simulator.md): ROS time comes from ``/sim/step`` (gidabot_msgs/SimStep), not ``/clock``; a
-      control cycle runs at the steps (at most ``~controller_frequency``) while a goal runs, with the odometry
-      and localisation the step names, and is answered on ``/sim/step_done`` (gidabot_msgs/StepDone); idle,
-      it answers nothing and the world does not wait for it.
+      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false).
+      All times are sim time.
+    Lockstep (docs/simulator.md): ROS time is the stamp of the latest odometry (no ``/clock``). While a goal
+      runs, the simulator sends the odometry of every step, a control cycle runs on it (at most
+      ``~controller_frequency``) with the latest localisation, and is answered on ``/sim/step_done``
+      (gidabot_msgs/StepDone) after its cmd_vel; idle, it answers nothing and the world does not wait for it.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -125,7 +124,6 @@ class MoveBaseNode:
         self.spacing = num("~plan_point_spacing", floor.map.resolution)
         self.feedback_due = Periodic(num("~feedback_rate", 5.0))
         self.control_due = Periodic(config.controller_frequency)
-        self.input_wait = num("~input_wait", 1.0)
         self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
         self.robot = robot.name
         self.tracker = PoseTracker()
@@ -137,11 +135,10 @@ class MoveBaseNode:
         self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
         self.set_time = own_time()
         self.answers = StepAnswers()
-        self.odom_topic, self.amcl_topic = rospy.resolve_name("odom"), rospy.resolve_name("amcl_pose")
-        self.received: dict[str, float] = {}          # input topic -> stamp of its newest message (sim s)
-        self.inputs_cond = threading.Condition()
-        self.step: tuple[float, dict[str, float]] | None = None      # the newest SimStep: time, input stamps
-        self.late_inputs = 0
+        self.odom_topic = rospy.resolve_name("odom")
+        self.turn = threading.Lock()       # a step (odometry thread) or a goal while idle (main loop): one at a time
+        self.active = False                # answering every step (a goal runs)
+        self.now = 0.0                     # sim s: the latest odometry's stamp
         self.cmd_pub = synchronous_publisher("cmd_vel", Twist)       # to the simulator, before the answer
         self.goal_pub = rospy.Publisher("move_base/current_goal", PoseStamped, queue_size=2)
         self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
@@ -149,12 +146,11 @@ class MoveBaseNode:
         self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction, auto_start=False)
         self.server.register_goal_callback(lambda: self._event("goal"))
         self.server.register_preempt_callback(lambda: self._event("preempt"))
-        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10, tcp_nodelay=True)
         rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
         rospy.Subscriber(str(rospy.get_param("~obstacles_topic", "/sim/obstacles")), ObstacleArray,
                          lambda msg: self._event("obstacles", msg), queue_size=10)
         rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal, queue_size=2)
-        rospy.Subscriber(STEP_TOPIC, SimStep, self._on_step, queue_size=10, tcp_nodelay=True)
         rospy.Service("move_base/make_plan", GetPlan, self._make_plan)
         rospy.Service("move_base/clear_costmaps", Empty, self._clear_costmaps)
         self.server.start()
@@ -164,26 +160,17 @@ class MoveBaseNode:
         self.events.put((kind, msg))
         self.wake.set()
 
-    def _on_step(self, msg: SimStep) -> None:
-        stamps = zip(msg.topics, msg.stamps, strict=False)     # (a malformed step names fewer inputs)
-        self.step = (msg.stamp.to_sec(), {topic: s.to_sec() for topic, s in stamps})
-        self.wake.set()
-
-    def _received(self, topic: str, stamp: float) -> None:
-        with self.inputs_cond:
-            self.received[topic] = max(self.received.get(topic, -math.inf), stamp)
-            self.inputs_cond.notify_all()
-
     def _on_odom(self, msg: Odometry) -> None:
         p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
         values = (p.x, p.y, q.x, q.y, q.z, q.w, v.linear.x, v.linear.y, v.angular.z)
         if not all(math.isfinite(x) for x in values):
             self.rejected.reject("odom", f"move_base: ignoring odom with non-finite values {values!r}")
             return
+        t = msg.header.stamp.to_sec()
         with self.tracker_lock:
-            self.tracker.on_odom(msg.header.stamp.to_sec(), Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
+            self.tracker.on_odom(t, Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
                                  Twist2D(v.linear.x, v.linear.y, v.angular.z))
-        self._received(self.odom_topic, msg.header.stamp.to_sec())
+        self._step(t)
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         try:
@@ -193,7 +180,6 @@ class MoveBaseNode:
             return
         with self.tracker_lock:
             self.tracker.on_estimate(msg.header.stamp.to_sec(), pose)
-        self._received(self.amcl_topic, msg.header.stamp.to_sec())
 
     def _on_simple_goal(self, msg: PoseStamped) -> None:
         goal = MoveBaseActionGoal()
@@ -329,48 +315,36 @@ class MoveBaseNode:
     def _busy(self) -> bool:
         return self.core.state is not State.IDLE or not self.events.empty()
 
+    def _step(self, t: float) -> None:
+        """The odometry of the simulator's step at ``t``: this node's time; while a goal runs, a control cycle (when
+        due) and the answer; once the goal is over, one answer saying it is idle."""
+        with self.turn:
+            if t < self.now - 1e-9:
+                return                       # an older message (a late delivery): the world is past it
+            self.now = t
+            self.set_time(t)
+            if not self.active and not self._busy():
+                return
+            if self.control_due.due(t):
+                self._cycle()
+            busy = self._busy()
+            self.answers.answer(t, idle=not busy, inputs=[self.odom_topic] if busy else [])
+            self.active = busy
+
     def _loop(self, stop: Callable[[], bool]) -> None:
-        """At every step newer than the last one answered: a control cycle (when due) while a goal runs, then the
-        answer; idle, nothing (one answer says so). An event while idle (a goal) is handled at once, at the
-        latest step's time, and the answer says the world must now wait for this node."""
-        done, active = 0.0, False
-        self.answers.answer(done, idle=True)           # known to the simulator from the start
+        """Idle, a goal (or an obstacle update) is handled at once, at the latest odometry's time; if a goal then
+        runs, the answer tells the simulator to send every step's odometry and to wait for this node."""
+        self.answers.answer(0.0, idle=True)          # known to the simulator from the start
         while not stop():
             self.wake.wait(0.5)
             self.wake.clear()
-            step = self.step
-            if step is not None and step[0] > done + 1e-9:
-                t, stamps = step
-                self.set_time(t)
-                if active or self._busy():
-                    if self.control_due.due(t):
-                        self._wait_inputs(stamps, stop)
-                        self._cycle()
-                    busy = self._busy()
-                    if busy or active:                 # answered while busy, and once more to say it is idle
-                        self.answers.answer(t, idle=not busy)
-                    active = busy
-                done = t
-            elif not active and self._busy():          # a goal (or obstacles) between two steps, while idle
+            with self.turn:
+                if self.active or not self._busy():
+                    continue
                 self._cycle()
-                active = self._busy()
-                if active:
-                    self.answers.answer(done, idle=False)
-
-    def _wait_inputs(self, stamps: dict[str, float], stop: Callable[[], bool]) -> None:
-        """Until the odometry and localisation the step names have arrived (they travel on other connections
-        than the step), at most ``~input_wait`` wall seconds."""
-        need = {topic: stamps[topic] for topic in (self.odom_topic, self.amcl_topic) if topic in stamps}
-        deadline = time.monotonic() + self.input_wait
-        with self.inputs_cond:
-            while any(self.received.get(topic, -math.inf) < s - 1e-6 for topic, s in need.items()):
-                left = deadline - time.monotonic()
-                if left <= 0.0 or stop():
-                    self.late_inputs += 1
-                    rospy.logwarn_throttle(10.0, f"move_base: inputs of a step still missing after "
-                                                 f"{self.input_wait:g} s ({self.late_inputs} so far)")
-                    return
-                self.inputs_cond.wait(min(left, 0.05))
+                if self._busy():
+                    self.active = True
+                    self.answers.answer(self.now, idle=False, inputs=[self.odom_topic])
 
 
 def main() -> None:

@@ -19,7 +19,6 @@ import rospy.rostime
 from gidabot_msgs.msg import StepDone
 from gidabot_sim.ros.convert import stamp
 
-STEP_TOPIC = "/sim/step"
 STEP_DONE_TOPIC = "/sim/step_done"
 
 
@@ -45,13 +44,11 @@ def own_time() -> Callable[[float], None]:
 
 
 class StepAnswers:
-    """This node's answers to the simulator: ``inputs`` are the simulator's topics it answers every message of
-    (resolved names); :meth:`command_sent` counts the cmd_vel messages it publishes."""
+    """This node's answers to the simulator; :meth:`command_sent` counts the cmd_vel messages it publishes."""
 
-    def __init__(self, inputs: Iterable[str] = ()) -> None:
+    def __init__(self) -> None:
         self.node = rospy.get_name()
         self.session = random.SystemRandom().randrange(1, 2**32)
-        self.inputs = [rospy.resolve_name(t) for t in inputs]
         self.commands = 0
         self.answers = 0
         self.pub = synchronous_publisher(STEP_DONE_TOPIC, StepDone)
@@ -59,9 +56,9 @@ class StepAnswers:
     def command_sent(self) -> None:
         self.commands += 1
 
-    def answer(self, done: float, idle: bool, outputs: Iterable[str] = ()) -> None:
-        """Everything up to sim time ``done`` is done and published; ``idle``: no step is owed until further notice."""
-        msg = StepDone(node=self.node, session=self.session, done=stamp(done), idle=idle,
-                       inputs=self.inputs, outputs=[rospy.resolve_name(t) for t in outputs], commands=self.commands)
-        self.pub.publish(msg)
+    def answer(self, done: float, idle: bool, inputs: Iterable[str] = ()) -> None:
+        """Everything up to sim time ``done`` is done and published; ``idle`` and ``inputs`` (resolved names) as in
+        gidabot_msgs/StepDone."""
+        self.pub.publish(StepDone(node=self.node, session=self.session, done=stamp(done), idle=idle,
+                                  inputs=list(inputs), commands=self.commands))
         self.answers += 1

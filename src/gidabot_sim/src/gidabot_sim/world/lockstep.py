@@ -4,11 +4,12 @@ The simulator stops every ``step`` sim seconds (a *stop*; 0.1 s, the move_base s
 period). Before it steps past a stop it waits for:
 
 1. its **participants** (:class:`Lockstep`): a controller registers by answering once (a
-   ``gidabot_msgs/StepDone``). While not idle it owes an answer for every stop; idle, only for the
-   stops that published one of its inputs (the amcl stand-in: the ground truth). It also owes the
-   cmd_vel messages it says it sent (they travel on another connection than its answer). One that does
-   not answer within ``timeout`` wall seconds (frozen, dead) is counted *absent*: the world goes on
-   without it until it answers again;
+   ``gidabot_msgs/StepDone``). While not idle it owes an answer for every stop, and the simulator
+   publishes its inputs at every stop (the move_base stand-in driving: its odometry, whose stamp is
+   the stop); idle, it owes only the stops that published one of its inputs (the amcl stand-in: each
+   ground truth). It also owes the cmd_vel messages it says it sent (they travel on another
+   connection than its answer). One that does not answer within ``timeout`` wall seconds (frozen,
+   dead) is counted *absent*: the world goes on without it until it answers again;
 2. the **other floors** (drift bound): it stays at most ``max_drift`` sim seconds ahead of the
    slowest live floor;
 3. its **speed ceiling** (:class:`~gidabot_sim.world.clock.Pacer`).
@@ -24,7 +25,7 @@ import math
 from dataclasses import dataclass, field
 
 from gidabot_sim.errors import SimConfigError, StepDoneRejected
-from gidabot_sim.world.clock import Pacer
+from gidabot_sim.world.clock import MAX_SPEED, Pacer
 
 EPS = 1e-6                 # s: stamps closer than this are the same time
 MAX_PARTICIPANTS = 16
@@ -40,8 +41,7 @@ class Answer:
     session: int
     done: float                          # sim s through which its work is done
     idle: bool = False
-    inputs: tuple[str, ...] = ()         # topics of the simulator it answers every message of
-    outputs: tuple[str, ...] = ()        # topics it published a message stamped ``done`` on
+    inputs: tuple[str, ...] = ()         # topics of the simulator it acts on
     commands: int = 0                    # cmd_vel messages it published since it started
 
     def check(self) -> None:
@@ -50,11 +50,10 @@ class Answer:
             raise StepDoneRejected(f"StepDone node {str(self.node)[:80]!r}: expected 1..128 printable characters")
         if not (math.isfinite(self.done) and self.done >= 0):
             raise StepDoneRejected(f"StepDone from {self.node}: done {self.done!r} must be a sim time >= 0")
-        for name, topics in (("inputs", self.inputs), ("outputs", self.outputs)):
-            if len(topics) > MAX_PARTICIPANTS or not all(
-                    isinstance(t, str) and 1 <= len(t) <= MAX_NAME and t.isprintable() for t in topics):
-                raise StepDoneRejected(f"StepDone from {self.node}: {name} {list(topics)[:4]!r}...: expected at most "
-                                       f"{MAX_PARTICIPANTS} topic names of 1..{MAX_NAME} printable characters")
+        if len(self.inputs) > MAX_PARTICIPANTS or not all(
+                isinstance(t, str) and 1 <= len(t) <= MAX_NAME and t.isprintable() for t in self.inputs):
+            raise StepDoneRejected(f"StepDone from {self.node}: inputs {list(self.inputs)[:4]!r}...: expected at most "
+                                   f"{MAX_PARTICIPANTS} topic names of 1..{MAX_NAME} printable characters")
         if not (isinstance(self.commands, int) and self.commands >= 0):
             raise StepDoneRejected(f"StepDone from {self.node}: commands {self.commands!r} must be an integer >= 0")
 
@@ -92,7 +91,7 @@ class Lockstep:
             raise SimConfigError(f"participant timeout: {timeout!r} must be > 0 wall seconds")
         self.timeout = float(timeout)
         self.participants: dict[str, Participant] = {}
-        self.stamps: dict[str, float] = {}        # topic -> stamp of its newest message (simulator's and outputs)
+        self.stamps: dict[str, float] = {}        # topic -> stamp of the simulator's newest message on it
         self._received: dict[str, int] = {}       # node -> cmd_vel messages received from it
         self._owing: set[str] = set()             # participants that owed the current stop
         self._waited_for: set[str] = set()        # ... and that the world waited for
@@ -118,8 +117,6 @@ class Lockstep:
         p.done = max(p.done, a.done)
         p.heard = wall
         p.idle, p.inputs, p.commands = a.idle, tuple(a.inputs), a.commands
-        for topic in a.outputs:
-            self.stamps[topic] = max(self.stamps.get(topic, -math.inf), a.done)
         p.since = None
         if p.absent:
             p.absent = False
@@ -134,6 +131,14 @@ class Lockstep:
         self.stamps[topic] = stamp
 
     # -- decisions -----------------------------------------------------------------------------
+    def inputs_due(self) -> set[str]:
+        """Topics the simulator publishes at every stop: the inputs of the participants that owe every stop."""
+        return {topic for p in self.participants.values() if not p.idle and not p.absent for topic in p.inputs}
+
+    def missing_inputs(self, t: float) -> set[str]:
+        """Inputs due at the stop at ``t`` but not published for it (a participant stopped being idle during it)."""
+        return {topic for topic in self.inputs_due() if self.stamps.get(topic, -math.inf) < t - EPS}
+
     def owes(self, p: Participant, t: float) -> bool:
         """Whether ``p`` owes an answer (or commands) for the stop at sim time ``t``."""
         if self._received.get(p.node, 0) - p.command_base < p.commands:
@@ -185,10 +190,6 @@ class Lockstep:
         self._waited_for.clear()
         self._stop_wall = wall
 
-    def active(self) -> bool:
-        """Some participant owes every stop (not idle, not absent): each stop gets its step message."""
-        return any(not p.idle and not p.absent for p in self.participants.values())
-
     def stats(self) -> dict[str, dict[str, float]]:
         """Per participant: stops owed, answered, missed; timeouts, waited_s, sessions, absent, idle."""
         return {p.node: {"owed": p.owed, "answered": p.answered, "missed": p.missed, "timeouts": p.timeouts,
@@ -218,7 +219,7 @@ class Stepper:
     lockstep: Lockstep = field(default_factory=Lockstep)
     max_drift: float | None = None        # sim s ahead of the slowest live floor at most (None: no bound)
     start: float = 0.0
-    peer_poll: float = 0.001              # wall s between two looks at the other floors
+    peer_poll: tuple[float, float] = (0.001, 0.02)    # wall s between two looks at the other floors: min, max
     steps: int = 0
     waited: dict[str, float] = field(default_factory=lambda: {CONTROLLERS: 0.0, FLOORS: 0.0, CEILING: 0.0})
     max_lead: float = 0.0                 # sim s this floor was ahead of the slowest peer at most
@@ -264,7 +265,9 @@ class Stepper:
         if peers is not None:
             self.max_lead = max(self.max_lead, self.t - peers)
             if self.max_drift is not None and self.next_t > peers + self.max_drift + EPS:
-                return Wait(FLOORS, wall + self.peer_poll)
+                # look again when the slowest floor may have caught up, at this floor's ceiling
+                need = (self.next_t - peers - self.max_drift) / (self.pacer.speed or MAX_SPEED)
+                return Wait(FLOORS, wall + min(max(need, self.peer_poll[0]), self.peer_poll[1]))
         due = self.pacer.due(self.next_t)
         if wall < due:
             return Wait(CEILING, due)

@@ -29,6 +29,7 @@ HEADER = struct.Struct("<8sII3d")            # magic, slots, pad, ceiling, max_d
 FIELDS = ("sim", "wall", "behind", "wait_controllers", "wait_floors", "wait_ceiling", "steps", "timeouts",
           "max_lead", "pid")
 SLOT = struct.Struct("<Q" + "d" * len(FIELDS))
+SIM_AND_WALL = struct.Struct("<2d")           # the first two fields of a slot
 MAX_SLOTS = 64
 READ_TRIES = 100
 
@@ -52,8 +53,9 @@ class Clock:
 class Timeline:
     """A timeline file mapped in memory; :meth:`create` (the runner) or :meth:`open` (a simulator)."""
 
-    def __init__(self, path: Path, fd: int, mem: mmap.mmap, slots: int) -> None:
+    def __init__(self, path: Path, fd: int, mem: mmap.mmap, slots: int, peer_timeout: float) -> None:
         self.path, self._fd, self._mem, self.slots = path, fd, mem, slots
+        self._peer_timeout = peer_timeout       # fixed when the timeline is created
 
     @classmethod
     def create(cls, path: Path, slots: int, ceiling: float | None, max_drift: float | None,
@@ -68,7 +70,7 @@ class Timeline:
         size = HEADER.size + slots * SLOT.size
         fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
         os.ftruncate(fd, size)
-        timeline = cls(path, fd, mmap.mmap(fd, size), slots)
+        timeline = cls(path, fd, mmap.mmap(fd, size), slots, float(peer_timeout))
         HEADER.pack_into(timeline._mem, 0, MAGIC, slots, 0, 0.0, 0.0, peer_timeout)
         timeline.set_ceiling(ceiling)
         timeline.set_max_drift(max_drift)
@@ -88,7 +90,7 @@ class Timeline:
             if size < HEADER.size:
                 raise SimConfigError(f"timeline {path}: {size} bytes is too short for a timeline")
             mem = mmap.mmap(fd, size)
-            magic, slots, *_ = HEADER.unpack_from(mem, 0)
+            magic, slots, _pad, _ceiling, _drift, peer_timeout = HEADER.unpack_from(mem, 0)
             if magic != MAGIC or not 1 <= slots <= MAX_SLOTS or size != HEADER.size + slots * SLOT.size:
                 mem.close()
                 raise SimConfigError(f"timeline {path}: not a timeline file (magic {magic!r}, {slots} slots, "
@@ -96,7 +98,7 @@ class Timeline:
         except BaseException:
             os.close(fd)
             raise
-        return cls(path, fd, mem, slots)
+        return cls(path, fd, mem, slots, float(peer_timeout))
 
     def close(self) -> None:
         self._mem.close()
@@ -135,7 +137,7 @@ class Timeline:
 
     @property
     def peer_timeout(self) -> float:
-        return float(self._header()[5])
+        return self._peer_timeout
 
     # -- slots -------------------------------------------------------------------------------
     def _offset(self, slot: int) -> int:
@@ -168,6 +170,12 @@ class Timeline:
         return wall - clock.wall < self.peer_timeout
 
     def slowest_peer(self, slot: int, wall: float) -> float | None:
-        """Sim time of the slowest live floor other than ``slot`` (None: no live peer)."""
-        times = [c.sim for i, c in enumerate(self.clocks()) if i != slot and self.live(c, wall)]
-        return min(times, default=None)
+        """Sim time of the slowest live floor other than ``slot`` (None: no live peer). Reads only the sim time and
+        the heartbeat of each slot (at every step of every floor: cheap)."""
+        timeout, slowest = self.peer_timeout, None
+        for i in range(self.slots):
+            if i != slot:
+                sim, beat = SIM_AND_WALL.unpack_from(self._mem, HEADER.size + i * SLOT.size + 8)
+                if wall - beat < timeout and (slowest is None or sim < slowest):
+                    slowest = sim
+        return slowest

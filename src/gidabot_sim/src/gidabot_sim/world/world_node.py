@@ -28,7 +28,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, LaserScan
 from tf2_msgs.msg import TFMessage
 
-from gidabot_msgs.msg import Obstacle, ObstacleArray, SimStep, StepDone
+from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
@@ -36,7 +36,7 @@ from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.ros.participant import STEP_DONE_TOPIC, STEP_TOPIC, own_time, synchronous_publisher
+from gidabot_sim.ros.participant import STEP_DONE_TOPIC, own_time, synchronous_publisher
 from gidabot_sim.world.clock import MAX_SPEED, Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
@@ -46,6 +46,7 @@ from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, o
 
 MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
 HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
+ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
 
 
 def _num(name: str, default: float, low: float = 0.0, high: float = math.inf, strict: bool = False) -> float:
@@ -148,7 +149,7 @@ class _RobotIO:
 
     def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
         self.index, self.prefix = index, prefix
-        # the lockstep participants' inputs, by resolved name (SimStep and StepDone name them so)
+        # the lockstep participants' inputs, by resolved name (as StepDone names them)
         self.odom_topic = rospy.resolve_name(f"{prefix}odom")
         self.truth_topic = rospy.resolve_name(f"{prefix}base_pose_ground_truth")
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
@@ -186,9 +187,8 @@ class SimNode:
     Floor-wide:
       ``/clock`` (rosgraph_msgs/Clock): the sim time of the latest step, at most ``~clock_rate_max`` times
         per wall second; nothing before ``~start_wall``.
-      ``/sim/step`` (gidabot_msgs/SimStep): the lockstep participants' step and clock, at every step while
-        one of them is not idle, else with ``/clock``; ``/sim/step_done`` (gidabot_msgs/StepDone, subscribed):
-        their answers (docs/simulator.md, "Lockstep").
+      ``/sim/step_done`` (gidabot_msgs/StepDone, subscribed): the lockstep participants' answers; while one
+        is not idle, its inputs (a robot's ``odom``) are published at every step (docs/simulator.md, "Lockstep").
       ``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` (latched), service ``static_map``
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
       ``~obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
@@ -252,9 +252,8 @@ class SimNode:
         self.wake = threading.Event()
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
-        # /clock and the steps are written in this thread, at once and in order (tiny messages)
+        # /clock is written in this thread, at once (a tiny message)
         self.clock_pub = synchronous_publisher("/clock", Clock)
-        self.step_pub = synchronous_publisher(STEP_TOPIC, SimStep)
         self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
         self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
         self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
@@ -284,7 +283,6 @@ class SimNode:
         self.lockstep = self.stepper.lockstep
         self.set_time = own_time()
         self._clock_wall = -math.inf       # wall time of the latest /clock
-        self._step_sent = -math.inf        # sim time of the latest SimStep
         self._heartbeat = -math.inf
         self._diag = {"wall": wall, "sim": resume, "next": wall + params.diagnostics_period}
         self.scans = 0
@@ -322,7 +320,7 @@ class SimNode:
                     self.world.set_command(index, *ru.twist_of(msg))
                 else:
                     self.lockstep.answer(Answer(msg.node, msg.session, msg.done.to_sec(), msg.idle, tuple(msg.inputs),
-                                                tuple(msg.outputs), msg.commands), wall)
+                                                msg.commands), wall)
             except (GidaBotError, ValueError, TypeError) as err:
                 self.log.reject(kind, str(err))
         for _ in range(MAX_EVENTS_PER_STEP):
@@ -397,17 +395,20 @@ class SimNode:
                                            Pose2D(laser.x, laser.y, laser.yaw), self.world.time, self.p.laser_z))
         self.tf_static_pub.publish(TFMessage(transforms=transforms))
 
+    def _publish_odom(self, io: _RobotIO, robot: Any, t: float) -> None:
+        io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom, robot.vel, t))
+        self.lockstep.published(io.odom_topic, t)
+
     def _publish_sensors(self) -> None:
         t = self.world.time
         odom_due, truth_due, rest_due = self.odom_due.due(t), self.truth_due.due(t), self.rest_due.due(t)
         laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
+        inputs = self.lockstep.inputs_due()           # a driving participant's odometry: at every step
         transforms = []
         for io, robot in zip(self.io, self.world.robots, strict=True):
             resting = self.world.at_rest(io.index)
-            if (rest_due if resting else odom_due) and io.odom.get_num_connections():
-                io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom,
-                                               robot.vel, t))
-                self.lockstep.published(io.odom_topic, t)
+            if ((rest_due if resting else odom_due) or io.odom_topic in inputs) and io.odom.get_num_connections():
+                self._publish_odom(io, robot, t)
             if (rest_due if resting else truth_due) and io.truth.get_num_connections():
                 io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
                 self.lockstep.published(io.truth_topic, t)
@@ -428,9 +429,9 @@ class SimNode:
         msg.header.frame_id = frame
         msg.child_frame_id = child
         msg.pose.pose = ru.pose_msg(pose)
-        msg.pose.covariance = [1e-4 if i in (0, 7, 35) else 0.0 for i in range(36)]
+        msg.pose.covariance = ODOM_COVARIANCE
         msg.twist.twist = ru.twist_msg(vel)
-        msg.twist.covariance = [1e-4 if i in (0, 7, 35) else 0.0 for i in range(36)]
+        msg.twist.covariance = ODOM_COVARIANCE
         return msg
 
     def _scan(self, io: _RobotIO, t: float) -> LaserScan:
@@ -463,23 +464,21 @@ class SimNode:
         return msg
 
 
-    def _publish_step(self, t: float) -> None:
-        stamps = self.lockstep.stamps
-        self.step_pub.publish(SimStep(stamp=ru.stamp(t), topics=list(stamps),
-                                      stamps=[ru.stamp(s) for s in stamps.values()]))
-        self._step_sent = t
-
     def _publish_stop(self, t: float, wall: float) -> None:
-        """Everything of the stop the world just reached: sensors, then the participants' step and /clock."""
+        """Everything of the stop the world just reached: sensors (the participants' inputs), then /clock."""
         self._publish_sensors()
-        clock_due = wall - self._clock_wall >= 1.0 / self.p.clock_rate_max
-        if clock_due or self.lockstep.active():
-            self._publish_step(t)
-        if clock_due:
+        if wall - self._clock_wall >= 1.0 / self.p.clock_rate_max:
             self.clock_pub.publish(Clock(clock=ru.stamp(t)))
+            self.set_time(t)                 # this node's own ROS time, as the others see it (log lines)
             self._clock_wall = wall
-        self.set_time(t)
         self._write_timeline(wall)
+
+    def _publish_missing_inputs(self, t: float) -> None:
+        """A participant stopped being idle during this stop: its inputs for it, published now."""
+        for topic in self.lockstep.missing_inputs(t):
+            for io, robot in zip(self.io, self.world.robots, strict=True):
+                if topic == io.odom_topic:
+                    self._publish_odom(io, robot, t)
 
     def _write_timeline(self, wall: float) -> None:
         self._heartbeat = wall
@@ -577,8 +576,8 @@ class SimNode:
                 self._publish_stop(s.t, wall)
                 self._diagnostics(wall)
                 continue
-            if wait.reason == CONTROLLERS and self._step_sent < s.t:
-                self._publish_step(s.t)          # a participant woke up and owes a stop it was not sent
+            if wait.reason == CONTROLLERS:
+                self._publish_missing_inputs(s.t)
             if wall - self._heartbeat >= HEARTBEAT:
                 self._write_timeline(wall)
             self._diagnostics(wall)
