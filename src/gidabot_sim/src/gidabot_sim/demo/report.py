@@ -318,14 +318,17 @@ def format_timing(timing: dict) -> list[str]:
     floors = timing.get("floors") or {}
     if not floors:
         return []
-    nodes = sorted({n.rsplit("/", 1)[-1] for f in floors.values() for n in (*f["controllers"], *f["guiding"])})
+    def short(name: str) -> str:
+        return name.rsplit("/", 1)[-1].split(" ")[0]
+
+    nodes = sorted({short(n) for f in floors.values() for n in (*f["controllers"], *f["guiding"])})
     lines = ["", "Timing over the tour, per floor (docs/simulator.md): achieved sim/wall factor, wall time behind the "
                  "speed ceiling, rates against nominal (%)", ""]
     head = f"{'Robot':<12} {'sim/wall':>8} {'behind (s)':>10} {'behind %':>8} " + " ".join(
         f"{n[:12]:>12}" for n in nodes)
     lines += [head, "-" * len(head)]
     for robot, f in floors.items():
-        rates = {n.rsplit("/", 1)[-1]: r["rate_pct"] for kind in ("controllers", "guiding") for n, r in f[kind].items()}
+        rates = {short(n): r["rate_pct"] for kind in ("controllers", "guiding") for n, r in f[kind].items()}
         lines.append(f"{robot:<12} {f['achieved_factor']:>8.1f} {f['behind_s']:>10.2f} {f['behind_pct']:>8.2f} "
                      + " ".join(f"{rates[n]:>12.0f}" if n in rates else f"{'-':>12}" for n in nodes))
     drift = timing.get("max_drift_s")
@@ -333,6 +336,47 @@ def format_timing(timing: dict) -> list[str]:
     lines.append(("largest drift between floors: " + (f"{drift:.1f} s sim" if drift is not None else "not measured"))
                  + ("; DEGRADED: " + "; ".join(timing["reasons"]) if timing.get("degraded") else "; not degraded"))
     return lines
+
+
+def format_markdown(report: dict, run: dict, folder: Path) -> str:
+    """Tables 3 and 5, the timing per floor and (with ``cpu.json``) the CPU per kind of process, in Markdown."""
+    t = report["tour"]
+    speed = run.get("speed")
+    lines = [f"`gidabot demo --tour {t['file']} --speed {speed}"
+             + (f" --seed {run['seed']}`" if run.get("seed") is not None else "`")
+             + f": {t['completed']} of {t['goals']} goals, tour sim {t['sim_s']:.0f} s, wall {t['wall_s']:.1f} s "
+             f"(sim/wall {t['sim_to_wall']:.1f}x)", "",
+             "| Robot | Floor | Received | Processed | Time (s) | Dist. (m) | Mean vel. (m/s) |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in report["robots"]:
+        lines.append(f"| {r['name']} | {r['floor']:g} | {r['received']} | {r['processed']} | {r['time_s']:.1f} | "
+                     f"{r['distance_m']:.1f} | {r['mean_velocity_mps']:.2f} |")
+    lines.append(f"| Tour | | | | {t['time_s']:.1f} | {t['distance_m']:.1f} | {t['mean_velocity_mps']:.2f} |")
+    timing = report.get("timing") or {}
+    floors = timing.get("floors") or {}
+    if floors:
+        lines += ["", "| Floor's robot | sim/wall | behind (s) | waiting for controllers (s) | for floors (s) | "
+                      "controllers (% of nominal) | guiding loops (% of nominal) |",
+                  "|---|---:|---:|---:|---:|---|---|"]
+        for robot, f in floors.items():
+            ctl = ", ".join(f"{n.rsplit('/', 1)[-1]} {v['rate_pct']:.0f}" for n, v in f["controllers"].items())
+            gui = ", ".join(f"{n.split(' ')[0]} {v['rate_pct']:.0f}" for n, v in f["guiding"].items())
+            lines.append(f"| {robot} | {f['achieved_factor']:.1f} | {f['behind_s']:.2f} | "
+                         f"{f['wait_controllers_s']:.2f} | {f['wait_floors_s']:.2f} | {ctl} | {gui} |")
+        lines += ["", f"Largest drift between floors: {timing.get('max_drift_s')} s of sim time; "
+                      + ("**degraded**: " + "; ".join(timing["reasons"]) if timing.get("degraded") else "not degraded")
+                      + "."]
+    cpu_file = folder / "cpu.json"
+    if cpu_file.exists():
+        cpu = json.loads(cpu_file.read_text(encoding="utf-8")).get("tour") or {}
+        sim_s = float(t.get("sim_s") or 0.0)
+        if cpu and sim_s > 0:
+            lines += ["", f"CPU during the tour: {cpu['cpu_s']:.0f} s in {cpu['wall_s']:.0f} s of wall time "
+                          f"({cpu['cores']:.2f} cores), {1000.0 * cpu['cpu_s'] / sim_s:.1f} ms per simulated second:",
+                      "", "| process (all robots) | CPU s | ms per sim s | cores |", "|---|---:|---:|---:|"]
+            for kind, sec in cpu["per_kind_cpu_s"].items():
+                lines.append(f"| {kind} | {sec:.1f} | {1000.0 * sec / sim_s:.2f} | {sec / cpu['wall_s']:.3f} |")
+    return "\n".join(lines)
 
 
 # ---------------------------------------------------------------------------
@@ -551,6 +595,8 @@ def main(argv: list[str]) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", type=Path, help="run folder written by gidabot demo / chaos")
     parser.add_argument("--json", action="store_true", help="print the tables as one JSON object")
+    parser.add_argument("--markdown", action="store_true",
+                        help="print the tables (and the run's timing and CPU) as Markdown, as the docs show them")
     parser.add_argument("--no-plots", action="store_true", help="do not write the per-floor path PNGs")
     args = parser.parse_args(argv)
     try:
@@ -565,6 +611,8 @@ def main(argv: list[str]) -> int:
     (args.run / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
     if args.json:
         print(json.dumps(report))
+    elif args.markdown:
+        print(format_markdown(report, run, args.run))
     else:
         print(format_tables(report))
         for p in report.get("plots", []):

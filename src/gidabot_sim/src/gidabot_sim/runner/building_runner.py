@@ -163,7 +163,8 @@ class SimulatedBuilding:
     ``speed`` is the ceiling of every floor's clock (None: none, ``--speed max``; :meth:`set_ceiling` changes
     it while the run goes), no floor runs more than ``max_drift`` sim seconds ahead of the slowest live one,
     and :meth:`clocks` tells where each floor is. ``seed``: the simulated noise of robot ``i`` is seeded with
-    ``seed + i`` (None: random)."""
+    ``seed + i`` (None: random). ``sim_nice``: CPU niceness of every floor's simulator and stand-ins: in lockstep
+    their starvation only slows the floors' time down, so the robots' own software goes first."""
 
     building_dir: Path
     run_dir: Path
@@ -171,6 +172,7 @@ class SimulatedBuilding:
     seed: int | None = None
     max_drift: float | None = 1.0             # sim s
     peer_timeout: float = 5.0                 # wall s a frozen floor holds the others up at most
+    sim_nice: int = 10
     gui: bool = False
     record: bool = True
     relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
@@ -290,7 +292,7 @@ class SimulatedBuilding:
             "building": str(self.building_file), "robot": robot, "sim": "true",
             "speed": "max" if self.speed is None else f"{self.speed:g}", "start_wall": f"{self.start_wall:.3f}",
             "timeline": str(self.run_dir / "timeline"), "timeline_slot": str(index),
-            "seed": str(-1 if self.seed is None else self.seed + index),
+            "seed": str(-1 if self.seed is None else self.seed + index), "sim_nice": str(self.sim_nice),
             "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),

@@ -353,7 +353,7 @@ class World:
         limits = robot.spec.limits
         fresh = robot.cmd_time is not None and t - robot.cmd_time <= self.cmd_timeout + 1e-9
         target = robot.cmd if fresh else ZERO
-        vel = accelerate(robot.vel, target, limits, self.dt)
+        vel = ZERO if target is ZERO and robot.vel is ZERO else accelerate(robot.vel, target, limits, self.dt)
         if not vel.is_zero():
             new = integrate(robot.pose, vel, self.dt)
             if self._blocked(index, robot, new):

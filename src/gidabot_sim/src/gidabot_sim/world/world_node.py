@@ -29,7 +29,7 @@ from sensor_msgs.msg import BatteryState, LaserScan
 from tf2_msgs.msg import TFMessage
 
 from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone
-from gidabot_navigation.building.geometry import Pose2D
+from gidabot_navigation.building.geometry import Pose2D, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
@@ -153,6 +153,10 @@ class _RobotIO:
         self.odom_topic = rospy.resolve_name(f"{prefix}odom")
         self.truth_topic = rospy.resolve_name(f"{prefix}base_pose_ground_truth")
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
+        self.odom_msg, self.truth_msg = Odometry(), Odometry()      # reused at every publication
+        for msg, frame in ((self.odom_msg, self.frame["odom"]), (self.truth_msg, "map")):
+            msg.header.frame_id, msg.child_frame_id = frame, self.frame["base_footprint"]
+            msg.pose.covariance = msg.twist.covariance = ODOM_COVARIANCE
         self.odom = rospy.Publisher(f"{prefix}odom", Odometry, queue_size=5)
         self.truth = rospy.Publisher(f"{prefix}base_pose_ground_truth", Odometry, queue_size=5)
         self.scan = rospy.Publisher(f"{prefix}base_scan", LaserScan, queue_size=2)
@@ -396,7 +400,7 @@ class SimNode:
         self.tf_static_pub.publish(TFMessage(transforms=transforms))
 
     def _publish_odom(self, io: _RobotIO, robot: Any, t: float) -> None:
-        io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom, robot.vel, t))
+        io.odom.publish(self._odometry(io.odom_msg, robot.odom, robot.vel, t))
         self.lockstep.published(io.odom_topic, t)
 
     def _publish_sensors(self) -> None:
@@ -410,7 +414,7 @@ class SimNode:
             if ((rest_due if resting else odom_due) or io.odom_topic in inputs) and io.odom.get_num_connections():
                 self._publish_odom(io, robot, t)
             if (rest_due if resting else truth_due) and io.truth.get_num_connections():
-                io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
+                io.truth.publish(self._odometry(io.truth_msg, robot.pose, robot.vel, t))
                 self.lockstep.published(io.truth_topic, t)
             if tf_due and self.tf_pub.get_num_connections():
                 transforms.append(ru.transform(io.frame["odom"], io.frame["base_footprint"], robot.odom, t))
@@ -423,15 +427,14 @@ class SimNode:
             self.tf_pub.publish(TFMessage(transforms=transforms))
 
     @staticmethod
-    def _odometry(frame: str, child: str, pose: Pose2D, vel: Any, t: float) -> Odometry:
-        msg = Odometry()
+    def _odometry(msg: Odometry, pose: Pose2D, vel: Any, t: float) -> Odometry:
+        """``msg`` (the robot's own, reused: publishing serialises it at once) set to ``pose``, ``vel`` at ``t``."""
         msg.header.stamp = ru.stamp(t)
-        msg.header.frame_id = frame
-        msg.child_frame_id = child
-        msg.pose.pose = ru.pose_msg(pose)
-        msg.pose.covariance = ODOM_COVARIANCE
-        msg.twist.twist = ru.twist_msg(vel)
-        msg.twist.covariance = ODOM_COVARIANCE
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        p.x, p.y = pose.x, pose.y
+        q.x, q.y, q.z, q.w = yaw_to_quaternion(pose.yaw)
+        v = msg.twist.twist
+        v.linear.x, v.linear.y, v.angular.z = vel.vx, vel.vy, vel.wz
         return msg
 
     def _scan(self, io: _RobotIO, t: float) -> LaserScan:
