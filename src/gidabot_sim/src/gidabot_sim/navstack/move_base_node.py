@@ -137,6 +137,7 @@ class MoveBaseNode:
         self.answers = StepAnswers()
         self.odom_topic = rospy.resolve_name("odom")
         self.turn = threading.Lock()       # a step (odometry thread) or a goal while idle (main loop): one at a time
+        self.said = threading.Lock()       # self.active and the answers (a leaf lock: taken under actionlib's too)
         self.active = False                # answering every step (a goal runs)
         self.now = 0.0                     # sim s: the latest odometry's stamp
         self.cmd_pub = synchronous_publisher("cmd_vel", Twist)       # to the simulator, before the answer
@@ -144,7 +145,7 @@ class MoveBaseNode:
         self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
         self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=2)
         self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction, auto_start=False)
-        self.server.register_goal_callback(lambda: self._event("goal"))
+        self.server.register_goal_callback(self._on_goal)
         self.server.register_preempt_callback(lambda: self._event("preempt"))
         rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10, tcp_nodelay=True)
         rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
@@ -159,6 +160,21 @@ class MoveBaseNode:
     def _event(self, kind: str, msg: Any = None) -> None:
         self.events.put((kind, msg))
         self.wake.set()
+
+    def _on_goal(self) -> None:
+        """A new goal: the world must wait for this node from now on. Said at once, before the goal is planned
+        (tens of milliseconds of wall time the world would otherwise run through while the robot has not started);
+        the cycle that accepts and plans it runs at the step the simulator then sends."""
+        self._event("goal")
+        self._answer(self.now, busy=True, only_if_idle=True)
+
+    def _answer(self, t: float, busy: bool, only_if_idle: bool = False) -> None:
+        """Tell the simulator: done through ``t``; ``busy``: a goal runs (every step owed, odometry at every step)."""
+        with self.said:
+            if only_if_idle and self.active:
+                return
+            self.answers.answer(t, idle=not busy, inputs=[self.odom_topic] if busy else [])
+            self.active = busy
 
     def _on_odom(self, msg: Odometry) -> None:
         p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
@@ -327,9 +343,7 @@ class MoveBaseNode:
                 return
             if self.control_due.due(t):
                 self._cycle()
-            busy = self._busy()
-            self.answers.answer(t, idle=not busy, inputs=[self.odom_topic] if busy else [])
-            self.active = busy
+            self._answer(t, self._busy())
 
     def _loop(self, stop: Callable[[], bool]) -> None:
         """Idle, a goal (or an obstacle update) is handled at once, at the latest odometry's time; if a goal then
@@ -343,8 +357,7 @@ class MoveBaseNode:
                     continue
                 self._cycle()
                 if self._busy():
-                    self.active = True
-                    self.answers.answer(self.now, idle=False, inputs=[self.odom_topic])
+                    self._answer(self.now, busy=True)
 
 
 def main() -> None:
