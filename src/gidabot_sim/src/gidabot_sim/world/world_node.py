@@ -46,6 +46,7 @@ from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, o
 
 MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
 HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
+IDLE_SLEEP = 0.01             # wall s an idle floor sleeps at least when ahead of its ceiling or of the other floors
 ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
 
 
@@ -476,6 +477,10 @@ class SimNode:
             self._clock_wall = wall
         self._write_timeline(wall)
 
+    def _idle(self) -> bool:
+        """No robot moves or is commanded and no participant drives: a stop changes nothing but the time."""
+        return not self.lockstep.inputs_due() and all(self.world.at_rest(i) for i in range(len(self.world.robots)))
+
     def _publish_missing_inputs(self, t: float) -> None:
         """A participant stopped being idle during this stop: its inputs for it, published now."""
         for topic in self.lockstep.missing_inputs(t):
@@ -579,12 +584,15 @@ class SimNode:
                 self._publish_stop(s.t, wall)
                 self._diagnostics(wall)
                 continue
+            timeout = min(wait.until - wall, HEARTBEAT)
             if wait.reason == CONTROLLERS:
                 self._publish_missing_inputs(s.t)
+            elif self._idle():              # nothing moves: wake less often, then step through what is due
+                timeout = max(timeout, IDLE_SLEEP)
             if wall - self._heartbeat >= HEARTBEAT:
                 self._write_timeline(wall)
             self._diagnostics(wall)
-            self.wake.wait(max(0.0, min(wait.until - wall, HEARTBEAT)))
+            self.wake.wait(max(0.0, timeout))
 
 
 def main() -> None:
