@@ -24,18 +24,12 @@ from relay_system import RelayMesh
 from tour_system import FACULTY, TOUR, start_store
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_sim.runner.procs import (
-    ProcessError,
-    ProcessGroup,
-    master_pid,
-    robot_address,
-    ros_env,
-    start_master,
-    wait_until,
-)
+from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_sim.errors import ProcessError
+from gidabot_sim.runner.procs import ProcessGroup, master_pid, robot_address, ros_env, start_master, wait_until
 
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
-CATALOG, RESULT, DIAG = "tour_store/catalog", "tour_store/edit_result", "/diagnostics"
+CATALOG, RESULT, DIAG = Topic.TOUR_CATALOG, Topic.TOUR_EDIT_RESULT, Topic.DIAGNOSTICS
 TYPES = {CATALOG: "gidabot_msgs/TourCatalog", RESULT: "gidabot_msgs/TourEditResult"}
 
 
@@ -164,7 +158,7 @@ class TourMesh:
 
     def store_pid(self, robot: str) -> int | None:
         assert self.masters is not None
-        return node_pid(self.masters.building.robot(robot).master_uri, "/tour_store")
+        return node_pid(self.masters.building.robot(robot).master_uri, global_name(Node.TOUR_STORE))
 
     # -- messages -------------------------------------------------------------------------
     def probe(self, robot: str):
@@ -177,7 +171,7 @@ class TourMesh:
         self.n += 1
         msg = {**msg, "uid": f"systest/edit/{self.n}"}
         since = len(self.probe(robot).msgs(RESULT))
-        self.probe(robot).pub("tour_store/edit", TOUR, msg, subs=1)
+        self.probe(robot).pub(Topic.TOUR_EDIT, TOUR, msg, subs=1)
         if not wait:
             return None
         return self.result(robot, msg["uid"], since)

@@ -12,6 +12,7 @@ import socket
 import pytest
 from relay_system import GOAL, GOALS, RelayMesh, settle, spoof_publish
 
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.relay.protocol import HEADER, FrameType, Hello, Message, encode_frame, encode_message, hello_key
 
 pytestmark = pytest.mark.system
@@ -20,7 +21,7 @@ pytestmark = pytest.mark.system
 @pytest.fixture
 def mesh(faculty_masters, tmp_path):
     with RelayMesh(faculty_masters, tmp_path) as m:
-        m.start(subscribe=[(GOALS, GOAL), ("/gidabot/tours", "gidabot_msgs/Tour")])
+        m.start(subscribe=[(GOALS, GOAL), (Topic.TOURS, "gidabot_msgs/Tour")])
         yield m
 
 
@@ -44,9 +45,9 @@ def test_spoofed_unauthenticated_and_oversized_frames_are_rejected_and_counted(m
     a, b = "Tartalo", "Kbot"
     addr = mesh.link_address(a, f"{a}_{b}.b")
     attacker_ip = mesh.robot("Galtxagorri").ip                  # another machine of the building
-    link = f"{a}_{b}"
-    hello = Hello(link, "a", b"n" * 16, b"", 1, 0, 0).encode()
-    event = encode_message(Message(GOALS, "/goal_manager", "0" * 32, b"evil", 1), True)
+    pair = f"{a}_{b}"
+    hello = Hello(pair, "a", b"n" * 16, b"", 1, 0, 0).encode()
+    event = encode_message(Message(GOALS, global_name(Node.GOAL_MANAGER), "0" * 32, b"evil", 1), True)
     attacks = {
         "auth": [encode_frame(FrameType.HELLO, hello),                                     # no HMAC
                  encode_frame(FrameType.HELLO, hello, hello_key(b"guessed-wrong-secret-123")),  # bad HMAC
@@ -79,7 +80,7 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     spoof_publish(env, "garbler", GOALS, GOAL, "garbage", subs=n_ends)
     spoof_publish(env, "gidabot_relay_fake", GOALS, GOAL, "fake-relay", subs=n_ends + 1)
     big = ["0, 014, " + "x" * (1 << 20)]                          # a 1 MiB tour: over the 1 MiB limit
-    mesh.publish(src, "/gidabot/tours", "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
+    mesh.publish(src, Topic.TOURS, "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
     mesh.publish(src, GOALS, GOAL, {"uid": "legit"})
     others = [r for r in mesh.robots if r != src]
     for r in others:
@@ -95,5 +96,5 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     settle(1.0)
     for r in others:
         assert mesh.uids(r) == ["legit"], r
-        assert mesh.uids(r, "/gidabot/tours") == [], r
+        assert mesh.uids(r, Topic.TOURS) == [], r
     assert "fake-relay" in mesh.uids(src)                         # it was published locally, just not relayed

@@ -23,7 +23,8 @@ from gidabot_gui.gui_node import (
 )
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.guiding.messages import Cmd, CommandData
+from gidabot_navigation.guiding.messages import CommandData
+from gidabot_navigation.interface import Cmd
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:

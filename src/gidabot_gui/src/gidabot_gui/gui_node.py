@@ -49,6 +49,7 @@ from gidabot_msgs.msg import (
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.replay import ReplayPublisher
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
@@ -289,18 +290,18 @@ class GuiNode:
         # a guiding node that connects late (starting, or respawned) still gets the commands of the last
         # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
         # request the visitor was told got no answer is never acted on later.
-        self.cmd_pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=20,
+        self.cmd_pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=20,
                                        window=min(COMMAND_REPLAY_S, params.request_timeout / 2))
-        self.pose_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=2)
-        self.edit_pub = rospy.Publisher("tour_store/edit", Tour, queue_size=10)
+        self.pose_pub = rospy.Publisher(Topic.INITIALPOSE, PoseWithCovarianceStamped, queue_size=2)
+        self.edit_pub = rospy.Publisher(Topic.TOUR_EDIT, Tour, queue_size=10)
         r = self.receiver
         self.subs = [
-            rospy.Subscriber("/gidabot/status", RobotStatus, r.status, queue_size=100),
-            rospy.Subscriber("/gidabot/poses", NavPose, r.pose, queue_size=100),
-            rospy.Subscriber("/gidabot/pending", PendingRequests, r.pending, queue_size=50),
-            rospy.Subscriber("/gidabot/nav_events", NavEvent, r.nav_event, queue_size=200),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, r.catalog, queue_size=2),
-            rospy.Subscriber("tour_store/edit_result", TourEditResult, r.edit_result, queue_size=20),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, r.status, queue_size=100),
+            rospy.Subscriber(Topic.POSES, NavPose, r.pose, queue_size=100),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, r.pending, queue_size=50),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, r.nav_event, queue_size=200),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, r.catalog, queue_size=2),
+            rospy.Subscriber(Topic.TOUR_EDIT_RESULT, TourEditResult, r.edit_result, queue_size=20),
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)
@@ -343,7 +344,7 @@ def main(argv: list[str] | None = None) -> int:
 
     signal.signal(signal.SIGINT, on_signal)
     signal.signal(signal.SIGTERM, on_signal)
-    rospy.init_node("gui", argv=argv, disable_signals=True)
+    rospy.init_node(Node.GUI, argv=argv, disable_signals=True)
     try:
         from gidabot_navigation.ros.master_watch import keep_registered
     except ImportError:

@@ -11,6 +11,16 @@ from guiding_support import Bus, ListLog, catalog_of
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import (
+    CancelData,
+    MoveTo,
+    NavEventData,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    Trip,
+)
+from gidabot_navigation.guiding.navigation import ABORTED, PREEMPTED, SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
@@ -32,15 +42,7 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
-    CancelData,
-    MoveTo,
-    NavEventData,
-    SendCancel,
-    SendEvent,
-    StopMoving,
-    Trip,
 )
-from gidabot_navigation.guiding.navigation import ABORTED, PREEMPTED, SUCCEEDED, NavigationConfig, NavigationCore
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"
 

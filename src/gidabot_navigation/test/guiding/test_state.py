@@ -8,15 +8,9 @@ from pathlib import Path
 import pytest
 from guiding_support import Bus, ListLog
 
+from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import (
-    ACCEPTED,
-    CONTINUE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    ON_THE_WAY,
-    REQUEST,
-    WAITING_VISITOR,
     CancelData,
     CommandData,
     MoveTo,
@@ -26,7 +20,16 @@ from gidabot_navigation.guiding.messages import (
     command_key,
 )
 from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.guiding.state import GuidingStateError, StateFile, actions_from_list, actions_to_list
+from gidabot_navigation.guiding.state import StateFile, actions_from_list, actions_to_list
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    CONTINUE,
+    GO_TO_FLOOR,
+    GOAL_REACHED,
+    ON_THE_WAY,
+    REQUEST,
+    WAITING_VISITOR,
+)
 
 
 def roundtrip(state: dict) -> dict:
@@ -218,7 +221,8 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     TOUR_STEP_DONE it answers (replayed by the navigation): it is applied once the step is done."""
     from guiding_support import catalog_of
 
-    from gidabot_navigation.guiding.messages import TOUR_STEP_DONE, NavEventData
+    from gidabot_navigation.guiding.messages import NavEventData
+    from gidabot_navigation.interface import TOUR_STEP_DONE
 
     tour = tmp_path / "two.tour"
     tour.write_text("Tour: Two\n0, 008, A\n0, 014, B\n", encoding="utf-8")

@@ -8,8 +8,9 @@ from dataclasses import replace
 import pytest
 
 from gidabot_navigation.errors import NoRouteError
-from gidabot_navigation.guiding.messages import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR, Trip
+from gidabot_navigation.guiding.messages import Trip
 from gidabot_navigation.guiding.trips import HeadProgress, Role, TripPlanner, WaitModel, estimate_queue, involved, role
+from gidabot_navigation.interface import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR
 
 
 def trip(faculty, a: float, goal_id: str, way: str = "stairs", connector: str = "stairs_west",

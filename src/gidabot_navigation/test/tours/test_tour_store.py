@@ -18,7 +18,7 @@ from gidabot_navigation.tours.tour_store import (
     NS,
     SEED_VERSION,
     IndexEntry,
-    Limits,
+    StoreLimits,
     TourStore,
     index_entries,
 )
@@ -260,7 +260,7 @@ def test_rejection_logs_are_rate_limited(store, log, clock) -> None:
 
 
 def test_tour_limit(faculty, tmp_path) -> None:
-    s = open_store(tmp_path / "t", faculty, limits=Limits(max_tours=2))
+    s = open_store(tmp_path / "t", faculty, limits=StoreLimits(max_tours=2))
     assert s.receive(remote("a.tour", VISIT, T0)).status == "accepted"
     assert s.receive(remote("b.tour", VISIT, T0)).status == "accepted"
     assert s.receive(remote("c.tour", VISIT, T0)).reason == "limit"
@@ -416,7 +416,7 @@ def test_corrupt_metadata_is_moved_aside_and_tours_kept(store, tmp_path, faculty
 
 
 def test_tombstones_are_pruned_after_the_ttl(faculty, tmp_path, clock) -> None:
-    s = open_store(tmp_path / "t", faculty, clock=clock, seed_dir=TOURS, limits=Limits(tombstone_ttl_ns=10 * NS))
+    s = open_store(tmp_path / "t", faculty, clock=clock, seed_dir=TOURS, limits=StoreLimits(tombstone_ttl_ns=10 * NS))
     s.edit(tour_msg("long_tour.tour", [], deleted=True))
     clock.advance(5)
     assert s.step() is False and s.get("long_tour.tour").deleted

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import Phase, Topic, global_name
 from gidabot_sim.demo import report
 
 REPO = Path(__file__).resolve().parents[4]
@@ -51,16 +51,16 @@ def test_tables_from_bags(tmp_path: Path) -> None:
     from gidabot_msgs.msg import Goal
 
     goals = [Goal(uid=f"Tartalo/v/{i}") for i in range(3)]
-    msgs = [("/gidabot/goals", g, 1.0 + i) for i, g in enumerate(goals)]
+    msgs = [(Topic.GOALS, g, 1.0 + i) for i, g in enumerate(goals)]
     msgs += [
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ACCEPTED, 10.0), 10.0),
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 10.0), 10.0),
-        ("/gidabot/nav_events", _event("Kbot", "Tartalo/v/1", gt.ACCEPTED, 10.5), 10.5),  # another robot's
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.GOAL_REACHED, 30.0), 30.0),
-        ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", gt.ACCEPTED, 31.0), 31.0),
+        (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.ACCEPTED, 10.0), 10.0),
+        (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.ON_THE_WAY, 10.0), 10.0),
+        (Topic.NAV_EVENTS, _event("Kbot", "Tartalo/v/1", Phase.ACCEPTED, 10.5), 10.5),  # another robot's
+        (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.GOAL_REACHED, 30.0), 30.0),
+        (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/1", Phase.ACCEPTED, 31.0), 31.0),
     ]
-    msgs += [("/gidabot/poses", _pose("Tartalo", 10.0 + k, 12.0, 10.0 + k), 10.0 + k) for k in range(21)]
-    msgs += [("/gidabot/poses", _pose("Tartalo", 40.0, 12.0, 40.0), 40.0)]   # moving alone: not guiding
+    msgs += [(Topic.POSES, _pose("Tartalo", 10.0 + k, 12.0, 10.0 + k), 10.0 + k) for k in range(21)]
+    msgs += [(Topic.POSES, _pose("Tartalo", 40.0, 12.0, 40.0), 40.0)]   # moving alone: not guiding
     msgs.sort(key=lambda m: m[2])
     _bag(tmp_path / "Tartalo.bag", msgs)
     run = {"building": str(REPO / "maps" / "faculty"), "tour": "t.tour", "goals": 3, "sim_s": 600.0, "wall_s": 60.0,
@@ -79,8 +79,8 @@ def test_tables_from_bags(tmp_path: Path) -> None:
 
 
 def test_guiding_intervals_and_length() -> None:
-    ev = [report.Event(0, "R", "a", gt.ON_THE_WAY), report.Event(5, "R", "a", gt.GO_TO_FLOOR),
-          report.Event(9, "R", "b", gt.ON_THE_WAY), report.Event(12, "R", "b", gt.CANCELLED_HERE)]
+    ev = [report.EventSample(0, "R", "a", Phase.ON_THE_WAY), report.EventSample(5, "R", "a", Phase.GO_TO_FLOOR),
+          report.EventSample(9, "R", "b", Phase.ON_THE_WAY), report.EventSample(12, "R", "b", Phase.CANCELLED_HERE)]
     assert report.guiding_intervals(ev) == [(0, 5), (9, 12)]
     poses = [report.PoseSample(t, float(t), 0.0) for t in range(13)]
     assert report.path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)
@@ -112,14 +112,15 @@ def test_distance_from_the_robots_own_localisation(tmp_path: Path) -> None:
 
     goal = Goal(uid="Kbot/v/0", goal_id="104", goal_floor=1.0, tour_step=0)
     goal.goal_pose.position.x, goal.goal_pose.position.y = 30.0, 12.0
-    msgs = [("/gidabot/goals", goal, 1.0),
-            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", gt.ON_THE_WAY, 10.0), 10.0),
-            ("/gidabot/nav_events", _event("Kbot", "Kbot/v/0", gt.TOUR_FINISHED, 30.0), 30.0)]
+    msgs = [(Topic.GOALS, goal, 1.0),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/v/0", Phase.ON_THE_WAY, 10.0), 10.0),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/v/0", Phase.TOUR_FINISHED, 30.0), 30.0)]
     # an L-shaped drive: 5 m east then 5 m north, 0.1 m per amcl_pose; the shared poses cut the corner
     path = [(20.0 + 0.1 * k, 10.0) for k in range(51)] + [(25.0, 10.0 + 0.1 * k) for k in range(1, 51)]
-    msgs += [("/amcl_pose", _amcl(x, y, 10.0 + 0.2 * k), 10.0 + 0.2 * k) for k, (x, y) in enumerate(path)]
-    msgs += [("/gidabot/poses", _pose("Kbot", 20.0, 10.0, 10.0), 10.0),
-             ("/gidabot/poses", _pose("Kbot", 25.0, 15.0, 29.9), 29.9)]
+    amcl = global_name(Topic.AMCL_POSE)
+    msgs += [(amcl, _amcl(x, y, 10.0 + 0.2 * k), 10.0 + 0.2 * k) for k, (x, y) in enumerate(path)]
+    msgs += [(Topic.POSES, _pose("Kbot", 20.0, 10.0, 10.0), 10.0),
+             (Topic.POSES, _pose("Kbot", 25.0, 15.0, 29.9), 29.9)]
     msgs.sort(key=lambda m: m[2])
     _bag(tmp_path / "Kbot.bag", msgs)
     run = {"tour": "t.tour", "goals": 1, "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}],
@@ -144,15 +145,15 @@ def test_an_unreadable_message_is_skipped_and_counted(tmp_path: Path, capsys) ->
     buf = io.BytesIO()
     good.serialize(buf)
     with Writer(tmp_path / "Tartalo.bag") as writer:
-        conn = writer.add_connection("/gidabot/poses", "gidabot_msgs/msg/NavPose", msgdef=NavPose._full_text,
+        conn = writer.add_connection(Topic.POSES, "gidabot_msgs/msg/NavPose", msgdef=NavPose._full_text,
                                      md5sum=NavPose._md5sum)
         writer.write(conn, int(4e9), b"")
         writer.write(conn, int(5e9), buf.getvalue())
     run = {"goals": 0, "robots": [{"name": "Tartalo", "floor": 0}], "building": str(REPO / "maps" / "faculty")}
     (tmp_path / "run.json").write_text(json.dumps(run))
     assert report.main([str(tmp_path), "--no-plots"]) == 0
-    assert "Tartalo: /gidabot/poses: 1 message(s) in the bag could not be deserialised" in capsys.readouterr().out
-    assert json.loads((tmp_path / "report.json").read_text())["unreadable_messages"] == {"Tartalo: /gidabot/poses": 1}
+    assert f"Tartalo: {Topic.POSES}: 1 message(s) in the bag could not be deserialised" in capsys.readouterr().out
+    assert json.loads((tmp_path / "report.json").read_text())["unreadable_messages"] == {f"Tartalo: {Topic.POSES}": 1}
 
 
 def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path: Path) -> None:
@@ -172,14 +173,14 @@ def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path:
     nan.initial_pose.x = float("nan")
     hostile = [ghost, nan, goal("Tartalo/v/big", visitor_id="x" * 5000), goal("Tartalo/v/f", goal_floor=7.5),
                goal("bad uid with spaces"), goal("Tartalo/v/room", goal_id="999")]
-    first = [("/gidabot/goals", goal("Tartalo/v/0"), 1.0),
-             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ACCEPTED, 2.0), 2.0),
-             ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 3.0), 3.0)]
-    first += [("/gidabot/goals", h, 4.0) for h in hostile]
-    second = [("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.ON_THE_WAY, 3.0), 3.0),  # again
-              ("/gidabot/goals", goal("Tartalo/v/1"), 5.0),
-              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/1", gt.ACCEPTED, 6.0), 6.0),
-              ("/gidabot/nav_events", _event("Tartalo", "Tartalo/v/0", gt.GOAL_REACHED, 13.0), 13.0)]
+    first = [(Topic.GOALS, goal("Tartalo/v/0"), 1.0),
+             (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.ACCEPTED, 2.0), 2.0),
+             (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.ON_THE_WAY, 3.0), 3.0)]
+    first += [(Topic.GOALS, h, 4.0) for h in hostile]
+    second = [(Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.ON_THE_WAY, 3.0), 3.0),  # again
+              (Topic.GOALS, goal("Tartalo/v/1"), 5.0),
+              (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/1", Phase.ACCEPTED, 6.0), 6.0),
+              (Topic.NAV_EVENTS, _event("Tartalo", "Tartalo/v/0", Phase.GOAL_REACHED, 13.0), 13.0)]
     _bag(tmp_path / "Tartalo.bag", first)
     _bag(tmp_path / "Tartalo.1.bag", second)
     run = {"tour": "t.tour", "goals": 2, "building": str(REPO / "maps" / "faculty"),

@@ -20,9 +20,8 @@ import yaml
 from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
 from gidabot_navigation.building.occupancy import OccupancyMap, load_map
 from gidabot_navigation.errors import BuildingError, MapError, Problem
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, WAYS
 
-LANGUAGES = ("eu", "en", "es")
-CONNECTOR_KINDS = ("lift", "stairs")
 DRIVE_TYPES = ("differential", "synchro")
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
 FLOOR_TOLERANCE = 1e-3
@@ -59,18 +58,18 @@ class Location:
     featured: bool = False
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)
 class Connector:
     id: str
-    kind: str                       # "lift" or "stairs"
+    kind: str                       # one of WAYS: "lift" or "stairs"
     names: dict[str, str]
     meeting: dict[float, Pose2D]    # floor id -> meeting pose on that floor
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)
@@ -455,8 +454,8 @@ def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
             chk.problem(f"{where}.id", f"duplicate id {cid!r} (connector ids must differ from every other id)")
             continue
         kind = doc["kind"]
-        if kind not in CONNECTOR_KINDS:
-            chk.problem(f"{where}.kind", f"{_show(kind)} is not one of {', '.join(CONNECTOR_KINDS)}")
+        if kind not in WAYS:
+            chk.problem(f"{where}.kind", f"{_show(kind)} is not one of {', '.join(WAYS)}")
         names = chk.names(doc["names"], f"{where}.names")
         meeting: dict[float, Pose2D] = {}
         for j, m in enumerate(chk.seq(doc["meeting"], f"{where}.meeting")):
@@ -481,7 +480,7 @@ def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
             if fid not in meeting:
                 chk.problem(f"{where}.meeting", f"connector {cid} serves floor {format_floor(fid)} "
                                                 "but has no meeting pose there")
-        if kind in CONNECTOR_KINDS and len(names) == len(LANGUAGES):
+        if kind in WAYS and len(names) == len(LANGUAGES):
             connectors.append(Connector(cid, str(kind), names, meeting))
     if len(by_floor) > 1:
         for fid in by_floor:

@@ -28,32 +28,13 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
-from gidabot_navigation.errors import GoalRejected, GuidingError, NoRouteError
+from gidabot_navigation.building.model import Building, format_floor
+from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError, NoRouteError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
-    ACCEPTED,
-    CANCEL,
-    CANCELLED_HERE,
-    CONTINUE,
-    GOING_TO_MEETING,
     MAX_UID,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     PHASE_OF_REASON,
-    REASON_ADMIN,
-    REASON_VISITOR,
-    REJECTED,
-    RELEASE_PHASES,
-    REQUEST,
     START_ROBOT,
-    START_TOUR,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
-    WAY_STAIRS,
-    WAYS,
     Action,
     CancelData,
     CommandData,
@@ -73,7 +54,6 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.state import (
     REMEMBERED_UIDS,
-    GuidingStateError,
     dataclass_from_dict,
     number,
     str_list,
@@ -82,6 +62,29 @@ from gidabot_navigation.guiding.state import (
 )
 from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
 from gidabot_navigation.guiding.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    CANCEL,
+    CANCELLED_HERE,
+    CONTINUE,
+    DEFAULT_LANGUAGE,
+    GOING_TO_MEETING,
+    LANGUAGES,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    REASON_ADMIN,
+    REASON_VISITOR,
+    REJECTED,
+    RELEASE_PHASES,
+    REQUEST,
+    START_TOUR,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+    WAITING_VISITOR,
+    WAY_STAIRS,
+    WAYS,
+)
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.tour_file import MAX_GOALS
 
@@ -95,7 +98,7 @@ class GoalManagerConfig:
 
     robot: str
     default_way: str = WAY_STAIRS
-    default_language: str = "en"
+    default_language: str = DEFAULT_LANGUAGE
     offline_after: float = 5.0
     max_queue: int = 50
     wait: WaitModel = field(default_factory=WaitModel)

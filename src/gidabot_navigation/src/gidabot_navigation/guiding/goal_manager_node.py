@@ -22,11 +22,6 @@ from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.guiding_node import (
-    CANCELS_TOPIC,
-    EVENTS_TOPIC,
-    GOALS_TOPIC,
-    PENDING_TOPIC,
-    STATUS_TOPIC,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -36,8 +31,6 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     trip_from_msg,
     trip_to_msg,
     yaw_of,
@@ -45,8 +38,10 @@ from gidabot_navigation.guiding.guiding_node import (
 from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -75,10 +70,10 @@ class Params:
                          continue_s=param_number("~continue_time", WaitModel.continue_s, strict=False),
                          leg_overhead_s=param_number("~leg_overhead", WaitModel.leg_overhead_s, strict=False),
                          pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance))
-        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", "stairs"),
-                                default_language=param_text("~default_language", "en"),
+        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", WAY_STAIRS),
+                                default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
-                                max_queue=int(param_number("~max_queue", 50, minimum=1, strict=False)), wait=wait)
+                                max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait)
         state_dir = param_text("~state_dir", "") or default_state_dir(robot)
         return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
@@ -134,8 +129,8 @@ class GoalManagerNode:
         building = load_building(params.building)
         self.core = GoalManagerCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
-        self.store = StateFile(Path(params.state_dir) / "goal_manager.json", "goal_manager", self.robot, RosLog(),
-                               max_age=params.state_max_age) if params.state_dir else None
+        self.store = StateFile(Path(params.state_dir) / f"{Node.GOAL_MANAGER}.json", Node.GOAL_MANAGER, self.robot,
+                               RosLog(), max_age=params.state_max_age) if params.state_dir else None
         outbox = self.store.resume(self.core.load_state) if self.store is not None else None
         if outbox is not None:
             rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
@@ -146,19 +141,20 @@ class GoalManagerNode:
         self._published_version = -1
         self._latest_pose: tuple[float, float, float] | None = None
         window = params.replay_window
-        self.goals_pub = ReplayPublisher(GOALS_TOPIC, Goal, queue_size=100, window=window)
-        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=window)
-        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=window)
-        self.pending_pub = rospy.Publisher(PENDING_TOPIC, PendingRequests, queue_size=10, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.goals_pub = ReplayPublisher(Topic.GOALS, Goal, queue_size=100, window=window)
+        self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=window)
+        self.events_pub = ReplayPublisher(Topic.NAV_EVENTS, NavEvent, queue_size=200, window=window)
+        self.pending_pub = rospy.Publisher(Topic.PENDING, PendingRequests, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [
-            rospy.Subscriber("visitor/command", VisitorCommand, self._enqueue, callback_args="command", queue_size=50),
-            rospy.Subscriber(GOALS_TOPIC, Goal, self._enqueue, callback_args="goal", queue_size=200),
-            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
-            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._enqueue, callback_args="command",
+                             queue_size=50),
+            rospy.Subscriber(Topic.GOALS, Goal, self._enqueue, callback_args="goal", queue_size=200),
+            rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
         self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
 
@@ -259,7 +255,7 @@ class GoalManagerNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("goal_manager", argv=argv if argv is not None else sys.argv)
+    rospy.init_node(Node.GOAL_MANAGER, argv=argv if argv is not None else sys.argv)
     keep_registered()
     try:
         node = GoalManagerNode(Params.read())

@@ -37,9 +37,27 @@ from typing import Any
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, format_floor
-from gidabot_navigation.errors import GoalRejected, GuidingError
+from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
+    Action,
+    CancelData,
+    Counters,
+    MoveTo,
+    NavEventData,
+    SeenSet,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    Trip,
+    UidMaker,
+    validate_cancel,
+    validate_event,
+)
+from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
+from gidabot_navigation.guiding.trips import Role, partner_of, role
+from gidabot_navigation.interface import (
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
@@ -62,30 +80,7 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
-    Action,
-    CancelData,
-    Counters,
-    MoveTo,
-    NavEventData,
-    SeenSet,
-    SendCancel,
-    SendEvent,
-    StopMoving,
-    Trip,
-    UidMaker,
-    validate_cancel,
-    validate_event,
 )
-from gidabot_navigation.guiding.state import (
-    REMEMBERED_UIDS,
-    GuidingStateError,
-    number,
-    str_list,
-    trip_from_dict,
-    trip_to_dict,
-)
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
-from gidabot_navigation.guiding.trips import Role, partner_of, role
 from gidabot_navigation.logs import Logger, RateLimitedLog
 
 # move_base (actionlib) terminal states, as the adapter names them

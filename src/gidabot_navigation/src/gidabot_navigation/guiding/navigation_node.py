@@ -27,11 +27,6 @@ from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotSt
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.guiding_node import (
-    CANCELS_TOPIC,
-    EVENTS_TOPIC,
-    PENDING_TOPIC,
-    POSES_TOPIC,
-    STATUS_TOPIC,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -40,22 +35,12 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     quaternion,
     sender,
     trip_from_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import (
-    CONTINUE,
-    Action,
-    MoveTo,
-    SendCancel,
-    SendEvent,
-    StopMoving,
-    command_key,
-)
+from gidabot_navigation.guiding.messages import Action, MoveTo, SendCancel, SendEvent, StopMoving, command_key
 from gidabot_navigation.guiding.navigation import (
     ABORTED,
     LOST,
@@ -67,8 +52,10 @@ from gidabot_navigation.guiding.navigation import (
     NavigationCore,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
+from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -105,9 +92,9 @@ class Params:
                                pickup_distance=param_number("~pickup_distance", 1.5),
                                nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
         return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
-                      param_number("~pose_rate", 5.0), param_text("~move_base", "move_base", required=True),
+                      param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
-                      param_text("~goal_manager", "/goal_manager", required=True),
+                      param_text("~goal_manager", global_name(Node.GOAL_MANAGER), required=True),
                       param_text("~state_dir", "") or default_state_dir(cfg.robot),
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
                       param_number("~replay_window", DEFAULT_WINDOW, strict=False))
@@ -165,8 +152,9 @@ class NavigationNode:
         building = load_building(params.building)
         self.core = NavigationCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
-        self.store = StateFile(Path(params.state_dir) / "multirobot_navigation.json", "multirobot_navigation",
-                               self.robot, RosLog(), max_age=params.state_max_age) if params.state_dir else None
+        name = Node.MULTIROBOT_NAVIGATION
+        self.store = StateFile(Path(params.state_dir) / f"{name}.json", name, self.robot, RosLog(),
+                               max_age=params.state_max_age) if params.state_dir else None
         outbox = self.store.resume(self.core.load_state) if self.store is not None else None
         if outbox is not None:
             leg = self.core.leg
@@ -185,21 +173,21 @@ class NavigationNode:
         self._latest_pose: tuple[float, float, float] | None = None
         self._latest_odom: tuple[float, float] | None = None
         self._latest_battery: float | None = None
-        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=params.replay_window)
-        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=params.replay_window)
-        self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
-        self.poses_pub = rospy.Publisher(POSES_TOPIC, NavPose, queue_size=10, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.events_pub = ReplayPublisher(Topic.NAV_EVENTS, NavEvent, queue_size=200, window=params.replay_window)
+        self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=params.replay_window)
+        self.status_pub = rospy.Publisher(Topic.STATUS, RobotStatus, queue_size=10, latch=True)
+        self.poses_pub = rospy.Publisher(Topic.POSES, NavPose, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [
-            rospy.Subscriber(PENDING_TOPIC, PendingRequests, self._on_pending, queue_size=20),
-            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
-            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber("visitor/command", VisitorCommand, self._on_command, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
-            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=1),
-            rospy.Subscriber("battery", BatteryState, self._on_battery, queue_size=1),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
+            rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._on_command, queue_size=50),
+            rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber(Topic.BATTERY, BatteryState, self._on_battery, queue_size=1),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
                        rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
@@ -420,7 +408,7 @@ class NavigationNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("multirobot_navigation", argv=argv if argv is not None else sys.argv)
+    rospy.init_node(Node.MULTIROBOT_NAVIGATION, argv=argv if argv is not None else sys.argv)
     keep_registered()
     try:
         node = NavigationNode(Params.read())

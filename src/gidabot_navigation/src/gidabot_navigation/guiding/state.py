@@ -28,7 +28,7 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
-from gidabot_navigation.errors import GuidingError
+from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -49,10 +49,6 @@ def default_state_dir(robot: str) -> str:
     """``$ROS_HOME/gidabot/<robot>/guiding`` (ROS_HOME defaults to ``~/.ros``)."""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     return os.path.join(home, "gidabot", robot, "guiding")
-
-
-class GuidingStateError(GuidingError):
-    """A guiding state file cannot be read or written."""
 
 
 def dataclass_from_dict(cls: type, data: object) -> Any:

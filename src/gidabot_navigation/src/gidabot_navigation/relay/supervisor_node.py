@@ -11,9 +11,9 @@ import time
 from pathlib import Path
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.relay.end import RelayConfigError
-from gidabot_navigation.relay.supervisor import EndOptions, Supervisor, free_port, plan_relays
+from gidabot_navigation.errors import GidaBotError, RelayConfigError
+from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.relay.supervisor import EndOptions, RelaySupervisor, free_port, plan_relays
 
 
 class RelaySupervisorNode:
@@ -71,11 +71,11 @@ class RelaySupervisorNode:
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         opts = EndOptions(state_dir=str(Path(state_dir).resolve()), secret_file=secret_file,
                           topics_file=topics_file, extra=tuple((str(k), str(v)) for k, v in extra.items()))
-        self.sup = Supervisor(ends, opts, self._log)
+        self.sup = RelaySupervisor(ends, opts, self._log)
         from diagnostic_msgs.msg import DiagnosticArray
 
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
-        pairs = sorted({e.link for e in ends})
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        pairs = sorted({e.pair for e in ends})
         rospy.loginfo(f"relay_supervisor of {self.robot}: {len(pairs)} relay(s) to start"
                       f"{': ' + ', '.join(pairs) if pairs else ' (last robot of the building)'}; "
                       f"{'HMAC-SHA256' if secret_file else 'NO authentication (no secret file)'}")
@@ -122,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv, disable_rostime=True)
+    rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True)
     keep_registered()
     try:
         node = RelaySupervisorNode()

@@ -21,14 +21,14 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
-from gidabot_navigation.building.model import LANGUAGES, load_building
+from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
-from gidabot_navigation.tours.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
+from gidabot_navigation.ros.params import param_number
+from gidabot_navigation.tours.tour_store import NS, StoreLimits, TourMessage, TourRecord, TourStore, index_entries
 
-TOURS_TOPIC = "/gidabot/tours"
-INDEX_TOPIC = "/gidabot/tour_index"
 QUEUE_SIZE = 1000
 
 
@@ -40,7 +40,7 @@ class Params:
     seed_dir: str
     default_language: str
     index_rate: float
-    limits: Limits
+    limits: StoreLimits
 
     @staticmethod
     def read() -> Params:
@@ -52,23 +52,17 @@ class Params:
         ros_home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
         default_dir = os.path.join(ros_home, "gidabot", robot, "tours")
         tours_dir = str(rospy.get_param("~tours_dir", "") or default_dir)
-        language = str(rospy.get_param("~default_language", "en"))
+        language = str(rospy.get_param("~default_language", DEFAULT_LANGUAGE))
         if language not in LANGUAGES:
             raise TourStoreError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
 
-        def positive(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
-                raise TourStoreError(f"{name} must be a positive number, got {value!r}")
-            return float(value)
-
-        limits = Limits(max_message_bytes=int(positive("~max_message_bytes", Limits.max_message_bytes)),
-                        max_tours=int(positive("~max_tours", Limits.max_tours)),
-                        max_future_ns=int(positive("~max_clock_skew", Limits.max_future_ns / NS) * NS),
-                        tombstone_ttl_ns=int(positive("~tombstone_ttl", Limits.tombstone_ttl_ns / NS) * NS),
-                        resend_period=positive("~resend_period", Limits.resend_period))
+        limits = StoreLimits(max_message_bytes=int(param_number("~max_message_bytes", StoreLimits.max_message_bytes)),
+                        max_tours=int(param_number("~max_tours", StoreLimits.max_tours)),
+                        max_future_ns=int(param_number("~max_clock_skew", StoreLimits.max_future_ns / NS) * NS),
+                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", StoreLimits.tombstone_ttl_ns / NS) * NS),
+                        resend_period=param_number("~resend_period", StoreLimits.resend_period))
         return Params(building, robot, tours_dir, str(rospy.get_param("~seed_dir", "")), language,
-                      positive("~index_rate", 1.0), limits)
+                      param_number("~index_rate", 1.0), limits)
 
 
 def to_core(msg: Tour) -> TourMessage:
@@ -158,13 +152,13 @@ class TourStoreNode:
         self.store.open()
         self.inbox: queue.Queue[tuple[str, bytes, str]] = queue.Queue(QUEUE_SIZE)
         self.dropped = 0
-        self.tours_pub = rospy.Publisher(TOURS_TOPIC, Tour, queue_size=100)
-        self.index_pub = rospy.Publisher(INDEX_TOPIC, TourIndex, queue_size=10, latch=True)
-        self.catalog_pub = rospy.Publisher("tour_store/catalog", TourCatalog, queue_size=2, latch=True)
-        self.result_pub = rospy.Publisher("tour_store/edit_result", TourEditResult, queue_size=20)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.tours_pub = rospy.Publisher(Topic.TOURS, Tour, queue_size=100)
+        self.index_pub = rospy.Publisher(Topic.TOUR_INDEX, TourIndex, queue_size=10, latch=True)
+        self.catalog_pub = rospy.Publisher(Topic.TOUR_CATALOG, TourCatalog, queue_size=2, latch=True)
+        self.result_pub = rospy.Publisher(Topic.TOUR_EDIT_RESULT, TourEditResult, queue_size=20)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [rospy.Subscriber(topic, rospy.AnyMsg, self._enqueue, callback_args=kind, queue_size=100)
-                     for topic, kind in ((TOURS_TOPIC, "tour"), (INDEX_TOPIC, "index"), ("tour_store/edit", "edit"))]
+                     for topic, kind in ((Topic.TOURS, "tour"), (Topic.TOUR_INDEX, "index"), (Topic.TOUR_EDIT, "edit"))]
         self._publish_state()
 
     # -- callbacks: size check, enqueue, return ---------------------------------------
@@ -301,7 +295,7 @@ class TourStoreNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("tour_store", argv=argv if argv is not None else sys.argv)
+    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv)
     keep_registered()    # found again after its master restarts (docs/interfaces.md)
     try:
         node = TourStoreNode(Params.read())

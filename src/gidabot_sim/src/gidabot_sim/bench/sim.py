@@ -43,9 +43,11 @@ from tempfile import TemporaryDirectory
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
 from gidabot_sim.bench.closed_loop import FloorLoop
+from gidabot_sim.errors import ProcessError
 from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec
 
@@ -55,7 +57,7 @@ SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
 TARGETS = {"planner_median_ms": 50.0, "planner_max_ms": 200.0, "real_time_factor": 10.0, "stack_factor": 100.0,
            "stack_rate_pct": 80.0}
 GUIDING_LAUNCH = REPO / "launch" / "guiding.launch"
-STACK_NODES = ("/sim", "/move_base", "/amcl", "/goal_manager", "/multirobot_navigation")
+STACK_NODES = tuple(global_name(n) for n in (Node.SIM, Node.MOVE_BASE, Node.AMCL, *GUIDING_NODES))
 TOUR_FLOOR = 1.0
 PHASES = ("laser", "no_laser", "idle")
 IDLE_SIM_S = 60.0
@@ -149,7 +151,7 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
         pids: dict[str, int] = {}
 
         def found() -> bool:
-            for node in ("/sim", "/move_base", "/amcl"):
+            for node in (global_name(Node.SIM), global_name(Node.MOVE_BASE), global_name(Node.AMCL)):
                 pid = pids.get(node) or _node_pid(uri, node)
                 if pid:
                     pids[node] = pid
@@ -282,11 +284,11 @@ def stack_driver(spec: dict) -> int:
     rospy.init_node("bench_visitor", disable_signals=True)
     events: list[NavEvent] = []
     diags: list[DiagSample] = []
-    rospy.Subscriber("/gidabot/nav_events", NavEvent, events.append, queue_size=100)
-    rospy.Subscriber("/diagnostics", DiagnosticArray, lambda m: diags.extend(
+    rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, events.append, queue_size=100)
+    rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, lambda m: diags.extend(
         DiagSample(m.header.stamp.to_sec(), st.name, tuple((kv.key, kv.value) for kv in st.values))
         for st in m.status), queue_size=100)
-    pub = rospy.Publisher("visitor/command", VisitorCommand, queue_size=10)
+    pub = rospy.Publisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=10)
     deadline = time.monotonic() + 60.0
     while (pub.get_num_connections() < 2 or rospy.get_time() <= 0.0) and time.monotonic() < deadline:
         time.sleep(0.05)       # goal_manager and multirobot_navigation subscribe; the clock runs
@@ -338,9 +340,9 @@ def ros_driver(goals: list[list[float]]) -> int:
 
     rospy.init_node("bench_driver", disable_signals=True)
     scans = [0]
-    scan_sub = rospy.Subscriber("base_scan", LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
+    scan_sub = rospy.Subscriber(Topic.BASE_SCAN, LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
                                 queue_size=50)
-    client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+    client = actionlib.SimpleActionClient(Topic.MOVE_BASE, MoveBaseAction)
     deadline = time.monotonic() + 60.0
     while not client.wait_for_server(rospy.Duration(0.5)):     # sim time: the clock may not run yet
         if time.monotonic() > deadline:

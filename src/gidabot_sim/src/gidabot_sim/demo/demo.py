@@ -31,12 +31,14 @@ from typing import TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
 from gidabot_sim.demo.progress import Progress
 from gidabot_sim.demo.timing import RunTiming
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding
+from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
@@ -66,7 +68,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the simulated sensor and localisation noise (robot i: SEED + i); default random")
-    p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
+    p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
     p.add_argument("--out", type=Path, default=REPO / "runs",

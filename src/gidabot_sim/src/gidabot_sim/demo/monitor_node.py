@@ -16,6 +16,7 @@ import time
 import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.master_watch import keep_registered
 
 
@@ -31,11 +32,11 @@ class MonitorNode:
     def __init__(self) -> None:
         self._file = open(rospy.get_param("~out"), "a", encoding="utf-8")  # noqa: SIM115 - closed on shutdown
         self._lock = threading.Lock()
-        rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=200)
-        rospy.Subscriber("/gidabot/goals", Goal, self._on_goal, queue_size=200)
-        rospy.Subscriber("/gidabot/cancels", Cancel, self._on_cancel, queue_size=200)
+        rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=200)
+        rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
+        rospy.Subscriber(Topic.CANCELS, Cancel, self._on_cancel, queue_size=200)
         self._waiting = {str(r) for r in rospy.get_param("~robots", [])}
-        self._status_sub = (rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=20)
+        self._status_sub = (rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=20)
                             if self._waiting else None)
         rospy.on_shutdown(self._file.close)
 
@@ -73,7 +74,7 @@ class MonitorNode:
 
 
 def main() -> None:
-    rospy.init_node("gidabot_monitor", anonymous=True)
+    rospy.init_node(Node.MONITOR, anonymous=True)
     keep_registered()
     MonitorNode()
     rospy.spin()

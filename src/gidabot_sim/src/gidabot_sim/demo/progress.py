@@ -6,7 +6,7 @@ import contextlib
 import json
 from dataclasses import dataclass, field
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     GOAL_REACHED,
     PARTNER_OFFLINE,

@@ -40,7 +40,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
@@ -52,7 +52,10 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    Topic,
+    global_name,
 )
+from gidabot_sim.errors import ReportError
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
@@ -62,12 +65,8 @@ MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour'
 MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
 
 
-class ReportError(Exception):
-    """A run folder cannot be reported on (missing files, unreadable bags)."""
-
-
 @dataclass(frozen=True)
-class Event:
+class EventSample:
     t: float            # s, header stamp (sim time)
     robot: str
     goal_uid: str
@@ -112,7 +111,7 @@ class RobotRecord:
     name: str
     floor: float
     goal_uids: set[str] = field(default_factory=set)
-    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    events: list[EventSample] = field(default_factory=list)      # events emitted by this robot
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
@@ -137,7 +136,7 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
     """[start, end] sim-time intervals while the robot was guiding the visitor."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
@@ -308,7 +307,7 @@ def format_tables(report: dict) -> str:
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
     lines += format_timing(report.get("timing") or {})
     for robot, n in report.get("rejected_goals", {}).items():
-        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
+        lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
@@ -430,15 +429,15 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose",
-                                     "/diagnostics")]
+                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE),
+                                     Topic.DIAGNOSTICS)]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
                 except Exception:  # noqa: BLE001 - rosbags raises several types; one bad message is skipped
                     rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
                     continue
-                if conn.topic == "/gidabot/goals":
+                if conn.topic == Topic.GOALS:
                     if not plausible_goal(msg, building):
                         rec.rejected_goals += 1
                         continue
@@ -446,16 +445,16 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
-                elif conn.topic == "/diagnostics":
+                elif conn.topic == Topic.DIAGNOSTICS:
                     t = _stamp(msg, t_ns)
                     rec.diagnostics.extend(DiagSample(t, st.name, tuple((kv.key, kv.value) for kv in st.values))
                                            for st in msg.status if st.name.startswith(TIMING_STATUSES))
-                elif conn.topic == "/amcl_pose":
+                elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
-                elif conn.topic == "/gidabot/nav_events":
+                elif conn.topic == Topic.NAV_EVENTS:
                     if msg.robot == name:
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))

@@ -34,8 +34,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_sim.errors import SimError
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, ros_env, start_master
+from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.procs import ProcessGroup, ros_env, start_master
 from gidabot_sim.world.timeline import Clock, Timeline
 
 REPO = Path(__file__).resolve().parents[5]
@@ -45,17 +46,12 @@ VISITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "visitor"
 RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
 # and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
-RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
-                   "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
-                   "/visitor/command", "/amcl_pose", "/diagnostics")
+RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
+                   Topic.DIAGNOSTICS)
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
 CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
-
-
-class DemoError(SimError):
-    """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
 
 
 def rosbag_record_binary() -> str:
@@ -317,7 +313,7 @@ class SimulatedBuilding:
         launch: restarting the robot's nodes must not make the person forget where they are)."""
         assert self.building_file is not None and self.visitor is not None
         params = {"building": str(self.building_file), "robot": robot, **self.visitor}
-        argv = [sys.executable, str(VISITOR_NODE), "__name:=visitor",
+        argv = [sys.executable, str(VISITOR_NODE), f"__name:={Node.VISITOR}",
                 *(f"_{k}:={json.dumps(v)}" for k, v in params.items())]   # JSON is YAML: types kept
         self.procs.start(f"visitor_{robot}", argv, self.env(robot))
 
