@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import socket
+import time
 
 import pytest
 from relay_system import GOAL, GOALS, RelayMesh, settle, spoof_publish
@@ -77,7 +78,8 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     env = mesh.sim.env(src)
     n_ends = len(mesh.robots) - 1
     spoof_publish(env, "impostor", GOALS, "std_msgs/String", "wrong-type", subs=n_ends)
-    spoof_publish(env, "garbler", GOALS, GOAL, "garbage", subs=n_ends)
+    # the right type: the probe subscribes it too (the impostor's std_msgs/String it refuses)
+    spoof_publish(env, "garbler", GOALS, GOAL, "garbage", subs=n_ends + 1)
     spoof_publish(env, "gidabot_relay_fake", GOALS, GOAL, "fake-relay", subs=n_ends + 1)
     big = ["0, 014, " + "x" * (1 << 20)]                          # a 1 MiB tour: over the 1 MiB limit
     mesh.publish(src, Topic.TOURS, "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
@@ -88,10 +90,12 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
 
     def counted(d: dict[str, str]) -> bool:
         return (int(d["rejected_type"]) >= 1 and int(d["rejected_malformed"]) >= 1
-                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1)
+                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1
+                and int(d["forwarded_events"]) >= 1)
 
+    arrived = time.time()           # diagnostics stamped later count "legit" as forwarded (1 Hz)
     for o in others:
-        mesh.wait_end(src, o, counted, 10, "impostors counted")
+        mesh.wait_end(src, o, counted, 10, "impostors counted", after=arrived)
         assert mesh.end_diag(src, o)["forwarded_events"] == "1"   # only "legit"
     settle(1.0)
     for r in others:

@@ -127,3 +127,8 @@ class MasterWatchError(GidaBotError):
 
 class ExitGuardError(GidaBotError):
     """The exit guard cannot be installed (a bad grace time, not called from the main thread)."""
+
+
+class ResourceError(GidaBotError):
+    """A file the packages ship (launch file, map, tour, config) is not found: the workspace is not built
+    or not sourced (:mod:`gidabot_navigation.resources`)."""

@@ -47,6 +47,7 @@ def test_end_command_line_and_environment() -> None:
     spec = EndSpec("A", "B", "b", "http://10.0.0.2:11311/", "10.0.0.2", "10.0.0.2", 4000, "10.0.0.1")
     argv = end_argv(spec, EndOptions(state_dir="/var/lib/r", secret_file="/etc/gidabot/relay.secret",
                                      extra=(("max_queue", "50"),)))
+    assert argv[1:3] == ["-m", "gidabot_navigation.relay.end_node"]     # found as a module: no file to look up
     assert "--secret_file" in argv and "/etc/gidabot/relay.secret" in argv
     assert not any(":=" in a for a in argv)        # no _param:= (rospy would upload it to a maybe-dead master)
     assert argv[argv.index("--max_queue") + 1] == "50"

@@ -175,15 +175,21 @@ class GoalManagerCore:
         """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
         stamp) is ignored."""
         key = cmd.key
-        if key and not self._commands_seen.add(key):
+        if key and key in self._commands_seen:
             self.stats.inc("duplicate_commands")
             return []
         try:
             cmd = validate_command(cmd)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("command", f"visitor command refused: {err}")
             return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+        actions = self._command(cmd, now_ros, now_wall)
+        if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in actions)):
+            self._commands_seen.add(key)      # a refused command is not remembered: it changes no state
+        return actions
+
+    def _command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         if cmd.command == REQUEST:
             if not cmd.goal_id:
                 return [self._event(REJECTED, None, now_ros, detail="request without a goal_id")]
@@ -202,17 +208,16 @@ class GoalManagerCore:
         if uid and uid in self._goals_seen:
             self.stats.inc("duplicates")
             return []
-        if uid:
-            self._goals_seen.add(uid)
         self.stats.inc("received")
         try:
             trip = validate_trip(self.building, trip)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
             if trip.origin_robot == self.me:
                 return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
             return []
+        self._goals_seen.add(trip.uid)
         if trip.uid in self._cancelled:
             self.stats.inc("cancelled_before_arrival")
             self.log.info(f"goal {trip.uid} arrived after its cancel; not queued")
@@ -257,13 +262,15 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("event", f"nav event rejected: {err}")
             return []
+        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)):
+            return []        # nothing here depends on it: not even remembered, so it changes no state
         if not self._events_seen.add(ev.uid):
             return []
-        if ev.phase in RELEASE_PHASES and ev.goal_uid:
+        if ev.phase in RELEASE_PHASES:
             self._releases[ev.goal_uid] = now_ros
             while len(self._releases) > 1000:
                 self._releases.popitem(last=False)
-        if ev.robot != self.me or not ev.goal_uid:
+        if ev.robot != self.me:
             return []
         if from_relay:
             self.stats.inc("rejected_spoofed")
@@ -556,5 +563,6 @@ class GoalManagerCore:
                           tour_step=trip.tour_step if trip else -1, stamp=now_ros)
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
-        self._events_seen.add(ev.uid)
+        if ev.goal_uid and phase != REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
+            self._events_seen.add(ev.uid)
         return SendEvent(ev)

@@ -35,11 +35,12 @@ from gidabot_navigation.guiding.guiding_node import (
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
@@ -117,8 +118,8 @@ class GoalManagerNode:
       - ``~pending_rate`` (Hz wall, 1.0).
       - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``goal_manager.json`` there keeps
         the queue, the handled uids and the tour steps waiting across a restart of this node (written
-        atomically after every change, before what it produced is published); ``~state_max_age``
-        (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
+        atomically before what a change produced is published, other changes within 1 s: guiding/state.py);
+        ``~state_max_age`` (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
       - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
         ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
         ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
@@ -173,10 +174,21 @@ class GoalManagerNode:
         self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     # -- the loop that owns the core --------------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the state is saved and the
+        guard told the loop has stopped (only then does it close the topics)."""
+        guard.set_wake(lambda: self._enqueue(None, ""))
+        try:
+            self._loop(guard)
+        finally:
+            if self.store is not None:
+                self.store.flush(self.core.state, force=True)
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         period = self.params.pending_period
         next_pending = time.monotonic()
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             try:
                 kind, msg = self.inbox.get(timeout=max(0.01, min(LOOP_PERIOD, next_pending - time.monotonic())))
             except queue.Empty:
@@ -213,12 +225,13 @@ class GoalManagerNode:
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Save the state (with ``actions`` as the outbox) when it may have changed, then publish; once
-        published, save again without them (so a restart publishes them again only if it came in between)."""
-        if self.store is None or not (changed or actions):
+        """Publish ``actions``, saving the state with them as the outbox first (StateFile.commit: what
+        changes nothing writes nothing). A REJECTED answer is not kept: it changes no state."""
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, actions, self.execute)
+            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -255,7 +268,8 @@ class GoalManagerNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node(Node.GOAL_MANAGER, argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.GOAL_MANAGER, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
+    rospy.init_node(Node.GOAL_MANAGER, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()
     try:
         node = GoalManagerNode(Params.read())
@@ -263,5 +277,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"goal_manager cannot start: {err}")
         return 1
     rospy.loginfo(f"goal_manager of {node.robot} (floor {node.core.robot.floor:g}) running")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

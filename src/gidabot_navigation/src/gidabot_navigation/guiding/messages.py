@@ -417,7 +417,7 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
         if conn is None:
             raise GoalRejected("connector", f"connector {show(connector)} is not a lift or staircase of the "
                                             f"building ({', '.join(c.id for c in building.connectors)})")
-        if a not in conn.meeting or b not in conn.meeting:
+        if a not in conn.serves or b not in conn.serves:
             raise GoalRejected("connector", f"connector {connector} does not serve floors {format_floor(a)} "
                                             f"and {format_floor(b)}")
         if conn.kind != way:

@@ -54,6 +54,7 @@ from gidabot_navigation.guiding.navigation import (
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
@@ -243,9 +244,22 @@ class NavigationNode:
         self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
 
     # -- the loop that owns the core --------------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the running move_base goal
+        is cancelled, the state saved and the guard told the loop has stopped (it then closes the topics)."""
+        guard.set_wake(lambda: self._enqueue(None, ""))
+        try:
+            self._loop(guard)
+        finally:
+            if self._active is not None:
+                self._cancel(self._active[0])
+            if self.store is not None:
+                self.store.flush(self.core.state, force=True)
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         next_diag = time.monotonic() + 1.0
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
                 self.publish_status()      # liveness never depends on the (sim) clock running
             try:
@@ -263,8 +277,6 @@ class NavigationNode:
             if now_wall >= next_diag:
                 next_diag = now_wall + 1.0
                 self.publish_diagnostics()
-        if self._active is not None:
-            self._cancel(self._active[0])
 
     def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
         core = self.core
@@ -309,10 +321,10 @@ class NavigationNode:
         """Save the state (the durable actions as the outbox) when it may have changed, then carry the
         actions out; once published, save again without them."""
         durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
-        if self.store is None or not (changed or actions):
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, durable, self.execute)
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -408,7 +420,8 @@ class NavigationNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node(Node.MULTIROBOT_NAVIGATION, argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.MULTIROBOT_NAVIGATION, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM
+    rospy.init_node(Node.MULTIROBOT_NAVIGATION, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()
     try:
         node = NavigationNode(Params.read())
@@ -416,5 +429,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"multirobot_navigation cannot start: {err}")
         return 1
     rospy.loginfo(f"multirobot_navigation of {node.robot} (floor {node.core.floor:g}) running")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

@@ -1,10 +1,11 @@
-"""ROS adapter of one relay end: the ``relay_end`` node ``/gidabot_relay_<A>_<B>`` on one robot's master.
+"""ROS adapter of one relay end: the node ``/gidabot_relay_<A>_<B>`` on one robot's master.
 
 The decisions live in :mod:`gidabot_navigation.relay.end` (ROS-free). This module reads the parameters
 once, subscribes the shared topics as raw bytes, publishes what the peer sends with
 the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
 only hand bytes to the core and try a non-blocking send) and the master watch.
-Normally started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`), never by hand.
+Started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`) as
+``python -m gidabot_navigation.relay.end_node``, never by hand.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ from gidabot_navigation.relay.end import (
     read_secret,
 )
 from gidabot_navigation.relay.journal import Journal
+from gidabot_navigation.resources import resource
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
@@ -50,7 +52,6 @@ from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_t
 CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
 RETRY_INTERVAL = 0.25    # s between connect attempts
 RECV_BYTES = 1 << 18
-DEFAULT_TOPICS = Path(__file__).resolve().parents[3] / "config" / "shared_topics.yaml"
 
 
 @dataclass(frozen=True)
@@ -89,7 +90,7 @@ class Params:
         ap.add_argument("--link_host", required=True)
         ap.add_argument("--link_port", required=True, type=int)
         ap.add_argument("--bind_ip", default=os.environ.get("ROS_IP", ""))
-        ap.add_argument("--topics_file", default=str(DEFAULT_TOPICS))
+        ap.add_argument("--topics_file", default="")
         ap.add_argument("--secret_file", default="")
         ap.add_argument("--state_dir", required=True)
         ap.add_argument("--max_message_bytes", type=int, default=1 << 20)
@@ -233,7 +234,7 @@ class RelayEndNode:
       - ``--side`` (``a`` or ``b``, required): which robot's master this end is on.
       - ``--link_host`` (IPv4, required), ``--link_port`` (int, required): end b's address.
       - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
-      - ``--topics_file`` (path): the shared topics whitelist.
+      - ``--topics_file`` (path, default the package's ``config/shared_topics.yaml``): the shared topics whitelist.
       - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
       - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
       - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
@@ -256,7 +257,7 @@ class RelayEndNode:
         if name != relay_end_name(params.robot_a, params.robot_b):
             raise RelayConfigError(f"this end is named {name} (remapped?); the relay between {params.robot_a} and "
                                    f"{params.robot_b} must be named {relay_end_name(params.robot_a, params.robot_b)}")
-        specs = load_shared_topics(params.topics_file)
+        specs = load_shared_topics(params.topics_file or resource("config", "shared_topics.yaml"))
         self.specs = {s.name: s for s in specs}
         classes = {s.name: _message_class(s) for s in specs}
         secret = read_secret(params.secret_file) if params.secret_file else None
@@ -698,8 +699,12 @@ def main(argv: list[str] | None = None) -> int:
     except RelayConfigError as err:
         print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+
     # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
-    rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
+    guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True,
+                    disable_signals=True)
     watch = keep_registered()
     try:
         node = RelayEndNode(params, watch)
@@ -717,4 +722,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'HMAC-SHA256' if node.cfg.secret else 'NO authentication'}")
     rospy.on_shutdown(node.stop)
     node.run()
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0
+
+
+if __name__ == "__main__":      # the supervisor starts each end as ``python -m gidabot_navigation.relay.end_node``
+    sys.exit(main())

@@ -30,7 +30,7 @@ from gidabot_navigation.building.model import Building
 from gidabot_navigation.interface import relay_end_name
 from gidabot_navigation.relay.end import EXIT_CONFIG, EXIT_PORT, PARENT_ENV
 
-RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
+RELAY_END = "gidabot_navigation.relay.end_node"   # the end's module, run with ``python -m``: no file to find
 
 
 @dataclass(frozen=True)
@@ -126,7 +126,7 @@ class EndOptions:
 
 def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> list[str]:
     """Command line of one end (the secret travels as a file path, never as a value)."""
-    argv = [python, str(RELAY_END), "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
+    argv = [python, "-m", RELAY_END, "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
             "--link_host", spec.link_host, "--link_port", str(spec.link_port), "--bind_ip", spec.bind_ip,
             "--state_dir", opts.state_dir, "--secret_file", opts.secret_file]
     if opts.topics_file:

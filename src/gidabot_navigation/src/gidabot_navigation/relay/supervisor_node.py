@@ -120,9 +120,14 @@ class RelaySupervisorNode:
 def main(argv: list[str] | None = None) -> int:
     import rospy
 
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True)
+    # exit within 1.5 s of SIGINT/SIGTERM, master frozen or not (issue 19.5): the ends it stops exit within 1 s
+    # (their own guards), and any end still there then gets SIGTERM from the kernel (PR_SET_PDEATHSIG)
+    guard = rospy_exit_guard(Node.RELAY_SUPERVISOR, grace=1.5)
+    rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True,
+                    disable_signals=True)
     keep_registered()
     try:
         node = RelaySupervisorNode()
@@ -130,4 +135,5 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"relay_supervisor cannot start: {err}")
         return 1
     node.run()
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

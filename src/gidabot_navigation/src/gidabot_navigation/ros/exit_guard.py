@@ -261,5 +261,9 @@ def rospy_shutdown(reason: str) -> None:
 
 
 def rospy_exit_guard(name: str, grace: float = DEFAULT_GRACE, main_loop: bool = False) -> ExitGuard:
-    """An installed guard whose shutdown is :func:`rospy_shutdown` (call right after ``rospy.init_node``)."""
+    """An installed guard whose shutdown is :func:`rospy_shutdown`. Best called *before*
+    ``rospy.init_node(..., disable_signals=True)``: a signal during ``init_node`` (which waits on the master)
+    then also ends the process in time; after an ``init_node`` with rospy's handlers, a signal in that
+    window runs rospy's handler, which can hang for good (a relay end restarted while its master was frozen
+    did, once its supervisor was gone)."""
     return ExitGuard(rospy_shutdown, grace=grace, main_loop=main_loop, name=name).install()

@@ -457,6 +457,13 @@ class TourStore:
             self.log.warning(f"ignoring tour file {name} ({why}), left untouched: {detail}")
             return False
         old = self.records.get(name)
+        if old is not None and not old.deleted and format_tour(tour) == old.content:
+            # the same tour written differently (line endings, spacing, BOM): no new version, the
+            # store's canonical file replaces it
+            self._apply(old, claim=entry.sha256)
+            self.log.info(f"tour file {name} ({why}) holds the stored tour in another form; rewritten in the "
+                          "canonical form")
+            return True
         version = max(self.wall_ns(), old.version + 1 if old else 0)
         origin = old.origin if old and not old.deleted else self.robot
         language = old.language if old and not old.deleted else self.default_language
@@ -550,9 +557,6 @@ class TourStore:
         for i, line in enumerate(goals, start=1):
             if not _encodable(line):
                 raise TourRejected("encoding", f"tour {name}: goal {i} {_short(line)} is not valid UTF-8 text")
-            if "\n" in line or "\r" in line:
-                raise TourRejected("content", f"tour {name}: goal {i} {_short(line)} holds a line break; "
-                                              "each goal is one line 'floor, room number, room description'")
         try:
             tour = tour_from_lines(name, title, list(goals), self.building)
         except TourError as err:

@@ -7,6 +7,7 @@ store: callbacks only check sizes and enqueue raw bytes.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import queue
@@ -24,6 +25,7 @@ from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
@@ -150,7 +152,7 @@ class TourStoreNode:
                                seed_dir=params.seed_dir or None, default_language=params.default_language,
                                limits=params.limits)
         self.store.open()
-        self.inbox: queue.Queue[tuple[str, bytes, str]] = queue.Queue(QUEUE_SIZE)
+        self.inbox: queue.Queue[tuple[str, bytes, str] | None] = queue.Queue(QUEUE_SIZE)   # None: wake up
         self.dropped = 0
         self.tours_pub = rospy.Publisher(Topic.TOURS, Tour, queue_size=100)
         self.index_pub = rospy.Publisher(Topic.TOUR_INDEX, TourIndex, queue_size=10, latch=True)
@@ -173,12 +175,20 @@ class TourStoreNode:
         except queue.Full:
             self.dropped += 1
 
+    def _wake(self) -> None:
+        """End the loop's wait at once (from the exit guard's thread)."""
+        with contextlib.suppress(queue.Full):
+            self.inbox.put_nowait(None)
+
     # -- the loop that owns the store ---------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the store is closed and the
+        guard told the loop has stopped (it then closes the topics)."""
+        guard.set_wake(self._wake)
         period = 1.0 / self.params.index_rate
         next_tick = time.monotonic() + period
         try:
-            while not rospy.is_shutdown():
+            while not rospy.is_shutdown() and not guard.requested:
                 try:
                     item = self.inbox.get(timeout=max(0.0, min(0.2, next_tick - time.monotonic())))
                 except queue.Empty:
@@ -191,6 +201,7 @@ class TourStoreNode:
                     self.tick()
         finally:
             self.store.close()
+            guard.loop_stopped()
 
     def handle(self, kind: str, raw: bytes, sender: str) -> bool:
         """Handle one queued message; True if the store changed."""
@@ -295,7 +306,8 @@ class TourStoreNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.TOUR_STORE, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
+    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()    # found again after its master restarts (docs/interfaces.md)
     try:
         node = TourStoreNode(Params.read())
@@ -303,5 +315,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"tour_store cannot start: {err}")
         return 1
     rospy.loginfo(f"tour_store of {node.robot}: {Path(node.params.tours_dir)}")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

@@ -24,9 +24,9 @@ from pathlib import Path
 from tempfile import mkdtemp
 
 from gidabot_navigation.building.model import load_building
-from gidabot_sim.runner.building_runner import REPO
+from gidabot_navigation.resources import resource
 
-GIDABOT = REPO / "bin" / "gidabot"
+DEMO = (sys.executable, "-m", "gidabot_sim.cli", "demo")
 TARGETS = {"table5_max_delta_pct": 3.0, "wall_s_at_50x": 30.0, "max_min_factor": 50.0}
 
 
@@ -40,7 +40,7 @@ def label(speed: float | str) -> str:
 
 def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path) -> dict:
     """One demo run; its report (``gidabot demo --json``) with its exit status and CPU."""
-    argv = [str(GIDABOT), "demo", "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
+    argv = [*DEMO, "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
             "--json", "--cpu"] + (["--net", str(net)] if net is not None else [])
     began = time.monotonic()
     with open(log, "w", encoding="utf-8") as err:
@@ -153,7 +153,7 @@ def print_run(run: dict, robots: list[str]) -> None:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="gidabot bench demo", description=__doc__.split("\n\n")[0])
     ap.add_argument("--json", action="store_true", help="print one JSON object")
-    ap.add_argument("--tour", type=Path, default=REPO / "tours" / "long_tour.tour", help="tour (default: Table 2)")
+    ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
     ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
     ap.add_argument("--net", type=int, default=None, help="gidabot demo --net")
@@ -162,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     speeds = [parse_speed(s) for s in args.speeds.split(",") if s]
     out = args.out or Path(mkdtemp(prefix="gidabot-bench-demo-"))
     out.mkdir(parents=True, exist_ok=True)
-    robots = [r.name for r in load_building(REPO / "maps" / "faculty").robots]
+    robots = [r.name for r in load_building(resource("maps", "faculty")).robots]
     runs: list[dict] = []
     reports: list[dict] = []
     for speed in speeds:

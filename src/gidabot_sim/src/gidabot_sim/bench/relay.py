@@ -123,9 +123,11 @@ def worker(argv: Sequence[str]) -> int:
 
 # -- the orchestrator -------------------------------------------------------------------------------
 class Worker:
-    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str]) -> None:
+    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str],
+                 module: str = "gidabot_sim.bench.relay") -> None:
+        """``python -m <module> worker <args>`` (the benchmark modules' workers speak this line protocol)."""
         log = open(group.log_dir / f"{name}.log", "ab") if group.log_dir else subprocess.DEVNULL  # noqa: SIM115
-        self.proc = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.relay", "worker", *args],
+        self.proc = subprocess.Popen([sys.executable, "-m", module, "worker", *args],
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
                                      bufsize=1, start_new_session=True)
         if hasattr(log, "close"):

@@ -44,6 +44,7 @@ from tempfile import TemporaryDirectory
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, load_building, relocate_building
 from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
+from gidabot_navigation.resources import resource
 from gidabot_sim.bench.closed_loop import FloorLoop
 from gidabot_sim.errors import ProcessError
 from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
@@ -51,12 +52,8 @@ from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec
 
-REPO = Path(__file__).resolve().parents[5]
-FACULTY = REPO / "maps" / "faculty"
-SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
 TARGETS = {"planner_median_ms": 50.0, "planner_max_ms": 200.0, "real_time_factor": 10.0, "stack_factor": 100.0,
            "stack_rate_pct": 80.0}
-GUIDING_LAUNCH = REPO / "launch" / "guiding.launch"
 STACK_NODES = tuple(global_name(n) for n in (Node.SIM, Node.MOVE_BASE, Node.AMCL, *GUIDING_NODES))
 TOUR_FLOOR = 1.0
 PHASES = ("laser", "no_laser", "idle")
@@ -146,8 +143,8 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
         uri = start_master(procs, "master", ip)
         path = relocate_building(building_dir, Path(tmp) / "building", {robot.name: uri})
         env = ros_env(uri, ip, log_dir=Path(tmp) / "ros")
-        procs.start("floor", ["roslaunch", "--skip-log-check", str(SIM_LAUNCH), f"building:={path}",
-                              f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
+        procs.start("floor", ["roslaunch", "--skip-log-check", str(resource("launch", "sim_floor.launch")),
+                              f"building:={path}", f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
         pids: dict[str, int] = {}
 
         def found() -> bool:
@@ -223,11 +220,11 @@ def bench_stack(building_dir: Path, floor: float = TOUR_FLOOR, timeout: float = 
         launch = Path(tmp) / "stack.launch"
         launch.write_text(f"""<launch>
   <param name="/use_sim_time" value="true"/>
-  <include file="{SIM_LAUNCH}">
+  <include file="{resource("launch", "sim_floor.launch")}">
     <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="speed" value="max"/> <arg name="seed" value="1"/>
   </include>
-  <include file="{GUIDING_LAUNCH}">
+  <include file="{resource("launch", "guiding.launch")}">
     <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="status_rate" value="0.02"/> <arg name="pose_rate" value="0.05"/>
     <arg name="state_dir" value="{Path(tmp) / 'guiding'}"/>
@@ -381,7 +378,8 @@ def ros_driver(goals: list[list[float]]) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gidabot bench sim", description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--building", default=str(FACULTY), help="building directory (default: the faculty)")
+    parser.add_argument("--building", default=str(resource("maps", "faculty")),
+                        help="building directory (default: the faculty)")
     parser.add_argument("--speed", type=float, default=10.0, help="speed factor of the ROS run (default 10)")
     parser.add_argument("--no-ros", action="store_true", help="skip the run under ROS")
     parser.add_argument("--ros-driver", metavar="GOALS", help=argparse.SUPPRESS)

@@ -54,15 +54,15 @@ from gidabot_navigation.interface import (
     Phase,
     global_name,
 )
+from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse_tour
 from gidabot_sim.chaos import core as cc
 from gidabot_sim.chaos.faults import LinkCuts
 from gidabot_sim.demo.demo import POSE_RATE, POSE_WALL_HZ, STATUS_RATE, STATUS_WALL_HZ, Signals, report
 from gidabot_sim.errors import ChaosError, DemoError, FaultError, ProcessError, ReportError
-from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding, process_tree
+from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding, node_executable, process_tree
 from gidabot_sim.runner.procs import robot_address
 
-PROBE_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "chaos_probe"
 DEFAULT_SEED = 1
 SIM_S_PER_GOAL = 100.0        # a goal of the long tour takes about 100 s of sim time (docs/demo.md)
 RECOVERY_WAIT = 30.0          # wall s a fault gets to recover before it counts as not recovered
@@ -83,8 +83,8 @@ class ChaosProbeClient:
         self.timeout = timeout
         out.parent.mkdir(parents=True, exist_ok=True)
         self._log = open(log, "ab")  # noqa: SIM115 - closed in close()
-        self.proc = subprocess.Popen([sys.executable, str(PROBE_NODE), "--robot", robot, "--out", str(out)],
-                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
+        argv = [sys.executable, node_executable("gidabot_sim", "chaos_probe"), "--robot", robot, "--out", str(out)]
+        self.proc = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
                                      start_new_session=True, text=True, bufsize=1)
         self._read(60.0, "start")
 
@@ -252,7 +252,7 @@ class ChaosRun:
     def start(self) -> None:
         args = self.args
         seed = self.run_dir / "seed_tours"
-        shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+        shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
         shutil.copy(args.tour, seed / self.tour.file_name)
         launch_args = {"gui_fullscreen": "false",
                        "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
@@ -333,7 +333,7 @@ class ChaosRun:
         return found[0].pid
 
     def relay_end_pid(self, a: str, b: str, side: str) -> int | None:
-        for info in self.processes(a, "relay_end"):
+        for info in self.processes(a, "end_node"):      # python -m gidabot_navigation.relay.end_node
             argv = " ".join(info.argv)
             if f"--robot_a {a} " in argv and f"--robot_b {b} " in argv and f"--side {side} " in argv:
                 return info.pid
@@ -718,7 +718,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="gidabot chaos", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"fault schedule seed (default {DEFAULT_SEED})")
-    p.add_argument("--tour", type=Path, default=REPO / "tours" / "long_tour.tour",
+    p.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"),
                    help="tour to run (default: tours/long_tour.tour, the paper's Table 2)")
     p.add_argument("--profile", choices=sorted(cc.PROFILES), default="full",
                    help="how many faults: full = the issue's (about 26), quick = one or two of each kind")
@@ -726,8 +726,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="sim seconds per wall second (default: slow enough for the tour to outlast the faults)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS)
     p.add_argument("--start-floor", type=float, default=None, help="default: the tour's first floor")
-    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty")
-    p.add_argument("--out", type=Path, default=REPO / "runs",
+    p.add_argument("--building", type=Path, default=resource("maps", "faculty"))
+    p.add_argument("--out", type=Path, default=RUNS,
                    help="output folder; the run goes to OUT/<date>-<time>-chaos-<tour>-seed<N>/")
     p.add_argument("--timeout", type=float, default=None, help="wall seconds before giving up")
     p.add_argument("--net", type=int, default=None, metavar="N", help="masters on 127.N.0.11... (tests)")

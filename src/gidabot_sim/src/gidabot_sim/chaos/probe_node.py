@@ -301,8 +301,10 @@ def main(argv: list[str] | None = None) -> int:
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
     import rospy
 
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
+    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
     rospy.init_node(Node.CHAOS_PROBE, disable_signals=True, disable_rostime=True)
     keep_registered()
     node = ChaosProbeNode(args.robot, args.out)

@@ -32,12 +32,13 @@ from typing import TextIO
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.interface import WAY_STAIRS, WAYS
+from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
-from gidabot_sim.demo.progress import Progress
+from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.demo.timing import RunTiming
 from gidabot_sim.errors import DemoError, ProcessError
-from gidabot_sim.runner.building_runner import REPO, SimulatedBuilding
+from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SPEED = 20.0
@@ -57,8 +58,8 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="gidabot demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty", help="building directory")
-    p.add_argument("--tour", type=Path, default=REPO / "tours" / "real_world.tour",
+    p.add_argument("--building", type=Path, default=resource("maps", "faculty"), help="building directory")
+    p.add_argument("--tour", type=Path, default=resource("tours", "real_world.tour"),
                    help="tour file to run (default: tours/real_world.tour, the paper's Table 4)")
     p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
     p.add_argument("--start-floor", type=float, default=None,
@@ -71,7 +72,7 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
-    p.add_argument("--out", type=Path, default=REPO / "runs",
+    p.add_argument("--out", type=Path, default=RUNS,
                    help="output folder; the run goes to OUT/<date>-<time>-<tour>/ (default: runs/)")
     p.add_argument("--gui", action="store_true", help="open every robot's GUI (needs a display)")
     p.add_argument("--timeout", type=float, default=None,
@@ -187,7 +188,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
     seed = run_dir / "seed_tours"
-    shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+    shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
     if tour_name:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
@@ -204,7 +205,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
-    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
+    visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
+    progress = Progress(total_goals=total, visit=visit, robots_total=len(building.robots))
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, seed=args.seed, gui=args.gui,
                             relay_secret=args.secret, seed_tours=seed, addresses=addresses, common_args=launch_args,
                             visitor=visitor)

@@ -10,6 +10,7 @@ from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, WAYS, Node, Topic
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.ros.replay import ReplayPublisher
@@ -132,11 +133,12 @@ class VisitorNode:
 
 
 def main() -> None:
-    rospy.init_node(Node.VISITOR)
+    guard = rospy_exit_guard(Node.VISITOR)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(Node.VISITOR, disable_signals=True)
     keep_registered()
     try:
         VisitorNode()
     except (GidaBotError, KeyError) as err:
         rospy.logfatal("visitor: %s", err)
         raise SystemExit(2) from err
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)
