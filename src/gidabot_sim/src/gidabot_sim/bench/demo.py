@@ -150,9 +150,31 @@ def print_run(run: dict, robots: list[str]) -> None:
         print(f"       degraded: {reason}")
 
 
+def format_markdown(result: dict) -> str:
+    """The runs as one Markdown table (what docs/demo.md shows), and the verdict."""
+    robots = result["robots"]
+    lines = [f"`gidabot bench demo --seed {result['seed']}`, tour {result['tour']} (Table 3: goals processed by "
+             f"{', '.join(robots)})", "",
+             "| speed | tour wall (s) | sim (s) | sim/wall | floors' sim/wall | behind (s, worst floor) | "
+             "lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | CPU ms per sim s |",
+             "|---|---:|---:|---:|---|---:|---:|---|---|---:|---:|"]
+    for run in result["runs"]:
+        floors = run["floors"]
+        factors = " / ".join(f"{floors[r]['achieved_factor']:.0f}" for r in robots if r in floors)
+        behind = max((floors[r]["behind_s"] for r in floors), default=0.0)
+        lines.append(f"| {label(run['speed'])} | {run['wall_s']:.1f} | {run['sim_s']:.0f} | {run['sim_to_wall']:.1f} | "
+                     f"{factors} | {behind:.2f} | {run['lowest_rate_pct']} | {'yes' if run['degraded'] else 'no'} | "
+                     f"{', '.join(str(n) for n in run['table3'])} | {run['table5_max_delta_pct']:.2f} % | "
+                     f"{run['cpu_ms_per_sim_s']} |")
+    lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="gidabot bench demo", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    out_format = ap.add_mutually_exclusive_group()
+    out_format.add_argument("--json", action="store_true", help="print one JSON object")
+    out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
     ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
     ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
@@ -166,18 +188,20 @@ def main(argv: list[str] | None = None) -> int:
     runs: list[dict] = []
     reports: list[dict] = []
     for speed in speeds:
-        if not args.json:
+        if not (args.json or args.markdown):
             print(f"running {args.tour.name} at {label(speed)} ...", flush=True)
         report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log")
         reports.append(report)
         runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None))
-        if not args.json:
+        if not (args.json or args.markdown):
             print_run(runs[-1], robots)
     missed = verdicts(runs)
     result = {"tour": args.tour.name, "seed": args.seed, "robots": robots, "targets": TARGETS, "runs": runs,
               "missed": missed, "pass": not missed, "out": str(out)}
     if args.json:
         print(json.dumps(result))
+    elif args.markdown:
+        print(format_markdown(result))
     else:
         for text in missed:
             print(f"missed: {text}")
