@@ -35,6 +35,7 @@ from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
+from gidabot_sim.demo.governor import SpeedGovernor
 from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.demo.timing import RunTiming
 from gidabot_sim.errors import DemoError, ProcessError
@@ -207,7 +208,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                  else None)
     visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
     progress = Progress(total_goals=total, visit=visit, robots_total=len(building.robots))
-    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, seed=args.seed, gui=args.gui,
+    governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
+    sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
+                            seed=args.seed, gui=args.gui,
                             relay_secret=args.secret, seed_tours=seed, addresses=addresses, common_args=launch_args,
                             visitor=visitor)
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
@@ -215,7 +218,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:
         sim.start(cancelled=lambda: bool(stop))
-        failure = _follow(sim, progress, timing, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
+        failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
+                          tour_cpu if args.cpu else None)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
@@ -237,6 +241,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
         "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
+        "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
@@ -267,9 +272,11 @@ def clocks_line(timing: RunTiming) -> str:
     return f" | sim/wall {factors}, behind {behind:.1f} s, drift {timing.max_drift:.1f} s"
 
 
-def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args: argparse.Namespace,
-            wall_begin: float, out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
-    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
+def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, governor: SpeedGovernor | None,
+            args: argparse.Namespace, wall_begin: float, out: TextIO, stop: Signals,
+            tour_cpu: list[CpuSnapshot] | None = None) -> str:
+    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or "".
+    ``governor`` (``--speed max``): sets every floor's ceiling from the floors' clocks."""
     assert sim.monitor_file is not None
     shown = ""
     deadline = wall_begin + args.timeout
@@ -277,7 +284,11 @@ def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args:
     with open(sim.monitor_file, encoding="utf-8") as feed:
         while not progress.finished and not stop:
             if time.monotonic() >= next_look:
-                timing.look(sim.clocks(), time.time(), bool(progress.goals))
+                clocks, now = sim.clocks(), time.time()
+                timing.look(clocks, now, bool(progress.goals))
+                ceiling = governor.look(clocks, now, bool(progress.goals)) if governor else None
+                if ceiling is not None:
+                    sim.set_ceiling(ceiling)
                 next_look = time.monotonic() + LOOK_PERIOD
             line = feed.readline()
             if line:
@@ -288,7 +299,8 @@ def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args:
                         timing.look(sim.clocks(), time.time(), True)    # the tour's start and end, exactly
                     text = progress.line()
                     if text != shown:
-                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}", file=out,
+                        held = f", ceiling {governor.ceiling:g}x" if governor else ""
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}{held}", file=out,
                               flush=True)
                         shown = text
                 continue
