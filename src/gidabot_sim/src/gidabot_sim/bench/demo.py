@@ -5,7 +5,8 @@ the same ``--seed`` at each of ``--speeds`` (default 10, 20, 50 and max), one af
 per speed: the tour's wall time and achieved factor, each floor's achieved factor and wall time behind
 its ceiling, the controllers' and guiding loops' rates against nominal (the worst of each kind), whether
 the run is degraded, Table 3, the largest Table 5 difference against the first (slowest) run, and the CPU
-per simulated second. ``--json`` prints one object with a ``runs`` list.
+per simulated second. ``--json`` prints one object with a ``runs`` list, ``--markdown`` a table of the runs; both
+are also written to ``<out>/bench.json`` and ``<out>/bench.md``.
 
 Targets (exit status 1 when one is missed): every run completes the tour, is not degraded, has the first
 run's Table 3 and its Table 5 times and distances within 3 %; the 50x run takes at most 30 s of tour wall
@@ -198,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
     missed = verdicts(runs)
     result = {"tour": args.tour.name, "seed": args.seed, "robots": robots, "targets": TARGETS, "runs": runs,
               "missed": missed, "pass": not missed, "out": str(out)}
+    (out / "bench.json").write_text(json.dumps(result, indent=2), encoding="utf-8")    # whatever is printed
+    (out / "bench.md").write_text(format_markdown(result) + "\n", encoding="utf-8")
     if args.json:
         print(json.dumps(result))
     elif args.markdown:
