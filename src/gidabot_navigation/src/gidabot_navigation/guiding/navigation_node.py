@@ -241,7 +241,10 @@ class NavigationNode:
             return
         state = gh.get_terminal_state()
         text = gh.get_goal_status_text() or f"goal status {STATE_NAMES.get(state, state)}"
-        self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
+        # when move_base ended the goal: its result's stamp (actionlib keeps the last result message)
+        result = getattr(getattr(gh, "comm_state_machine", None), "latest_result", None)
+        done = result.header.stamp.to_sec() if result is not None else 0.0
+        self._enqueue((token, sends, STATES.get(state, ABORTED), text, done if done > 0 else None), "result")
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
@@ -291,13 +294,13 @@ class NavigationNode:
             goal_uid, key = msg
             return core.on_continue(goal_uid, now_ros, now_wall, key=key)
         if kind == "result":
-            token, sends, status, text = msg
+            token, sends, status, text, done_ros = msg
             if self._handles.get(token, (None, -1))[1] != sends:
                 return []                   # a goal sent again, or stopped: its result is not the leg's
             del self._handles[token]
             if self._active is not None and self._active[0] == token:
                 self._active = None
-            return core.on_move_base_result(token, status, text, now_ros, now_wall)
+            return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
             core.on_status(msg, now_wall)
         elif kind == "catalog":
