@@ -87,10 +87,14 @@ class VisitorNode:
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
     def _on_event(self, msg: NavEvent) -> None:
+        # the visitor sees what a robot does when it happens (the event's stamp), not when its message got here:
+        # the messages' wall latency would otherwise add sim time, the more the faster the run (never later than
+        # now: another floor's clock may be a little ahead)
+        now, happened = rospy.get_time(), msg.header.stamp.to_sec()
+        seen = min(happened, now) if happened > 0 else now
         with self._lock:
-            self.core.on_event(rospy.get_time(), msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor,
-                               msg.target_floor, msg.tour_step, tour_file=msg.tour_file,
-                               location_id=msg.location_id)
+            self.core.on_event(seen, msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor, msg.target_floor,
+                               msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
         with self._lock:
