@@ -22,7 +22,7 @@ from pathlib import Path
 
 from probe import Probe, ProbeError
 
-from gidabot_navigation.building.model import Building
+from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.interface import Topic
 from gidabot_sim.runner.building_runner import SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address, wait_until
@@ -43,7 +43,7 @@ TYPES = {EVENTS: "gidabot_msgs/NavEvent", GOALS: "gidabot_msgs/Goal", CANCELS: "
 # gidabot_msgs/NavEvent phases
 (ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE, NO_ROBOT_ON_FLOOR,
  CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE, TOUR_FINISHED,
- PARTNER_LOST, PARTNER_BACK) = range(17)
+ PARTNER_LOST, PARTNER_BACK, DECLINED, ASSIGNED) = range(19)
 FAILURES = {UNREACHABLE, NO_ROBOT_ON_FLOOR, TIMEOUT, PARTNER_OFFLINE, REJECTED}
 # gidabot_msgs/VisitorCommand commands
 REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = range(5)
@@ -113,7 +113,7 @@ def dist(a: tuple[float, float], b: tuple[float, float]) -> float:
 
 
 class SimStack:
-    """The simulated building of the faculty (4 robots) for system tests; see the module docstring.
+    """The simulated building (default: the faculty, 4 robots) for system tests; see the module docstring.
 
     ``record`` maps a robot to the topics its recorder subscribes (default :data:`DEFAULT_TOPICS`).
     """
@@ -122,13 +122,14 @@ class SimStack:
 
     def __init__(self, tmp: Path, speed: float = 20.0, robot_args: dict[str, dict[str, str]] | None = None,
                  common_args: dict[str, str] | None = None, record: dict[str, tuple[str, ...]] | None = None,
-                 start_delay: float = 6.0) -> None:
+                 start_delay: float = 6.0, building: Path = FACULTY) -> None:
         self.tmp = tmp
         self.speed = speed
+        self.robots = tuple(r.name for r in load_building(building).robots)
         args = {"status_rate": f"{min(2.0, 2.0 / speed):.4g}", "pose_rate": f"{min(5.0, 5.0 / speed):.4g}"}
         args.update(common_args or {})
-        self.sim = SimulatedBuilding(FACULTY, tmp / "run", speed=speed, gui=False, record=False,
-                                     addresses=[robot_address(i) for i in range(len(ROBOTS))],
+        self.sim = SimulatedBuilding(building, tmp / "run", speed=speed, gui=False, record=False,
+                                     addresses=[robot_address(i) for i in range(len(self.robots))],
                                      robot_args=robot_args or {}, common_args=args, start_delay=start_delay)
         self.topics = record or {}
         self.rec: dict[str, Recorder] = {}
@@ -138,7 +139,7 @@ class SimStack:
     def __enter__(self) -> SimStack:
         try:
             self.sim.start()
-            for r in ROBOTS:
+            for r in self.robots:
                 rec = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log")
                 self.rec[r] = rec
                 for topic in self.topics.get(r, self.DEFAULT_TOPICS):
@@ -170,13 +171,13 @@ class SimStack:
         for r, rec in self.rec.items():
             if PENDING in rec.cache:
                 left = deadline - time.monotonic()
-                wait_until(lambda rec=rec: {m["robot"] for m in rec.msgs(PENDING)} >= set(ROBOTS), max(left, 1.0),
+                wait_until(lambda rec=rec: {m["robot"] for m in rec.msgs(PENDING)} >= set(self.robots), max(left, 1.0),
                            f"every robot's pending list on {r}'s master", interval=0.2)
-        for r in ROBOTS:   # statuses: one short-lived probe per master (2 Hz wall per robot)
+        for r in self.robots:   # statuses: one short-lived probe per master (2 Hz wall per robot)
             with Probe(self.sim.env(r), self.tmp / f"probe_status_{r}.log") as p:
                 p.sub(STATUS, TYPES[STATUS])
                 left = deadline - time.monotonic()
-                wait_until(lambda p=p: {m["robot"] for m in p.msgs(STATUS)} >= set(ROBOTS), max(left, 1.0),
+                wait_until(lambda p=p: {m["robot"] for m in p.msgs(STATUS)} >= set(self.robots), max(left, 1.0),
                            f"every robot's status on {r}'s master", interval=0.2)
         for r, rec in self.rec.items():
             if AMCL in rec.cache:

@@ -28,7 +28,8 @@ EVENT, GOAL, CANCEL, CMD = ("gidabot_msgs/NavEvent", "gidabot_msgs/Goal", "gidab
                             "gidabot_msgs/VisitorCommand")
 STATUS, PENDING = "gidabot_msgs/RobotStatus", "gidabot_msgs/PendingRequests"
 (ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE, CANCELLED_HERE,
- CANCELLED_ELSEWHERE, TIMEOUT, REJECTED) = 0, 1, 2, 3, 4, 5, 6, 8, 9, 10, 12
+ CANCELLED_ELSEWHERE, TIMEOUT, REJECTED, ASSIGNED) = 0, 1, 2, 3, 4, 5, 6, 8, 9, 10, 12, 18
+LEG_PROPOSED, LEG_COMMITTED = 1, 2
 REQUEST, CONTINUE, CANCEL_CMD = 0, 1, 2
 BLOCKED = "012"                   # the fake move_base cannot reach this room
 
@@ -58,6 +59,16 @@ class Robot:
         return self.probe.wait(Topic.NAV_EVENTS, lambda m: m["phase"] == phase and m["robot"] == robot and
                                (goal_uid is None or m["goal_uid"] == goal_uid), timeout,
                                f"phase {phase} for {goal_uid}", since=since)
+
+    def accept(self, goal_uid: str, robot: str, floor: float) -> None:
+        """``robot`` (played by the probe) takes the goal leg Tartalo proposes to it (docs/guiding.md)."""
+        self.n += 1
+        goal = self.probe.wait(Topic.GOALS, lambda m: m["uid"] == goal_uid and m["goal_robot"] == robot
+                               and m["goal_state"] == LEG_PROPOSED, 10, f"the goal leg proposed to {robot}")
+        self.probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": f"{robot}/event/t.{self.n}", "robot": robot,
+                                                 "floor": floor, "goal_uid": goal_uid, "phase": ACCEPTED,
+                                                 "leg": "goal", "attempt": goal["attempt"], "tour_step": -1},
+                       subs=3)
 
     def idle(self, timeout: float = 20.0) -> dict:
         return self.probe.wait(Topic.STATUS, lambda m: m["state"] == "idle" and m["pending"] == 0, timeout,
@@ -105,7 +116,10 @@ def test_same_floor_request_is_guided_to_the_goal(robot: Robot) -> None:
     assert pend["eta"][0] > 0 and pend["wait_new"] == pend["eta"][0]
     robot.probe.wait(Topic.STATUS, lambda m: m["current_goal_uid"] == uid and m["state"] == "guiding", 10)
     robot.wait_phase(GOAL_REACHED, uid)
-    assert [e["phase"] for e in robot.events(uid)] == [ACCEPTED, ON_THE_WAY, GOAL_REACHED]
+    # (ASSIGNED comes from the goal_manager, ON_THE_WAY from the navigation: either may arrive first)
+    assert [e["phase"] for e in robot.events(uid) if e["phase"] != ASSIGNED] == [ACCEPTED, ON_THE_WAY, GOAL_REACHED]
+    [assigned] = [e for e in robot.events(uid) if e["phase"] == ASSIGNED]
+    assert (assigned["assignee"], assigned["leg"]) == ("Tartalo", "start")
     robot.idle()
     robot.probe.wait(Topic.POSES, lambda m: m["robot"] == "Tartalo" and m["floor"] == 0.0
                      and abs(m["nav_pose"]["position"]["x"] - 9.0) < 0.01, 5, "the pose at the goal")
@@ -118,10 +132,14 @@ def test_cross_floor_request_from_the_start_robot(robot: Robot) -> None:
     uid = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
     goal = robot.probe.wait(Topic.GOALS, lambda m: m["uid"] == uid, 5)
     assert goal["connector"] == "stairs_west" and goal["way"] == "stairs" and goal["goal_floor"] == 3.0
+    robot.accept(uid, "MariSorgin", 3.0)
+    robot.probe.wait(Topic.GOALS, lambda m: m["uid"] == uid and m["goal_state"] == LEG_COMMITTED, 10,
+                     "the goal leg committed to MariSorgin")
     otw = robot.wait_phase(ON_THE_WAY, uid)
     assert otw["location_id"] == "stairs_west"
     ev = robot.wait_phase(GO_TO_FLOOR, uid)
     assert (ev["target_floor"], ev["way"], ev["connector"], ev["location_id"]) == (3.0, "stairs", "stairs_west", "301")
+    assert ev["assignee"] == "MariSorgin"
     robot.idle()
 
 
@@ -135,7 +153,8 @@ def test_goal_floor_meets_the_visitor_and_times_out(robot: Robot) -> None:
                 "initial_pose": {"x": 30.0, "y": 12.0}, "goal_floor": 0.0,
                 "goal_pose": {"position": {"x": loc.x, "y": loc.y}, "orientation": {"w": 1.0}}, "way": "stairs",
                 "connector": "stairs_west", "start_id": "robot", "goal_id": "005", "language": "eu",
-                "tour_file": "", "tour_step": -1}
+                "tour_file": "", "tour_step": -1, "start_robot": "MariSorgin", "start_state": LEG_COMMITTED,
+                "goal_robot": "Tartalo", "goal_state": LEG_COMMITTED, "attempt": 2}
 
     n = len(robot.events())
     robot.probe.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.1"), subs=2)
@@ -185,6 +204,7 @@ def test_aborted_navigation_is_unreachable_and_broadcast(robot: Robot) -> None:
     n = len(robot.events())
     robot.command(REQUEST, goal_id="223", way="lift")
     uid2 = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
+    robot.accept(uid2, "Galtxagorri", 2.0)
     robot.probe.pub(Topic.CANCELS, CANCEL, {"uid": "Galtxagorri/cancel/t.1", "goal_uid": uid2,
                                             "origin_robot": "Galtxagorri", "reason": "visitor"}, subs=3)
     robot.wait_phase(CANCELLED_ELSEWHERE, uid2)

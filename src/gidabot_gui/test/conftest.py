@@ -35,6 +35,22 @@ def faculty():
 
 
 @pytest.fixture(scope="session")
+def faculty6():
+    """The faculty with two robots on floors 1 and 2 (maps/faculty6)."""
+    from gidabot_navigation.building.model import load_building
+
+    return load_building(REPO / "maps" / "faculty6")
+
+
+@pytest.fixture(scope="session")
+def faculty3():
+    """The faculty without a robot on floor 2 (maps/faculty3)."""
+    from gidabot_navigation.building.model import load_building
+
+    return load_building(REPO / "maps" / "faculty3")
+
+
+@pytest.fixture(scope="session")
 def locale_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The catalogs compiled from the committed .po files (never a stale .mo)."""
     out = tmp_path_factory.mktemp("locale")

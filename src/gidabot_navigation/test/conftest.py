@@ -9,6 +9,8 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[3]
 FACULTY = REPO / "maps" / "faculty"
+FACULTY6 = REPO / "maps" / "faculty6"       # two robots on floors 1 and 2
+FACULTY3 = REPO / "maps" / "faculty3"       # no robot on floor 2
 TOURS = REPO / "tours"
 
 
@@ -17,6 +19,20 @@ def faculty():
     from gidabot_navigation.building.model import load_building
 
     return load_building(FACULTY)
+
+
+@pytest.fixture(scope="session")
+def faculty6():
+    from gidabot_navigation.building.model import load_building
+
+    return load_building(FACULTY6)
+
+
+@pytest.fixture(scope="session")
+def faculty3():
+    from gidabot_navigation.building.model import load_building
+
+    return load_building(FACULTY3)
 
 
 @pytest.fixture

@@ -1,9 +1,13 @@
 """Test helpers for the guiding cores: a ROS-free building of goal managers and navigations.
 
 :class:`Bus` plays the relays and the local topics: every action of a core is queued
-and delivered (in order) to every robot's cores, as the shared topics would;
-:meth:`Bus.pump` delivers until nothing is left. move_base is replaced by a script:
-``MoveTo`` succeeds (the robot jumps to the target) unless the test says otherwise.
+and delivered (in order) to every robot's cores, as the shared topics would, and every
+goal manager's pending list to the others; :meth:`Bus.pump` delivers until nothing is
+left. A robot in :attr:`Bus.down` is partitioned: what it sends and what is sent to it
+is held (the relays queue it) until :meth:`Bus.link_up`. :attr:`Bus.tap` sees every
+message between two robots and may drop, duplicate or keep it (delivered later by
+:meth:`Bus.release`, in any order). move_base is replaced by a script: ``MoveTo``
+succeeds (the robot jumps to the target) unless the test says otherwise.
 """
 
 from __future__ import annotations
@@ -28,8 +32,18 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.tour_mode import CatalogEntry
-from gidabot_navigation.interface import CANCEL, CONTINUE, REQUEST, SKIP, START_TOUR
+from gidabot_navigation.guiding.trips import TripPlanner
+from gidabot_navigation.interface import ASSIGNED, CANCEL, CONTINUE, REQUEST, SKIP, START_TOUR
 from gidabot_navigation.tours.tour_file import parse_tour
+
+_PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
+
+
+def shared_planner(building: Building) -> TripPlanner:
+    """One planner (and its cache of path lengths) per building for every test: planning is the slow part."""
+    if id(building) not in _PLANNERS:
+        _PLANNERS[id(building)] = (building, TripPlanner(building))
+    return _PLANNERS[id(building)][1]
 
 
 class ListLog:
@@ -82,7 +96,8 @@ class Bus:
         self.robots: dict[str, RobotCores] = {}
         names = robots or [r.name for r in building.robots]
         for name in names:
-            gm = GoalManagerCore(building, GoalManagerConfig(robot=name), self.log, self.now_wall, boot="t")
+            gm = GoalManagerCore(building, GoalManagerConfig(robot=name), self.log, self.now_wall, boot="t",
+                                 planner=shared_planner(building))
             nav = None
             if navigation:
                 nav = NavigationCore(building, NavigationConfig(robot=name, continue_timeout=continue_timeout,
@@ -102,17 +117,33 @@ class Bus:
         self.queue: deque[Callable[[], None]] = deque()
         self.deferred: deque[Callable[[], None]] = deque()
         self.on_event: Callable[[NavEventData], None] | None = None
-        self.down: set[str] = set()          # robots whose deliveries are held back (link down)
-        self.held: list[tuple[str, Callable[[], None]]] = []
+        self.down: set[str] = set()          # partitioned robots: deliveries to and from them are held back
+        self.held: list[tuple[str, str, Callable[[], None]]] = []
+        # (sender, receiver, action) -> "pass", "drop" (lost), "dup" (delivered twice) or "keep" (see release)
+        self.tap: Callable[[str, str, object], str] | None = None
+        self.kept: list[tuple[str, object, Callable[[], None]]] = []
         for r in self.robots.values():
             self._sync_pending(r)
 
     # -- delivery -------------------------------------------------------------------
-    def _to(self, robot: str, fn: Callable[[], None]) -> None:
-        if robot in self.down:
-            self.held.append((robot, fn))
-        else:
-            self.queue.append(fn)
+    def _to(self, robot: str, fn: Callable[[], None], sender: str = "", what: object = None) -> None:
+        remote = bool(sender) and robot != sender
+        verdict = self.tap(sender, robot, what) if remote and self.tap is not None else "pass"
+        if verdict == "drop":
+            return
+        if verdict == "keep":
+            self.kept.append((robot, what, fn))
+            return
+        for _ in range(2 if verdict == "dup" else 1):
+            if remote and (robot in self.down or sender in self.down):
+                self.held.append((robot, sender, fn))
+            else:
+                self.queue.append(fn)
+
+    def release(self, index: int = 0) -> None:
+        """Deliver the message :attr:`tap` kept at ``index`` now (then :meth:`pump`)."""
+        _, _, fn = self.kept.pop(index)
+        self.queue.append(fn)
 
     def dispatch(self, sender: str, actions: list) -> None:
         for act in actions:
@@ -120,19 +151,20 @@ class Bus:
                 self.goals.append(act.trip)
                 for name, r in self.robots.items():
                     self._to(name, lambda r=r, t=act.trip: self.run(r.name, r.gm.on_goal(t, self.now_ros,
-                                                                                          self.now_wall)))
+                                                                                          self.now_wall)),
+                             sender, act)
             elif isinstance(act, SendCancel):
                 self.cancels.append(act.cancel)
                 for name, r in self.robots.items():
                     relay = name != sender
-                    self._to(name, lambda r=r, c=act.cancel, relay=relay: self._cancel(r, c, relay))
+                    self._to(name, lambda r=r, c=act.cancel, relay=relay: self._cancel(r, c, relay), sender, act)
             elif isinstance(act, SendEvent):
                 self.events.append(act.event)
                 if self.on_event is not None:
                     self.on_event(act.event)
                 for name, r in self.robots.items():
                     relay = name != sender
-                    self._to(name, lambda r=r, e=act.event, relay=relay: self._event(r, e, relay))
+                    self._to(name, lambda r=r, e=act.event, relay=relay: self._event(r, e, relay), sender, act)
             elif isinstance(act, MoveTo):
                 r = self.robots[sender]
                 r.moves.append(act)
@@ -157,12 +189,17 @@ class Bus:
             self.run(r.name, r.nav.on_nav_event(e, self.now_ros, self.now_wall, from_relay=relay))
 
     def _sync_pending(self, r: RobotCores) -> None:
-        if r.nav is None or r.gm.version == r.pending_version:
+        if r.gm.version == r.pending_version:
             return
         r.pending_version = r.gm.version
         snap = r.gm.pending(self.now_ros)
-        self.queue.append(lambda r=r, s=snap: self.run(r.name, r.nav.on_pending(s.goals, s.wait_new, self.now_ros,
-                                                                                  self.now_wall)))
+        if r.nav is not None:
+            self.queue.append(lambda r=r, s=snap: self.run(r.name, r.nav.on_pending(s.goals, s.wait_new,
+                                                                                      self.now_ros, self.now_wall)))
+        for other in self.robots.values():
+            if other.name != r.name:
+                self._to(other.name, lambda o=other, s=snap: o.gm.on_pending(s.robot, s.goals, s.wait_new,
+                                                                            self.now_wall), r.name, snap)
 
     def run(self, robot: str, actions: list) -> None:
         self.dispatch(robot, actions)
@@ -183,9 +220,11 @@ class Bus:
         self.deferred.append(fn)
 
     def link_up(self, robot: str) -> None:
+        """The partition of ``robot`` heals: what was held for it and from it is delivered, in order."""
         self.down.discard(robot)
-        held, self.held = [f for n, f in self.held if n == robot], [(n, f) for n, f in self.held if n != robot]
-        self.queue.extend(held)
+        free = [(n, s, f) for n, s, f in self.held if n not in self.down and s not in self.down]
+        self.held = [h for h in self.held if h not in free]
+        self.queue.extend(f for _, _, f in free)
 
     # -- the outside world ----------------------------------------------------------
     def finish_move(self, robot: str, status: str = SUCCEEDED, token: int | None = None, text: str = "") -> None:
@@ -234,6 +273,15 @@ class Bus:
                 if r.nav:
                     r.nav.on_status(name, self.now_wall)
 
+    def heartbeat(self) -> None:
+        """Every robot hears the status of every robot it is not partitioned from, now (wall time)."""
+        for r in self.robots.values():
+            for name in self.robots:
+                if name == r.name or (name not in self.down and r.name not in self.down):
+                    r.gm.on_status(name, self.now_wall)
+                    if r.nav:
+                        r.nav.on_status(name, self.now_wall)
+
     def tick(self, ros_dt: float = 0.0, wall_dt: float = 0.0) -> None:
         self.now_ros += ros_dt
         self.now_wall += wall_dt
@@ -244,9 +292,11 @@ class Bus:
         self.pump()
 
     # -- queries --------------------------------------------------------------------
-    def phases(self, robot: str | None = None, goal_uid: str | None = None) -> list[int]:
+    def phases(self, robot: str | None = None, goal_uid: str | None = None, assigned: bool = False) -> list[int]:
+        """The phases sent (by ``robot``, about ``goal_uid``); the requester's ASSIGNED only if ``assigned``."""
         return [e.phase for e in self.events
-                if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)]
+                if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)
+                and (assigned or e.phase != ASSIGNED)]
 
     def last(self, robot: str, phase: int) -> NavEventData:
         return [e for e in self.events if e.robot == robot and e.phase == phase][-1]

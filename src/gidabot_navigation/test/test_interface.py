@@ -43,6 +43,7 @@ def test_constants_match_the_messages() -> None:
     assert set(interface.ROBOT_STATES) == set(constants("RobotStatus.msg").values())
     goal = constants("Goal.msg")
     assert (goal["WAY_LIFT"], goal["WAY_STAIRS"]) == (interface.WAY_LIFT, interface.WAY_STAIRS)
+    assert [int(goal[k]) for k in ("LEG_NONE", "LEG_PROPOSED", "LEG_COMMITTED")] == list(interface.LEG_STATES)
 
 
 def test_the_relays_whitelist_of_the_package_lists_exactly_the_shared_topics() -> None:

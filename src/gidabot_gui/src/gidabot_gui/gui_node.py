@@ -47,6 +47,7 @@ from gidabot_msgs.msg import (
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import TourError, TourNameError
+from gidabot_navigation.guiding.guiding_node import trip_from_msg
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
@@ -79,7 +80,7 @@ def pose_from_msg(m: NavPose) -> PoseData:
 
 def pending_from_msg(m: PendingRequests) -> PendingData:
     return PendingData(clip(m.robot, 64), float(m.floor), int(m.num), float(m.wait_new),
-                       tuple(clip(g.uid) for g in m.goals[:256]))
+                       tuple(trip_from_msg(g) for g in m.goals[:256]))
 
 
 def event_from_msg(m: NavEvent) -> NavEventData:
@@ -87,7 +88,8 @@ def event_from_msg(m: NavEvent) -> NavEventData:
                         phase=int(m.phase), language=clip(m.language, 8), way=clip(m.way, 16),
                         connector=clip(m.connector, 64), target_floor=float(m.target_floor),
                         location_id=clip(m.location_id, 64), tour_file=clip(m.tour_file, 64),
-                        tour_step=int(m.tour_step))
+                        tour_step=int(m.tour_step), leg=clip(m.leg, 8), attempt=int(m.attempt),
+                        assignee=clip(m.assignee, 64), eta=float(m.eta))
 
 
 def tour_from_msg(t: Tour) -> TourInfo | None:

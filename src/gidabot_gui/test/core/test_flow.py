@@ -168,3 +168,54 @@ def test_start_again_while_a_tour_waits_at_a_stop(faculty, ev, tour) -> None:
     assert not flow.can_start_tour()
     with pytest.raises(GuiError):
         flow.start_tour(tour, "stairs", "en", 3.0)
+
+
+def test_another_robot_of_the_floor_comes_for_the_visitor(faculty6, ev) -> None:
+    """faculty6: Kbot is busy; Basajaun is assigned the start leg of a trip asked at Kbot's screen. The visitor
+    is told who comes, waits here (and may cancel), and the trip leaves this screen when Basajaun guides."""
+    flow = VisitorFlow(faculty6, "Kbot", VID)
+    flow.request("101", "", "en", 0.0)
+    uid = f"Kbot/{VID}/7"
+    assert flow.on_event(ev(Phase.DECLINED, "Kbot/event/1", uid, leg="start"), 0.5) is None
+    n = flow.on_event(ev(Phase.ASSIGNED, "Kbot/event/2", uid, leg="start", assignee="Basajaun", eta=40.0), 1.0)
+    assert n.kind == "ASSIGNED" and n.modal and "cancel" in n.actions and n.event.assignee == "Basajaun"
+    assert flow.current.activity is Activity.HANDED and flow.can_cancel and flow.busy
+    # Basajaun's other events are not this screen's; its pick-up leaves the visitor waiting here
+    assert flow.on_event(ev(Phase.GOING_TO_MEETING, "Basajaun/event/1", uid, robot="Basajaun"), 2.0) is None
+    assert flow.current is not None
+    assert flow.on_event(ev(Phase.ON_THE_WAY, "Basajaun/event/2", uid, robot="Basajaun"), 30.0) is None
+    assert flow.current is None and not flow.busy                     # gone with Basajaun
+
+
+def test_a_helper_that_gives_up_is_told_to_the_waiting_visitor(faculty6, ev) -> None:
+    flow = VisitorFlow(faculty6, "Kbot", VID)
+    flow.request("101", "", "en", 0.0)
+    uid = f"Kbot/{VID}/7"
+    flow.on_event(ev(Phase.ASSIGNED, "Kbot/event/2", uid, leg="start", assignee="Basajaun", eta=40.0), 1.0)
+    n = flow.on_event(ev(Phase.UNREACHABLE, "Basajaun/event/9", uid, robot="Basajaun"), 5.0)
+    assert n.kind == "UNREACHABLE" and n.modal and n.final and flow.current is None
+    # another robot's assignment of a leg served here, or of the goal leg: nothing to tell
+    flow.request("223", "stairs", "en", 10.0)
+    uid2 = f"Kbot/{VID}/8"
+    flow.on_event(ev(Phase.ACCEPTED, "Kbot/event/3", uid2, leg="start"), 10.5)
+    assert flow.on_event(ev(Phase.ASSIGNED, "Kbot/event/4", uid2, leg="start", assignee="Kbot"), 11.0) is None
+    assert flow.on_event(ev(Phase.ASSIGNED, "Kbot/event/5", uid2, leg="goal", assignee="Lamia"), 11.0) is None
+    assert flow.current.activity is Activity.QUEUED
+
+
+def test_a_stop_on_a_floor_without_robot_is_told_again_with_the_robot_that_waits_next(faculty3, ev, tour) -> None:
+    flow = VisitorFlow(faculty3, "Kbot", VID)
+    uid = "Tartalo/v/3"
+    flow.on_event(ev(Phase.TOUR_STEP_DONE, "Kbot/event/1", uid, tour_file=tour.file_name, tour_step=2,
+                     location_id="101"), 0.0)
+    flow.continue_("en", 1.0)
+    step3 = f"Kbot/{VID}/5"
+    flow.on_event(ev(Phase.ON_THE_WAY, "Kbot/event/2", step3, tour_file=tour.file_name, tour_step=3,
+                     location_id="stairs_west"), 2.0)
+    alone = flow.on_event(ev(Phase.NO_ROBOT_ON_FLOOR, "Kbot/event/3", step3, tour_file=tour.file_name,
+                             tour_step=3, location_id="223", target_floor=2.0), 3.0)
+    assert alone.kind == "NO_ROBOT_ON_FLOOR" and alone.final and alone.event.assignee == ""
+    again = flow.on_event(ev(Phase.ASSIGNED, "Kbot/event/4", f"Kbot/{VID}/6", leg="goal", assignee="MariSorgin",
+                             tour_file=tour.file_name, tour_step=4), 3.1)
+    assert again.kind == "NO_ROBOT_ON_FLOOR" and again.event.assignee == "MariSorgin" and again.tour_step == 3
+    assert flow.current is None

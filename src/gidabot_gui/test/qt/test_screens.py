@@ -31,14 +31,17 @@ TOURS = [
 ]
 
 
-def populate(gui, faculty, offline: str = "MariSorgin") -> None:
+# (x, y, yaw, linear, angular, battery, state, pending, wait) of each robot
+LIVELY = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 2, 210.0),
+          "Kbot": (27.5, 12.0, 0.0, 0.0, 0.0, 0.93, "idle", 0, 0.0),
+          "Galtxagorri": (35.5, 12.4, 1.57, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
+          "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
+
+
+def populate(gui, faculty, offline: str = "MariSorgin", where: dict = LIVELY) -> None:
     """A lively building: robots here and there, some busy, one gone offline."""
     w = gui.window
     w.feed("catalog", TOURS)
-    where = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 2, 210.0),
-             "Kbot": (27.5, 12.0, 0.0, 0.0, 0.0, 0.93, "idle", 0, 0.0),
-             "Galtxagorri": (35.5, 12.4, 1.57, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
-             "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
     for r in faculty.robots:
         x, y, yaw, v, om, bat, state, n, wait = where[r.name]
         w.feed("status", RobotStatusData(r.name, r.floor, x, y, yaw, v, om, bat, state, n, "", wait))
@@ -217,4 +220,86 @@ def test_admin_screens(make_gui, faculty, text_problems) -> None:
         gui.process()
         problems[f"search-{language}"] = text_problems(w)
         gui.shot(f"offices-search-{language}") if language == "en" else None
+    assert not any(problems.values()), problems
+
+
+# ------------------------------------------------------------ several robots per floor, floors without robot
+
+# maps/faculty6: two robots on floors 1 and 2; Kbot busy guiding, Basajaun free, Lamia waiting
+SIX = {"Tartalo": (44.0, 12.0, 3.1, 0.42, 0.05, 0.64, "guiding", 1, 120.0),
+       "Kbot": (20.0, 12.0, 3.1, 0.5, 0.0, 0.93, "guiding", 1, 240.0),
+       "Basajaun": (54.0, 12.0, 3.14, 0.0, 0.0, 0.81, "idle", 0, 0.0),
+       "Galtxagorri": (30.0, 12.0, 0.0, 0.0, 0.0, 0.55, "idle", 0, 0.0),
+       "Lamia": (67.0, 12.0, 0.0, 0.0, 0.0, 0.18, "waiting", 1, 95.0),
+       "MariSorgin": (15.0, 12.0, 0.0, 0.0, 0.0, 0.71, "idle", 0, 0.0)}
+
+
+@pytest.mark.parametrize("language", LANGS)
+def test_two_robots_per_floor(make_gui, faculty6, text_problems, language) -> None:
+    """Both robots of a floor on its tab, every robot on the Information tab, and the confirmation with the
+    robot (and wait) of each leg: Basajaun comes to Kbot's visitor, Lamia meets them on floor 2."""
+    gui = make_gui("Kbot", language=language, building=faculty6)
+    populate(gui, faculty6, offline="", where=SIX)
+    w = gui.window
+    problems = {}
+    for page in ("floor:1", "floor:2", "info"):
+        w.show_page(page)
+        gui.process()
+        problems[page] = text_problems(w)
+        gui.shot(f"faculty6-{page.replace(':', '')}-{language}")
+    marks = {m.name for m in w.floor_pages[1.0].view.robots}
+    assert marks == {"Kbot", "Basajaun"} and {m.name for m in w.floor_pages[2.0].view.robots} == {"Galtxagorri",
+                                                                                                  "Lamia"}
+    assert set(w.info_page.cards) == {r.name for r in faculty6.robots}
+    w.visitor.pick_destination("231")                  # the east end of floor 2
+    gui.process()
+    problems["confirm"] = text_problems(w)
+    body = w.overlay.body.text()
+    assert "Basajaun" in body and "Lamia" in body and "Kbot" not in body, body
+    gui.shot(f"faculty6-confirm-{language}")
+    gui.press("go")
+    gui.press("stairs")
+    nav_event(gui, Phase.ASSIGNED, "Kbot/gui-test/1", leg="start", assignee="Basajaun", eta=70.0)
+    assert w.overlay.name == "event:ASSIGNED" and "Basajaun" in w.overlay.body.text()
+    problems["assigned"] = text_problems(w)
+    gui.shot(f"faculty6-popup-assigned-{language}")
+    assert not any(problems.values()), problems
+
+
+@pytest.mark.parametrize("language", LANGS)
+def test_a_tour_through_a_floor_without_robot(make_gui, faculty3, text_problems, language) -> None:
+    """maps/faculty3: Kbot sends the visitor of Table 4 to 223 and 274 on floor 2 (no robot), then on to floor 3,
+    where MariSorgin waits; a tour ending on floor 2 ends there with a goodbye."""
+    gui = make_gui("Kbot", language=language, building=faculty3)
+    w = gui.window
+    w.feed("catalog", TOURS)
+    for r in faculty3.robots:
+        w.feed("status", RobotStatusData(r.name, r.floor, 30.0, 12.0, 0.0, 0.0, 0.0, 0.9, "idle", 0, "", 0.0))
+    w.tick()
+    gui.process()
+    uid = "Kbot/gui-test/4"
+    nav_event(gui, Phase.TOUR_STEP_DONE, "Kbot/gui-test/3", tour_file="real_world.tour", tour_step=3,
+              location_id="104")
+    gui.press("continue")
+    nav_event(gui, Phase.ON_THE_WAY, uid, tour_file="real_world.tour", tour_step=4, location_id="stairs_west",
+              connector="stairs_west", way="stairs", target_floor=2.0)
+    nav_event(gui, Phase.NO_ROBOT_ON_FLOOR, uid, tour_file="real_world.tour", tour_step=4, location_id="223",
+              connector="stairs_west", way="stairs", target_floor=2.0)
+    nav_event(gui, Phase.ASSIGNED, "Kbot/gui-test/5", leg="goal", assignee="MariSorgin",
+              tour_file="real_world.tour", tour_step=6)
+    assert w.overlay.name == "event:NO_ROBOT_ON_FLOOR"
+    body = w.overlay.body.text()
+    assert "(223)" in body and "(274)" in body and "MariSorgin" in body, body
+    problems = {"no_robot": text_problems(w)}
+    gui.shot(f"faculty3-popup-no-robot-tour-{language}")
+    end = make_gui("Kbot", language=language, building=faculty3)
+    end.window.feed("catalog", [TourInfo("ends.tour", "Ends upstairs", "en",
+                                         ((1, "101", "Secretary's Office"), (2, "223", "M. Larrea's Office"),
+                                          (2, "274", "K. Sarasola's Office")))])
+    end.process()
+    nav_event(end, Phase.TOUR_FINISHED, "Kbot/gui-test/9", tour_file="ends.tour", tour_step=1, location_id="223",
+              connector="lift", way="lift", target_floor=2.0)
+    assert end.window.overlay.name == "event:TOUR_FINISHED" and "(274)" in end.window.overlay.body.text()
+    problems["tour_ends_there"] = text_problems(end.window)
+    end.shot(f"faculty3-popup-tour-ends-there-{language}")
     assert not any(problems.values()), problems

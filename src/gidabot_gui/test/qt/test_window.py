@@ -43,7 +43,8 @@ def test_destination_on_another_floor_by_the_stairs_then_cancel(make_gui, facult
     assert w.overlay.name == "confirm"
     body = w.overlay.body.text()
     assert "Kbot (this robot): 1 request before yours, about 3 minutes" in body
-    assert "Tartalo: 1 request before yours, about 3 minutes" in body
+    # Tartalo's wait, plus its drive to the staircase's meeting point: the robot that meets the visitor there
+    assert "Tartalo meets you there: about 4 minutes" in body
     assert w.overlay.title.text() == "Main Entrance (000)"
     assert not gui.out.commands                                    # nothing sent before confirming
     gui.press("go")

@@ -166,11 +166,13 @@ class Phase(IntEnum):
     TOUR_FINISHED = 14
     PARTNER_LOST = 15
     PARTNER_BACK = 16
+    DECLINED = 17
+    ASSIGNED = 18
 
 
 (ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
  NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
- TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
+ TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK, DECLINED, ASSIGNED) = (int(p) for p in Phase)
 
 PHASE_NAMES = {
     ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
@@ -178,14 +180,17 @@ PHASE_NAMES = {
     UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
     CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
     REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
-    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back",
+    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back", DECLINED: "declined", ASSIGNED: "assigned",
 }
 # phases after which the emitting robot is done with the trip (it left its queue)
 FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
                           CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
-                          TOUR_FINISHED})
+                          TOUR_FINISHED, DECLINED})
 # phases that hand the visitor over to another floor (the start robot released the visitor)
 RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
+# phases of a robot serving a leg (multirobot_navigation): only the robot the leg is assigned to sends them
+SERVING_PHASES = frozenset({ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR,
+                            NO_ROBOT_ON_FLOOR, TOUR_STEP_DONE, TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK})
 
 
 def phase_name(phase: int) -> str:
@@ -227,6 +232,16 @@ ROBOT_STATES = (STATE_IDLE, STATE_GUIDING, STATE_TO_MEETING, STATE_WAITING, STAT
 WAY_LIFT = "lift"
 WAY_STAIRS = "stairs"
 WAYS = (WAY_LIFT, WAY_STAIRS)
+
+# -- gidabot_msgs/Goal legs of a trip and their assignment states (docs/guiding.md, who serves a leg)
+LEG_START = "start"      # from the start point (the whole trip on one floor; else to the connector)
+LEG_GOAL = "goal"        # on the goal floor of a cross-floor trip: meet the visitor, guide to the goal
+LEGS = (LEG_START, LEG_GOAL)
+LEG_NONE = 0             # no robot serves the leg (one-floor trip's goal leg, a floor without robot)
+LEG_PROPOSED = 1         # the origin robot asked that robot; it answers ACCEPTED or DECLINED
+LEG_COMMITTED = 2        # that robot serves the leg; never changes afterwards
+LEG_STATES = (LEG_NONE, LEG_PROPOSED, LEG_COMMITTED)
+LEG_STATE_NAMES = {LEG_NONE: "none", LEG_PROPOSED: "proposed", LEG_COMMITTED: "committed"}
 
 # -- the visitors' languages (building names, tours, pop-ups, speech) -------------------------
 LANGUAGES = ("eu", "en", "es")

@@ -27,10 +27,20 @@ def test_faculty_loads(faculty) -> None:
     for room in ("014", "008", "101", "104", "223", "274", "325", "305"):
         assert faculty.find_location(room) is not None
     assert len(faculty.relay_pairs()) == 6
-    assert faculty.robot_on(2).name == "Galtxagorri"
-    assert faculty.robot_on(7) is None
+    assert [r.name for r in faculty.robots_on(2)] == ["Galtxagorri"]
+    assert faculty.robots_on(7) == [] and not faculty.has_robot(7) and faculty.has_robot(3)
     assert faculty.find_floor(float("nan")) is None
     assert len({r.master_uri for r in faculty.robots}) == 4
+
+
+def test_faculty_variants_share_its_maps(faculty, faculty6, faculty3) -> None:
+    assert [(r.name, r.floor) for r in faculty6.robots] == [
+        ("Tartalo", 0), ("Kbot", 1), ("Basajaun", 1), ("Galtxagorri", 2), ("Lamia", 2), ("MariSorgin", 3)]
+    assert len(faculty6.relay_pairs()) == 15 and len({r.master_uri for r in faculty6.robots}) == 6
+    assert [r.name for r in faculty3.robots] == ["Tartalo", "Kbot", "MariSorgin"] and not faculty3.has_robot(2)
+    for variant in (faculty6, faculty3):
+        assert [f.map_file.resolve() for f in variant.floors] == [f.map_file.resolve() for f in faculty.floors]
+        assert variant.locations == faculty.locations and variant.connectors == faculty.connectors
 
 
 def test_every_location_has_three_languages(faculty) -> None:
@@ -112,8 +122,8 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
      "floors[2].map: 'nowhere.yaml': file not found"),
     ("duplicate floor", lambda d: d["floors"][3].update(id=2),
      "floors[3].id: duplicate floor id 2"),
-    ("two robots on one floor", lambda d: d["robots"][1].update(floor=0),
-     "robots[1].floor: floor 0 already has robot Tartalo"),
+    ("two robots parked on one spot", lambda d: d["robots"][1].update(floor=0),
+     "robots[1].home: the home of Kbot overlaps the home of Tartalo on floor 0 (0.63 m)"),
     ("bad category", lambda d: _loc(d, "001").update(category="shop"),
      "locations[*].category: 'shop' is not one of"),
     ("bad blueprint scale", lambda d: d["floors"][1]["blueprint_transform"].update(scale=0),
@@ -220,6 +230,18 @@ def test_broken_building_names_file_key_value(faculty_copy: Path, capsys, mistak
     assert line is not None, text
     assert f"{faculty_copy / 'building.yaml'}: " in line
     mistakes_table[label] = line.split(f"{faculty_copy / 'building.yaml'}: ", 1)[1]
+
+
+def test_several_robots_on_a_floor_and_floors_without_robot(faculty_copy: Path) -> None:
+    def change(d: dict) -> None:
+        d["robots"][1].update(floor=0, home=[20.0, 12.0, 0.0])       # Kbot joins Tartalo on floor 0
+        d["robots"][2].update(floor=0, home=[40.0, 12.0, 0.0])       # and Galtxagorri: floors 1 and 2 have none
+
+    _edit(faculty_copy, change)
+    b = load_building(faculty_copy)
+    assert [r.name for r in b.robots_on(0)] == ["Tartalo", "Kbot", "Galtxagorri"]
+    assert b.robots_on(1) == [] and b.robots_on(2) == [] and [r.name for r in b.robots_on(3)] == ["MariSorgin"]
+    assert len(b.relay_pairs()) == 6
 
 
 def test_all_problems_reported_at_once(faculty_copy: Path) -> None:

@@ -233,7 +233,7 @@ def test_path_helpers() -> None:
 
 def test_every_place_is_reachable_on_every_faculty_floor(faculty) -> None:
     for floor in faculty.floors:
-        robot = faculty.robot_on(floor.id)
+        [robot] = faculty.robots_on(floor.id)
         planner = GridPlanner(floor.map, robot.radius)
         places = [loc.pose for loc in faculty.locations_on(floor.id)]
         places += [c.meeting[floor.id] for c in faculty.connectors if floor.id in c.meeting]
@@ -247,7 +247,7 @@ def test_every_place_is_reachable_on_every_faculty_floor(faculty) -> None:
 
 def test_closing_the_faculty_corridor_cuts_the_floor(faculty) -> None:
     floor = faculty.floor(1)
-    planner = GridPlanner(floor.map, faculty.robot_on(1).radius)
+    planner = GridPlanner(floor.map, faculty.robots_on(1)[0].radius)
     west, east = faculty.connectors_between(1, 0, "stairs")[0].meeting[1], (60.0, 12.0)
     length = planner.path_length((west.x, west.y), east)
     assert length == pytest.approx(math.hypot(60.0 - west.x, 12.0 - west.y), rel=0.05)

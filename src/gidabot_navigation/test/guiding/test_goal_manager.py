@@ -18,8 +18,11 @@ from gidabot_navigation.interface import (
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     CONTINUE,
+    DECLINED,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    LEG_COMMITTED,
+    LEG_PROPOSED,
     ON_THE_WAY,
     PARTNER_OFFLINE,
     REASON_VISITOR,
@@ -229,8 +232,14 @@ def test_a_full_queue_refuses_and_cancels(faculty) -> None:
     request(gm, "001")
     request(gm, "022")
     acts = request(gm, "012")
-    assert len(gm.queue) == 2 and events(acts, REJECTED)
-    assert [a.cancel.reason for a in acts if isinstance(a, SendCancel)] == ["admin"]
+    assert len(gm.queue) == 2 and events(acts, DECLINED) and events(acts, REJECTED)
+    assert "queue of Tartalo is full" in events(acts, REJECTED)[0].detail
+    assert goals(acts) == [] and not [a for a in acts if isinstance(a, SendCancel)]   # nobody else heard of it
+    # a trip committed here while the queue is full (never answered here) is refused and cancelled everywhere
+    [down] = goals(request(core(faculty, "Kbot"), "012", visitor="w"))
+    assert (down.goal_robot, down.goal_state) == ("Tartalo", LEG_PROPOSED)
+    acts = gm.on_goal(replace(down, goal_state=LEG_COMMITTED, attempt=5), 10.0, 1.0)
+    assert [a.cancel.reason for a in acts if isinstance(a, SendCancel)] == ["admin"] and len(gm.queue) == 2
 
 
 # ---------------------------------------------------------------------------- tour mode
@@ -258,7 +267,8 @@ def test_start_tour_issues_step_zero_from_here(tour_gm) -> None:
 def test_continue_after_a_step_issues_the_next_from_here(tour_gm) -> None:
     # step 2 (101, floor 1) was done here at Kbot
     trip = replace(goals(start(tour_gm))[0], uid="Tartalo/v/9", origin_robot="Tartalo", initial_floor=0.0,
-                   goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0)
+                   goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
+                   start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="Kbot", goal_state=LEG_COMMITTED)
     loc = tour_gm.building.location("101")
     trip = replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw)
     tour_gm.on_goal(trip, 10.0, 1.0)

@@ -16,6 +16,10 @@ from gidabot_navigation.interface import (
     ACCEPTED,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    LEG_COMMITTED,
+    LEG_NONE,
+    NO_ROBOT_ON_FLOOR,
+    ON_THE_WAY,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     WAITING_VISITOR,
@@ -72,7 +76,7 @@ def test_table4_tour_with_a_skip(faculty) -> None:
                                        "MariSorgin"]
     assert done[-1].phase == TOUR_FINISHED
     # the skipped step was never issued
-    assert 4 not in {g.tour_step for g in bus.goals} and len(bus.goals) == 7
+    assert 4 not in {g.tour_step for g in bus.goals} and len({g.uid for g in bus.goals}) == 7
 
 
 def test_tour_started_on_another_floor(faculty) -> None:
@@ -80,3 +84,60 @@ def test_tour_started_on_another_floor(faculty) -> None:
     done = [e for e in bus.events if e.phase in (TOUR_STEP_DONE, TOUR_FINISHED)]
     assert [e.tour_step for e in done] == list(range(8))
     assert bus.goals[0].origin_robot == "Galtxagorri" and bus.goals[0].goal_floor == 0.0
+
+
+# ------------------------------------------------------------------- floors without robot (issue 19.1)
+
+def test_a_tour_goes_on_past_a_floor_without_robot(faculty3) -> None:
+    """maps/faculty3 has no robot on floor 2: Table 4's stops 223 and 274 are found alone. Kbot sends the
+    visitor there (NO_ROBOT_ON_FLOOR, one message for both stops) and the tour goes on at MariSorgin, who
+    meets the visitor at the staircase of floor 3 coming from 274 and guides on; the tour completes."""
+    bus = run_tour(faculty3, "real_world.tour")
+    done = [e for e in bus.events if e.phase in (TOUR_STEP_DONE, TOUR_FINISHED)]
+    assert [(e.tour_step, e.robot) for e in done] == [(0, "Tartalo"), (1, "Tartalo"), (2, "Kbot"), (3, "Kbot"),
+                                                      (6, "MariSorgin"), (7, "MariSorgin")]
+    assert done[-1].phase == TOUR_FINISHED
+    [alone] = [e for e in bus.events if e.phase == NO_ROBOT_ON_FLOOR]
+    assert (alone.robot, alone.tour_step, alone.location_id, alone.target_floor) == ("Kbot", 4, "223", 2.0)
+    # the trip to step 6 starts at 274 on floor 2: nobody guides there; MariSorgin meets the visitor upstairs
+    [on] = [g for g in bus.goals if g.tour_step == 6 and g.attempt == max(x.attempt for x in bus.goals
+                                                                           if x.uid == g.uid)]
+    assert (on.origin_robot, on.initial_floor, on.start_id, on.start_state) == ("Kbot", 2.0, "274", LEG_NONE)
+    assert (on.goal_robot, on.goal_state) == ("MariSorgin", LEG_COMMITTED)
+    assert [e.phase for e in bus.events if e.goal_uid == on.uid and e.robot == "MariSorgin"][-3:] == [
+        WAITING_VISITOR, ON_THE_WAY, TOUR_STEP_DONE]
+    # no goal for step 5: the visitor finds 274 alone, right after 223
+    assert 5 not in {g.tour_step for g in bus.goals} and len({g.uid for g in bus.goals}) == 7
+    assert nothing_left(bus)
+
+
+def test_a_tour_ending_on_a_floor_without_robot_ends_there(faculty3, tmp_path) -> None:
+    (tmp_path / "ends_upstairs.tour").write_text("Tour: Ends upstairs\n0, 014, Technicians\n2, 223, Larrea\n2, 274, "
+                                                 "Sarasola\n", encoding="utf-8")
+    bus = Bus(faculty3, catalog=catalog_of(faculty3, tmp_path / "ends_upstairs.tour"))
+    bus.status_all()
+    bus.on_event = lambda ev: bus.soon(lambda: bus.cont(ev.robot, ev.goal_uid)) \
+        if ev.phase == TOUR_STEP_DONE else None
+    bus.start_tour("Tartalo", "ends_upstairs.tour")
+    bus.pump()
+    last = bus.events[-1]
+    assert (last.robot, last.phase, last.tour_step, last.location_id, last.target_floor) == (
+        "Tartalo", TOUR_FINISHED, 1, "223", 2.0)
+    assert not any(e.phase == NO_ROBOT_ON_FLOOR for e in bus.events) and len({g.uid for g in bus.goals}) == 2
+    assert nothing_left(bus)
+
+
+def test_a_single_target_on_a_floor_without_robot_leaves_nothing_anywhere(faculty3) -> None:
+    bus = Bus(faculty3)
+    bus.status_all()
+    bus.request("Tartalo", "223")
+    [uid] = {g.uid for g in bus.goals}
+    assert bus.phases("Tartalo", uid) == [ACCEPTED, ON_THE_WAY, NO_ROBOT_ON_FLOOR]
+    assert bus.last("Tartalo", NO_ROBOT_ON_FLOOR).detail.endswith("find 223 yourself")
+    assert nothing_left(bus)
+
+
+def nothing_left(bus: Bus) -> bool:
+    """No robot holds, runs, waits for or still assigns anything."""
+    return all(not r.gm.queue and r.nav.leg is None and not len(r.gm.waits) and not len(r.gm.assigner)
+               for r in bus.robots.values())

@@ -10,14 +10,16 @@ import pytest
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding import messages as gt
 from gidabot_navigation.guiding.messages import CommandData, Trip, validate_command, validate_trip
-from gidabot_navigation.interface import Cmd
+from gidabot_navigation.interface import ACCEPTED, ASSIGNED, LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd
 
 
 def good_trip(faculty) -> Trip:
     loc = faculty.location("301")
     return Trip(uid="Tartalo/v/gm.x.1", origin_robot="Tartalo", visitor_id="v", initial_floor=0.0, initial_x=30.0,
                 initial_y=12.0, goal_floor=3.0, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
-                way="stairs", connector="stairs_west", start_id="robot", goal_id="301", language="en")
+                way="stairs", connector="stairs_west", start_id="robot", goal_id="301", language="en",
+                start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="MariSorgin",
+                goal_state=LEG_PROPOSED, attempt=1)
 
 
 def test_a_good_trip_passes_normalised(faculty) -> None:
@@ -53,6 +55,13 @@ HOSTILE = [
     ("tour step out of range", {"tour_file": "long_tour.tour", "tour_step": 100000}, "tour"),
     ("tour step without file", {"tour_step": 3}, "tour"),
     ("unknown start id", {"start_id": "nowhere"}, "location"),
+    ("start leg of a robot of another floor", {"start_robot": "Kbot"}, "assignment"),
+    ("start leg without robot", {"start_robot": "", "start_state": LEG_NONE}, "assignment"),
+    ("goal leg not assigned", {"goal_robot": "", "goal_state": LEG_NONE}, "assignment"),
+    ("unknown leg state", {"goal_state": 7}, "assignment"),
+    ("leg state not a number", {"goal_state": True}, "assignment"),
+    ("negative attempt", {"attempt": -1}, "assignment"),
+    ("unknown assignee", {"goal_robot": "Nobody"}, "assignment"),
 ]
 
 
@@ -69,7 +78,53 @@ def test_one_floor_trip_with_a_connector_is_rejected(faculty) -> None:
     trip = replace(good_trip(faculty), goal_floor=0.0, goal_id="005", goal_x=loc.pose.x, goal_y=loc.pose.y)
     with pytest.raises(GoalRejected, match="one floor"):
         validate_trip(faculty, trip)
-    assert validate_trip(faculty, replace(trip, connector="")).connector == ""
+    with pytest.raises(GoalRejected, match="a trip on one floor has no goal leg"):
+        validate_trip(faculty, replace(trip, connector=""))
+    assert validate_trip(faculty, replace(trip, connector="", goal_robot="", goal_state=LEG_NONE)).connector == ""
+
+
+def test_assignments_follow_the_robots_of_each_floor(faculty6, faculty3) -> None:
+    trip = replace(good_trip(faculty6), goal_floor=2.0, goal_id="223", goal_x=faculty6.location("223").pose.x,
+                   goal_y=faculty6.location("223").pose.y, goal_robot="Lamia")
+    assert validate_trip(faculty6, trip).goal_robot == "Lamia"
+    assert validate_trip(faculty6, replace(trip, goal_robot="Galtxagorri")).leg_of("Galtxagorri") == LEG_GOAL
+    with pytest.raises(GoalRejected, match="goal_robot 'Basajaun' is not a robot of floor 2"):
+        validate_trip(faculty6, replace(trip, goal_robot="Basajaun"))
+    # floor 2 of faculty3 has no robot: the visitor finds 223 alone; nobody may be named for that leg
+    t3 = replace(trip, goal_robot="", goal_state=LEG_NONE)
+    assert validate_trip(faculty3, t3).goal_state == LEG_NONE
+    with pytest.raises(GoalRejected, match="floor 2 has no robot"):
+        validate_trip(faculty3, replace(t3, goal_robot="MariSorgin", goal_state=LEG_PROPOSED))
+
+
+def test_a_tour_goes_on_from_a_floor_without_robot(faculty3) -> None:
+    """A trip may start on a floor without robot, at a location there (the last stop the visitor found alone)."""
+    last, nxt = faculty3.location("274"), faculty3.location("325")
+    trip = Trip(uid="Kbot/v/gm.x.2", origin_robot="Kbot", visitor_id="v", initial_floor=2.0, initial_x=last.pose.x,
+                initial_y=last.pose.y, goal_floor=3.0, goal_x=nxt.pose.x, goal_y=nxt.pose.y, goal_yaw=nxt.pose.yaw,
+                way="stairs", connector="stairs_west", start_id="274", goal_id="325", language="en",
+                tour_file="real_world.tour", tour_step=6, goal_robot="MariSorgin", goal_state=LEG_PROPOSED,
+                attempt=1)
+    assert validate_trip(faculty3, trip).start_state == LEG_NONE
+    for change, match in (({"start_id": "robot"}, "must start at a location of that floor"),
+                          ({"start_id": "325"}, "must start at a location of that floor"),
+                          ({"initial_x": last.pose.x + 5}, "must start at a location of that floor"),
+                          ({"start_robot": "Kbot", "start_state": LEG_COMMITTED}, "floor 2 has no robot")):
+        with pytest.raises(GoalRejected, match=match):
+            validate_trip(faculty3, replace(trip, **change))
+
+
+def test_events_about_legs_are_checked(faculty6) -> None:
+    ev = gt.NavEventData(uid="Kbot/event/gm.x.1", robot="Kbot", floor=1.0, goal_uid="Kbot/v/gm.x.1",
+                         phase=ASSIGNED, leg=LEG_GOAL, attempt=3, assignee="Lamia", eta=42.0)
+    assert gt.validate_event(faculty6, ev).assignee == "Lamia"
+    assert gt.validate_event(faculty6, replace(ev, eta=math.nan)).eta == 0.0
+    for change, reason in (({"leg": "middle"}, "leg"), ({"attempt": -2}, "assignment"),
+                           ({"assignee": ""}, "assignment"), ({"assignee": "Nobody"}, "robot"),
+                           ({"goal_uid": ""}, "leg"), ({"phase": ACCEPTED, "leg": ""}, "leg")):
+        with pytest.raises(GoalRejected) as err:
+            gt.validate_event(faculty6, replace(ev, **change))
+        assert err.value.reason == reason, change
 
 
 def test_commands_are_checked() -> None:

@@ -27,6 +27,8 @@ from gidabot_navigation.interface import (
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
+    LEG_COMMITTED,
+    LEG_NONE,
     NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_BACK,
@@ -49,13 +51,17 @@ TOURS = Path(__file__).resolve().parents[4] / "tours"
 
 def trip(faculty, origin: str, goal_id: str, uid: str, start: tuple[float, float] | None = None,
          connector: str = "stairs_west", **kw) -> Trip:
+    """A trip made at ``origin`` whose legs are committed to ``origin`` and the goal floor's first robot."""
     loc = faculty.location(goal_id)
     r = faculty.robot(origin)
     sx, sy = start or (r.home.x, r.home.y)
+    goal_robot = faculty.robots_on(loc.floor)[0].name if loc.floor != r.floor and faculty.has_robot(loc.floor) else ""
+    legs = {"start_robot": origin, "start_state": LEG_COMMITTED, "goal_robot": goal_robot,
+            "goal_state": LEG_COMMITTED if goal_robot else LEG_NONE, "attempt": 2}
     return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=r.floor, initial_x=sx, initial_y=sy,
                 goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw, way="stairs",
                 connector=connector if loc.floor != r.floor else "", start_id="robot", goal_id=goal_id,
-                language="en", **kw)
+                language="en", **{**legs, **kw})
 
 
 def nav(faculty, robot: str, **cfg) -> NavigationCore:
@@ -147,7 +153,7 @@ def test_no_robot_on_the_goal_floor(faculty) -> None:
     no_mari = Building(faculty.id, faculty.name, faculty.path, faculty.floors, faculty.locations,
                        faculty.connectors, faculty.robots[:3])
     n = nav(no_mari, "Tartalo")
-    t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
+    t = trip(no_mari, "Tartalo", "301", "Tartalo/v/1")
     acts = n.on_pending([t], 0.0, 1.0, 0.0)
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 5.0, 0.0)
     [ev] = evs(acts)
@@ -229,7 +235,7 @@ def test_timeout_from_arrival_when_the_start_floor_has_no_robot(faculty) -> None
     no_tartalo = Building(faculty.id, faculty.name, faculty.path, faculty.floors, faculty.locations,
                           faculty.connectors, faculty.robots[1:])
     n = nav(no_tartalo, "MariSorgin", continue_timeout=60.0)
-    t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
+    t = replace(trip(faculty, "Tartalo", "301", "Tartalo/v/1"), start_robot="", start_state=LEG_NONE)
     acts = n.on_pending([t], 0.0, 1.0, 0.0)
     n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 10.0, 0.0)
     assert phases(n.tick(70.0, 0.0)) == [TIMEOUT]

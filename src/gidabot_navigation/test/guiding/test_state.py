@@ -26,6 +26,7 @@ from gidabot_navigation.interface import (
     CONTINUE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    LEG_GOAL,
     ON_THE_WAY,
     REJECTED,
     REQUEST,
@@ -333,7 +334,7 @@ def test_state_changes_are_written_before_publishing_or_within_the_soft_interval
     for i in range(1000):
         mono.t = 0.1 + i * 0.001
         ev = NavEventData(uid=f"MariSorgin/event/flood.{i}", robot="MariSorgin", floor=3.0, goal_uid=f"M/v/{i}",
-                          phase=ACCEPTED)
+                          phase=ACCEPTED, leg=LEG_GOAL)
         sf.commit(gm.state, gm.on_nav_event(ev, 100.0, mono.t), [], lambda _a: None, changed=True)
     assert sf.saves - saves <= 2                         # one write per soft interval at most
     mono.t += 1.0

@@ -1,4 +1,4 @@
-"""Involvement rule, connector choice and the wait estimate (trips.py)."""
+"""Roles from the assignment, connector choice, the wait estimate and the ranking of robots for a leg (trips.py)."""
 
 from __future__ import annotations
 
@@ -9,17 +9,42 @@ import pytest
 
 from gidabot_navigation.errors import NoRouteError
 from gidabot_navigation.guiding.messages import Trip
-from gidabot_navigation.guiding.trips import HeadProgress, Role, TripPlanner, WaitModel, estimate_queue, involved, role
-from gidabot_navigation.interface import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR
+from gidabot_navigation.guiding.trips import (
+    HeadProgress,
+    RobotView,
+    Role,
+    TripPlanner,
+    WaitModel,
+    estimate_queue,
+    needed_legs,
+    queue_end,
+    rank_candidates,
+    role,
+)
+from gidabot_navigation.interface import (
+    GOING_TO_MEETING,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
+    ON_THE_WAY,
+    WAITING_VISITOR,
+)
 
 
 def trip(faculty, a: float, goal_id: str, way: str = "stairs", connector: str = "stairs_west",
-         start: tuple[float, float] = (30.0, 12.0), uid: str = "T/v/1") -> Trip:
+         start: tuple[float, float] = (30.0, 12.0), uid: str = "T/v/1", start_robot: str = "",
+         goal_robot: str = "") -> Trip:
+    """A trip from floor ``a`` whose legs are committed to the first robots of their floors (or those given)."""
     loc = faculty.location(goal_id)
-    origin = faculty.robot_on(a).name
-    return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=a, initial_x=start[0], initial_y=start[1],
+    s = start_robot or faculty.robots_on(a)[0].name
+    g = goal_robot or (faculty.robots_on(loc.floor)[0].name if a != loc.floor and faculty.has_robot(loc.floor)
+                       else "")
+    return Trip(uid=uid, origin_robot=s, visitor_id="v", initial_floor=a, initial_x=start[0], initial_y=start[1],
                 goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw, way=way,
-                connector=connector if a != loc.floor else "", start_id="robot", goal_id=goal_id, language="en")
+                connector=connector if a != loc.floor else "", start_id="robot", goal_id=goal_id, language="en",
+                start_robot=s, start_state=LEG_COMMITTED, goal_robot=g,
+                goal_state=LEG_COMMITTED if g else LEG_NONE, attempt=2)
 
 
 @pytest.fixture(scope="module")
@@ -27,12 +52,20 @@ def planner(faculty):
     return TripPlanner(faculty)
 
 
-def test_roles_and_the_involvement_rule(faculty) -> None:
+def test_roles_follow_the_assignment(faculty, faculty6) -> None:
     t = trip(faculty, 0, "301")
-    assert [role(t, f) for f in (0, 1, 2, 3)] == [Role.START, None, None, Role.GOAL]
+    assert [role(t, r.name) for r in faculty.robots] == [Role.START, None, None, Role.GOAL]
     same = trip(faculty, 2, "223")
-    assert role(same, 2.0) is Role.SAME and not involved(same, 1)
-    assert involved(replace(t, initial_floor=0.0000001), 0)     # float32 rounding
+    assert role(same, "Galtxagorri") is Role.SAME and role(same, "Kbot") is None
+    # two robots on floor 2 of faculty6: the one named serves, the other has no part
+    up = trip(faculty6, 0, "223", goal_robot="Lamia")
+    assert role(up, "Lamia") is Role.GOAL and role(up, "Galtxagorri") is None
+    assert needed_legs(faculty6, up) == [LEG_START, LEG_GOAL] and needed_legs(faculty6, same) == [LEG_START]
+
+
+def test_no_goal_leg_on_a_floor_without_robot(faculty3) -> None:
+    t = trip(faculty3, 0, "223")
+    assert t.goal_state == LEG_NONE and needed_legs(faculty3, t) == [LEG_START]
 
 
 def test_table3_counts_follow_from_the_rule(faculty) -> None:
@@ -95,17 +128,17 @@ def test_walk_times() -> None:
 def test_estimates_grow_along_the_queue(faculty, planner) -> None:
     m = WaitModel()
     robot = faculty.robot("Tartalo")
-    assert estimate_queue(planner, m, robot, (30.0, 12.0), [], None, {}, 0.0) == []
+    assert estimate_queue(planner, m, robot, (30.0, 12.0), [], None, {}, 0.0).eta == ()
     same = trip(faculty, 0, "001", uid="a")
     up = trip(faculty, 0, "301", uid="b")
-    eta = estimate_queue(planner, m, robot, (30.0, 12.0), [same, up], None, {}, 0.0)
+    eta = estimate_queue(planner, m, robot, (30.0, 12.0), [same, up], None, {}, 0.0).eta
     speed = robot.max_linear * m.speed_factor
     first = planner.leg_length(0, (30.0, 12.0), (same.goal_x, same.goal_y)) / speed + m.leg_overhead_s
     assert eta[0] == pytest.approx(first, abs=0.1)
     assert eta[1] > eta[0]
     # guiding already: only the rest of the way from the current pose
     head = HeadProgress("a", ON_THE_WAY, 0.0)
-    near = estimate_queue(planner, m, robot, (10.0, 12.0), [same], head, {}, 0.0)
+    near = estimate_queue(planner, m, robot, (10.0, 12.0), [same], head, {}, 0.0).eta
     assert near[0] < eta[0]
 
 
@@ -113,19 +146,91 @@ def test_goal_floor_estimate_waits_for_the_visitor(faculty, planner) -> None:
     m = WaitModel()
     mari = faculty.robot("MariSorgin")
     up = trip(faculty, 0, "301", uid="b")
-    not_released = estimate_queue(planner, m, mari, (30.0, 12.0), [up], None, {}, 100.0)[0]
+    not_released = estimate_queue(planner, m, mari, (30.0, 12.0), [up], None, {}, 100.0).eta[0]
     walk = m.walk_time("stairs", 0, 3)
     assert not_released > walk + m.continue_s
     released = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", WAITING_VISITOR, 90.0),
-                              {"b": 100.0}, 100.0)[0]
+                              {"b": 100.0}, 100.0).eta[0]
     to_goal = planner.leg_length(3, (4.4, 12.0), (up.goal_x, up.goal_y)) / (mari.max_linear * m.speed_factor)
     assert released == pytest.approx(walk + m.continue_s + to_goal, abs=0.2)
     later = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", WAITING_VISITOR, 90.0),
-                           {"b": 100.0}, 100.0 + walk + 30)[0]
+                           {"b": 100.0}, 100.0 + walk + 30).eta[0]
     assert later == pytest.approx(m.continue_s + to_goal, abs=0.2)
     driving = estimate_queue(planner, m, mari, (30.0, 12.0), [up], HeadProgress("b", GOING_TO_MEETING, 90.0),
-                             {}, 100.0)[0]
+                             {}, 100.0).eta[0]
     assert driving > 0
+
+
+def test_a_trip_from_a_floor_without_robot_waits_for_the_unguided_stops(faculty3) -> None:
+    """Kbot meets a visitor coming from floor 2 (no robot): not before ``unguided_s`` after the trip was made."""
+    p, m = TripPlanner(faculty3), WaitModel()
+    last = faculty3.location("274")
+    t = replace(trip(faculty3, 1, "113", uid="c"), initial_floor=2.0, initial_x=last.pose.x, initial_y=last.pose.y,
+                start_id="274", start_robot="", start_state=LEG_NONE, goal_floor=1.0, goal_robot="Kbot",
+                connector="stairs_west", stamp=100.0)
+    t = replace(t, goal_robot="Kbot", goal_state=LEG_COMMITTED)
+    kbot = faculty3.robot("Kbot")
+    at_once = estimate_queue(p, m, kbot, (30.0, 12.0), [t], None, {}, 100.0).eta[0]
+    later = estimate_queue(p, m, kbot, (30.0, 12.0), [t], None, {}, 100.0 + m.unguided_s).eta[0]
+    assert at_once > m.unguided_s + m.walk_time("stairs", 2, 1) + m.continue_s
+    assert later < at_once - 100.0       # by then Kbot's own drive to the staircase is what counts
+
+
+def test_ranking_prefers_the_robot_at_the_meeting_point_soonest(faculty6) -> None:
+    """Floor 2 of faculty6: Galtxagorri parks at x 30, Lamia at x 54. For the west staircase Galtxagorri is
+    first; for the east one Lamia; a queue moves a robot back; offline and excluded robots are left out."""
+    p, m = TripPlanner(faculty6), WaitModel()
+    west = trip(faculty6, 0, "201", connector="stairs_west", goal_robot="Lamia")
+    east = trip(faculty6, 0, "231", connector="stairs_east", goal_robot="Lamia", start=(60.0, 12.0))
+    up = lambda r: True  # noqa: E731
+    assert [c.robot for c in rank_candidates(p, m, west, LEG_GOAL, {}, up, 0.0)] == ["Galtxagorri", "Lamia"]
+    assert [c.robot for c in rank_candidates(p, m, east, LEG_GOAL, {}, up, 0.0)] == ["Lamia", "Galtxagorri"]
+    busy = {"Galtxagorri": RobotView(faculty6.robot("Galtxagorri"), (trip(faculty6, 2, "231", uid="x"),), 300.0,
+                                     None, 0.0)}
+    ranked = rank_candidates(p, m, west, LEG_GOAL, busy, up, 0.0)
+    assert [c.robot for c in ranked] == ["Lamia", "Galtxagorri"] and ranked[1].eta > 300.0
+    # 100 s later its wait is 100 s shorter
+    assert rank_candidates(p, m, west, LEG_GOAL, busy, up, 100.0)[1].eta == pytest.approx(ranked[1].eta - 100, abs=0.2)
+    assert [c.robot for c in rank_candidates(p, m, west, LEG_GOAL, {}, lambda r: r != "Galtxagorri", 0.0)] == ["Lamia"]
+    assert [c.robot for c in rank_candidates(p, m, west, LEG_GOAL, {}, up, 0.0, exclude=["Lamia"])] == ["Galtxagorri"]
+
+
+def test_the_start_leg_stays_with_the_visitors_robot_unless_another_is_much_sooner(faculty6) -> None:
+    p, m = TripPlanner(faculty6), WaitModel()
+    up = lambda r: True  # noqa: E731
+    t = trip(faculty6, 1, "101", start=(30.0, 12.0), start_robot="Kbot")
+    kbot, basajaun = faculty6.robot("Kbot"), faculty6.robot("Basajaun")
+    # Kbot free: Kbot, although nobody is nearer than Kbot anyway
+    assert rank_candidates(p, m, t, LEG_START, {}, up, 0.0, prefer="Kbot", prefer_gain=20.0)[0].robot == "Kbot"
+    # Kbot busy for 200 s, Basajaun free 24 m away (~80 s): Basajaun comes
+    busy = {"Kbot": RobotView(kbot, (trip(faculty6, 1, "119", uid="k", start_robot="Kbot"),), 200.0, None, 0.0),
+            "Basajaun": RobotView(basajaun)}
+    ranked = rank_candidates(p, m, t, LEG_START, busy, up, 0.0, prefer="Kbot", prefer_gain=20.0)
+    assert [c.robot for c in ranked] == ["Basajaun", "Kbot"]
+    # busy for a little only: it stays with Kbot (Basajaun would not be 20 s sooner)
+    short = {**busy, "Kbot": replace(busy["Kbot"], wait_new=50.0, queue=(trip(faculty6, 1, "112", uid="k",
+                                                                               start_robot="Kbot"),))}
+    assert rank_candidates(p, m, t, LEG_START, short, up, 0.0, prefer="Kbot", prefer_gain=20.0)[0].robot == "Kbot"
+
+
+def test_queue_end_is_where_the_last_leg_ends(faculty6) -> None:
+    p = TripPlanner(faculty6)
+    lamia = faculty6.robot("Lamia")
+    assert queue_end(p, RobotView(lamia)) == (lamia.home.x, lamia.home.y)
+    assert queue_end(p, RobotView(lamia, pose=(10.0, 12.0))) == (10.0, 12.0)
+    start_leg = trip(faculty6, 2, "301", connector="stairs_east", start_robot="Lamia", uid="s")
+    assert queue_end(p, RobotView(lamia, (start_leg,))) == (67.6, 12.0)      # the east staircase's meeting point
+    goal_leg = trip(faculty6, 0, "223", goal_robot="Lamia", uid="g")
+    assert queue_end(p, RobotView(lamia, (start_leg, goal_leg))) == (goal_leg.goal_x, goal_leg.goal_y)
+
+
+def test_a_robot_whose_pose_is_off_the_free_space_is_still_ranked(faculty6) -> None:
+    """A status with a pose in the map's margin (no localisation yet, or a bad one): the straight line."""
+    p, m = TripPlanner(faculty6), WaitModel()
+    t = trip(faculty6, 0, "223", goal_robot="Lamia")
+    views = {"Galtxagorri": RobotView(faculty6.robot("Galtxagorri"), pose=(0.0, 0.0))}
+    ranked = rank_candidates(p, m, t, LEG_GOAL, views, lambda r: True, 0.0)
+    assert {c.robot for c in ranked} == {"Galtxagorri", "Lamia"} and all(math.isfinite(c.eta) for c in ranked)
 
 
 def test_a_connector_is_offered_only_between_floors_it_serves(faculty) -> None:

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.interface import Node, Phase, global_name, relay_end_name
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, Phase, global_name, relay_end_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_sim.chaos import core as cc
 
@@ -52,14 +52,31 @@ def test_quick_profile_has_every_kind(faculty) -> None:
 
 def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
     tour = parse_tour((REPO / "tours" / "long_tour.tour").read_bytes(), "long_tour.tour", faculty)
-    table = cc.expected_table3(faculty, cc.tour_trips(tour, 0.0))
+    table = cc.expected_table3(faculty, cc.tour_trips(tour, 0.0, faculty))
     assert table == {"Tartalo": (15, 7), "Kbot": (15, 8), "Galtxagorri": (15, 8), "MariSorgin": (15, 6)}
 
 
+def test_expected_table3_with_two_robots_on_a_floor_and_a_floor_without() -> None:
+    """Table 4 on faculty3: 223 and 274 (floor 2, no robot) make one goal; on faculty6 the robots of a floor
+    share one row."""
+    three, six = (load_building(REPO / "maps" / name) for name in ("faculty3", "faculty6"))
+    tour = parse_tour((REPO / "tours" / "real_world.tour").read_bytes(), "real_world.tour", three)
+    assert cc.tour_trips(tour, 0.0, three) == [(0, 0), (0, 0), (0, 1), (1, 1), (1, 2), (2, 3), (3, 3)]
+    assert cc.expected_table3(three, cc.tour_trips(tour, 0.0, three)) == {
+        "Tartalo": (7, 3), "Kbot": (7, 3), "MariSorgin": (7, 2)}
+    six_table = cc.expected_table3(six, cc.tour_trips(tour, 0.0, six))
+    assert six_table == {"Tartalo": (8, 3), "Kbot+Basajaun": (8, 3), "Galtxagorri+Lamia": (8, 3), "MariSorgin": (8, 2)}
+    measured = {"Tartalo": (8, 3), "Kbot": (8, 3), "Basajaun": (8, 0), "Galtxagorri": (8, 1), "Lamia": (8, 2),
+                "MariSorgin": (8, 2)}
+    assert cc.fold_table3(six, measured) == six_table
+
+
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:
+    """A goal record whose legs are committed to the (only) robots of floors a and b."""
     return {"k": "goal", "m": m, "c": caller or (GM if m == origin else relay_end_name(origin, m)),
             "w": w, "uid": uid, "origin": origin, "initial_floor": a, "goal_floor": b, "goal_id": "x",
-            "tour_step": 0}
+            "tour_step": 0, "attempt": 2, "start_robot": ROBOTS[int(a)], "start_state": LEG_COMMITTED,
+            "goal_robot": ROBOTS[int(b)] if a != b else "", "goal_state": LEG_COMMITTED if a != b else LEG_NONE}
 
 
 def _ev(m: str, robot: str, goal: str, phase: int, uid: str, w: float = 0.0) -> dict:
@@ -72,6 +89,25 @@ ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 
 def _everywhere(rec_fn, *args, **kw) -> list[dict]:
     return [rec_fn(m, *args, **kw) for m in ROBOTS]
+
+
+def test_bookkeeping_follows_the_assignment_with_two_robots_on_a_floor() -> None:
+    """faculty6: a goal broadcast again with each new attempt is not a duplicate; the leg goes to Lamia after
+    Galtxagorri answered too late: Lamia is the robot that processed it, Galtxagorri is not involved."""
+    six = load_building(REPO / "maps" / "faculty6")
+    robots = [r.name for r in six.robots]
+    recs: list[dict] = []
+    for attempt, (goal_robot, state) in enumerate([("Galtxagorri", LEG_PROPOSED), ("Lamia", LEG_PROPOSED),
+                                                   ("Lamia", LEG_COMMITTED)], start=2):
+        recs += [{**_goal(m, "T/v/1", "Tartalo", 0.0, 2.0), "attempt": attempt, "goal_robot": goal_robot,
+                  "goal_state": state} for m in robots]
+    for robot, phase, uid in (("Tartalo", Phase.ACCEPTED, "T/e/1"), ("Galtxagorri", Phase.ACCEPTED, "G/e/1"),
+                              ("Lamia", Phase.ACCEPTED, "L/e/1"), ("Tartalo", Phase.GO_TO_FLOOR, "T/e/2"),
+                              ("Lamia", Phase.GOAL_REACHED, "L/e/2"), ("Tartalo", Phase.ASSIGNED, "T/e/3")):
+        recs += [_ev(m, robot, "T/v/1", phase, uid) for m in robots]
+    fate = cc.Bookkeeping(six, recs).fates()["T/v/1"]
+    assert fate.involved == ["Tartalo", "Lamia"] and fate.processed_by == ["Tartalo", "Lamia"]
+    assert fate.completed and not fate.lost and fate.duplicated == []
 
 
 def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> None:
@@ -103,7 +139,7 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     fates = book.fates()
     assert set(fates) == {"T/v/1", "T/v/2", "K/v/3", "K/v/4"}
     assert fates["T/v/1"].completed and not fates["T/v/1"].lost and fates["T/v/1"].processed_by == ["Tartalo", "Kbot"]
-    assert fates["T/v/2"].lost and fates["T/v/2"].duplicated == ["delivered 2 times on Kbot's master"]
+    assert fates["T/v/2"].lost and fates["T/v/2"].duplicated == ["attempt 2 delivered 2 times on Kbot's master"]
     assert fates["K/v/3"].cancelled and not fates["K/v/3"].lost
     assert fates["K/v/4"].duplicated == ["Kbot accepted it 2 times"] and not fates["K/v/4"].lost
     assert book.foreign["event"] == 1
@@ -150,7 +186,7 @@ def test_a_person_in_the_corridor_leaves_a_way_around(faculty) -> None:
     from gidabot_navigation.building.planning import Circle, GridPlanner
 
     floor = faculty.floor(1.0)
-    robot = faculty.robot_on(1.0)
+    [robot] = faculty.robots_on(1.0)
     start, goal = (robot.home.x, robot.home.y), (faculty.location("110").pose.x, faculty.location("110").pose.y)
     planner = GridPlanner(floor.map, robot.radius + 0.05)
     plan = planner.plan(start, goal).points

@@ -10,8 +10,8 @@ import pytest
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import Trip
-from gidabot_navigation.interface import Node, global_name, relay_end_name
-from gidabot_sim.demo.progress import Progress, Visit
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, global_name, relay_end_name
+from gidabot_sim.demo.progress import Progress, Visit, stops_done
 
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
 TOUR = "long_tour.tour"
@@ -23,7 +23,7 @@ def line(**kw) -> str:
 
 def via(robot: str) -> str:
     """The callerid of ``robot``'s messages on Tartalo's master (the monitor's)."""
-    if robot not in ("Kbot", "Galtxagorri", "MariSorgin"):
+    if robot not in ("Kbot", "Galtxagorri", "MariSorgin", "Basajaun", "Lamia"):
         raise KeyError(robot)
     return relay_end_name("Tartalo", robot)
 
@@ -33,10 +33,13 @@ def goal(faculty, uid: str, origin: str, goal_id: str, step: int = -1, tour: str
     start = faculty.robot(origin)
     loc = faculty.location(goal_id)
     cross = start.floor != loc.floor
+    goal_robot = faculty.robots_on(loc.floor)[0].name if cross and faculty.has_robot(loc.floor) else ""
     trip = Trip(uid=uid, origin_robot=origin, visitor_id="sim-visitor", initial_floor=start.floor,
                 initial_x=start.home.x, initial_y=start.home.y, goal_floor=loc.floor, goal_x=loc.pose.x,
                 goal_y=loc.pose.y, goal_yaw=loc.pose.yaw, way="stairs", connector="stairs_west" if cross else "",
-                start_id="robot", goal_id=goal_id, language="en", tour_file=tour, tour_step=step)
+                start_id="robot", goal_id=goal_id, language="en", tour_file=tour, tour_step=step,
+                start_robot=origin, start_state=LEG_COMMITTED, goal_robot=goal_robot,
+                goal_state=LEG_COMMITTED if goal_robot else LEG_NONE, attempt=2)
     rec = {"kind": "goal", "callerid": GM if origin == "Tartalo" else via(origin), "sim": 0.0, "wall": 0.0,
            **asdict(trip)}
     rec.update(kw)
@@ -52,6 +55,16 @@ def event(robot: str, phase: int, goal_uid: str, sim: float = 0.0, wall: float =
 @pytest.fixture(scope="module")
 def faculty():
     return load_building(Path(__file__).resolve().parents[4] / "maps" / "faculty")
+
+
+@pytest.fixture(scope="module")
+def faculty3():
+    return load_building(Path(__file__).resolve().parents[4] / "maps" / "faculty3")
+
+
+@pytest.fixture(scope="module")
+def faculty6():
+    return load_building(Path(__file__).resolve().parents[4] / "maps" / "faculty6")
 
 
 @pytest.fixture
@@ -115,6 +128,41 @@ def test_an_unfinished_run_is_measured_up_to_its_newest_record(faculty, tour: Pr
     p.feed_line(json.dumps(a))
     p.feed_line(event("Tartalo", 1, a["uid"], 160.0, 13.0))
     assert not p.finished and p.sim_seconds() == 60.0 and p.wall_seconds() == 3.0
+
+
+def test_stops_found_alone_count_as_done(faculty3) -> None:
+    """Table 4 on faculty3: steps 4 and 5 are on floor 2 (no robot); the goal of step 4 sends the visitor there,
+    step 5 gets no goal; the tour goes on at step 6."""
+    assert stops_done({0, 1, 2, 3, 4, 6, 7}, frozenset({4, 5})) == set(range(8))
+    assert stops_done({0, 1, 2, 3}, frozenset({4, 5})) == {0, 1, 2, 3}      # not sent there yet
+    p = Progress(total_goals=8, visit=Visit(faculty3, "Tartalo", TOUR, start_floor=0.0), alone=frozenset({4, 5}))
+    for k, goal_id, phase in ((3, "113", 13), (4, "223", 7), (6, "301", 13), (7, "305", 14)):
+        g = goal(faculty3, f"Kbot/sim-visitor/g{k}", "Kbot", goal_id, k, sim=k, wall=k)
+        p.feed_line(json.dumps(g))
+        robot = "Kbot" if phase in (7, 13) and k < 6 else "MariSorgin"
+        p.feed_line(event(robot, phase, g["uid"], k, k))
+    assert p.done == 5 and p.finished and p.outcome == "completed"      # steps 3..7 (5: found alone)
+
+
+def test_a_single_target_on_a_floor_without_robot_is_done_when_the_visitor_is_sent_there(faculty3) -> None:
+    p = Progress(total_goals=1, visit=Visit(faculty3, "Tartalo", goal_id="223", start_floor=0.0))
+    g = goal(faculty3, "Tartalo/sim-visitor/h.1", "Tartalo", "223", tour="")
+    p.feed_line(json.dumps(g))
+    p.feed_line(event("Tartalo", 7, g["uid"], 50, 5, callerid=NAV))
+    assert p.finished and p.outcome == "completed" and p.done == 1
+
+
+def test_a_robot_named_by_a_newer_assignment_steers_the_visit(faculty6) -> None:
+    """faculty6: the goal leg first proposed to Galtxagorri, then (attempt 3) committed to Lamia: Lamia's events
+    count, those of a robot never named (Basajaun) do not."""
+    p = Progress(total_goals=1, visit=Visit(faculty6, "Tartalo", goal_id="223", start_floor=0.0))
+    g = goal(faculty6, "Tartalo/sim-visitor/i.1", "Tartalo", "223", tour="", goal_state=LEG_PROPOSED)
+    assert p.feed_line(json.dumps(g))
+    newer = {**g, "goal_robot": "Lamia", "goal_state": LEG_COMMITTED, "attempt": 3}     # the same trip
+    assert not p.feed_line(json.dumps(newer))
+    assert not p.feed_line(event("Basajaun", 2, g["uid"], 40, 4))
+    assert p.feed_line(event("Lamia", 2, g["uid"], 50, 5))
+    assert p.finished and p.outcome == "completed"
 
 
 def test_hostile_traffic_does_not_steer_the_visit(faculty, tour: Progress) -> None:

@@ -9,7 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.interface import Node, Phase, Topic, global_name, relay_end_name
+from gidabot_navigation.interface import (
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_PROPOSED,
+    LEG_START,
+    Node,
+    Phase,
+    Topic,
+    global_name,
+    relay_end_name,
+)
 from gidabot_sim.demo import report
 
 REPO = Path(__file__).resolve().parents[4]
@@ -46,10 +56,12 @@ def _goal(uid: str, origin: str = "Tartalo", to: str = "008", step: int = -1, **
 
     b = _faculty()
     start, loc = b.robot(origin), b.location(to)
+    goal_robot = b.robots_on(loc.floor)[0].name if start.floor != loc.floor else ""
     g = Goal(uid=uid, origin_robot=origin, visitor_id="sim-visitor", initial_floor=start.floor,
              goal_floor=loc.floor, way="stairs", connector="stairs_west" if start.floor != loc.floor else "",
              start_id="robot", goal_id=to, language="en", tour_file="t.tour" if step >= 0 else "",
-             tour_step=step)
+             tour_step=step, start_robot=origin, start_state=LEG_COMMITTED, goal_robot=goal_robot,
+             goal_state=LEG_COMMITTED if goal_robot else 0, attempt=2)
     g.initial_pose.x, g.initial_pose.y = start.home.x, start.home.y
     g.goal_pose.position.x, g.goal_pose.position.y = loc.pose.x, loc.pose.y
     g.goal_pose.orientation.w = 1.0
@@ -214,6 +226,28 @@ def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path:
     assert "were not goals" in report.format_tables(out)
 
 
+def test_leg_audit_from_the_robots_records() -> None:
+    """Each leg's robot from every bag: committed in a goal, named in ASSIGNED, serving phases."""
+    t = report.RobotRecord("Tartalo", 0.0, assignments={("T/v/1", LEG_START, "Tartalo", LEG_COMMITTED),
+                                                         ("T/v/1", LEG_GOAL, "Galtxagorri", LEG_PROPOSED),
+                                                         ("T/v/1", LEG_GOAL, "Lamia", LEG_COMMITTED)})
+    t.events = [report.EventSample(1, "Tartalo", "T/v/1", Phase.ASSIGNED, leg=LEG_GOAL, assignee="Lamia"),
+                report.EventSample(2, "Tartalo", "T/v/1", Phase.ON_THE_WAY, leg=LEG_START),
+                report.EventSample(9, "Tartalo", "T/v/1", Phase.GO_TO_FLOOR, leg=LEG_START)]
+    galt = report.RobotRecord("Galtxagorri", 2.0, events=[report.EventSample(20, "Galtxagorri", "T/v/1", Phase.ACCEPTED,
+                                                                       leg=LEG_GOAL)])
+    lamia = report.RobotRecord("Lamia", 2.0, events=[report.EventSample(3, "Lamia", "T/v/1", Phase.GOING_TO_MEETING,
+                                                                  leg=LEG_GOAL)])
+    legs = report.leg_audit([t, galt, lamia])
+    assert legs == {"legs": 2, "double_served": [], "unserved": [], "served_by": {"Tartalo": 1, "Lamia": 1}}
+    galt.events.append(report.EventSample(21, "Galtxagorri", "T/v/1", Phase.GOING_TO_MEETING, leg=LEG_GOAL))
+    assert report.leg_audit([t, galt, lamia])["double_served"] == [["T/v/1", LEG_GOAL, ["Galtxagorri", "Lamia"]]]
+    text = report.format_tables({**report.analyse([t, galt, lamia], {}), "tour": {
+        "time_s": 0, "distance_m": 0, "mean_velocity_mps": 0, "completed": 0, "goals": 1, "sim_s": 0, "wall_s": 0,
+        "sim_to_wall": 0}})
+    assert "Legs: 2, 1 served by two robots or more, 0 by none" in text
+
+
 def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
     """Issue 19.7: hostile traffic on Kbot's master (invalid goals, valid-looking goals from a foreign node,
     ACCEPTED events for trips that do not exist, extra tour completions and legs claiming Kbot) must not
@@ -251,3 +285,46 @@ def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
     assert row["time_s"] == pytest.approx(18.0)           # 10 -> 20 and 22 -> 30: no hostile ON_THE_WAY
     assert out["tour"]["completed"] == 2
     assert out["rejected_goals"] == {"Kbot": 3}
+
+
+def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_fail(tmp_path: Path) -> None:
+    """Two visitors at Kbot: one completes, one was to complete but timed out: FAILED, exit 1; collisions are
+    reported as not measured (None), never as 0."""
+    pytest.importorskip("gidabot_msgs.msg")
+    gm, nav = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
+    msgs = [(Topic.GOALS, _goal("Kbot/a/1", "Kbot", "104", visitor_id="a"), 1.0, gm),
+            (Topic.GOALS, _goal("Kbot/b/1", "Kbot", "110", visitor_id="b"), 2.0, gm),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ACCEPTED, 1.5), 1.5, gm),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ON_THE_WAY, 5.0), 5.0, nav),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.GOAL_REACHED, 40.0), 40.0, nav),
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/b/1", Phase.TIMEOUT, 400.0), 400.0, nav)]
+    _bag(tmp_path / "Kbot.bag", msgs)
+    monitor = [{"kind": "goal", "uid": "Kbot/a/1", "visitor_id": "a", "sim": 1.0, "wall": 0.1, "start_robot": "Kbot",
+                "start_state": LEG_COMMITTED, "attempt": 1},
+               {"kind": "goal", "uid": "Kbot/b/1", "visitor_id": "b", "sim": 2.0, "wall": 0.2, "start_robot": "Kbot",
+                "start_state": LEG_COMMITTED, "attempt": 1},
+               {"kind": "event", "uid": "Kbot/event/1", "robot": "Kbot", "goal_uid": "Kbot/a/1",
+                "phase": Phase.ON_THE_WAY, "sim": 5.0},
+               {"kind": "event", "uid": "Kbot/event/2", "robot": "Kbot", "goal_uid": "Kbot/a/1",
+                "phase": Phase.GOAL_REACHED, "sim": 40.0},
+               {"kind": "event", "uid": "Kbot/event/3", "robot": "Kbot", "goal_uid": "Kbot/b/1",
+                "phase": Phase.TIMEOUT, "sim": 400.0}]
+    (tmp_path / "monitor.jsonl").write_text("".join(json.dumps(r) + "\n" for r in monitor))
+    population = [{"visitor_id": v, "arrive_s": 0.0, "robot": "Kbot", "way": "stairs", "goal_id": g}
+                  for v, g in (("a", "104"), ("b", "110"))]
+    run = {"tour": "2 visitors", "goals": 2, "building": str(REPO / "maps" / "faculty"), "outcome": "completed",
+           "seed": 5, "visitors": 2, "population": population,
+           "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}]}
+    (tmp_path / "run.json").write_text(json.dumps(run))
+    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 1
+    out = json.loads((tmp_path / "report.json").read_text())
+    assert (out["visitors"], out["completed"], out["timed_out"], out["verdict"]) == (2, 1, 1, "FAILED")
+    assert out["collisions"] is None and "not measured" in out["collisions_note"]
+    assert (out["legs_double_served"], out["legs_unserved"], out["wait_mean_s"], out["wait_p95_s"]) == (0, 0, 4.0, 4.0)
+    assert out["problems"] == ["b (complete, 110 from Kbot): timed out"]
+    assert out["population"]["per_robot"][0]["legs_served"] == 2
+    text = report.format_tables(out)
+    assert "Visitors: 2 (seed 5): 1 completed" in text and "Verdict: FAILED" in text
+    population[1]["no_show"] = True                 # it never came: timing out is as it chose
+    (tmp_path / "run.json").write_text(json.dumps({**run, "population": population}))
+    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0

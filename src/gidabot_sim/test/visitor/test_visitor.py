@@ -134,3 +134,69 @@ def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None
     gone = v.VisitorCore(cfg("Kbot", 1))
     gone.on_event(1.0, "o", "Tartalo", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 0, 1)
     assert gone.finished
+
+
+def test_two_robots_on_the_start_floor_one_starts() -> None:
+    kbot = v.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
+    basajaun = v.VisitorCore(cfg("Basajaun", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
+    assert len(kbot.start(0.0)) == 1 and basajaun.start(0.0) == [] and not basajaun.present
+
+
+def test_stops_on_a_floor_without_robot_are_visited_alone() -> None:
+    """Table 4 on faculty3: Kbot (floor 1) sends the visitor to 223 and 274 on floor 2 (no robot); the visitor
+    spends visit_s at each, then walks to floor 3, where MariSorgin waits for step 6."""
+    floors = (0, 0, 1, 1, 2, 2, 3, 3)
+    up = v.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour", think_s=2.0, visit_s=60.0,
+                           robot_floors=(0, 1, 3)))
+    up.on_tour(floors)
+    kbot = v.VisitorCore(cfg("Kbot", 1, tour_file="real_world.tour", robot_floors=(0, 1, 3)))
+    kbot.on_tour(floors)
+    kbot.present = True
+    for core in (up, kbot):
+        core.on_event(100.0, "e1", "Kbot", Phase.NO_ROBOT_ON_FLOOR, "g4", 1, 2, 4, tour_file="real_world.tour",
+                      location_id="223")
+    assert not kbot.present and not kbot.finished
+    # 20 s to floor 2, 60 s at 223, 60 s at 274, 20 s to floor 3: there at 260
+    assert up.step_arrivals == {6: 260.0}
+    up.on_event(150.0, "e2", "MariSorgin", Phase.WAITING_VISITOR, "g6", 3, 3, 6, tour_file="real_world.tour")
+    assert up.step(259.0) == [] and up.step(260.0) == []
+    [cmd] = up.step(262.0)
+    assert (cmd.command, cmd.goal_uid) == (Cmd.CONTINUE, "g6")
+
+
+def test_a_tour_ending_on_a_floor_without_robot_ends_the_visit() -> None:
+    kbot = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", robot_floors=(0, 1, 3)))
+    kbot.on_event(10.0, "e1", "Kbot", Phase.TOUR_FINISHED, "g", 1, 2, 3, tour_file="t.tour", location_id="223")
+    assert kbot.finished and kbot.outcome == "tour finished"
+
+
+def test_a_single_target_on_a_floor_without_robot_ends_the_visit() -> None:
+    tartalo = v.VisitorCore(cfg("Tartalo", 0, goal_id="223"))
+    tartalo.on_event(10.0, "e1", "Tartalo", Phase.NO_ROBOT_ON_FLOOR, "g", 0, 2, location_id="223")
+    assert tartalo.finished and "alone" in tartalo.outcome and not tartalo.present
+
+
+def test_a_visitor_who_cancels_presses_cancel_for_its_latest_trip_at_its_start_robot() -> None:
+    start = v.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="305", cancel_after_s=40.0,
+                              visitor_id="visitor3"))
+    [ask] = start.start(100.0)
+    assert ask.command == Cmd.REQUEST and start.step(139.0) == []
+    assert start.step(141.0) == []               # no trip yet: nothing to cancel
+    start.on_goal("Kbot/visitor3/1")
+    [cmd] = start.step(142.0)
+    assert (cmd.command, cmd.goal_uid) == (Cmd.CANCEL, "Kbot/visitor3/1")
+    assert start.step(200.0) == []               # once
+    done = v.VisitorCore(cfg("Kbot", 1, start_floor=1, goal_id="104", cancel_after_s=40.0))
+    done.start(0.0)
+    done.on_goal("g")
+    done.on_event(30.0, "e1", "Kbot", Phase.GOAL_REACHED, "g", 1, 1)
+    assert done.finished and done.step(100.0) == []  # reached first: no cancel
+
+
+def test_a_no_show_never_continues_at_the_meeting_point() -> None:
+    up = v.VisitorCore(cfg("MariSorgin", 3, start_floor=0, start_robot="Tartalo", no_show=True, think_s=0))
+    up.on_event(10.0, "e1", "MariSorgin", Phase.WAITING_VISITOR, "g1", 3, 3)
+    up.on_event(12.0, "e2", "Tartalo", Phase.GO_TO_FLOOR, "g1", 0, 3)
+    assert up.step(1000.0) == []
+    up.on_event(1300.0, "e3", "MariSorgin", Phase.TIMEOUT, "g1", 3, 3)
+    assert up.finished

@@ -214,7 +214,7 @@ def test_time_advances_only_by_steps_without_rounding_drift() -> None:
 def test_the_faculty_robots_fit_at_home_and_the_synchro_robot_turns_while_sliding() -> None:
     faculty = load_building(FACULTY)
     for floor in faculty.floors:
-        robot = faculty.robot_on(floor.id)
+        [robot] = faculty.robots_on(floor.id)
         world = World(floor.map)
         world.add_robot(RobotSpec(robot.name, robot.radius, Limits.of_robot(robot)), robot.home)
         assert world.clearance(robot.home.x, robot.home.y) >= robot.radius

@@ -14,20 +14,27 @@ same tour file. A trip of another robot's visitor reaches this screen with
 ``GOING_TO_MEETING`` / ``WAITING_VISITOR`` (cross-floor trips) or
 ``TOUR_STEP_DONE``. The *current* trip is the one whose visitor stands at this
 screen: the latest that had a visitor-facing event or was requested here.
+
+Several robots on a floor: when another robot of this floor is assigned the start leg of a
+trip requested here (this robot is busy, ``ASSIGNED``), the visitor is told who comes and
+when, and waits at this screen (and may cancel here) until that robot starts guiding them;
+that robot's events about the trip are followed only for that. A tour sent to a floor
+without robot (``NO_ROBOT_ON_FLOOR``) is told again once the robot that will wait for the
+visitor at the next stop is known (its ``ASSIGNED``, from this robot).
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 from gidabot_gui.core.model import TourInfo, clip
 from gidabot_gui.errors import GuiError
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
-from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.interface import FINAL_PHASES, LEG_GOAL, LEG_START, Cmd, Phase
 
 REQUEST_TIMEOUT = 20.0   # s (wall) without any event for a request before "no answer"
 SEEN_UIDS = 2000         # event uids remembered for de-duplication
@@ -40,9 +47,11 @@ class Activity(Enum):
     COMING = "coming"        # GOING_TO_MEETING: the robot drives alone to meet a visitor
     WAITING = "waiting"      # WAITING_VISITOR: press Continue when here
     STEP_DONE = "step_done"  # TOUR_STEP_DONE: Continue or choose the next stop
+    HANDED = "handed"        # ASSIGNED to another robot of this floor: it comes here for the visitor
 
 
-FACING = {Activity.PENDING, Activity.QUEUED, Activity.GUIDING, Activity.WAITING, Activity.STEP_DONE}
+FACING = {Activity.PENDING, Activity.QUEUED, Activity.GUIDING, Activity.WAITING, Activity.STEP_DONE,
+          Activity.HANDED}
 
 
 class Mode(Enum):
@@ -66,6 +75,7 @@ class ScreenTrip:
     since: float = 0.0           # wall time of the last change
     focus: int = 0               # order in which trips came to the visitor at this screen
     step_notice_shown: bool = False
+    helper: str = ""             # HANDED: the robot that comes for the visitor
 
 
 @dataclass
@@ -119,6 +129,7 @@ class VisitorFlow:
         self._focus = 0
         self._seen: set[str] = set()
         self._seen_order: deque[str] = deque()
+        self._alone: dict[str, NavEventData] = {}   # tour file -> its NO_ROBOT_ON_FLOOR sent here
 
     # ------------------------------------------------------------------ views
     @property
@@ -277,7 +288,7 @@ class VisitorFlow:
     def on_event(self, ev: NavEventData, now: float) -> Notice | None:
         """A NavEvent seen on this master; returns what to tell the visitor (or None)."""
         if ev.robot != self.robot:
-            return None
+            return self._helper_event(ev)
         if not self._remember(ev.uid):
             return None
         try:
@@ -285,6 +296,8 @@ class VisitorFlow:
         except ValueError:
             self._reject(f"NavEvent {clip(ev.uid, 60)!r} has unknown phase {ev.phase!r}")
             return None
+        if phase is Phase.DECLINED:
+            return None          # the legs' assignment between robots: another robot is asked
         trip = self.trips.get(ev.goal_uid) if ev.goal_uid else None
         if trip is None and self._belongs_to_pending(ev):
             trip = self.trips.pop("")
@@ -295,9 +308,44 @@ class VisitorFlow:
                                                       Phase.WAITING_VISITOR, Phase.TOUR_STEP_DONE):
             trip = ScreenTrip(uid=ev.goal_uid, activity=Activity.QUEUED, local=False, since=now)
             self.trips[ev.goal_uid] = trip
+        if phase is Phase.ASSIGNED:
+            return self._assigned(ev, trip, now)
         if trip is not None:
             self._update_trip(trip, ev, now)
         return self._handle(phase, ev, trip)
+
+    def _assigned(self, ev: NavEventData, trip: ScreenTrip | None, now: float) -> Notice | None:
+        """This robot assigned a leg of a trip made here: another robot of the floor comes for the visitor,
+        or (a tour sent to a floor without robot) the robot that waits at the next stop is known."""
+        if ev.leg == LEG_START and ev.assignee != self.robot and trip is not None and trip.activity in (
+                Activity.PENDING, Activity.QUEUED):
+            trip.activity, trip.helper, trip.since = Activity.HANDED, ev.assignee, now
+            self._focus_on(trip)
+            return Notice(Phase.ASSIGNED.name, ev, actions=("ok", "cancel"), goal_id=trip.goal_id,
+                          tour_file=trip.tour_file, tour_step=trip.tour_step)
+        alone = self._alone.get(ev.tour_file) if ev.tour_file else None
+        if ev.leg == LEG_GOAL and alone is not None and alone.tour_step < ev.tour_step:
+            del self._alone[ev.tour_file]
+            told = replace(alone, assignee=ev.assignee)
+            return Notice(Phase.NO_ROBOT_ON_FLOOR.name, told, goal_id=alone.location_id, tour_file=alone.tour_file,
+                          tour_step=alone.tour_step, modal=not self.busy, final=True)
+        return None
+
+    def _helper_event(self, ev: NavEventData) -> Notice | None:
+        """Another robot's event: only about a trip handed to it from here (its visitor waits at this screen)."""
+        trip = self.trips.get(ev.goal_uid) if ev.goal_uid else None
+        if trip is None or trip.activity is not Activity.HANDED or ev.robot != trip.helper \
+                or not self._remember(ev.uid):
+            return None
+        if ev.phase == Phase.ON_THE_WAY:
+            del self.trips[trip.uid]             # the visitor left with it
+            return None
+        if ev.phase in FINAL_PHASES:
+            was_current = trip is self.current
+            del self.trips[trip.uid]
+            return Notice(Phase(ev.phase).name, ev, goal_id=trip.goal_id, tour_file=trip.tour_file,
+                          tour_step=trip.tour_step, modal=was_current or not self.busy, final=True)
+        return None
 
     def _update_trip(self, trip: ScreenTrip, ev: NavEventData, now: float) -> None:
         trip.since = now
@@ -369,6 +417,8 @@ class VisitorFlow:
             return notice(Phase.TOUR_STEP_DONE, actions=("continue", "choose_stop", "cancel"),
                           adopt_language=adopt)
         # terminal phases (or facing phases of a trip we could not identify)
+        if phase is Phase.NO_ROBOT_ON_FLOOR and ev.tour_file:
+            self._alone[ev.tour_file] = ev       # told again with the robot of the next stop (ASSIGNED)
         was_current = trip is not None and trip is self.current
         if trip is not None:
             self.trips.pop(trip.uid, None)

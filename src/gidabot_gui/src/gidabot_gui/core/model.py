@@ -15,6 +15,9 @@ import math
 from dataclasses import dataclass, field
 
 from gidabot_navigation.building.model import Building, Robot
+from gidabot_navigation.errors import GoalRejected
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.trips import RobotView, TripPlanner
 from gidabot_navigation.tours.tour_file import Tour as TourFile
 
 MAX_TEXT = 256          # longer strings from other nodes are cut (hostile or broken input)
@@ -70,7 +73,7 @@ class PendingData:
     floor: float
     num: int
     wait_new: float         # s before this robot could start a new request
-    goal_uids: tuple[str, ...] = ()
+    goals: tuple[Trip, ...] = ()   # its queue (who serves which leg: where it will be when done)
 
 
 @dataclass(frozen=True)
@@ -155,10 +158,12 @@ class Fleet:
     robots: dict[str, RobotLive] = field(default_factory=dict)
     rejected: int = 0                 # inputs ignored (unknown robot, NaN...)
     last_rejection: str = ""
+    planner: TripPlanner = field(init=False, repr=False)   # path lengths for the waits (cached)
 
     def __post_init__(self) -> None:
         for r in self.building.robots:
             self.robots[r.name] = RobotLive(r)
+        self.planner = TripPlanner(self.building)
 
     def _reject(self, why: str) -> bool:
         self.rejected += 1
@@ -194,7 +199,13 @@ class Fleet:
         live = self._live(p.robot)
         if live is None:
             return self._reject(f"pending requests of unknown robot {clip(p.robot, 40)!r}")
-        live.pending = p
+        goals = []
+        for trip in p.goals:
+            try:
+                goals.append(validate_trip(self.building, trip))
+            except GoalRejected as err:
+                self._reject(f"pending goal of {p.robot}: {err}")
+        live.pending = PendingData(p.robot, p.floor, p.num, p.wait_new, tuple(goals))
         live.pending_at = now
         return True
 
@@ -209,6 +220,21 @@ class Fleet:
     def seen_ago(self, name: str, now: float) -> float | None:
         last = self.robots[name].last_status
         return None if last is None else max(0.0, now - last)
+
+    def views(self) -> dict[str, RobotView]:
+        """What each robot broadcast (queue, wait, pose), to rank the robots that could serve a leg
+        (:func:`~gidabot_navigation.guiding.trips.rank_candidates`); a robot's status stands in for a
+        pending list not received yet."""
+        out = {}
+        for name, live in self.robots.items():
+            pose = (live.pose[0], live.pose[1]) if live.pose is not None else None
+            if live.pending is not None and finite(live.pending.wait_new):
+                out[name] = RobotView(live.robot, live.pending.goals, max(0.0, live.pending.wait_new), pose,
+                                      live.pending_at or 0.0)
+            else:
+                busy = live.status.busy_for if live.status is not None and finite(live.status.busy_for) else 0.0
+                out[name] = RobotView(live.robot, (), max(0.0, busy), pose, live.last_status or 0.0)
+        return out
 
     def wait_of(self, name: str, now: float) -> tuple[int, float | None] | None:
         """(pending requests, wait in s before a new request could start) or None if unknown.

@@ -1,24 +1,32 @@
-"""What the visitor is shown before confirming a trip (ROS-free): the robots involved and their waits."""
+"""What the visitor is shown before confirming a trip (ROS-free): the robots that would serve each leg and
+their waits, ranked as the robot will rank them when the visitor confirms
+(:func:`~gidabot_navigation.guiding.trips.rank_candidates`, ``docs/guiding.md``, *Who serves a leg*)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
 from gidabot_gui.core.model import Fleet, TourInfo
-from gidabot_navigation.building.model import Building
-from gidabot_navigation.interface import WAY_LIFT, WAY_STAIRS
+from gidabot_navigation.building.model import Building, Location
+from gidabot_navigation.errors import NoRouteError
+from gidabot_navigation.guiding.assignment import AssignConfig
+from gidabot_navigation.guiding.messages import START_ROBOT, Trip
+from gidabot_navigation.guiding.trips import WaitModel, rank_candidates
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_START, WAY_LIFT, WAY_STAIRS
 
 
 @dataclass(frozen=True)
 class RobotWait:
-    """Pending requests of one robot involved in a trip."""
+    """The robot that would serve one leg of the trip, and how long until it is there."""
 
     robot: str
     floor: float
     here: bool                 # this screen's robot
     known: bool                # online, with a status or pending list
-    num: int = 0
-    wait_s: float | None = None
+    num: int = 0               # requests before this one
+    wait_s: float | None = None   # s until it is with the visitor (start leg) or at the meeting point (goal leg)
+    leg: str = LEG_START
 
 
 @dataclass(frozen=True)
@@ -37,14 +45,6 @@ class RequestPlan:
         return self.goal_floor != self.start_floor
 
 
-def robot_wait(fleet: Fleet, name: str, here: bool, now: float) -> RobotWait:
-    robot = fleet.building.robot(name)
-    info = fleet.wait_of(name, now)
-    if info is None:
-        return RobotWait(name, robot.floor, here, known=False)
-    return RobotWait(name, robot.floor, here, known=True, num=info[0], wait_s=info[1])
-
-
 def ways_between(building: Building, a: float, b: float) -> tuple[str, ...]:
     """The ways (stairs first, then lift) that connect floors ``a`` and ``b``."""
     if a == b:
@@ -52,27 +52,59 @@ def ways_between(building: Building, a: float, b: float) -> tuple[str, ...]:
     return tuple(w for w in (WAY_STAIRS, WAY_LIFT) if building.connectors_between(a, b, w))
 
 
+def leg_waits(fleet: Fleet, robot: str, goal: Location, now: float) -> tuple[RobotWait, ...]:
+    """The robot of each leg of a trip from ``robot`` to ``goal`` and its wait: for the start leg this robot
+    (or another of its floor coming sooner), for the goal leg the robot of the goal floor at the meeting point
+    first (by the stairs when they join the floors). A leg nobody online can serve: its floor's first robot,
+    not available."""
+    building = fleet.building
+    here = building.robot(robot)
+    pose = fleet.robots[robot].pose or (here.home.x, here.home.y, here.home.yaw)
+    trip = Trip(uid="", origin_robot=robot, visitor_id="", initial_floor=here.floor, initial_x=pose[0],
+                initial_y=pose[1], goal_floor=goal.floor, goal_x=goal.pose.x, goal_y=goal.pose.y,
+                goal_yaw=goal.pose.yaw, way=WAY_STAIRS, connector="", start_id=START_ROBOT, goal_id=goal.id,
+                language="en", start_robot=robot, start_state=LEG_COMMITTED)
+    legs = [(LEG_START, here.floor)]
+    if goal.floor != here.floor and building.has_robot(goal.floor):
+        ways = ways_between(building, here.floor, goal.floor)
+        try:
+            choice = fleet.planner.choose_connector(here.floor, pose[:2], goal.floor, (goal.pose.x, goal.pose.y),
+                                                    ways[0] if ways else WAY_STAIRS)
+        except NoRouteError:
+            choice = None
+        if choice is not None:
+            trip = replace(trip, way=choice.way, connector=choice.connector.id)
+            legs.append((LEG_GOAL, goal.floor))
+    views = fleet.views()
+    waits = []
+    for leg, floor in legs:
+        ranked = rank_candidates(fleet.planner, WaitModel(), trip, leg, views,
+                                 lambda r: not fleet.is_offline(r, now), now,
+                                 prefer=robot if leg == LEG_START else "", prefer_gain=AssignConfig.helper_gain)
+        if not ranked:
+            name = robot if leg == LEG_START else building.robots_on(floor)[0].name
+            waits.append(RobotWait(name, floor, name == robot, known=False, leg=leg))
+            continue
+        best = ranked[0]
+        info = fleet.wait_of(best.robot, now)
+        waits.append(RobotWait(best.robot, floor, best.robot == robot, known=True, num=info[0] if info else 0,
+                               wait_s=best.eta if math.isfinite(best.eta) else None, leg=leg))
+    return tuple(waits)
+
+
 def plan_request(fleet: Fleet, robot: str, goal_id: str, now: float) -> RequestPlan:
-    """The confirmation of going from this robot to ``goal_id``: start robot and goal-floor robot."""
+    """The confirmation of going from this robot to ``goal_id``: who serves each leg, how soon."""
     building = fleet.building
     goal = building.location(goal_id)
     here = building.robot(robot)
-    waits = [robot_wait(fleet, robot, True, now)]
-    goal_robot = building.robot_on(goal.floor)
-    if goal_robot is not None and goal_robot.name != robot:
-        waits.append(robot_wait(fleet, goal_robot.name, False, now))
     return RequestPlan(goal.id, goal.floor, here.floor, ways_between(building, here.floor, goal.floor),
-                       tuple(waits), goal_robot is not None)
+                       leg_waits(fleet, robot, goal, now), building.has_robot(goal.floor))
 
 
 def tour_waits(fleet: Fleet, robot: str, tour: TourInfo, now: float) -> tuple[RobotWait, ...]:
-    """Waits of this robot and of the robot of the tour's first stop."""
-    waits = [robot_wait(fleet, robot, True, now)]
-    if tour.goals:
-        first = fleet.building.robot_on(tour.goals[0][0])
-        if first is not None and first.name != robot:
-            waits.append(robot_wait(fleet, first.name, False, now))
-    return tuple(waits)
+    """Who serves the legs of the tour's first stop, and their waits."""
+    first = fleet.building.find_location(tour.goals[0][1]) if tour.goals else None
+    return leg_waits(fleet, robot, first, now) if first is not None else ()
 
 
 def tour_ways(building: Building, start_floor: float, tour: TourInfo) -> tuple[str, ...]:

@@ -18,7 +18,8 @@ from gidabot_gui.core.model import TourInfo, finite
 from gidabot_gui.core.places import floor_name, place_name
 from gidabot_gui.core.plans import RequestPlan, RobotWait
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.interface import WAY_LIFT
+from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_navigation.interface import LEG_GOAL, WAY_LIFT
 
 
 @dataclass(frozen=True)
@@ -84,7 +85,13 @@ class Texts:
         return t.n_("about {n} minute", "about {n} minutes", m).format(n=m)
 
     def wait_line(self, w: RobotWait) -> str:
+        """This robot's wait; or the other robot of this floor that would come, or the robot that would meet the
+        visitor on the goal floor, and how soon it would be there."""
         t = self.tr
+        if not w.here and w.known:
+            line = t._("{robot} meets you there: {wait}") if w.leg == LEG_GOAL else \
+                t._("{robot} comes here to guide you: {wait}")
+            return line.format(robot=w.robot, wait=self.minutes(w.wait_s))
         who = t._("{robot} (this robot)").format(robot=w.robot) if w.here else w.robot
         if not w.known:
             return t._("{who}: not available right now").format(who=who)
@@ -112,9 +119,55 @@ class Texts:
         return PopupText(tour.title, "\n".join(lines), "", "action")
 
     # ------------------------------------------------------------------ events
-    def _robot_on(self, floor: float) -> str:
-        r = self.building.robot_on(floor) if finite(floor) else None
-        return r.name if r is not None else ""
+    def _other(self, ev: NavEventData | None) -> str:
+        """The other robot an event is about: the one it names, else the only robot of its target floor."""
+        if ev is None:
+            return ""
+        if ev.assignee:
+            return ev.assignee
+        robots = self.building.robots_on(ev.target_floor) if finite(ev.target_floor) else []
+        return robots[0].name if len(robots) == 1 else ""
+
+    def _alone(self, n: Notice) -> tuple[list[str], float | None]:
+        """A tour stop on a floor without robot: the places the visitor finds alone (that stop and the next ones
+        on floors without robot) and the floor of the tour's next stop with a robot (None: the tour ends)."""
+        tour = self.tours.get(n.tour_file)
+        if tour is None or not 0 <= n.tour_step < len(tour.goals):
+            return ([self.place(n.goal_id)] if n.goal_id else []), None
+        places, first = [], tour.goals[n.tour_step][0]
+        for floor, room, desc in tour.goals[n.tour_step:]:
+            if self.building.has_robot(floor):
+                return places, floor
+            name = self.place(room) or desc
+            places.append(name if floor == first else t_floor(name, self.floor(floor)))
+        return places, None
+
+    def _go_alone(self, n: Notice, way: str) -> tuple[str, str]:
+        """(text, speech) sending the visitor to a floor without robot, and on."""
+        t = self.tr
+        ev = n.event
+        target = ev.target_floor if ev is not None else math.nan
+        places, nxt = self._alone(n)
+        first = t._("No robot serves this floor: {floor}.").format(floor=self.floor(target))
+        if len(places) > 1:
+            go = (t._("Go there by the lift and look for these places on your own: {places}.") if way == WAY_LIFT
+                  else t._("Go there by the stairs and look for these places on your own: {places}.")).format(
+                places="; ".join(places))
+        else:
+            go = (t._("Go there by the lift and look for the place on your own: {place}.") if way == WAY_LIFT else
+                  t._("Go there by the stairs and look for the place on your own: {place}.")).format(
+                place=places[0] if places else "-")
+        lines = [f"{first} {go}"]
+        if nxt is not None:
+            robot = ev.assignee if ev is not None else ""
+            then = (t._("Then go to {floor} by the lift: {robot} waits for you there.") if way == WAY_LIFT else
+                    t._("Then go to {floor} by the stairs: {robot} waits for you there.")) if robot else \
+                (t._("Then go to {floor} by the lift: a robot waits for you there.") if way == WAY_LIFT else
+                 t._("Then go to {floor} by the stairs: a robot waits for you there."))
+            lines.append(then.format(floor=self.floor(nxt), robot=robot))
+        elif n.tour_file:
+            lines.append(t._("That is the end of the tour. Goodbye, and thank you for your visit!"))
+        return "\n\n".join(lines), " ".join(lines)
 
     def _tour_stop(self, n: Notice) -> tuple[str, str]:
         """(title, next stop sentence) of a tour step notice."""
@@ -150,9 +203,15 @@ class Texts:
                 speech.append(t._("Destination: {place}.").format(place=spoken_goal))
             speech.append(t._("Please walk behind me."))
             return PopupText(t._("Follow me"), "\n".join(lines), " ".join(speech), "info", note=behind)
+        if kind == "ASSIGNED":
+            robot = ev.assignee if ev is not None else ""
+            coming = t._("{robot} will guide you: it is coming here ({wait}).").format(
+                robot=robot, wait=self.minutes(ev.eta if ev is not None else None))
+            stay = t._("Please wait by this screen.")
+            return PopupText(t._("A guide is coming"), f"{coming}\n\n{stay}", f"{coming} {stay}", "info")
         if kind == "GO_TO_FLOOR":
             floor = self.floor(target)
-            robot = self._robot_on(target)
+            robot = self._other(ev)
             go = (t._("Take the lift ({connector}) to: {floor}.") if way == WAY_LIFT else
                   t._("Take the stairs ({connector}) to: {floor}.")).format(connector=connector or "-", floor=floor)
             if not connector:
@@ -186,6 +245,10 @@ class Texts:
             body = "\n\n".join(x for x in (here, nxt, press) if x)
             speech = " ".join(x for x in (here.replace(f" ({n.goal_id})", ""), press) if x)
             return PopupText(title, body, speech, "success")
+        if kind == "TOUR_FINISHED" and ev is not None and finite(ev.target_floor) \
+                and not self.building.has_robot(ev.target_floor):
+            body, speech = self._go_alone(n, way)       # the tour ends on floors without robot
+            return PopupText(t._("The tour ends there"), body, speech, "success")
         if kind == "TOUR_FINISHED":
             here = t._("This is: {place}.").format(place=goal) if goal else ""
             thanks = t._("Thank you for your visit!")
@@ -199,12 +262,8 @@ class Texts:
             return PopupText(t._("Sorry, I cannot get there"), f"{body}\n\n{ask}",
                              t._("Sorry, I cannot help you: the way is blocked."), "error")
         if kind == "NO_ROBOT_ON_FLOOR":
-            floor = self.floor(target)
-            first = t._("No robot serves this floor: {floor}.").format(floor=floor)
-            go = (t._("Go there by the lift and look for the place on your own: {place}.") if way == WAY_LIFT else
-                  t._("Go there by the stairs and look for the place on your own: {place}.")).format(
-                place=goal or "-")
-            return PopupText(t._("No guide on that floor"), f"{first}\n\n{go}", f"{first} {go}", "warning")
+            body, speech = self._go_alone(n, way)
+            return PopupText(t._("No guide on that floor"), body, speech, "warning")
         if kind == "CANCELLED_HERE":
             ready = t._("I am ready for a new destination.")
             spoken = t._("Trip cancelled.")
@@ -216,19 +275,19 @@ class Texts:
             body = t._("Nobody pressed Continue in time, so the request was dropped.")
             return PopupText(t._("Request dropped"), body, body, "warning")
         if kind == "PARTNER_OFFLINE":
-            robot = self._robot_on(target)
+            robot = self._other(ev)
             body = (t._("{robot} cannot be reached right now, so the trip was stopped.").format(robot=robot)
                     if robot else t._("Another robot cannot be reached right now, so the trip was stopped."))
             again = t._("Please try again later.")
             return PopupText(t._("A guide is not available"), f"{body}\n\n{again}", f"{body} {again}", "error")
         if kind == "PARTNER_LOST":
-            robot = self._robot_on(target)
+            robot = self._other(ev)
             body = (t._("{robot} cannot be reached right now. The trip waits for it: please wait a moment.")
                     .format(robot=robot) if robot else
                     t._("Another robot cannot be reached right now. The trip waits for it: please wait a moment."))
             return PopupText(t._("Please wait"), body, body, "warning")
         if kind == "PARTNER_BACK":
-            robot = self._robot_on(target)
+            robot = self._other(ev)
             body = (t._("{robot} is back. The trip goes on.").format(robot=robot) if robot else
                     t._("The other robot is back. The trip goes on."))
             return PopupText(t._("The trip goes on"), body, body, "success")
@@ -243,6 +302,11 @@ class Texts:
             body = t._("Finish or cancel the current trip first.")
             return PopupText(t._("A trip is running"), body, body, "warning")
         return PopupText(t._("Information"), "", "", "info")
+
+
+def t_floor(place: str, floor: str) -> str:
+    """A place with its floor, when it is on another floor than the stop before it."""
+    return f"{place} ({floor})"
 
 
 def _num(value: float) -> str:

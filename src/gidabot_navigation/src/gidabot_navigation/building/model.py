@@ -159,12 +159,16 @@ class Building:
                            f"{', '.join(r.name for r in self.robots)}")
         return found
 
-    def robot_on(self, floor: float) -> Robot | None:
-        """The robot serving ``floor``, or None (the visitor finds the place alone)."""
+    def robots_on(self, floor: float) -> list[Robot]:
+        """The robots serving ``floor``, in the building's order; none: the visitor finds the place alone."""
         f = self.find_floor(floor)
         if f is None:
-            return None
-        return next((r for r in self.robots if r.floor == f.id), None)
+            return []
+        return [r for r in self.robots if r.floor == f.id]
+
+    def has_robot(self, floor: float) -> bool:
+        """True when at least one robot serves ``floor``."""
+        return bool(self.robots_on(floor))
 
     def relay_pairs(self) -> list[tuple[Robot, Robot]]:
         """Every pair (a, b) with a before b in the robot list: n(n-1)/2 relays, a starts each."""
@@ -570,13 +574,14 @@ def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> 
         nums = {k: chk.number(doc[k], f"{where}.{k}", positive=True)
                 for k in ("max_linear", "max_angular", "max_linear_accel", "max_angular_accel", "radius")}
         home = chk.pose(doc["home"], f"{where}.home")
-        if floor is not None and any(r.floor == floor.id for r in robots):
-            other = next(r.name for r in robots if r.floor == floor.id)
-            chk.problem(f"{where}.floor", f"floor {floor.label} already has robot {other}; "
-                                          "guiding uses one robot per floor")
-            continue
         if floor is not None and home is not None:
             _in_free_space(chk, floor, home, f"{where}.home", f"the home pose of {name}")
+            radius = nums["radius"] or 0.0
+            for other in (r for r in robots if r.floor == floor.id):
+                gap = math.hypot(home.x - other.home.x, home.y - other.home.y) - radius - other.radius
+                if gap < 0:
+                    chk.problem(f"{where}.home", f"the home of {name} overlaps the home of {other.name} on floor "
+                                                 f"{floor.label} ({-gap:.2f} m); robots of one floor park apart")
         if floor is None or uri is None or home is None or drive not in DRIVE_TYPES or None in nums.values():
             continue
         robots.append(Robot(name=name, floor=floor.id, master_uri=uri, drive=drive, home=home,

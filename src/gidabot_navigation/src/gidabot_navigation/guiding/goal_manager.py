@@ -6,16 +6,20 @@ Driven by explicit events, each returning the actions for the adapter
 * :meth:`GoalManagerCore.on_command` — the visitor at this robot: REQUEST a goal,
   CONTINUE after a tour step done here, CANCEL, START_TOUR, SKIP. A request becomes a
   :class:`Trip` (uid, this robot's floor and pose, the goal from the building, the
-  connector minimising the whole trip) broadcast on /gidabot/goals.
+  connector minimising the whole trip) whose legs this robot then assigns
+  (:class:`~gidabot_navigation.guiding.assignment.Assigner`): it is broadcast on
+  /gidabot/goals again with every change of its assignment.
 * :meth:`on_goal` — every goal broadcast by any robot (this robot's own included):
-  validated, de-duplicated by uid, kept (FIFO) only if it starts or ends on this
-  robot's floor; ACCEPTED once per kept goal.
+  validated; only the newest attempt of a trip counts; kept (FIFO) while it names this
+  robot for a leg; a leg newly proposed here is answered once, ACCEPTED or DECLINED.
 * :meth:`on_cancel` — drops a goal, queued or running; the visitor here is told why.
 * :meth:`on_nav_event` — this robot's navigation reports the end of its part of a trip
   (a final phase: the goal leaves the queue) or a tour step done (tour mode); any
-  robot's GO_TO_FLOOR tells when a visitor was released (wait estimate).
-* :meth:`on_status` — partner liveness (wall time): a request needing an offline robot
-  is answered at once with PARTNER_OFFLINE instead of waiting forever.
+  robot's GO_TO_FLOOR tells when a visitor was released (wait estimate); the answers
+  to this robot's proposals (ACCEPTED / DECLINED) commit a leg or move it on.
+* :meth:`on_status`, :meth:`on_pending` — the other robots' liveness (wall time), poses and
+  queues: which robot can serve a leg soonest.
+* :meth:`tick` — proposals not answered in time move on; unconfirmed ones held here expire.
 
 :meth:`pending` gives the list for /gidabot/pending with the wait estimate.
 """
@@ -28,8 +32,9 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from gidabot_navigation.building.model import Building, format_floor
+from gidabot_navigation.building.model import Building, Location, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError, NoRouteError
+from gidabot_navigation.guiding.assignment import AssignConfig, Assigned, Assigner, GaveUp, LegBook, Output, Publish
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
     MAX_UID,
@@ -60,19 +65,37 @@ from gidabot_navigation.guiding.state import (
     trip_from_dict,
     trip_to_dict,
 )
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
-from gidabot_navigation.guiding.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits, next_robot_stop
+from gidabot_navigation.guiding.trips import (
+    Candidate,
+    HeadProgress,
+    RobotView,
+    TripPlanner,
+    WaitModel,
+    estimate_queue,
+    leg_point,
+    needed_legs,
+    rank_candidates,
+    rendezvous_eta,
+)
 from gidabot_navigation.interface import (
     ACCEPTED,
+    ASSIGNED,
     CANCEL,
     CANCELLED_HERE,
     CONTINUE,
+    DECLINED,
     DEFAULT_LANGUAGE,
     GOING_TO_MEETING,
     LANGUAGES,
+    LEG_COMMITTED,
+    LEG_PROPOSED,
+    LEG_START,
+    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
     REASON_ADMIN,
+    REASON_OFFLINE,
     REASON_VISITOR,
     REJECTED,
     RELEASE_PHASES,
@@ -94,7 +117,8 @@ PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)
 @dataclass(frozen=True)
 class GoalManagerConfig:
     """``robot``: this robot's name; ``offline_after``: wall s without status before a robot is offline;
-    ``max_queue``: goals kept at most (more are refused and cancelled everywhere)."""
+    ``max_queue``: goals kept at most (a leg proposed beyond it is declined; one committed is refused and
+    cancelled everywhere); ``assign``: the leg assignment's timeouts and bounds."""
 
     robot: str
     default_way: str = WAY_STAIRS
@@ -102,6 +126,7 @@ class GoalManagerConfig:
     offline_after: float = 5.0
     max_queue: int = 50
     wait: WaitModel = field(default_factory=WaitModel)
+    assign: AssignConfig = field(default_factory=AssignConfig)
 
 
 @dataclass(frozen=True)
@@ -154,12 +179,37 @@ class GoalManagerCore:
         self._early_continues: dict[str, CommandData] = {}  # goal uid -> a tour Continue that came before its step
         self._phase: dict[str, tuple[int, float]] = {}    # own navigation's progress per held goal
         self._releases: OrderedDict[str, float] = OrderedDict()
+        self._now_ros = 0.0                                # ROS time of the event being handled (ranking)
+        self.assigner = Assigner(self.me, cfg.assign, self._rank)   # the trips this robot originated
+        self.legs = LegBook(self.me)                       # the assignments naming this robot
+        self.fleet: dict[str, RobotView] = {}              # the other robots' queues and poses
 
     # ------------------------------------------------------------------ inputs
-    def on_status(self, robot: str, now_wall: float) -> None:
-        """A RobotStatus of ``robot`` was received (wall time)."""
-        if isinstance(robot, str) and self.building.find_robot(robot) is not None:
-            self.liveness.heard(robot, now_wall)
+    def on_status(self, robot: str, now_wall: float, pose: tuple[float, float] | None = None) -> None:
+        """A RobotStatus of ``robot`` was received (wall time), with its position (m, its floor's map)."""
+        found = self.building.find_robot(robot) if isinstance(robot, str) else None
+        if found is None:
+            return
+        self.liveness.heard(robot, now_wall)
+        if robot != self.me and pose is not None and all(isinstance(v, (int, float)) and math.isfinite(v)
+                                                         for v in pose):
+            view = self.fleet.get(robot) or RobotView(found)
+            self.fleet[robot] = replace(view, pose=(float(pose[0]), float(pose[1])))
+
+    def on_pending(self, robot: str, goals: Iterable[Trip], wait_new: float, now_wall: float) -> None:
+        """Another robot's /gidabot/pending: its queue (each goal checked; bad ones left out) and its wait."""
+        found = self.building.find_robot(robot) if isinstance(robot, str) else None
+        if found is None or robot == self.me:
+            return
+        queue = []
+        for trip in list(goals)[:self.cfg.max_queue * 2]:
+            try:
+                queue.append(validate_trip(self.building, trip))
+            except GoalRejected:
+                self.stats.inc("rejected_pending")
+        wait = float(wait_new) if isinstance(wait_new, (int, float)) and math.isfinite(wait_new) else 0.0
+        view = self.fleet.get(robot) or RobotView(found)
+        self.fleet[robot] = replace(view, queue=tuple(queue), wait_new=max(0.0, wait), heard=now_wall)
 
     def on_pose(self, x: float, y: float, yaw: float) -> None:
         """This robot's localisation (amcl_pose), map frame of its floor."""
@@ -203,12 +253,11 @@ class GoalManagerCore:
         return self._skip(cmd, now_ros, now_wall)
 
     def on_goal(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
-        """A goal from /gidabot/goals (or made here): keep it if it starts or ends on this floor."""
+        """A goal from /gidabot/goals (or made here): the newest assignment of a trip decides whether this robot
+        holds it; a leg newly proposed here is answered."""
         uid = trip.uid if isinstance(trip.uid, str) and len(trip.uid) <= MAX_UID else ""
-        if uid and uid in self._goals_seen:
-            self.stats.inc("duplicates")
-            return []
-        self.stats.inc("received")
+        if uid and uid not in self._goals_seen:      # a trip's goal comes again per attempt: counted once
+            self.stats.inc("received")
         try:
             trip = validate_trip(self.building, trip)
         except GoalRejected as err:           # refused before anything is remembered: it changes no state
@@ -218,13 +267,46 @@ class GoalManagerCore:
                 return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
             return []
         self._goals_seen.add(trip.uid)
+        return self._on_snapshot(trip, now_ros, now_wall)
+
+    def _on_snapshot(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
+        """The holder's side of the assignment protocol for a valid goal (docs/guiding.md)."""
         if trip.uid in self._cancelled:
             self.stats.inc("cancelled_before_arrival")
-            self.log.info(f"goal {trip.uid} arrived after its cancel; not queued")
             return []
-        if role(trip, self.robot.floor) is None:
-            self.stats.inc("not_involved")
+        if not self.legs.newer(trip):
+            self.stats.inc("duplicates")       # the same attempt again, or an older one overtaken
             return []
+        held = self._held(trip.uid)
+        leg = trip.leg_of(self.me)
+        if leg is None:
+            if held is not None:               # the newest assignment names other robots
+                self.stats.inc("superseded")
+                self.log.info(f"{trip.uid}: attempt {trip.attempt} names {trip.leg_robot(held.leg_of(self.me) or '')}"
+                              f" for the leg proposed here; dropped")
+                self._pop(trip.uid)
+                self._phase.pop(trip.uid, None)
+                self.legs.settled(trip.uid)
+            return []
+        state = trip.leg_state(leg)
+        if held is not None:
+            self.queue[self.queue.index(held)] = trip
+            self.version += 1
+            if state == LEG_COMMITTED:
+                self.legs.settled(trip.uid)
+            return []
+        if state == LEG_PROPOSED:
+            if not self.legs.first_answer(trip.uid, leg):
+                return []                      # answered already (declined, or held too long unconfirmed)
+            eta = self._eta_for(trip, leg, now_ros, now_wall)
+            if len(self.queue) >= self.cfg.max_queue or eta > self.cfg.assign.max_wait:
+                why = (f"the queue of {self.me} is full ({self.cfg.max_queue} goals)" if len(self.queue)
+                       >= self.cfg.max_queue else f"{self.me} could be there in {eta:.0f} s only "
+                       f"(more than {self.cfg.assign.max_wait:g} s)")
+                self.stats.inc("declined")
+                return [self._event(DECLINED, trip, now_ros, leg=leg, detail=why)]
+            self.legs.holding(trip.uid, now_wall)
+            return self._keep(trip, leg, eta, now_ros)
         if len(self.queue) >= self.cfg.max_queue:
             self.stats.inc("queue_full")
             self.warn.warning("queue_full", f"queue of {self.me} is full ({self.cfg.max_queue} goals); "
@@ -232,12 +314,93 @@ class GoalManagerCore:
             cancel = self._new_cancel(trip.uid, REASON_ADMIN, f"the queue of {self.me} is full", now_ros)
             self._cancels_seen.add(cancel.uid)
             self._cancelled.add(trip.uid)
+            self.assigner.close(trip.uid)
             phase = REJECTED if trip.origin_robot == self.me else CANCELLED_HERE
             return [SendCancel(cancel), self._event(phase, trip, now_ros, detail=f"the queue of {self.me} is full")]
+        # committed here without an answer seen here (its proposal expired, or never reached this robot)
+        actions = self._keep(trip, leg, self._eta_for(trip, leg, now_ros, now_wall), now_ros)
+        return actions if self.legs.first_answer(trip.uid, leg) else []
+
+    def _keep(self, trip: Trip, leg: str, eta: float, now_ros: float) -> list[Action]:
         self.queue.append(trip)
         self.version += 1
         self.stats.inc("accepted")
-        return [self._event(ACCEPTED, trip, now_ros)]
+        return [self._event(ACCEPTED, trip, now_ros, leg=leg, eta=eta)]
+
+    def _eta_for(self, trip: Trip, leg: str, now_ros: float, now_wall: float) -> float:
+        """s until this robot could be where ``leg`` meets the visitor, after its queue."""
+        point = leg_point(self.planner, trip, leg)
+        if point is None:
+            return 0.0
+        return rendezvous_eta(self.planner, self.cfg.wait, self._view(now_ros, now_wall), point, now_wall)
+
+    def _view(self, now_ros: float, now_wall: float) -> RobotView:
+        snap = self.pending(now_ros)
+        pose = (self.pose[0], self.pose[1]) if self.pose else None
+        return RobotView(self.robot, snap.goals, snap.wait_new, pose, now_wall)
+
+    def _rank(self, trip: Trip, leg: str, exclude: Iterable[str], now_wall: float) -> list[Candidate]:
+        views = dict(self.fleet)
+        views[self.me] = self._view(self._now_ros, now_wall)
+        return rank_candidates(self.planner, self.cfg.wait, trip, leg, views,
+                               lambda r: r == self.me or self.liveness.online(r, now_wall), now_wall,
+                               prefer=trip.origin_robot if leg == LEG_START else "",
+                               prefer_gain=self.cfg.assign.helper_gain, exclude=exclude)
+
+    def _assign(self, outputs: list[Output], now_ros: float, now_wall: float) -> list[Action]:
+        """Carry out the assigner's outputs: snapshots are applied here at once (this robot's own answers go
+        straight back to the assigner) and broadcast, the last of each trip only."""
+        self._now_ros = now_ros
+        todo = list(outputs)
+        latest: dict[str, Trip] = {}
+        fresh: set[str] = set()                 # trips made in this step: nobody else knows them yet
+        actions: list[Action] = []
+        while todo:
+            out = todo.pop(0)
+            if isinstance(out, Publish):
+                latest[out.trip.uid] = out.trip
+                if out.trip.attempt == 1:
+                    fresh.add(out.trip.uid)
+                for act in self._on_snapshot(out.trip, now_ros, now_wall):
+                    actions.append(act)
+                    ev = act.event if isinstance(act, SendEvent) else None
+                    if ev is not None and ev.phase in (ACCEPTED, DECLINED):
+                        todo += self.assigner.on_answer(ev.goal_uid, ev.leg, self.me, ev.attempt, ev.phase == ACCEPTED,
+                                                        ev.eta, ev.detail, now_wall)
+            elif isinstance(out, Assigned):
+                actions.append(self._event(ASSIGNED, out.trip, now_ros, leg=out.leg, assignee=out.robot,
+                                           eta=out.eta))
+            elif isinstance(out, GaveUp):
+                unknown = out.trip.attempt == 0 or out.trip.uid in fresh
+                if unknown:
+                    latest.pop(out.trip.uid, None)
+                actions += self._give_up(out, now_ros, now_wall, unknown)
+        return [SendGoal(t) for t in latest.values()] + actions
+
+    def _give_up(self, out: GaveUp, now_ros: float, now_wall: float, unknown: bool) -> list[Action]:
+        """No robot can serve a leg. A request nobody else knows yet is answered at once and nothing is queued:
+        PARTNER_OFFLINE (the goal floor's robots are offline or busy), REJECTED (this floor's robots cannot take
+        it: queues full). A trip under way is cancelled everywhere (reason offline) and the visitor here told."""
+        self.stats.inc("partner_offline" if out.leg != LEG_START else "start_leg_refused")
+        trip = out.trip
+        floor_robots = self.building.robots_on(trip.goal_floor if out.leg != LEG_START else trip.initial_floor)
+        detail = f"{out.detail} ({'; '.join(self._heard(r.name, now_wall) for r in floor_robots)})"
+        if unknown:
+            self._pop(trip.uid)
+            self._cancelled.add(trip.uid)
+            phase = REJECTED if out.leg == LEG_START else PARTNER_OFFLINE
+            return [self._event(phase, None, now_ros, language=trip.language, way=trip.way,
+                                location_id=trip.goal_id, target_floor=trip.goal_floor, tour_file=trip.tour_file,
+                                tour_step=trip.tour_step, detail=f"{detail}; the request was not queued")]
+        cancel = self._new_cancel(trip.uid, REASON_OFFLINE, detail, now_ros)
+        return [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True, quiet=True),
+                self._event(PARTNER_OFFLINE, trip, now_ros, leg=out.leg, detail=detail)]
+
+    def _heard(self, robot: str, now_wall: float) -> str:
+        if robot == self.me or self.liveness.online(robot, now_wall):
+            return f"{robot} online"
+        last = self.liveness.last_heard(robot)
+        return f"{robot}: no status for {now_wall - last:.0f} s" if last is not None else f"{robot}: never heard"
 
     def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
         """A Cancel from /gidabot/cancels: drop the goal, queued or running, and tell the visitor why."""
@@ -262,20 +425,30 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("event", f"nav event rejected: {err}")
             return []
-        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)):
+        answer = bool(ev.leg) and ev.goal_uid in self.assigner    # about a leg this robot is assigning
+        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)
+                                   or answer):
             return []        # nothing here depends on it: not even remembered, so it changes no state
         if not self._events_seen.add(ev.uid):
+            return []
+        if ev.robot == self.me and from_relay:
+            self.stats.inc("rejected_spoofed")
+            self.warn.warning("spoofed", f"event {ev.uid} claims to come from {self.me} but came through a relay")
             return []
         if ev.phase in RELEASE_PHASES:
             self._releases[ev.goal_uid] = now_ros
             while len(self._releases) > 1000:
                 self._releases.popitem(last=False)
+        actions: list[Action] = []
+        if answer:
+            if ev.phase in (ACCEPTED, DECLINED):
+                actions = self._assign(self.assigner.on_answer(ev.goal_uid, ev.leg, ev.robot, ev.attempt,
+                                                               ev.phase == ACCEPTED, ev.eta, ev.detail, now_wall),
+                                       now_ros, now_wall)
+            elif ev.final:
+                self.assigner.on_done(ev.goal_uid, ev.leg, ev.robot)
         if ev.robot != self.me:
-            return []
-        if from_relay:
-            self.stats.inc("rejected_spoofed")
-            self.warn.warning("spoofed", f"event {ev.uid} claims to come from {self.me} but came through a relay")
-            return []
+            return actions
         trip = self._held(ev.goal_uid)
         if ev.phase == TOUR_STEP_DONE and ev.tour_file:
             self.waits.add(TourWait(ev.goal_uid, ev.tour_file, ev.tour_step,
@@ -289,14 +462,29 @@ class GoalManagerCore:
                 self.stats.inc("finished")
         elif ev.phase in PROGRESS_PHASES and trip is not None:
             self._phase[ev.goal_uid] = (ev.phase, now_ros)
+        if ev.phase == NO_ROBOT_ON_FLOOR and trip is not None and trip.tour_file:
+            actions += self._tour_goes_on(trip, now_ros, now_wall)
         if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and early.stamp >= ev.stamp > 0:
             self.stats.inc("early_continues")
-            return self._continue(early, now_ros, now_wall)
-        return []
+            return actions + self._continue(early, now_ros, now_wall)
+        return actions
 
     def tick(self, now_ros: float, now_wall: float) -> list[Action]:
-        """Periodic housekeeping (nothing is time-driven in the goal manager yet)."""
-        return []
+        """Proposals made here that nobody answered in time (or to a robot now offline) move on to the next
+        robot; proposals held here that were never confirmed are forgotten after ``proposal_ttl``."""
+        self._now_ros = now_ros
+        actions: list[Action] = []
+        if len(self.assigner):
+            outputs = self.assigner.tick(now_wall, lambda r: r == self.me or self.liveness.online(r, now_wall))
+            actions = self._assign(outputs, now_ros, now_wall)
+        for uid in self.legs.expired(now_wall, self.cfg.assign.proposal_ttl):
+            trip = self._held(uid)
+            leg = trip.leg_of(self.me) if trip is not None else None
+            if trip is not None and leg is not None and trip.leg_state(leg) == LEG_PROPOSED:
+                self.stats.inc("proposals_expired")
+                self.log.info(f"{uid}: the {leg} leg proposed to {self.me} was never confirmed; forgotten")
+                self._pop(uid)
+        return actions
 
     # ------------------------------------------------------------------ restarts
     def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
@@ -311,6 +499,7 @@ class GoalManagerCore:
             "releases": [[uid, t] for uid, t in self._releases.items()][-remember:],
             "waits": [asdict(w) for w in self.waits.all()],
             "early_continues": [asdict(c) for c in self._early_continues.values()],
+            "assignments": self.assigner.state(), "legs": self.legs.state(remember),
             "stats": dict(self.stats),
         }
 
@@ -332,6 +521,11 @@ class GoalManagerCore:
         releases = [(str(r[0]), number(r[1], "release")) for r in state.get("releases", [])]
         waits = [dataclass_from_dict(TourWait, w) for w in state.get("waits", [])]
         early = [dataclass_from_dict(CommandData, c) for c in state.get("early_continues", [])]
+        assigner = Assigner(self.me, self.cfg.assign, self._rank)
+        assigner.load_state(state.get("assignments", []))
+        legs = LegBook(self.me)
+        legs.load_state(state.get("legs", {}))
+        self.assigner, self.legs = assigner, legs
         self.queue = queue
         for name, uids in seen.items():
             getattr(self, f"_{name}").update(uids)
@@ -354,14 +548,15 @@ class GoalManagerCore:
             phase, since = self._phase[self.queue[0].uid]
             head = HeadProgress(self.queue[0].uid, phase, since)
         pos = (self.pose[0], self.pose[1]) if self.pose else None
-        eta = estimate_queue(self.planner, self.cfg.wait, self.robot, pos, self.queue, head, self._releases, now_ros)
-        return PendingSnapshot(self.me, self.robot.floor, tuple(self.queue), tuple(eta),
-                               eta[-1] if eta else 0.0, now_ros)
+        eta = estimate_queue(self.planner, self.cfg.wait, self.robot, pos, self.queue, head, self._releases,
+                             now_ros).eta
+        return PendingSnapshot(self.me, self.robot.floor, tuple(self.queue), eta, eta[-1] if eta else 0.0, now_ros)
 
     # ------------------------------------------------------------------ requests
     def _issue(self, goal_id: str, way: str, language: str, visitor_id: str, tour_file: str, tour_step: int,
-               now_ros: float, now_wall: float) -> list[Action]:
-        """Make a goal from this robot's floor and pose to ``goal_id``, broadcast it and queue it here."""
+               now_ros: float, now_wall: float, start: Location | None = None) -> list[Action]:
+        """Make a goal to ``goal_id`` from this robot's floor and pose (or from ``start``, a place on a floor
+        without robot where a tour goes on) and start assigning its legs."""
         language = language if language in LANGUAGES else self.cfg.default_language
         way = way if way in WAYS else self.cfg.default_way
         visitor_id = visitor_id or "visitor"
@@ -372,19 +567,15 @@ class GoalManagerCore:
             self.stats.inc("rejected_location")
             return [self._event(REJECTED, None, now_ros, detail=f"unknown goal {goal_id[:64]!r}", **ctx)]
         ctx["target_floor"] = loc.floor
-        a, b = self.robot.floor, loc.floor
-        x, y, _ = self.pose if self.pose else (self.robot.home.x, self.robot.home.y, self.robot.home.yaw)
+        if start is None:
+            a = self.robot.floor
+            x, y, _ = self.pose if self.pose else (self.robot.home.x, self.robot.home.y, self.robot.home.yaw)
+        else:
+            a, x, y = start.floor, start.pose.x, start.pose.y
+        b = loc.floor
         goal_xy = (loc.pose.x, loc.pose.y)
         connector = ""
         if not same_floor(a, b):
-            partner = self.building.robot_on(b)
-            if partner is not None and not self.liveness.online(partner.name, now_wall):
-                self.stats.inc("partner_offline")
-                last = self.liveness.last_heard(partner.name)
-                ago = f"no status for {now_wall - last:.0f} s" if last is not None else "never heard"
-                return [self._event(PARTNER_OFFLINE, None, now_ros, **ctx,
-                                    detail=f"{partner.name} (floor {format_floor(b)}) is offline ({ago}); "
-                                           "the request was not queued")]
             try:
                 choice = self.planner.choose_connector(a, (x, y), b, goal_xy, way)
             except NoRouteError as err:
@@ -397,9 +588,25 @@ class GoalManagerCore:
                                 detail=f"no path from ({x:.1f}, {y:.1f}) to {goal_id} on floor {format_floor(a)}")]
         trip = Trip(uid=self.uids.goal(visitor_id), origin_robot=self.me, visitor_id=visitor_id, initial_floor=a,
                     initial_x=x, initial_y=y, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y,
-                    goal_yaw=loc.pose.yaw, way=way, connector=connector, start_id=START_ROBOT, goal_id=goal_id,
-                    language=language, tour_file=tour_file, tour_step=tour_step, stamp=now_ros)
-        return [SendGoal(trip), *self.on_goal(trip, now_ros, now_wall)]
+                    goal_yaw=loc.pose.yaw, way=way, connector=connector,
+                    start_id=START_ROBOT if start is None else start.id, goal_id=goal_id, language=language,
+                    tour_file=tour_file, tour_step=tour_step, stamp=now_ros)
+        self._now_ros = now_ros
+        return self._assign(self.assigner.open(trip, needed_legs(self.building, trip), now_wall), now_ros, now_wall)
+
+    def _tour_goes_on(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
+        """This robot sent the visitor of a tour to a floor without robot (NO_ROBOT_ON_FLOOR): the tour goes on
+        at its next stop on a floor with a robot, from the last stop the visitor finds alone."""
+        tour = self.tours.get(trip.tour_file)
+        nxt = next_robot_stop(tour, self.building, trip.tour_step) if tour is not None else None
+        if tour is None or nxt is None:
+            return []
+        start = self.building.find_location(tour.goals[nxt - 1].room)
+        if start is None:
+            return []
+        self.stats.inc("tour_continuations")
+        return self._issue(tour.goals[nxt].room, trip.way, trip.language, trip.visitor_id, trip.tour_file, nxt,
+                           now_ros, now_wall, start=start)
 
     def _continue(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         if cmd.goal_uid:
@@ -476,11 +683,13 @@ class GoalManagerCore:
                 if wait is not None:
                     return [self._tour_ended(wait, now_ros)]
                 if cmd.goal_uid in self._goals_seen and cmd.goal_uid not in self._cancelled:
-                    # a trip this robot does not hold (any more): the others may still hold it
+                    # a trip this robot does not hold (any more), e.g. one another robot of this floor comes
+                    # to serve: the others may still hold it
                     cancel = self._new_cancel(cmd.goal_uid, REASON_VISITOR, f"the visitor cancelled at {self.me}",
                                               now_ros)
                     self._cancels_seen.add(cancel.uid)
                     self._cancelled.add(cmd.goal_uid)
+                    self.assigner.close(cmd.goal_uid)
                     return [SendCancel(cancel), self._event(CANCELLED_HERE, None, now_ros, goal_uid=cmd.goal_uid)]
                 self.stats.inc("cancel_unknown")
                 self.warn.warning("cancel_unknown", f"cancel of unknown trip {cmd.goal_uid!r} ignored")
@@ -509,11 +718,16 @@ class GoalManagerCore:
             self.stats.inc("duplicate_cancels")
             return []
         self._cancelled.add(cancel.goal_uid)
+        self.assigner.close(cancel.goal_uid)
+        self.legs.settled(cancel.goal_uid)
         trip = self._pop(cancel.goal_uid)
         self._phase.pop(cancel.goal_uid, None)
         if trip is None:
             return []
         self.stats.inc("cancelled")
+        leg = trip.leg_of(self.me)
+        if leg is None or trip.leg_state(leg) != LEG_COMMITTED:
+            return []            # only proposed here: this robot never served it, nobody here to tell
         if cancel.origin_robot == self.me:
             if not here or quiet:
                 return []        # our navigation gave the trip up and told the visitor already
@@ -560,7 +774,8 @@ class GoalManagerCore:
                           way=trip.way if trip else "", connector=trip.connector if trip else "",
                           target_floor=trip.goal_floor if trip else self.robot.floor,
                           location_id=trip.goal_id if trip else "", tour_file=trip.tour_file if trip else "",
-                          tour_step=trip.tour_step if trip else -1, stamp=now_ros)
+                          tour_step=trip.tour_step if trip else -1, stamp=now_ros,
+                          leg=(trip.leg_of(self.me) or "") if trip else "", attempt=trip.attempt if trip else 0)
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
         if ev.goal_uid and phase != REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)

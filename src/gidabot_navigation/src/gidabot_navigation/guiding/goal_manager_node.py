@@ -20,6 +20,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.guiding_node import (
     cancel_from_msg,
@@ -35,10 +36,10 @@ from gidabot_navigation.guiding.guiding_node import (
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
-from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Phase, Topic
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
@@ -70,11 +71,17 @@ class Params:
                          lift_s_per_floor=param_number("~lift_s_per_floor", WaitModel.lift_s_per_floor, strict=False),
                          continue_s=param_number("~continue_time", WaitModel.continue_s, strict=False),
                          leg_overhead_s=param_number("~leg_overhead", WaitModel.leg_overhead_s, strict=False),
-                         pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance))
+                         pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance),
+                         unguided_s=param_number("~unguided_time", WaitModel.unguided_s, strict=False))
+        assign = AssignConfig(answer_timeout=param_number("~answer_timeout", AssignConfig.answer_timeout),
+                              proposal_ttl=param_number("~proposal_ttl", AssignConfig.proposal_ttl),
+                              max_wait=param_number("~max_wait", AssignConfig.max_wait),
+                              helper_gain=param_number("~helper_gain", AssignConfig.helper_gain, strict=False))
         cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", WAY_STAIRS),
                                 default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
-                                max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait)
+                                max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait,
+                                assign=assign)
         state_dir = param_text("~state_dir", "") or default_state_dir(robot)
         return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
@@ -93,7 +100,9 @@ class GoalManagerNode:
       - ``/gidabot/cancels`` (gidabot_msgs/Cancel): drop a goal, queued or running.
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): this robot's navigation ends its part of
         a trip (a final phase) or reports TOUR_STEP_DONE; GO_TO_FLOOR of any robot (wait estimate).
-      - ``/gidabot/status`` (gidabot_msgs/RobotStatus): partner liveness (wall time).
+      - ``/gidabot/status`` (gidabot_msgs/RobotStatus): the robots' liveness (wall time) and poses.
+      - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): the other robots' queues and waits (which robot
+        of a floor can serve a leg soonest).
       - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped): where new trips start.
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the tours for tour mode.
 
@@ -101,7 +110,8 @@ class GoalManagerNode:
     late, e.g. a restarted node; subscribers ignore uids they handled):
       - ``/gidabot/goals`` (gidabot_msgs/Goal, event): goals made here.
       - ``/gidabot/cancels`` (gidabot_msgs/Cancel, event): the visitor's cancels here.
-      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ACCEPTED, REJECTED, PARTNER_OFFLINE /
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ACCEPTED / DECLINED (answers to a leg proposed
+        here), ASSIGNED (a leg of a trip made here is committed to a robot), REJECTED, PARTNER_OFFLINE /
         UNREACHABLE for a request that cannot be queued, CANCELLED_HERE / CANCELLED_ELSEWHERE /
         UNREACHABLE / TIMEOUT / PARTNER_OFFLINE when a cancel drops a goal held here, TOUR_FINISHED
         on a Continue after the last step.
@@ -122,7 +132,13 @@ class GoalManagerNode:
         ``~state_max_age`` (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
       - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
         ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
-        ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
+        ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5), ``~unguided_time`` (s, 120: a visitor's stops
+        on floors without robot before a trip from there).
+      - Who serves a leg (docs/guiding.md): ``~answer_timeout`` (wall s, 3: a robot asked to serve a leg that
+        has not answered by then is passed over), ``~proposal_ttl`` (wall s, 60: a proposal held here that is
+        never confirmed is forgotten), ``~max_wait`` (s, 900: a leg this robot could not reach sooner is
+        declined), ``~helper_gain`` (s, 20: another robot of this floor comes to this robot's visitor only if
+        that much sooner).
     """
 
     def __init__(self, params: Params) -> None:
@@ -154,6 +170,7 @@ class GoalManagerNode:
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
             rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
             rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=50),
             rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
@@ -167,7 +184,12 @@ class GoalManagerNode:
             self.dropped += 1
 
     def _on_status(self, msg: RobotStatus) -> None:
-        self._enqueue(msg.robot, "status")
+        p = msg.nav_pose.position
+        self._enqueue((msg.robot, (p.x, p.y)), "status")
+
+    def _on_pending(self, msg: PendingRequests) -> None:
+        if msg.robot != self.robot:          # our own list is the core's
+            self._enqueue(msg, "pending")
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         p = msg.pose.pose              # only the latest pose matters: one assignment, applied by the loop
@@ -200,7 +222,9 @@ class GoalManagerNode:
             if kind:
                 self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
             now = time.monotonic()
-            self.commit(self.core.tick(rospy.get_time(), now), False)
+            version = self.core.version         # the tick may drop a proposal held too long
+            actions = self.core.tick(rospy.get_time(), now)
+            self.commit(actions, self.core.version != version)
             if self.core.version != self._published_version or now >= next_pending:
                 self.publish_pending()
                 if now >= next_pending:
@@ -219,7 +243,10 @@ class GoalManagerNode:
         if kind == "event":
             return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
         if kind == "status":
-            core.on_status(msg, now_wall)
+            robot, pose = msg
+            core.on_status(robot, now_wall, pose)
+        elif kind == "pending":
+            core.on_pending(msg.robot, [trip_from_msg(g) for g in msg.goals], msg.wait_new, now_wall)
         elif kind == "catalog":
             core.on_catalog(catalog_entries(msg))
         return []
@@ -230,7 +257,7 @@ class GoalManagerNode:
         if self.store is None:
             self.execute(actions)
         else:
-            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
             self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:

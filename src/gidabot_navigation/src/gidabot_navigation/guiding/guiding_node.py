@@ -52,7 +52,8 @@ def trip_from_msg(m: Goal) -> Trip:
                 goal_x=m.goal_pose.position.x, goal_y=m.goal_pose.position.y,
                 goal_yaw=yaw_of(m.goal_pose.orientation), way=m.way, connector=m.connector, start_id=m.start_id,
                 goal_id=m.goal_id, language=m.language, tour_file=m.tour_file, tour_step=m.tour_step,
-                stamp=stamp_of(m))
+                stamp=stamp_of(m), start_robot=m.start_robot, start_state=m.start_state, goal_robot=m.goal_robot,
+                goal_state=m.goal_state, attempt=m.attempt)
 
 
 def trip_to_msg(t: Trip) -> Goal:
@@ -65,6 +66,8 @@ def trip_to_msg(t: Trip) -> Goal:
     m.goal_pose = Pose(Point(t.goal_x, t.goal_y, 0.0), quaternion(t.goal_yaw))
     m.way, m.connector, m.start_id, m.goal_id, m.language = t.way, t.connector, t.start_id, t.goal_id, t.language
     m.tour_file, m.tour_step = t.tour_file, t.tour_step
+    m.start_robot, m.start_state, m.goal_robot, m.goal_state = t.start_robot, t.start_state, t.goal_robot, t.goal_state
+    m.attempt = t.attempt
     return m
 
 
@@ -72,7 +75,7 @@ def event_from_msg(m: NavEvent) -> NavEventData:
     return NavEventData(uid=m.uid, robot=m.robot, floor=m.floor, goal_uid=m.goal_uid, phase=m.phase,
                         language=m.language, way=m.way, connector=m.connector, target_floor=m.target_floor,
                         location_id=m.location_id, tour_file=m.tour_file, tour_step=m.tour_step, detail=m.detail,
-                        stamp=stamp_of(m))
+                        stamp=stamp_of(m), leg=m.leg, attempt=m.attempt, assignee=m.assignee, eta=m.eta)
 
 
 def event_to_msg(e: NavEventData) -> NavEvent:
@@ -81,6 +84,7 @@ def event_to_msg(e: NavEventData) -> NavEvent:
     m.uid, m.robot, m.floor, m.goal_uid, m.phase = e.uid, e.robot, e.floor, e.goal_uid, e.phase
     m.language, m.way, m.connector, m.target_floor = e.language, e.way, e.connector, e.target_floor
     m.location_id, m.tour_file, m.tour_step, m.detail = e.location_id, e.tour_file, e.tour_step, e.detail[:400]
+    m.leg, m.attempt, m.assignee, m.eta = e.leg, e.attempt, e.assignee, e.eta
     return m
 
 

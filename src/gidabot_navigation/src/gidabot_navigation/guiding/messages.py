@@ -24,11 +24,21 @@ from dataclasses import dataclass, replace
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, TourNameError
 from gidabot_navigation.interface import (
+    ACCEPTED,
+    ASSIGNED,
     CANCELLED_ELSEWHERE,
     COMMAND_NAMES,
+    DECLINED,
     DEFAULT_LANGUAGE,
     FINAL_PHASES,
     LANGUAGES,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
+    LEG_STATE_NAMES,
+    LEG_STATES,
+    LEGS,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REASON_ADMIN,
@@ -99,6 +109,12 @@ class Trip:
     tour_file: str = ""
     tour_step: int = -1
     stamp: float = 0.0            # s, ROS time when the visitor confirmed
+    # who serves each leg (docs/guiding.md, "Who serves a leg"): written only by origin_robot
+    start_robot: str = ""
+    start_state: int = LEG_NONE
+    goal_robot: str = ""
+    goal_state: int = LEG_NONE
+    attempt: int = 0              # version of the assignment; the highest wins
 
     @property
     def cross_floor(self) -> bool:
@@ -107,6 +123,26 @@ class Trip:
     @property
     def in_tour(self) -> bool:
         return bool(self.tour_file)
+
+    def leg_robot(self, leg: str) -> str:
+        return self.start_robot if leg == LEG_START else self.goal_robot
+
+    def leg_state(self, leg: str) -> int:
+        return self.start_state if leg == LEG_START else self.goal_state
+
+    def leg_of(self, robot: str) -> str | None:
+        """The leg this assignment names ``robot`` for (proposed or committed), or None."""
+        return next((leg for leg in LEGS if self.leg_state(leg) != LEG_NONE and self.leg_robot(leg) == robot), None)
+
+    def committed(self, leg: str) -> str:
+        """The robot serving ``leg`` once committed, else ""."""
+        return self.leg_robot(leg) if self.leg_state(leg) == LEG_COMMITTED else ""
+
+    def with_leg(self, leg: str, robot: str, state: int, attempt: int) -> Trip:
+        """This trip with ``leg`` given to ``robot`` in ``state``, as assignment ``attempt``."""
+        if leg == LEG_START:
+            return replace(self, start_robot=robot, start_state=state, attempt=attempt)
+        return replace(self, goal_robot=robot, goal_state=state, attempt=attempt)
 
 
 @dataclass(frozen=True)
@@ -127,6 +163,11 @@ class NavEventData:
     tour_step: int = -1
     detail: str = ""
     stamp: float = 0.0
+    leg: str = ""                 # LEG_START / LEG_GOAL: the leg of the trip the event is about
+    attempt: int = 0              # the Goal.attempt the emitting robot acted under (ACCEPTED / DECLINED: answered)
+    assignee: str = ""            # the other robot: ASSIGNED serves ``leg``; GO_TO_FLOOR waits; PARTNER_* partner
+    eta: float = 0.0              # s, ACCEPTED / ASSIGNED: until the serving robot is with the visitor (start leg)
+    #                               or at the meeting point (goal leg)
 
     @property
     def final(self) -> bool:
@@ -382,7 +423,7 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
     visitor = _text(trip.visitor_id, "visitor_id", MAX_ID, _ID_RE)
     a = _floor_of(building, trip.initial_floor, "initial_floor")
     b = _floor_of(building, trip.goal_floor, "goal_floor")
-    if not same_floor(a, robot.floor):
+    if building.has_robot(a) and not same_floor(a, robot.floor):
         raise GoalRejected("floor", f"initial_floor {format_floor(a)} is not the floor of origin robot {origin} "
                                     f"({format_floor(robot.floor)})")
     ix, iy = _finite(trip.initial_x, "initial_pose.x"), _finite(trip.initial_y, "initial_pose.y")
@@ -405,6 +446,13 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
     start_id = _text(trip.start_id, "start_id", MAX_ID, _ID_RE)
     if start_id and start_id != START_ROBOT and building.find_location(start_id) is None:
         raise GoalRejected("location", f"start_id {show(start_id)} is neither {START_ROBOT!r} nor a location")
+    if not building.has_robot(a):
+        # a tour going on from a floor without robot: the visitor starts at the last place visited there
+        start = building.find_location(start_id)
+        if start is None or not same_floor(start.floor, a) or math.hypot(ix - start.pose.x, iy - start.pose.y) \
+                > POSE_TOLERANCE:
+            raise GoalRejected("location", f"a trip from floor {format_floor(a)} (no robot) must start at a location "
+                                           f"of that floor, not at start_id {show(start_id)} ({ix:g}, {iy:g})")
     way = _text(trip.way, "way", 16)
     connector = _text(trip.connector, "connector", MAX_ID, _ID_RE)
     if way and way not in WAYS:
@@ -429,10 +477,40 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
         raise GoalRejected("language", f"language {show(language)} is not one of {', '.join(LANGUAGES)}")
     tour_file, tour_step = _tour(trip.tour_file, trip.tour_step, "goal")
     stamp = trip.stamp if isinstance(trip.stamp, (int, float)) and math.isfinite(trip.stamp) else 0.0
+    attempt = trip.attempt
+    if isinstance(attempt, bool) or not isinstance(attempt, int) or not 0 <= attempt < 2 ** 32:
+        raise GoalRejected("assignment", f"attempt {show(attempt)} is not an integer in 0..2^32-1")
+    legs = {leg: _leg(building, trip, leg, a if leg == LEG_START else b, a != b or leg == LEG_START)
+            for leg in LEGS}
     return replace(trip, uid=uid, origin_robot=origin, visitor_id=visitor, initial_floor=a, initial_x=ix,
                    initial_y=iy, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
                    way=way, connector=connector, start_id=start_id, goal_id=goal_id, language=language,
-                   tour_file=tour_file, tour_step=tour_step, stamp=float(stamp))
+                   tour_file=tour_file, tour_step=tour_step, stamp=float(stamp), start_robot=legs[LEG_START][0],
+                   start_state=legs[LEG_START][1], goal_robot=legs[LEG_GOAL][0], goal_state=legs[LEG_GOAL][1])
+
+
+def _leg(building: Building, trip: Trip, leg: str, floor: float, exists: bool) -> tuple[str, int]:
+    """Check one leg's assignment: a robot of the leg's floor proposed or committed when the floor has robots
+    (and the leg exists: a one-floor trip has only the start leg), else none."""
+    robot = _text(trip.leg_robot(leg), f"{leg}_robot", MAX_ID, _ID_RE)
+    state = trip.leg_state(leg)
+    if isinstance(state, bool) or state not in LEG_STATES:
+        raise GoalRejected("assignment", f"{leg}_state {show(state)} is not one of "
+                                         f"{', '.join(f'{k}={v}' for k, v in LEG_STATE_NAMES.items())}")
+    if not exists or not building.has_robot(floor):
+        if state != LEG_NONE or robot:
+            why = "a trip on one floor has no goal leg" if not exists else \
+                f"floor {format_floor(floor)} has no robot"
+            raise GoalRejected("assignment", f"{leg} leg assigned to {show(robot)} ({LEG_STATE_NAMES[state]}): {why}")
+        return "", LEG_NONE
+    if state == LEG_NONE:
+        raise GoalRejected("assignment", f"{leg} leg on floor {format_floor(floor)} has no robot assigned "
+                                         f"(robots there: {', '.join(r.name for r in building.robots_on(floor))})")
+    serving = building.find_robot(robot)
+    if serving is None or not same_floor(serving.floor, floor):
+        raise GoalRejected("assignment", f"{leg}_robot {show(robot)} is not a robot of floor {format_floor(floor)} "
+                                         f"({', '.join(r.name for r in building.robots_on(floor))})")
+    return robot, state
 
 
 def validate_cancel(building: Building, cancel: CancelData) -> CancelData:
@@ -462,8 +540,20 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
     tour_file, tour_step = _tour(event.tour_file, event.tour_step, "event")
     way = event.way if isinstance(event.way, str) and event.way in WAYS else ""
     language = event.language if event.language in LANGUAGES else DEFAULT_LANGUAGE
+    if event.leg not in ("", *LEGS):
+        raise GoalRejected("leg", f"event leg {show(event.leg)} is not one of {', '.join(LEGS)} (or '')")
+    if isinstance(event.attempt, bool) or not isinstance(event.attempt, int) or not 0 <= event.attempt < 2 ** 32:
+        raise GoalRejected("assignment", f"event attempt {show(event.attempt)} is not an integer in 0..2^32-1")
+    assignee = _text(event.assignee, "event assignee", MAX_ID, _ID_RE)
+    if assignee and building.find_robot(assignee) is None:
+        raise GoalRejected("robot", f"event assignee {show(assignee)} is not a robot of building {building.id}")
+    if event.phase in (ACCEPTED, DECLINED, ASSIGNED) and (not goal_uid or not event.leg):
+        raise GoalRejected("leg", f"a {PHASE_NAMES[event.phase]} event needs a goal_uid and a leg")
+    if event.phase == ASSIGNED and not assignee:
+        raise GoalRejected("assignment", "an assigned event needs an assignee")
+    eta = event.eta if isinstance(event.eta, (int, float)) and math.isfinite(event.eta) and event.eta >= 0 else 0.0
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
-                   way=way, language=language)
+                   way=way, language=language, assignee=assignee, eta=float(eta))
 
 
 def validate_command(cmd: CommandData) -> CommandData:

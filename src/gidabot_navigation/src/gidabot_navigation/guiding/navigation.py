@@ -1,13 +1,17 @@
 """Multirobot navigation (ROS-free core): the guiding state machine of paper Algorithm 1.
 
-One robot runs the head of its pending list (kept by the goal manager) leg by leg
-through move_base. Roles (see :func:`gidabot_navigation.guiding.trips.role`):
+One robot runs its pending list (kept by the goal manager) leg by leg through
+move_base, in order, each trip once the trip's assignment commits a leg to this robot
+(``docs/guiding.md``, *Who serves a leg*). Roles (see :func:`gidabot_navigation.guiding.trips.role`):
 
 * **same floor** — [pick the visitor up] -> ON_THE_WAY to the goal -> GOAL_REACHED
   (TOUR_STEP_DONE / TOUR_FINISHED for a tour step);
 * **start floor** of a cross-floor trip — [pick up] -> ON_THE_WAY to the connector's
-  meeting point -> GO_TO_FLOOR (target floor, way, connector), or NO_ROBOT_ON_FLOOR
-  when no robot serves the goal floor; the robot's part is then over;
+  meeting point -> GO_TO_FLOOR (target floor, way, connector, the robot that waits
+  there), or NO_ROBOT_ON_FLOOR when no robot serves the goal floor (a tour whose
+  remaining stops are all on floors without robot: TOUR_FINISHED); the robot's part is
+  then over. A goal leg not committed yet when the robot gets there: it waits with the
+  visitor (PARTNER_LOST) until it is;
 * **goal floor** — as soon as the trip is at the head: GOING_TO_MEETING -> at the
   meeting point WAITING_VISITOR -> Continue -> ON_THE_WAY to the goal -> GOAL_REACHED.
   Nobody presses Continue within ``continue_timeout`` (ROS s, counted from when the
@@ -55,12 +59,16 @@ from gidabot_navigation.guiding.messages import (
     validate_event,
 )
 from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
-from gidabot_navigation.guiding.trips import Role, partner_of, role
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, next_robot_stop
+from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
     NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_BACK,
@@ -97,10 +105,11 @@ class Stage(enum.Enum):
     GUIDING = "guiding"          # ON_THE_WAY with the visitor
     TO_MEETING = "to_meeting"    # goal floor: driving alone to the connector's meeting point
     WAITING = "waiting"          # goal floor: at the meeting point, waiting for Continue
+    HANDOVER = "handover"        # start floor: at the connector with the visitor, the goal leg not committed yet
 
 
 STATE_OF_STAGE = {Stage.PICKUP: STATE_TO_MEETING, Stage.GUIDING: STATE_GUIDING, Stage.TO_MEETING: STATE_TO_MEETING,
-                  Stage.WAITING: STATE_WAITING}
+                  Stage.WAITING: STATE_WAITING, Stage.HANDOVER: STATE_WAITING}
 
 
 @dataclass(frozen=True)
@@ -234,10 +243,16 @@ class NavigationCore:
         self._eta_at = now_ros
         actions: list[Action] = []
         leg = self.leg
-        if leg is not None and leg.trip.uid not in {t.uid for t in self.queue}:
-            self.log.info(f"{leg.trip.uid} left the pending list; stopping it")
+        newest = next((t for t in self.queue if leg is not None and t.uid == leg.trip.uid), None)
+        if leg is not None and (newest is None or newest.committed(newest.leg_of(self.me) or "") != self.me):
+            self.log.info(f"{leg.trip.uid} left the pending list (or no longer names {self.me}); stopping it")
             actions += self._stop(leg)
             self._finish(leg.trip)
+        elif leg is not None and newest is not None:
+            leg.trip = newest             # the newest assignment: who serves the other leg
+            leg.partner = self._partner(newest, leg.role)
+            if leg.stage is Stage.HANDOVER:
+                actions += self._hand_over(leg, now_ros)
         return actions + self._advance(now_ros, now_wall)
 
     def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
@@ -279,7 +294,7 @@ class NavigationCore:
                 return self._go_on(leg, now_ros)
             leg.continued = True          # the visitor is already here: go on as soon as we arrive
             return []
-        if goal_uid and any(t.uid == goal_uid and role(t, self.floor) is Role.GOAL for t in self.queue):
+        if goal_uid and any(t.uid == goal_uid and role(t, self.me) is Role.GOAL for t in self.queue):
             self._early_continue.add(goal_uid)
         return []
 
@@ -423,19 +438,24 @@ class NavigationCore:
     def _advance(self, now_ros: float, now_wall: float) -> list[Action]:
         actions: list[Action] = []
         while self.leg is None and self.available:
-            trip = next((t for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled), None)
+            trip = next((t for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled
+                         and t.committed(t.leg_of(self.me) or "") == self.me), None)
             if trip is None:
                 break
             actions += self._start(trip, now_ros)
         return actions
 
+    def _partner(self, trip: Trip, r: Role) -> str | None:
+        """The robot serving the other leg of a cross-floor trip, once committed (None: none, or not yet)."""
+        other = {Role.START: LEG_GOAL, Role.GOAL: LEG_START}.get(r)
+        return (trip.committed(other) or None) if other is not None else None
+
     def _start(self, trip: Trip, now_ros: float) -> list[Action]:
-        r = role(trip, self.floor)
+        r = role(trip, self.me)
         if r is None:
             self._finished.add(trip.uid)
             return []
-        partner = partner_of(self.building, trip, self.floor)
-        partner_name = partner.name if partner is not None and partner.name != self.me else None
+        partner_name = self._partner(trip, r)
         if r is Role.GOAL:
             meet = self._meeting(trip)
             if meet is None:
@@ -472,14 +492,37 @@ class NavigationCore:
                 actions += self._go_on(leg, now_ros)
             return actions
         # GUIDING: this robot's part is done
-        self._finish(trip)
         if leg.role is Role.START:
-            if self.building.robot_on(trip.goal_floor) is None:
-                return [self._event(NO_ROBOT_ON_FLOOR, trip, ended,
-                                    detail=f"no robot serves floor {format_floor(trip.goal_floor)}: "
-                                           f"go there by the {trip.way} and find {trip.goal_id} yourself")]
-            return [self._event(GO_TO_FLOOR, trip, ended)]
+            leg.stage = Stage.HANDOVER
+            return self._hand_over(leg, ended)
+        self._finish(trip)
         return [self._event(self._done_phase(trip), trip, ended)]
+
+    def _hand_over(self, leg: Leg, now_ros: float) -> list[Action]:
+        """Start floor, at the connector with the visitor: send the visitor on to the robot serving the goal leg
+        (GO_TO_FLOOR), or alone to a floor without robot (NO_ROBOT_ON_FLOOR; TOUR_FINISHED when the tour ends on
+        such floors). A goal leg still being assigned: wait with the visitor until it is committed."""
+        trip = leg.trip
+        if trip.goal_state == LEG_NONE:
+            self._finish(trip)
+            floor = format_floor(trip.goal_floor)
+            tour = self.tours.get(trip.tour_file) if trip.tour_file else None
+            if tour is not None and next_robot_stop(tour, self.building, trip.tour_step) is None:
+                return [self._event(TOUR_FINISHED, trip, now_ros,
+                                    detail=f"no robot serves floor {floor}: the visitor finds {trip.goal_id} "
+                                           "and the tour's last stops alone; the tour ends there")]
+            return [self._event(NO_ROBOT_ON_FLOOR, trip, now_ros,
+                                detail=f"no robot serves floor {floor}: go there by the {trip.way} and find "
+                                       f"{trip.goal_id} yourself")]
+        if trip.goal_state != LEG_COMMITTED:
+            if leg.arrived_at is None:
+                leg.arrived_at = now_ros
+                return [self._event(PARTNER_LOST, trip, now_ros, location_id=trip.connector,
+                                    detail=f"waiting with the visitor until a robot of floor "
+                                           f"{format_floor(trip.goal_floor)} takes the goal leg")]
+            return []
+        self._finish(trip)
+        return [self._event(GO_TO_FLOOR, trip, now_ros, assignee=trip.goal_robot)]
 
     def _go_on(self, leg: Leg, now_ros: float) -> list[Action]:
         """Goal floor: the visitor is here; guide to the goal."""
@@ -489,21 +532,21 @@ class NavigationCore:
         return [self._move(leg), self._event(ON_THE_WAY, leg.trip, now_ros, location_id=leg.trip.goal_id)]
 
     def _timer_start(self, leg: Leg) -> float | None:
-        """ROS s from which the Continue timeout runs: at the meeting point and the visitor released."""
+        """ROS s from which the Continue timeout runs: at the meeting point and the visitor released (a trip from a
+        floor without robot: from the arrival)."""
         if leg.arrived_at is None:
             return None
-        start_robot = self.building.robot_on(leg.trip.initial_floor)
-        if start_robot is None or start_robot.name == self.me:
+        start_robot = leg.trip.committed(LEG_START)
+        if leg.trip.start_state == LEG_NONE or start_robot == self.me:
             return leg.arrived_at
         release = self._releases.get(leg.trip.uid)
-        if release is None or release[0] != start_robot.name:
+        if release is None or release[0] != start_robot:
             return None
         return max(leg.arrived_at, release[1])
 
     def _released(self, trip: Trip) -> bool:
-        start_robot = self.building.robot_on(trip.initial_floor)
         release = self._releases.get(trip.uid)
-        return release is not None and start_robot is not None and release[0] == start_robot.name
+        return release is not None and bool(trip.committed(LEG_START)) and release[0] == trip.committed(LEG_START)
 
     def _timeout(self, leg: Leg, now_ros: float) -> list[Action]:
         trip = leg.trip
@@ -518,30 +561,32 @@ class NavigationCore:
         if leg.partner is None:
             return []
         if leg.role is Role.START:
-            needed = leg.stage in (Stage.PICKUP, Stage.GUIDING)
+            needed = leg.stage in (Stage.PICKUP, Stage.GUIDING, Stage.HANDOVER)
         else:
             needed = not leg.continued and not self._released(leg.trip)
         if not needed:
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None          # the visitor was released / is here: the trip goes on
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail="the trip goes on")]
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner, detail="the trip goes on")]
         if self.liveness.online(leg.partner, now_wall):
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, detail=f"{leg.partner} is back; the trip goes on")]
+            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner,
+                                detail=f"{leg.partner} is back; the trip goes on")]
         actions: list[Action] = []
         if leg.partner_lost is None:
             leg.partner_lost = self.liveness.offline_since(leg.partner, now_wall) or now_wall
             wait = f"; waiting up to {self.cfg.partner_timeout:g} s for it" if leg.role is Role.GOAL else ""
-            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, detail=f"{leg.partner} is offline{wait}"))
+            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, assignee=leg.partner,
+                                       detail=f"{leg.partner} is offline{wait}"))
         if leg.role is Role.GOAL and now_wall - leg.partner_lost >= self.cfg.partner_timeout:
             detail = f"{leg.partner} has been offline for {now_wall - leg.partner_lost:.0f} s; the trip is given up"
             self.log.warning(f"{leg.trip.uid}: {detail}")
             actions += self._stop(leg)
             self._finish(leg.trip)
-            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, detail=detail),
+            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, assignee=leg.partner, detail=detail),
                         SendCancel(self._cancel(leg.trip, REASON_OFFLINE, detail, now_ros))]
         return actions
 
@@ -615,7 +660,8 @@ class NavigationCore:
         ev = NavEventData(uid=self.uids.event(), robot=self.me, floor=self.floor, goal_uid=trip.uid, phase=phase,
                           language=trip.language, way=trip.way, connector=trip.connector,
                           target_floor=trip.goal_floor, location_id=trip.goal_id, tour_file=trip.tour_file,
-                          tour_step=trip.tour_step, stamp=now_ros)
+                          tour_step=trip.tour_step, stamp=now_ros, leg=trip.leg_of(self.me) or "",
+                          attempt=trip.attempt)
         if fields:
             ev = replace(ev, **fields)
         self._events_seen.add(ev.uid)

@@ -58,6 +58,14 @@ class TourBook:
         return len(self._tours)
 
 
+def next_robot_stop(tour: Tour, building: Building, step: int) -> int | None:
+    """The first step after ``step`` on a floor with a robot (None: the tour ends on floors without robot).
+
+    The steps in between are on floors without robot: the visitor finds them alone, and the robot that
+    sends the visitor there announces them all at once (docs/guiding.md, *Tour mode*)."""
+    return next((k for k in range(step + 1, len(tour.goals)) if building.has_robot(tour.goals[k].floor)), None)
+
+
 @dataclass(frozen=True)
 class TourWait:
     """Step ``step`` of ``tour_file`` was done here (goal ``goal_uid``); waiting for Continue or Skip."""

@@ -1,13 +1,15 @@
-"""Trips across floors (ROS-free): who is involved, which connector, how long it takes.
+"""Trips across floors (ROS-free): who does what, which connector, how long it takes.
 
-* :func:`role` / :func:`involved`: the involvement rule of the paper (section 6.2): a
-  robot keeps a goal only if the trip starts or ends on its floor.
+* :func:`role`: what a robot does in a trip, from the trip's assignment (the leg that
+  names it: ``docs/guiding.md``, *Who serves a leg*).
 * :class:`TripPlanner`: leg lengths with :class:`~gidabot_navigation.building.planning.GridPlanner`
   on the building's floor maps (cached), and the connector that minimises the whole
-  trip (start robot's leg + goal robot's leg) for the visitor's way.
+  trip (start leg + goal leg) for the visitor's way.
 * :class:`WaitModel` and :func:`estimate_queue`: how long each queued trip keeps a
   robot busy, from planned path lengths, the robot's speed, the visitor's walk
   between floors and the time to press Continue (``docs/guiding.md``).
+* :class:`RobotView` and :func:`rank_candidates`: which robots of a floor could serve a
+  leg, soonest first (their queues and poses as they broadcast them).
 """
 
 from __future__ import annotations
@@ -15,52 +17,57 @@ from __future__ import annotations
 import enum
 import math
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, Connector, Robot, format_floor
 from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import NoRouteError, PlanningError
-from gidabot_navigation.guiding.messages import Trip, same_floor
-from gidabot_navigation.interface import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR, WAY_LIFT
+from gidabot_navigation.guiding.messages import Trip
+from gidabot_navigation.interface import (
+    GOING_TO_MEETING,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
+    ON_THE_WAY,
+    WAITING_VISITOR,
+    WAY_LIFT,
+)
 
 DEFAULT_RADIUS = 0.3     # m, footprint radius used on a floor without a robot (the visitor's way)
+PERSON = None            # drive_time(..., PERSON): the visitor walking alone
 
 
 class Role(enum.Enum):
     """What a robot does for a trip."""
 
-    SAME = "same"      # start and goal on its floor: guide to the goal
-    START = "start"    # start floor of a cross-floor trip: guide to the connector
-    GOAL = "goal"      # goal floor of a cross-floor trip: meet the visitor, guide to the goal
+    SAME = "same"      # the start leg of a one-floor trip: guide to the goal
+    START = "start"    # the start leg of a cross-floor trip: guide to the connector
+    GOAL = "goal"      # the goal leg: meet the visitor at the connector, guide to the goal
 
 
-def role(trip: Trip, floor: float) -> Role | None:
-    """The role of the robot serving ``floor`` in ``trip``; None if it is not involved."""
-    starts, ends = same_floor(trip.initial_floor, floor), same_floor(trip.goal_floor, floor)
-    if starts and ends:
-        return Role.SAME
-    if starts:
-        return Role.START
-    if ends:
+def role(trip: Trip, robot: str) -> Role | None:
+    """The role of ``robot`` in ``trip``: the leg its assignment names it for (proposed or committed)."""
+    leg = trip.leg_of(robot)
+    if leg is None:
+        return None
+    if leg == LEG_GOAL:
         return Role.GOAL
-    return None
+    return Role.START if trip.cross_floor else Role.SAME
 
 
-def involved(trip: Trip, floor: float) -> bool:
-    """The paper's rule: keep a goal only if it starts or ends on this floor."""
-    return role(trip, floor) is not None
+def leg_floor(trip: Trip, leg: str) -> float:
+    return trip.initial_floor if leg == LEG_START else trip.goal_floor
 
 
-def partner_of(building: Building, trip: Trip, floor: float) -> Robot | None:
-    """The other robot of a cross-floor trip, seen from the robot on ``floor`` (None: none or no robot)."""
-    r = role(trip, floor)
-    if r is Role.START:
-        return building.robot_on(trip.goal_floor)
-    if r is Role.GOAL:
-        return building.robot_on(trip.initial_floor)
-    return None
+def needed_legs(building: Building, trip: Trip) -> list[str]:
+    """The legs a robot must serve: the start leg when its floor has a robot, the goal leg of a cross-floor
+    trip when the goal floor has one."""
+    legs = [LEG_START] if building.has_robot(trip.initial_floor) else []
+    if trip.cross_floor and building.has_robot(trip.goal_floor):
+        legs.append(LEG_GOAL)
+    return legs
 
 
 @dataclass(frozen=True)
@@ -93,10 +100,11 @@ class TripPlanner:
         self.plans = 0          # number of A* searches made (cache misses)
 
     def planner(self, floor: float) -> GridPlanner:
+        """The planner of ``floor``, for the widest robot serving it (a path it can take suits them all)."""
         f = self.building.floor(floor)
         if f.id not in self._planners:
-            robot = self.building.robot_on(f.id)
-            self._planners[f.id] = GridPlanner(f.map, robot.radius if robot else DEFAULT_RADIUS)
+            radius = max((r.radius for r in self.building.robots_on(f.id)), default=DEFAULT_RADIUS)
+            self._planners[f.id] = GridPlanner(f.map, radius)
         return self._planners[f.id]
 
     def leg_length(self, floor: float, a: tuple[float, float], b: tuple[float, float]) -> float:
@@ -170,7 +178,8 @@ class WaitModel:
     visitor's walk between floors; ``continue_s``: from the visitor's arrival to the
     press of Continue; ``leg_overhead_s``: turning, accelerating, dialogs per leg;
     ``pickup_distance``: a robot farther than this from the start point of a trip
-    drives there first to pick the visitor up.
+    drives there first to pick the visitor up; ``unguided_s``: what a visitor sent to
+    a floor without robot spends there before a trip from that floor can start.
     """
 
     speed_factor: float = 0.5
@@ -180,10 +189,11 @@ class WaitModel:
     continue_s: float = 10.0
     leg_overhead_s: float = 5.0
     pickup_distance: float = 1.5
+    unguided_s: float = 120.0
 
     def __post_init__(self) -> None:
         for name in ("speed_factor", "stairs_s_per_floor", "lift_wait_s", "lift_s_per_floor", "continue_s",
-                     "leg_overhead_s", "pickup_distance"):
+                     "leg_overhead_s", "pickup_distance", "unguided_s"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name}: {value!r} must be a finite number >= 0")
@@ -191,7 +201,7 @@ class WaitModel:
             raise ValueError(f"speed_factor: {self.speed_factor!r} must be > 0")
 
     def drive_time(self, length: float, robot: Robot | None) -> float:
-        """s to drive ``length`` m (a person walking ~1 m/s stands in for a missing robot)."""
+        """s to drive ``length`` m (a person walking ~1 m/s stands in for a missing robot: :data:`PERSON`)."""
         speed = (robot.max_linear if robot else 2.0) * self.speed_factor
         return length / speed if math.isfinite(length) else 0.0
 
@@ -212,65 +222,69 @@ class HeadProgress:
     since: float        # s, ROS time of that event
 
 
+@dataclass(frozen=True)
+class QueueEstimate:
+    """:func:`estimate_queue`'s answer: when each trip is done, and where the robot is then."""
+
+    eta: tuple[float, ...]           # s from now until each trip of the queue is finished
+    end: tuple[float, float]         # m, where the robot is once the queue is done
+
+
+def meeting_xy(planner: TripPlanner, trip: Trip, floor: float) -> tuple[float, float] | None:
+    try:
+        m = planner.meeting(trip.connector, floor)
+    except KeyError:
+        return None
+    return (m.x, m.y)
+
+
+def leg_point(planner: TripPlanner, trip: Trip, leg: str) -> tuple[float, float] | None:
+    """Where the robot serving ``leg`` meets the visitor: the start point, or the goal floor's meeting point."""
+    if leg == LEG_START:
+        return (trip.initial_x, trip.initial_y)
+    return meeting_xy(planner, trip, trip.goal_floor)
+
+
 def estimate_queue(planner: TripPlanner, model: WaitModel, robot: Robot, pose: tuple[float, float] | None,
                    queue: Sequence[Trip], head: HeadProgress | None, releases: Mapping[str, float],
-                   now: float) -> list[float]:
-    """Estimated s from ``now`` until this robot finishes each trip of ``queue`` (FIFO).
+                   now: float) -> QueueEstimate:
+    """Estimated s from ``now`` until this robot finishes each trip of ``queue`` (FIFO), by the leg each
+    trip's assignment names it for (a trip naming it for none takes no time).
 
     The robot starts at ``pose`` (its home if unknown) and drives leg after leg; a
-    goal-floor leg also waits for the visitor: released at ``releases[uid]`` (ROS time
+    goal leg also waits for the visitor: released at ``releases[uid]`` (ROS time
     of the start robot's GO_TO_FLOOR) plus the walk, or, not released yet, the start
-    robot's leg plus the walk from when this leg starts; then ``continue_s``.
+    robot's leg plus the walk from when this leg starts (a trip starting on a floor
+    without robot: ``unguided_s`` from when it was made, then the visitor's walk); then ``continue_s``.
     """
-    b = planner.building
     pos = pose if pose is not None else (robot.home.x, robot.home.y)
     t = 0.0
     out: list[float] = []
     for i, trip in enumerate(queue):
-        r = role(trip, robot.floor)
+        r = role(trip, robot.name)
         progress = head if (i == 0 and head is not None and head.goal_uid == trip.uid) else None
         goal_xy = (trip.goal_x, trip.goal_y)
         if r is None:
             out.append(t)
             continue
         if r is Role.GOAL:
-            try:
-                m = planner.meeting(trip.connector, robot.floor)
-            except KeyError:
+            meet = meeting_xy(planner, trip, robot.floor)
+            if meet is None:
                 out.append(t)
                 continue
-            meet = (m.x, m.y)
             after = model.continue_s + model.drive_time(planner.leg_length(robot.floor, meet, goal_xy), robot)
             if progress is not None and progress.phase == ON_THE_WAY:
                 t += model.drive_time(planner.leg_length(robot.floor, pos, goal_xy), robot)
             else:
                 drive = 0.0 if progress is not None and progress.phase == WAITING_VISITOR else \
                     model.drive_time(planner.leg_length(robot.floor, pos, meet), robot)
-                walk = model.walk_time(trip.way, trip.initial_floor, trip.goal_floor)
-                released = releases.get(trip.uid)
-                if released is not None:
-                    arrival = max(0.0, released + walk - now)
-                else:
-                    start_robot = b.robot_on(trip.initial_floor)
-                    try:
-                        sm = planner.meeting(trip.connector, trip.initial_floor)
-                        start_leg = planner.leg_length(trip.initial_floor, (trip.initial_x, trip.initial_y),
-                                                       (sm.x, sm.y))
-                    except KeyError:
-                        start_leg = 0.0
-                    arrival = t + model.drive_time(start_leg, start_robot) + walk
-                t = max(t + drive, arrival) + after
+                t = max(t + drive, _visitor_arrival(planner, model, trip, t, releases, now)) + after
             pos = goal_xy
         else:
-            if r is Role.START:
-                try:
-                    m = planner.meeting(trip.connector, robot.floor)
-                except KeyError:
-                    out.append(t)
-                    continue
-                target = (m.x, m.y)
-            else:
-                target = goal_xy
+            target = meeting_xy(planner, trip, robot.floor) if r is Role.START else goal_xy
+            if target is None:
+                out.append(t)
+                continue
             start = (trip.initial_x, trip.initial_y)
             guiding = progress is not None and progress.phase == ON_THE_WAY
             if guiding:
@@ -283,4 +297,94 @@ def estimate_queue(planner: TripPlanner, model: WaitModel, robot: Robot, pose: t
         if progress is None or progress.phase not in (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR):
             t += model.leg_overhead_s
         out.append(round(t, 1))
-    return out
+    return QueueEstimate(tuple(out), pos)
+
+
+def _visitor_arrival(planner: TripPlanner, model: WaitModel, trip: Trip, t: float, releases: Mapping[str, float],
+                     now: float) -> float:
+    """s from now until the visitor of ``trip`` reaches the goal floor's meeting point (``t``: when this robot
+    starts on the trip)."""
+    walk = model.walk_time(trip.way, trip.initial_floor, trip.goal_floor)
+    released = releases.get(trip.uid)
+    if released is not None:
+        return max(0.0, released + walk - now)
+    start_robot = planner.building.find_robot(trip.start_robot) if trip.start_state != LEG_NONE else PERSON
+    sm = meeting_xy(planner, trip, trip.initial_floor)
+    start_leg = planner.leg_length(trip.initial_floor, (trip.initial_x, trip.initial_y), sm) if sm else 0.0
+    if trip.start_state == LEG_NONE:        # from a floor without robot: after the visitor's unguided stops
+        return max(0.0, trip.stamp + model.unguided_s - now) + model.drive_time(start_leg, PERSON) + walk
+    return t + model.drive_time(start_leg, start_robot) + walk
+
+
+# ---------------------------------------------------------------------------
+# Which robot can serve a leg soonest
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class RobotView:
+    """What a robot broadcast about itself: its queue (``/gidabot/pending``) and pose (``/gidabot/status``)."""
+
+    robot: Robot
+    queue: tuple[Trip, ...] = ()
+    wait_new: float = 0.0                      # s before it could start a new trip, as of ``heard``
+    pose: tuple[float, float] | None = None    # m; None: its home
+    heard: float = 0.0                         # wall s when its pending list was received
+
+
+@dataclass(frozen=True)
+class Candidate:
+    robot: str
+    eta: float          # s until it could be at the leg's meeting point with the visitor (its queue first)
+
+
+def queue_end(planner: TripPlanner, view: RobotView) -> tuple[float, float]:
+    """Where ``view.robot`` is once its queue is done: the end of the last leg it holds, else its pose."""
+    for trip in reversed(view.queue):
+        r = role(trip, view.robot.name)
+        if r is Role.START:
+            end = meeting_xy(planner, trip, view.robot.floor)
+            if end is not None:
+                return end
+        elif r is not None:
+            return (trip.goal_x, trip.goal_y)
+    if view.pose is not None:
+        return view.pose
+    return (view.robot.home.x, view.robot.home.y)
+
+
+def rendezvous_eta(planner: TripPlanner, model: WaitModel, view: RobotView, point: tuple[float, float],
+                   now_wall: float) -> float:
+    """s until ``view.robot`` could be at ``point`` (on its floor) for a new trip: its queue, then the drive."""
+    ready = max(0.0, view.wait_new - max(0.0, now_wall - view.heard))
+    end = queue_end(planner, view)
+    drive = planner.leg_length(view.robot.floor, end, point)
+    if not math.isfinite(drive):       # a pose off the free space (localisation): the straight line will do
+        drive = math.hypot(point[0] - end[0], point[1] - end[1])
+    return round(ready + model.drive_time(drive, view.robot), 1)
+
+
+def rank_candidates(planner: TripPlanner, model: WaitModel, trip: Trip, leg: str, views: Mapping[str, RobotView],
+                    online: Callable[[str], bool], now_wall: float, prefer: str = "",
+                    prefer_gain: float = 0.0, exclude: Iterable[str] = ()) -> list[Candidate]:
+    """The online robots of ``leg``'s floor that could serve it, soonest at the leg's meeting point first.
+
+    ``prefer`` (the robot where the visitor stands, for the start leg) goes first when it is free, and
+    another robot goes before it only if at least ``prefer_gain`` s sooner; ties keep the building's order.
+    A robot without a view is taken as idle at its home.
+    """
+    point = leg_point(planner, trip, leg)
+    if point is None:
+        return []
+    skip = set(exclude)
+    ranked: list[tuple[float, int, Candidate]] = []
+    for index, robot in enumerate(planner.building.robots_on(leg_floor(trip, leg))):
+        if robot.name in skip or not online(robot.name):
+            continue
+        view = views.get(robot.name) or RobotView(robot)
+        eta = rendezvous_eta(planner, model, view, point, now_wall)
+        if robot.name == prefer:
+            key = -math.inf if not view.queue and view.wait_new <= 0 else eta
+        else:
+            key = eta + (prefer_gain if prefer else 0.0)
+        ranked.append((key, index, Candidate(robot.name, eta)))
+    return [c for _, _, c in sorted(ranked, key=lambda x: (x[0], x[1]))]

@@ -43,7 +43,7 @@ class FloorLoop:
                  odom_rate: float = 20.0, laser: LaserSpec | None = None, nav: NavConfig | None = None,
                  amcl: AmclConfig | None = None, start: Pose2D | None = None, log: Logger | None = None) -> None:
         self.floor = building.floor(floor)
-        robot = building.robot_on(self.floor.id)
+        robot = next(iter(building.robots_on(self.floor.id)), None)
         if robot is None:
             raise ValueError(f"floor {self.floor.label} has no robot")
         self.robot = robot

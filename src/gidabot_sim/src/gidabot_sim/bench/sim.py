@@ -64,9 +64,7 @@ def places(building: Building, floor: float) -> list[Pose2D]:
     f = building.floor(floor)
     out = [loc.pose for loc in building.locations_on(f.id)]
     out += [c.meeting[f.id] for c in building.connectors if f.id in c.meeting]
-    robot = building.robot_on(f.id)
-    if robot is not None:
-        out.append(robot.home)
+    out += [r.home for r in building.robots_on(f.id)]
     return out
 
 
@@ -74,7 +72,7 @@ def bench_planner(building: Building) -> list[dict]:
     """Time per plan between every pair of places, per floor."""
     rows = []
     for floor in building.floors:
-        robot = building.robot_on(floor.id)
+        robot = next(iter(building.robots_on(floor.id)), None)
         radius = robot.radius if robot else 0.3
         limits = Limits.of_robot(robot) if robot else Limits(0.5, 1.0, 0.5, 1.0)
         core = MoveBaseCore.for_robot(floor.map, radius, limits)
@@ -135,7 +133,7 @@ def _node_pid(master_uri: str, node: str) -> int | None:
 def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
     """Launch one floor at ``speed`` and drive the tour through the ROS interfaces; CPU of the three nodes."""
     base = load_building(building_dir)
-    robot = base.robot_on(floor)
+    robot = next(iter(base.robots_on(floor)), None)
     if robot is None:
         raise ProcessError(f"floor {floor:g} has no robot")
     with TemporaryDirectory(prefix="gidabot-bench-") as tmp, ProcessGroup(Path(tmp) / "logs") as procs:
@@ -193,7 +191,7 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
 def stack_places(building: Building, floor: float) -> list[str]:
     """Three places of the floor for a visitor's requests: the farthest from the robot's home, the farthest from
     that one, then the nearest to home (long trips both ways)."""
-    robot = building.robot_on(floor)
+    robot = next(iter(building.robots_on(floor)), None)
     locs = building.locations_on(floor)
     if robot is None or len(locs) < 3:
         raise ProcessError(f"floor {floor:g} needs a robot and three places")
@@ -210,7 +208,7 @@ def stack_places(building: Building, floor: float) -> list[str]:
 def bench_stack(building_dir: Path, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
     """One floor with its simulator, stand-ins and guiding nodes, no speed ceiling: a visitor's three requests."""
     base = load_building(building_dir)
-    robot = base.robot_on(floor)
+    robot = next(iter(base.robots_on(floor)), None)
     if robot is None:
         raise ProcessError(f"floor {floor:g} has no robot")
     with TemporaryDirectory(prefix="gidabot-bench-stack-") as tmp, ProcessGroup(Path(tmp) / "logs") as procs:

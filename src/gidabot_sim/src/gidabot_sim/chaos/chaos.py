@@ -45,6 +45,7 @@ from typing import Any, TextIO
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.interface import (
+    LEG_START,
     STATE_GUIDING,
     STATE_TO_MEETING,
     STATE_WAITING,
@@ -188,12 +189,12 @@ class TourWatch:
                     or r.get("c") not in cc.GUIDING_CALLERS or r.get("tour_file") != self.tour_file:
                 continue
             phase = r.get("phase")
-            if phase in (Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED):
+            if phase in (Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.NO_ROBOT_ON_FLOOR):  # (the last: found alone)
                 self.done.add(str(r.get("goal_uid")))
                 self.last_step_done = max(self.last_step_done, int(r.get("tour_step", -1)))
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
-            if phase == Phase.TOUR_FINISHED and r.get("tour_step") == self.last_step:
-                self.finished = True
+            if phase == Phase.TOUR_FINISHED and (r.get("tour_step") == self.last_step or r.get("leg") == LEG_START):
+                self.finished = True            # (the start leg's: the tour ends on floors without robot)
             elif phase in (Phase.UNREACHABLE, Phase.TIMEOUT) or (phase == Phase.PARTNER_OFFLINE and r.get("goal_uid")):
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
@@ -224,7 +225,7 @@ class ChaosRun:
         self.stopped = stop
         self.profile = cc.PROFILES[args.profile]
         self.schedule = cc.make_schedule(args.seed, building, self.profile)
-        self.trips = cc.tour_trips(tour, args.start_floor)
+        self.trips = cc.tour_trips(tour, args.start_floor, building)
         sched_s = cc.schedule_seconds(self.schedule)
         if args.speed is None:   # the tour must outlast the faults: ~100 s of sim time per goal
             args.speed = round(min(20.0, max(2.0, SIM_S_PER_GOAL * len(tour.goals) / (1.3 * sched_s))), 1)
@@ -394,8 +395,7 @@ class ChaosRun:
         trip = self.watch.active()
         if trip is None:
             return []
-        robots = [self.building.robot_on(f) for f in trip]
-        return list(dict.fromkeys(r.name for r in robots if r is not None))
+        return list(dict.fromkeys(r.name for f in trip for r in self.building.robots_on(f)))
 
     def busy_robot(self, robots: list[str], wait: float = 15.0) -> str | None:
         """One of ``robots`` whose status says it is running a leg (driving, or waiting at a meeting point),
@@ -740,7 +740,7 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     tour = _load_tour(args.tour, building)
     if args.start_floor is None:
         args.start_floor = tour.goals[0].floor
-    if building.robot_on(args.start_floor) is None:
+    if not building.has_robot(args.start_floor):
         raise ChaosError(f"start floor {args.start_floor:g} has no robot")
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 50):
         raise ChaosError(f"--speed {args.speed:g}: expected a factor in (0, 50]")
@@ -818,7 +818,8 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
     result = cc.ChaosResult(
         seed=args.seed, tour=run.tour.file_name, speed=args.speed, faults=run.results, fates=fates,
         duplicated_cancels=book.duplicated_cancels(), table3_expected=cc.expected_table3(run.building, run.trips),
-        table3_measured=book.table3(fates), table3_bags=bags, tours_intact=False, tours_problems=[],
+        table3_measured=cc.fold_table3(run.building, book.table3(fates)),
+        table3_bags=cc.fold_table3(run.building, bags) if bags else {}, tours_intact=False, tours_problems=[],
         crashes=crashes, tracebacks=tbs, hostile_rejected=hostile, partner_lost=lost, partner_answered=answered,
         tour_completed=book.tour_finished(run.tour.file_name, len(run.tour.goals) - 1), outcome=outcome,
         run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s)

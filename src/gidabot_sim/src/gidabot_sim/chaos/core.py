@@ -49,10 +49,12 @@ from gidabot_navigation.interface import (
     FINAL_PHASES,
     GOAL_REACHED,
     GUIDING_NODES,
+    LEG_COMMITTED,
     NO_ROBOT_ON_FLOOR,
     PARTNER_BACK,
     PARTNER_LOST,
     PARTNER_OFFLINE,
+    PHASE_NAMES,
     TIMEOUT,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
@@ -316,22 +318,45 @@ def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_
 # Expected Table 3
 # ---------------------------------------------------------------------------
 
-def tour_trips(tour: Tour, start_floor: float) -> list[tuple[float, float]]:
-    """(start floor, goal floor) of every goal of a tour run from ``start_floor``."""
+def tour_trips(tour: Tour, start_floor: float, building: Building) -> list[tuple[float, float]]:
+    """(start floor, goal floor) of every goal of a tour run from ``start_floor``: a stop on a floor without
+    robot that follows another such stop gets no goal (the visitor finds it alone, docs/guiding.md)."""
     trips, here = [], start_floor
     for g in tour.goals:
+        if not (building.has_robot(here) or building.has_robot(g.floor)):
+            here = g.floor
+            continue
         trips.append((here, g.floor))
         here = g.floor
     return trips
 
 
+def table3_rows(building: Building) -> dict[str, list[str]]:
+    """The rows of Table 3: a robot, or the robots of a floor together ("Kbot+Basajaun"): which of them serves
+    a leg is decided trip by trip (docs/guiding.md, who serves a leg), only their sum is known in advance."""
+    rows: dict[str, list[str]] = {}
+    for f in building.floors:
+        robots = [r.name for r in building.robots_on(f.id)]
+        if robots:
+            rows["+".join(robots)] = robots
+    return rows
+
+
+def fold_table3(building: Building, table: dict[str, tuple[int, int]]) -> dict[str, tuple[int, int]]:
+    """A per-robot Table 3 in :func:`table3_rows`: received by each robot of the row, processed by all."""
+    return {row: (min(table.get(r, (0, 0))[0] for r in robots), sum(table.get(r, (0, 0))[1] for r in robots))
+            for row, robots in table3_rows(building).items()}
+
+
 def expected_table3(building: Building, trips: list[tuple[float, float]]) -> dict[str, tuple[int, int]]:
-    """robot -> (received, processed) without faults: every goal reaches every robot; a robot processes the
-    goals that start or end on its floor."""
+    """Table 3 row -> (received, processed) without faults: every goal reaches every robot; a floor's robots
+    process the goals with a leg on their floor: the start leg when the trip starts there, the goal leg
+    when it ends there coming from another floor."""
     out = {}
-    for r in building.robots:
-        processed = sum(1 for a, b in trips if math.isclose(a, r.floor) or math.isclose(b, r.floor))
-        out[r.name] = (len(trips), processed)
+    for row, robots in table3_rows(building).items():
+        floor = building.robot(robots[0]).floor
+        processed = sum(1 for a, b in trips if math.isclose(a, floor) or math.isclose(b, floor))
+        out[row] = (len(trips), processed)
     return out
 
 
@@ -389,7 +414,7 @@ class Bookkeeping:
 
     def _legit_event(self, rec: dict[str, Any]) -> bool:
         robot, phase, caller = rec.get("robot"), rec.get("phase"), str(rec.get("c", ""))
-        if robot not in self.robots or not isinstance(phase, int) or not 0 <= phase <= PARTNER_BACK:
+        if robot not in self.robots or not isinstance(phase, int) or phase not in PHASE_NAMES:
             return False
         if rec.get("m") == robot:
             return caller in GUIDING_CALLERS
@@ -397,13 +422,13 @@ class Bookkeeping:
 
     # -- goals ----------------------------------------------------------------------------
     def accepted(self) -> dict[str, dict[str, Any]]:
-        """uid -> the goal's record (from its origin's master when seen there)."""
+        """uid -> the goal's record (its newest assignment attempt, from its origin's master when seen there)."""
         out: dict[str, dict[str, Any]] = {}
         for uid, recs in self.goal_records.items():
-            for rec in recs:
-                if rec.get("c") == global_name(Node.GOAL_MANAGER) and rec.get("m") == rec.get("origin") in self.robots:
-                    out[uid] = rec
-                    break
+            own = [rec for rec in recs if rec.get("c") == global_name(Node.GOAL_MANAGER)
+                   and rec.get("m") == rec.get("origin") in self.robots]
+            if own:
+                out[uid] = max(own, key=lambda rec: int(rec.get("attempt", 0)))
         accepted_events = {e.get("goal_uid") for e in self.events.values() if e.get("phase") == ACCEPTED}
         for uid in accepted_events:
             if uid and uid not in out and self.goal_records.get(uid):
@@ -423,11 +448,13 @@ class Bookkeeping:
         fates = {}
         for uid, g in goals.items():
             a, b = float(g.get("initial_floor", math.nan)), float(g.get("goal_floor", math.nan))
-            involved = [r.name for r in self.building.robots if math.isclose(r.floor, a) or math.isclose(r.floor, b)]
+            # the robots its (newest) assignment committed the legs to
+            start_robot = str(g.get("start_robot", "")) if g.get("start_state") == LEG_COMMITTED else ""
+            goal_robot = str(g.get("goal_robot", "")) if g.get("goal_state") == LEG_COMMITTED else ""
+            involved = [r for r in self.robots if r in (start_robot, goal_robot)]
             fate = GoalFate(uid, str(g.get("origin")), a, b, str(g.get("goal_id", "")), int(g.get("tour_step", -1)),
                             involved)
-            goal_robot = self.building.robot_on(b)
-            start_robot = self.building.robot_on(a)
+            completes = goal_robot or (start_robot if math.isclose(a, b) else "")
             accepted_by: dict[str, set[str]] = defaultdict(set)
             finals: dict[str, set[str]] = defaultdict(set)
             for ev in by_goal.get(uid, []):
@@ -436,14 +463,14 @@ class Bookkeeping:
                     accepted_by[robot].add(str(ev.get("uid")))
                 if phase in FINAL_PHASES:
                     finals[robot].add(str(ev.get("uid")))
-                if phase in COMPLETIONS and goal_robot is not None and robot == goal_robot.name:
+                if phase in COMPLETIONS and completes and robot == completes:
                     fate.completed = True
-                if phase == NO_ROBOT_ON_FLOOR and goal_robot is None and start_robot is not None \
-                        and robot == start_robot.name:
-                    fate.completed = True
+                if phase in (NO_ROBOT_ON_FLOOR, TOUR_FINISHED) and not goal_robot and start_robot \
+                        and robot == start_robot and not math.isclose(a, b):
+                    fate.completed = True           # sent to a floor without robot: found alone
                 if phase in VISIBLE_FAILURES:
                     fate.visible_failures.append(f"{robot}: phase {phase}")
-            fate.processed_by = sorted(accepted_by, key=lambda r: list(self.robots).index(r))
+            fate.processed_by = sorted(set(accepted_by) & set(involved), key=lambda r: list(self.robots).index(r))
             fate.cancel_reasons = cancels.get(uid, [])
             fate.cancelled = bool(fate.cancel_reasons)
             for robot, uids in accepted_by.items():
@@ -452,10 +479,10 @@ class Bookkeeping:
             for robot, uids in finals.items():
                 if len(uids) > 1:
                     fate.duplicated.append(f"{robot} ended it {len(uids)} times")
-            per_master = Counter(str(r.get("m")) for r in self.goal_records[uid])
-            for master, n in per_master.items():
+            per_master = Counter((str(r.get("m")), r.get("attempt", 0)) for r in self.goal_records[uid])
+            for (master, attempt), n in per_master.items():
                 if n > 1:
-                    fate.duplicated.append(f"delivered {n} times on {master}'s master")
+                    fate.duplicated.append(f"attempt {attempt} delivered {n} times on {master}'s master")
             fates[uid] = fate
         return fates
 

@@ -142,7 +142,9 @@ class ChaosProbeNode:
         self._write("goal", m, uid=self._clip(m.uid), origin=self._clip(m.origin_robot, 64),
                     initial_floor=_num(m.initial_floor), goal_floor=_num(m.goal_floor),
                     goal_id=self._clip(m.goal_id, 64), connector=self._clip(m.connector, 64),
-                    tour_file=self._clip(m.tour_file, 64), tour_step=int(m.tour_step))
+                    tour_file=self._clip(m.tour_file, 64), tour_step=int(m.tour_step), attempt=int(m.attempt),
+                    start_robot=self._clip(m.start_robot, 64), start_state=int(m.start_state),
+                    goal_robot=self._clip(m.goal_robot, 64), goal_state=int(m.goal_state))
 
     def _on_cancel(self, m: Any) -> None:
         self._write("cancel", m, uid=self._clip(m.uid), goal_uid=self._clip(m.goal_uid),
@@ -151,7 +153,7 @@ class ChaosProbeNode:
     def _on_event(self, m: Any) -> None:
         self._write("event", m, uid=self._clip(m.uid), robot=self._clip(m.robot, 64), goal_uid=self._clip(m.goal_uid),
                     phase=int(m.phase), s=_num(m.header.stamp.to_sec()), tour_file=self._clip(m.tour_file, 64),
-                    tour_step=int(m.tour_step),
+                    tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), assignee=self._clip(m.assignee, 64),
                     location_id=self._clip(m.location_id, 64), detail=self._clip(m.detail, 200))
 
     def _on_tour(self, m: Any) -> None:

@@ -1,16 +1,18 @@
-"""``gidabot demo``: the simulated Faculty of Informatics running a tour, unattended.
+"""``gidabot demo``: the simulated Faculty of Informatics (or any building) running a tour, unattended.
 
-Starts four masters (Tartalo floor 0, Kbot 1, Galtxagorri 2, MariSorgin 3), the six
-relays (HMAC secret file), a simulator per floor, every robot's nodes and a
-simulated visitor per floor; runs the tour (default: the paper's real-world tour,
-Table 4); shows progress; records one rosbag per robot; then prints the paper's
-tables (3 and 5), sim time, wall time and where it wrote everything. Ctrl-C (or
-SIGTERM) stops everything cleanly and keeps the bags of the partial run.
+Starts one master per robot (the faculty: Tartalo floor 0, Kbot 1, Galtxagorri 2,
+MariSorgin 3), a relay per pair of robots (HMAC secret file), a simulator per robot,
+every robot's nodes and the simulated visitor (one node per robot's screen); runs the
+tour (default: the paper's real-world tour, Table 4); shows progress; records one
+rosbag per robot; then prints the paper's tables (3 and 5), sim time, wall time and
+where it wrote everything. Ctrl-C (or SIGTERM) stops everything cleanly and keeps the
+bags of the partial run.
 
     bin/gidabot demo                                   # Table 4 tour, headless
     bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
     bin/gidabot demo --goal 305 --way lift             # one target
     bin/gidabot demo --gui                             # open each robot's GUI too
+    bin/gidabot demo --visitors 20 --seed 1            # many visitors at random robots (issue 18)
 """
 
 from __future__ import annotations
@@ -35,12 +37,14 @@ from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
+from gidabot_sim.demo.crowd import UNFINISHED, Crowd
 from gidabot_sim.demo.governor import SpeedGovernor
 from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.demo.timing import RunTiming
-from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.errors import DemoError, ProcessError, SimConfigError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
+from gidabot_sim.visitor.population import VisitorPlan, make_population
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
@@ -54,6 +58,8 @@ STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), u
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
 LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+MAX_TOUR_STOPS = 8        # --visitors: the longest tour a visitor may take
+TOUR_STOPS_GUESS = 8      # --visitors: goals a tour visitor counts for in the default --timeout
 
 
 def parse_args(argv: list[str]) -> argparse.Namespace:
@@ -63,14 +69,23 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--tour", type=Path, default=resource("tours", "real_world.tour"),
                    help="tour file to run (default: tours/real_world.tour, the paper's Table 4)")
     p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
+    p.add_argument("--visitors", type=int, default=None, metavar="K",
+                   help="K visitors instead of one: random arrival times, robots, targets or tours, stairs or lift, "
+                        "some cancelling, some never turning up (deterministic from --seed); --tour, --goal, "
+                        "--start-floor, --way and --skip are then not used")
+    p.add_argument("--seed", type=int, default=1,
+                   help="seed of the simulated sensor and localisation noise (robot i: SEED + i) and, with --visitors, "
+                        "of the population (default 1)")
+    p.add_argument("--mean-gap", type=float, default=30.0, metavar="S",
+                   help="with --visitors: mean sim seconds between two arrivals (default 30)")
     p.add_argument("--start-floor", type=float, default=None,
                    help="floor where the visitor starts (default: the tour's first floor, else 0)")
     p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
                    help=f"ceiling of sim seconds per wall second, the same on every floor (default "
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
-    p.add_argument("--seed", type=int, default=None,
-                   help="seed of the simulated sensor and localisation noise (robot i: SEED + i); default random")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
+    p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
+                   help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
     p.add_argument("--out", type=Path, default=RUNS,
@@ -145,28 +160,32 @@ class Signals:
         return bool(self.received)
 
 
-def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float]:
-    """(label, number of goals, tour file name, start floor) of what the visitor does."""
+def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str, float, frozenset[int]]:
+    """(label, number of goals, tour file name, start floor, tour steps on floors without robot) of what the
+    visitor does."""
     if args.goal:
         if building.find_location(args.goal) is None:
             raise DemoError(f"--goal {args.goal!r} is not a location of {building.id}")
         start = args.start_floor if args.start_floor is not None else building.robots[0].floor
-        return f"goal-{args.goal}", 1, "", float(start)
+        return f"goal-{args.goal}", 1, "", float(start), frozenset()
     try:
         check_tour_file_name(args.tour.name)
         tour = parse_tour(args.tour.read_bytes(), args.tour.name, building, source=str(args.tour))
     except (OSError, TourError, TourNameError) as err:
         raise DemoError(f"{args.tour}: {err}") from err
     start = args.start_floor if args.start_floor is not None else tour.goals[0].floor
-    return args.tour.stem, len(tour.goals), args.tour.name, float(start)
+    alone = frozenset(k for k, g in enumerate(tour.goals) if not building.has_robot(g.floor))
+    return args.tour.stem, len(tour.goals), args.tour.name, float(start), alone
 
 
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
+    if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
+        raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
         raise DemoError(f"--timeout {args.timeout:g}: expected wall seconds > 0")
-    if building.robot_on(start_floor) is None:
+    if not building.has_robot(start_floor):
         raise DemoError(f"start floor {start_floor:g} has no robot (robots: "
                         f"{', '.join(f'{r.name} {r.floor:g}' for r in building.robots)})")
     if args.secret is not None and not args.secret.is_file():
@@ -177,14 +196,38 @@ def _validate(args: argparse.Namespace, building: Building, start_floor: float) 
         raise DemoError("--gui needs a display (DISPLAY is not set)")
 
 
+def _population(args: argparse.Namespace, building: Building) -> tuple[VisitorPlan, ...]:
+    """The visitors of ``--visitors``: the tours they may take are the tours shipped for every building that
+    are valid for this one, up to MAX_TOUR_STOPS stops."""
+    tours = {}
+    for path in sorted(resource("tours").glob("*.tour")):
+        try:
+            tour = parse_tour(path.read_bytes(), path.name, building, source=str(path))
+        except (OSError, TourError, TourNameError):
+            continue
+        if len(tour.goals) <= MAX_TOUR_STOPS:
+            tours[path.name] = len(tour.goals)
+    try:
+        return make_population(building, args.visitors, args.seed, tours, mean_gap_s=args.mean_gap)
+    except SimConfigError as err:
+        raise DemoError(str(err)) from err
+
+
 def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     building = load_building(args.building)
-    label, total, tour_name, start_floor = _visit(args, building)
+    plans = _population(args, building) if args.visitors is not None else ()
+    if plans:
+        label, total, tour_name, start_floor, alone = f"visitors{len(plans)}-seed{args.seed}", len(plans), "", \
+            building.robots[0].floor, frozenset()
+    else:
+        label, total, tour_name, start_floor, alone = _visit(args, building)
     _validate(args, building, start_floor)
-    skips = _skips(args.skip, total)
+    skips = _skips(args.skip, total) if not plans else []
     speed = args.speed or MAX_SPEED_GUESS   # what the wall-time rates and the timeout assume
     if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
-        args.timeout = START_STOP_S + SIM_S_PER_GOAL * total / min(speed, DEFAULT_SPEED)
+        stops = sum(TOUR_STOPS_GUESS if p.tour_file else 1 for p in plans) or total
+        last_arrival = max((p.arrive_s for p in plans), default=0.0)
+        args.timeout = START_STOP_S + (last_arrival + SIM_S_PER_GOAL * stops) / min(speed, DEFAULT_SPEED)
 
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
@@ -196,8 +239,12 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                    "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
                    "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
-               "start_floor": start_floor}
+               "start_floor": start_floor, "visit_time": args.visit_time}
+    if plans:
+        visitor = {"population": [p.to_dict() for p in plans], "visit_time": args.visit_time}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
+    if plans:
+        what = f"{len(plans)} visitors (seed {args.seed}, one every {args.mean_gap:g} s on average)"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
           f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, "
@@ -207,12 +254,12 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
     visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
-    progress = Progress(total_goals=total, visit=visit, robots_total=len(building.robots))
+    progress: Progress | Crowd = Crowd(plans) if plans else \
+        Progress(total_goals=total, visit=visit, robots_total=len(building.robots), alone=alone)
     governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
     sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
-                            seed=args.seed, gui=args.gui,
-                            relay_secret=args.secret, seed_tours=seed, addresses=addresses, common_args=launch_args,
-                            visitor=visitor)
+                            seed=args.seed, gui=args.gui, relay_secret=args.secret, seed_tours=seed,
+                            addresses=addresses, common_args=launch_args, visitor=visitor)
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
@@ -235,20 +282,28 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
               + (f"; left by their parents and killed: {', '.join(sim.killed_leftovers)}"
                  if sim.killed_leftovers else ""), file=out, flush=True)
     total_wall = time.time() - wall_begin
-    outcome = (f"interrupted ({stop.received})" if stop else failure or progress.outcome or "not finished")
+    ended = "completed" if isinstance(progress, Crowd) and progress.finished else ""
+    outcome = f"interrupted ({stop.received})" if stop else failure or ended or getattr(progress, "outcome", "") \
+        or "not finished"
+    what_ran = f"{len(plans)} visitors" if plans else tour_name or f"goal {args.goal}"
+    done = sum(progress.visit_end(v)[0] != UNFINISHED for v in progress.plans) if isinstance(progress, Crowd) \
+        else progress.done
     run = {
-        "building": "building/building.yaml", "tour": tour_name or f"goal {args.goal}", "goals": total,
-        "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
-        "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
+        "building": "building/building.yaml", "tour": what_ran, "goals": total,
+        "completed": done, "stops_alone": sorted(alone) if tour_name else None, "outcome": outcome,
+        "sim_s": progress.sim_seconds(), "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
         "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
+    if plans:
+        run.update(visitors=len(plans), population=[p.to_dict() for p in plans])
     (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
     ratio = run["sim_s"] / run["wall_s"] if run["wall_s"] > 0 else 0.0
-    print(f"\nOutcome: {outcome}; {run['completed']} of {total} goals done; tour: sim {run['sim_s']:.0f} s, "
+    counted = "visits ended; visitors:" if plans else "goals done; tour:"
+    print(f"\nOutcome: {outcome}; {run['completed']} of {total} {counted} sim {run['sim_s']:.0f} s, "
           f"wall {run['wall_s']:.0f} s, sim/wall {ratio:.1f}x; whole demo {total_wall:.0f} s wall "
           f"(start-up and shut-down included)\n", file=out, flush=True)
     code = EXIT_FAILED
@@ -259,7 +314,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     print(f"\nrun folder: {run_dir}  (bags, run.json, report.json, paths_floor*.png, logs/)", file=out, flush=True)
     if stop:
         return EXIT_INTERRUPTED
-    return EXIT_OK if code == 0 and progress.outcome == "completed" else EXIT_FAILED
+    return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
 
 
 def clocks_line(timing: RunTiming) -> str:
@@ -272,7 +327,7 @@ def clocks_line(timing: RunTiming) -> str:
     return f" | sim/wall {factors}, behind {behind:.1f} s, drift {timing.max_drift:.1f} s"
 
 
-def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, governor: SpeedGovernor | None,
+def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTiming, governor: SpeedGovernor | None,
             args: argparse.Namespace, wall_begin: float, out: TextIO, stop: Signals,
             tour_cpu: list[CpuSnapshot] | None = None) -> str:
     """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or "".

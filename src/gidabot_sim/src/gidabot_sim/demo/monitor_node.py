@@ -57,7 +57,8 @@ class MonitorNode:
         self._write("event", callerid=sender(m), uid=m.uid[:200], robot=m.robot[:64], floor=m.floor,
                     goal_uid=m.goal_uid[:200], phase=m.phase, way=m.way[:16], connector=m.connector[:64],
                     target_floor=m.target_floor, location_id=m.location_id[:64], tour_file=m.tour_file[:64],
-                    tour_step=m.tour_step, detail=m.detail[:200], stamp=m.header.stamp.to_sec())
+                    tour_step=m.tour_step, detail=m.detail[:200], stamp=m.header.stamp.to_sec(), leg=m.leg[:16],
+                    attempt=m.attempt, assignee=m.assignee[:64], eta=m.eta)
 
     def _on_goal(self, m: Goal) -> None:
         trip = {k: v[:200] if isinstance(v, str) else v for k, v in asdict(trip_from_msg(m)).items()}

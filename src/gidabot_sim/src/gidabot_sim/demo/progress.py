@@ -8,14 +8,14 @@ The visit ends only on events about *its own* trips from the robots those trips 
   building, as every goal manager checks it) and published by its origin robot's goal
   manager;
 - an event counts if it is about one of those trips, its robot is involved in the trip
-  (the trip starts or ends on the robot's floor) and it was published by that robot's
-  guiding nodes.
+  (the trip's origin, or a robot one of its assignments named for a leg: docs/guiding.md,
+  *Who serves a leg*) and it was published by that robot's guiding nodes.
 
 "Published by" is the publisher's node (``callerid``, recorded by the monitor): on the
 monitor's master a robot's own goal manager or navigation, for any other robot the relay
 end of the monitor's robot and that robot (a relay carries a robot's events only from its
-master). Only a REJECTED answer to the visitor's own request (no trip yet: the start
-robot, about the visit's tour or goal) ends a visit without a trip.
+master). Only a REJECTED answer to the visitor's own request (no trip yet: a robot of the
+start floor, about the visit's tour or goal) ends a visit without a trip.
 """
 
 from __future__ import annotations
@@ -29,11 +29,13 @@ from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.guiding.state import trip_from_dict
-from gidabot_navigation.guiding.trips import involved
 from gidabot_navigation.interface import (
     ACCEPTED,
+    ASSIGNED,
+    DECLINED,
     GOAL_REACHED,
     GUIDING_NODES,
+    NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REJECTED,
@@ -48,6 +50,21 @@ from gidabot_navigation.interface import (
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
 FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
+# phases that complete a goal: reached, or the visitor sent to a floor without robot to find it alone
+COMPLETIONS = (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED, NO_ROBOT_ON_FLOOR)
+
+
+def stops_done(steps: set[int], alone: frozenset[int]) -> set[int]:
+    """The tour stops done, from the steps whose goal was completed: a goal that sends the visitor to a stop on
+    a floor without robot (``alone``: those steps) also covers the stops on such floors right after it, which
+    get no goal of their own (docs/guiding.md, tour mode)."""
+    done = set(steps)
+    for k in sorted(steps):
+        j = k + 1
+        while k in alone and j in alone:
+            done.add(j)
+            j += 1
+    return done
 GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # what a robot's guiding nodes publish as
 
 
@@ -88,11 +105,12 @@ class Visit:
         return trip if ours and self.sent_by(trip.origin_robot, rec.get("callerid")) else None
 
     def answers_request(self, rec: dict) -> bool:
-        """A REJECTED answer to the visitor's own request (no trip yet) from the start floor's robot."""
+        """A REJECTED answer to the visitor's own request (no trip yet) from a robot of the start floor."""
         robot = str(rec.get("robot", ""))
-        start = self.building.robot_on(self.start_floor)
+        starters = {r.name for r in self.building.robots_on(self.start_floor)} if math.isfinite(self.start_floor) \
+            else set()
         about = rec.get("tour_file") == self.tour_file if self.tour_file else rec.get("location_id") == self.goal_id
-        return (start is not None and robot == start.name and about and not rec.get("goal_uid")
+        return (robot in starters and about and not rec.get("goal_uid")
                 and self.sent_by(robot, rec.get("callerid")))
 
 
@@ -103,9 +121,11 @@ class Progress:
     total_goals: int
     visit: Visit
     robots_total: int = 0
+    alone: frozenset[int] = frozenset()                          # tour steps on floors without robot
     robots_up: list[str] = field(default_factory=list)          # robots heard once, in order
     goals: dict[str, dict] = field(default_factory=dict)        # goal uid -> monitor record
-    completed: set[str] = field(default_factory=set)
+    completed: set[str] = field(default_factory=set)            # goal uids completed
+    steps: set[int] = field(default_factory=set)                # their tour steps
     robot: str = ""
     phase: str = "starting"
     finished: bool = False
@@ -119,6 +139,8 @@ class Progress:
     latest_wall: float | None = None
     states: dict[str, str] = field(default_factory=dict)
     trips: dict[str, Trip] = field(default_factory=dict)          # goal uid -> the visit's trip
+    named: dict[str, set[str]] = field(default_factory=dict)      # goal uid -> its origin and every robot any
+                                                                  # of its assignments named for a leg
     ignored: int = 0                   # goals and events that are not the visit's (other visits, hostile input)
 
     @property
@@ -149,11 +171,12 @@ class Progress:
             return False
         if kind == "goal":
             uid = str(rec.get("uid"))
-            if uid in self.goals:
-                return False
             trip = self.visit.trip(rec)
             if trip is None:
                 self.ignored += 1
+                return False
+            self.named.setdefault(uid, {trip.origin_robot}).update(r for r in (trip.start_robot, trip.goal_robot) if r)
+            if uid in self.goals:          # the same trip again with a newer assignment (docs/guiding.md)
                 return False
             self.goals[uid], self.trips[uid] = rec, trip
             self.robot, self.phase = trip.origin_robot, "new goal"
@@ -167,17 +190,19 @@ class Progress:
         trip = self.trips.get(str(rec.get("goal_uid", "")))
         known = isinstance(phase, int) and not isinstance(phase, bool) and phase in PHASE_NAMES
         ours = (known and trip is not None and self.visit.sent_by(robot, rec.get("callerid"))
-                and involved(trip, self.visit.building.robot(robot).floor))
+                and robot in self.named.get(trip.uid, ()))
         if not ours and not (known and phase == REJECTED and self.visit.answers_request(rec)):
             self.ignored += 1
             return False
         self.events += 1
-        if phase != ACCEPTED:   # every robot involved accepts: not worth a line
+        if phase not in (ACCEPTED, ASSIGNED, DECLINED):   # who serves which leg: not worth a line
             self.robot, self.phase = robot, PHASE_NAMES.get(phase, f"phase {phase}")
-        if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and trip is not None:
+        if phase in COMPLETIONS and trip is not None:
             self.completed.add(trip.uid)
+            if trip.tour_step >= 0:
+                self.steps.add(trip.tour_step)
         if not self.finished:
-            if phase == TOUR_FINISHED or (phase == GOAL_REACHED and not self.tour_mode):
+            if phase == TOUR_FINISHED or (phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR) and not self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
                 self._finish(f"{FAILURES[phase]} ({robot}: {rec.get('detail', '')})", rec)
@@ -186,6 +211,11 @@ class Progress:
     def _finish(self, outcome: str, rec: dict) -> None:
         self.finished, self.outcome = True, outcome
         self.last_sim, self.last_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
+
+    @property
+    def done(self) -> int:
+        """Goals done: the tour's stops (those found alone included), else the targets completed."""
+        return len(stops_done(self.steps, self.alone)) if self.tour_mode else len(self.completed)
 
     @property
     def goal_index(self) -> int:
@@ -210,7 +240,7 @@ class Progress:
             return (f"starting: {up} of {self.robots_total} robots up" + (f" ({', '.join(self.robots_up)})"
                                                                            if up else ""))
         return (f"goal {self.goal_index} of {self.total_goals} ({self.current_goal() or '-'}), "
-                f"{len(self.completed)} done | {self.robot or '-'}: {self.phase}")
+                f"{self.done} done | {self.robot or '-'}: {self.phase}")
 
     def sim_seconds(self) -> float:
         """Sim time from the first goal to the end (unfinished: to the newest record)."""

@@ -27,6 +27,11 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
   a sample every 0.1 m, whatever the sim speed; bags without it: the robot's
   ``/gidabot/poses``); and the tour total;
+* a run with many visitors (``gidabot demo --visitors``: ``population`` in ``run.json``): per
+  robot legs served, busy fraction and queue length, per visitor wait and trip time, the mean
+  and 95th percentile wait, visits completed, cancelled and timed out (:mod:`gidabot_sim.demo.crowd`
+  over the run's ``monitor.jsonl``), and a verdict: FAILED (exit 1) on a visit that did not end as
+  its visitor chose, a lost or duplicated goal, a leg served by two robots or by none;
 * one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
   thick while guiding the visitor, thin dashed while driving alone (to a meeting
   point, back to the visitor), the tour's goals numbered by step;
@@ -52,15 +57,23 @@ from typing import Any
 
 from gidabot_navigation.building.geometry import quaternion_to_yaw
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.assignment import LegAudit, LegRecord
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.interface import (
     ACCEPTED,
+    ASSIGNED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_START,
+    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
+    SERVING_PHASES,
     TIMEOUT,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
@@ -69,12 +82,13 @@ from gidabot_navigation.interface import (
     global_name,
     relay_end_name,
 )
-from gidabot_sim.demo.progress import GUIDING_CALLERIDS
-from gidabot_sim.errors import ReportError
+from gidabot_sim.demo.crowd import Crowd
+from gidabot_sim.demo.progress import COMPLETIONS, GUIDING_CALLERIDS, stops_done
+from gidabot_sim.errors import ReportError, SimConfigError
+from gidabot_sim.visitor.population import VisitorPlan, plans_from_list
 
-LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
+LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
-COMPLETIONS = {GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED}
 TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
 MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
 MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
@@ -86,6 +100,9 @@ class EventSample:
     robot: str
     goal_uid: str
     phase: int
+    tour_step: int = -1
+    leg: str = ""          # the leg of the trip the robot acted on (docs/guiding.md, who serves a leg)
+    assignee: str = ""     # ASSIGNED: the robot that serves ``leg``
 
 
 @dataclass(frozen=True)
@@ -135,6 +152,7 @@ class RobotRecord:
     bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
     rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
     diagnostics: list[DiagSample] = field(default_factory=list)  # its floor's timing statuses, time-ordered
+    assignments: set[tuple[str, str, str, int]] = field(default_factory=set)  # (goal uid, leg, robot, state)
 
     @property
     def track(self) -> list[PoseSample]:
@@ -190,7 +208,11 @@ def robot_row(rec: RobotRecord) -> RobotRow:
 def analyse(records: list[RobotRecord], run: dict) -> dict:
     """The report as a JSON-able dict (``robots`` and ``tour``)."""
     rows = [robot_row(r) for r in records]
-    completed = {e.goal_uid for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid}
+    done = [e for r in records for e in r.events if e.phase in COMPLETIONS and e.goal_uid]
+    if run.get("stops_alone") is not None:     # a tour: its stops, those found alone on floors without robot too
+        completed = stops_done({e.tour_step for e in done if e.tour_step >= 0}, frozenset(run["stops_alone"]))
+    else:
+        completed = {e.goal_uid for e in done}
     all_goals = set().union(*(r.goal_uids for r in records)) if records else set()
     time_s = sum(r.time_s for r in rows)
     dist = sum(r.distance_m for r in rows)
@@ -210,7 +232,7 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
     timing = timing_report(records, run)
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected, "timing": timing, "degraded": timing["degraded"]}
+            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"]}
 
 
 # ---------------------------------------------------------------------------
@@ -308,6 +330,101 @@ def timing_report(records: list[RobotRecord], run: dict) -> dict:
             "reasons": reasons}
 
 
+def leg_audit(records: list[RobotRecord]) -> dict:
+    """Who served each leg, from every bag (docs/guiding.md, *Who serves a leg*): ``legs`` some robot was
+    asked to serve, ``double_served`` (two robots or more had it), ``unserved`` (nobody got it and its trip
+    never ended), ``served_by``: legs per robot."""
+    legs: dict[tuple[str, str], LegRecord] = {}
+    ended = {e.goal_uid for r in records for e in r.events if e.phase in LEG_ENDS and e.goal_uid}
+    for r in records:
+        for uid, leg, robot, state in r.assignments:
+            if state != LEG_NONE:
+                rec = legs.setdefault((uid, leg), LegRecord())
+                if state == LEG_COMMITTED:
+                    rec.committed.add(robot)
+        for e in r.events:
+            if e.goal_uid and e.leg in (LEG_START, LEG_GOAL):
+                rec = legs.setdefault((e.goal_uid, e.leg), LegRecord())
+                if e.phase == ASSIGNED:
+                    rec.assigned.add(e.assignee)
+                elif e.phase in SERVING_PHASES:
+                    rec.served.add(e.robot)
+    audit = LegAudit(legs, ended)
+    served_by: dict[str, int] = {}
+    for uid, leg in legs:
+        robot = audit.served_by(uid, leg)
+        if robot:
+            served_by[robot] = served_by.get(robot, 0) + 1
+    return {"legs": len(legs), "double_served": [list(x) for x in audit.double_served],
+            "unserved": [list(x) for x in audit.unserved], "served_by": served_by}
+
+
+PASSED_VERDICT, FAILED_VERDICT = "PASSED", "FAILED"
+COLLISIONS_NOT_MEASURED = "robot-robot collisions are not measured: the simulator does not publish a count"
+
+
+def crowd_report(folder: Path, run: dict, report: dict) -> dict:
+    """The many-visitors part of a run's report (``gidabot demo --visitors``; docs/demo.md): per visitor and per
+    robot from the monitor's records (:mod:`gidabot_sim.demo.crowd`), the legs' audit from the bags, a verdict."""
+    building = _run_building(folder, run)
+    try:
+        plans = plans_from_list(run["population"], building) if building is not None else \
+            tuple(VisitorPlan.from_dict(p) for p in run["population"])
+    except SimConfigError as err:
+        raise ReportError(f"{folder / 'run.json'}: population: {err}") from err
+    crowd = Crowd(plans)
+    monitor = folder / "monitor.jsonl"
+    try:
+        with open(monitor, encoding="utf-8") as lines:
+            for line in lines:
+                crowd.feed_line(line)
+    except OSError as err:
+        raise ReportError(f"{monitor}: cannot read ({err.strerror})") from err
+    summary = crowd.summary([r["name"] for r in run.get("robots", [])])
+    legs = report["legs"]
+    problems = list(summary["problems"])
+    problems += [f"leg {leg} of {uid} served by {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
+    problems += [f"leg {leg} of {uid} served by nobody" for uid, leg in legs["unserved"]]
+    if run.get("outcome") not in (None, "completed"):
+        problems.append(f"the run did not finish: {run.get('outcome')}")
+    return {"visitors": summary["visitors"], "completed": summary["completed"], "cancelled": summary["cancelled"],
+            "timed_out": summary["timed_out"], "failed": summary["failed"], "unfinished": summary["unfinished"],
+            "collisions": None, "collisions_note": COLLISIONS_NOT_MEASURED,
+            "legs_double_served": len(legs["double_served"]), "legs_unserved": len(legs["unserved"]),
+            "wait_mean_s": summary["wait_mean_s"], "wait_p95_s": summary["wait_p95_s"], "seed": run.get("seed"),
+            "population": summary, "problems": problems,
+            "verdict": FAILED_VERDICT if problems else PASSED_VERDICT}
+
+
+def format_crowd(report: dict) -> list[str]:
+    """The many-visitors tables: per robot, per visitor, overall, the verdict."""
+    pop = report["population"]
+    lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
+                 f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report['failed']} failed, "
+                 f"{report['unfinished']} unfinished; chosen: " + ", ".join(f"{k} {n}" for k, n in
+                                                                             pop["intents"].items())]
+    wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
+    p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
+    lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")
+    head = f"{'Robot':<12} {'Legs':>5} {'Busy':>6} {'Queue max':>10} {'Queue mean':>11}"
+    lines += ["", head, "-" * len(head)]
+    lines += [f"{r['robot']:<12} {r['legs_served']:>5} {100 * r['busy_fraction']:>5.0f}% {r['queue_max']:>10} "
+              f"{r['queue_mean']:>11.2f}" for r in pop["per_robot"]]
+    head = f"{'Visitor':<11} {'At':<12} {'Target':<18} {'Way':<7} {'Chose':<9} {'Arrive':>7} {'Wait':>7} " \
+           f"{'Trip':>7}  Outcome"
+    lines += ["", head, "-" * len(head)]
+    for v in pop["per_visitor"]:
+        wait_s = "-" if v["wait_s"] is None else f"{v['wait_s']:.0f}"
+        trip_s = "-" if v["trip_s"] is None else f"{v['trip_s']:.0f}"
+        lines.append(f"{v['visitor']:<11} {v['robot']:<12} {v['target']:<18} {v['way']:<7} {v['intent']:<9} "
+                     f"{v['arrive_s']:>7.0f} {wait_s:>7} {trip_s:>7}  {v['outcome']}"
+                     + ("" if v["as_chosen"] else "  <- not as chosen"))
+    lines += ["", f"Collisions: {COLLISIONS_NOT_MEASURED}" if report["collisions"] is None else
+              f"Collisions (robot-robot): {report['collisions']}"]
+    lines.append(f"Verdict: {report['verdict']}" + "".join(f"\n  {p}" for p in report["problems"]))
+    return lines
+
+
 def format_tables(report: dict) -> str:
     lines = ["Goal messages per robot (paper Table 3) and guiding data (paper Table 5)", ""]
     head = f"{'Robot':<12} {'Floor':>5} {'Received':>9} {'Processed':>10} {'Time (s)':>9} {'Dist. (m)':>10} " \
@@ -323,10 +440,20 @@ def format_tables(report: dict) -> str:
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
     lines += format_timing(report.get("timing") or {})
+    legs = report.get("legs")
+    if legs:
+        verdict = "each served by exactly one robot" if not legs["double_served"] and not legs["unserved"] else \
+            f"{len(legs['double_served'])} served by two robots or more, {len(legs['unserved'])} by none"
+        lines.append(f"Legs: {legs['legs']}, {verdict} ("
+                     + ", ".join(f"{r} {n}" for r, n in sorted(legs["served_by"].items())) + ")")
+        lines += [f"  two robots on {uid} {leg}: {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
+        lines += [f"  nobody on {uid} {leg}" for uid, leg in legs["unserved"]]
     for robot, n in report.get("rejected_goals", {}).items():
         lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
+    if "population" in report:
+        lines += format_crowd(report)
     return "\n".join(lines)
 
 
@@ -444,7 +571,8 @@ def _trip(msg: Any) -> Trip:
                 goal_floor=msg.goal_floor, goal_x=msg.goal_pose.position.x, goal_y=msg.goal_pose.position.y,
                 goal_yaw=quaternion_to_yaw(q.x, q.y, q.z, q.w), way=msg.way, connector=msg.connector,
                 start_id=msg.start_id, goal_id=msg.goal_id, language=msg.language, tour_file=msg.tour_file,
-                tour_step=msg.tour_step)
+                tour_step=msg.tour_step, start_robot=msg.start_robot, start_state=msg.start_state,
+                goal_robot=msg.goal_robot, goal_state=msg.goal_state, attempt=msg.attempt)
 
 
 def _callerid(conn: Any) -> str | None:
@@ -488,6 +616,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                         rec.rejected_goals += 1
                         continue
                     rec.goal_uids.add(msg.uid)
+                    rec.assignments.update({(msg.uid, LEG_START, msg.start_robot, int(msg.start_state)),
+                                            (msg.uid, LEG_GOAL, msg.goal_robot, int(msg.goal_state))})
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
@@ -500,7 +630,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
                 elif conn.topic == Topic.NAV_EVENTS:
                     if msg.robot == name and _from_robot(caller, name, name, building):
-                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
+                                                      int(msg.tour_step), msg.leg, msg.assignee))
                         if msg.phase == ACCEPTED and caller in (None, GOAL_MANAGER):
                             rec.accepted.add(msg.goal_uid)
                         elif caller in (None, NAVIGATION) and msg.goal_uid:
@@ -651,6 +782,8 @@ def main(argv: list[str]) -> int:
     try:
         run, records = load_run(args.run)
         report = analyse(records, run)
+        if run.get("population") is not None:
+            report.update(crowd_report(args.run, run, report))
         report["run_folder"] = str(args.run.resolve())
         if not args.no_plots:
             report["plots"] = [str(p) for p in plot_paths(args.run, run, records)]
@@ -666,4 +799,4 @@ def main(argv: list[str]) -> int:
         print(format_tables(report))
         for p in report.get("plots", []):
             print(f"wrote {p}")
-    return 0
+    return 1 if report.get("verdict") == FAILED_VERDICT else 0

@@ -1,16 +1,21 @@
 """The simulated visitor (ROS-free core): follows the robots' instructions unattended.
 
-The building runs one visitor node per floor, each on its robot's master; together
-they play one person. A node knows where the person is only from the navigation
-events every robot broadcasts (``/gidabot/nav_events``):
+The building runs one visitor node per robot, each on that robot's master (its touch
+screen); together they play one person. A node knows where the person is only from the
+navigation events every robot broadcasts (``/gidabot/nav_events``):
 
-* ``GO_TO_FLOOR`` from this floor's robot: the visitor leaves this floor;
+* the visit starts at one robot (``start_robot``: the first robot of the start floor);
+* ``GO_TO_FLOOR`` from this robot: the visitor leaves this floor;
 * ``GO_TO_FLOOR`` from another robot with ``target_floor`` = this floor: the
   visitor arrives here after walking (stairs: ``stairs_s_per_floor`` per floor;
   lift: ``lift_wait_s`` + ``lift_s_per_floor`` per floor);
-* ``WAITING_VISITOR`` from this floor's robot: press Continue once the visitor
-  has arrived (plus ``think_s``);
-* ``TOUR_STEP_DONE`` from this floor's robot: press Continue (or skip ahead, by
+* ``NO_ROBOT_ON_FLOOR`` of this visit's tour: the visitor walks to that floor, spends
+  ``visit_s`` at each stop of the tour on floors without robot (walking between their
+  floors), then walks to the floor of the tour's next stop with a robot: that is when
+  it arrives for that step there; of a single target: the visit is over (found alone);
+* ``WAITING_VISITOR`` from this robot: press Continue once the visitor has arrived
+  (plus ``think_s``);
+* ``TOUR_STEP_DONE`` from this robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
   ``TIMEOUT``, cancels: the visit is over (``finished``) -- only events about this
@@ -18,6 +23,12 @@ events every robot broadcasts (``/gidabot/nav_events``):
 * ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
   robot of the next floor is offline right now): like a person told so, the visitor
   asks again after ``retry_s``, for at most ``retry_for_s``, then gives up.
+
+One visitor of a population (``gidabot demo --visitors K``; each node then runs one core per
+visitor, fed only the events of that visitor's trips) may also choose to cancel: at its start
+robot's screen, ``cancel_after_s`` after asking, it presses Cancel for its latest trip unless the
+visit is over; or never to turn up (``no_show``): it ignores ``WAITING_VISITOR`` away from its
+start floor, so the robot waiting at the meeting point gives up.
 
 Time is passed in (sim seconds); :meth:`VisitorCore.step` returns the commands
 that are due, so tests need no clock.
@@ -30,12 +41,14 @@ from dataclasses import dataclass, field
 
 from gidabot_navigation.interface import (
     ACCEPTED,
+    CANCEL,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     CONTINUE,
     DEFAULT_LANGUAGE,
     GO_TO_FLOOR,
     GOAL_REACHED,
+    NO_ROBOT_ON_FLOOR,
     PARTNER_OFFLINE,
     REJECTED,
     REQUEST,
@@ -55,9 +68,10 @@ ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLI
 
 @dataclass(frozen=True)
 class VisitorConfig:
-    robot: str                       # robot of this floor
-    floor: float                     # this floor
+    robot: str                       # this node's robot
+    floor: float                     # its floor
     start_floor: float = 0.0         # where the visitor starts
+    start_robot: str = ""            # the robot where the visit starts ("" = any robot of the start floor)
     way: str = WAY_STAIRS            # WAY_STAIRS or WAY_LIFT for every floor change
     language: str = DEFAULT_LANGUAGE
     stairs_s_per_floor: float = 20.0 # s of walking per floor by the stairs
@@ -70,6 +84,12 @@ class VisitorConfig:
     visitor_id: str = "sim-visitor"
     retry_s: float = 30.0            # s before asking again after "the robot on floor N is offline"
     retry_for_s: float = 1800.0      # s of such refusals before giving up
+    visit_s: float = 60.0            # s spent at a stop on a floor without robot (found alone)
+    robot_floors: tuple[float, ...] = ()   # the floors with a robot
+    # one visitor of a population (gidabot_sim.visitor.population): when it asks, and what it chooses
+    arrive_s: float = 0.0            # s after every robot is up (the node starts the visit then)
+    cancel_after_s: float = -1.0     # >= 0: presses Cancel this long after asking, if the visit is not over
+    no_show: bool = False            # never turns up at a meeting point on another floor (that robot times out)
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -111,6 +131,12 @@ class VisitorCore:
     _handled: set[str] = field(default_factory=set)            # event uids already seen
     retries: int = 0                                           # requests asked again after a refusal
     _refused_since: float | None = None                        # first refusal of the current request
+    tour_floors: tuple[float, ...] = ()                        # the floor of each step of the tour
+    step_arrivals: dict[int, float] = field(default_factory=dict)  # tour step -> arrival on its floor after
+    #                                                                the stops found alone before it
+    asked_at: float | None = None                              # when the visit started (the button pressed)
+    goal_uids: list[str] = field(default_factory=list)         # this visitor's trips, oldest first
+    cancel_sent: bool = False
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
@@ -118,8 +144,8 @@ class VisitorCore:
     # -- inputs ------------------------------------------------------------
     @property
     def on_start_floor(self) -> bool:
-        """This node plays the visitor's first floor (the only one that starts the visit)."""
-        return math.isclose(self.cfg.floor, self.cfg.start_floor)
+        """This node's robot is where the visitor starts (the only one that starts the visit)."""
+        return math.isclose(self.cfg.floor, self.cfg.start_floor) and self.cfg.start_robot in ("", self.cfg.robot)
 
     def start(self, now: float) -> list[ButtonPress]:
         """Begin the visit: only the start floor's node does something, and only once.
@@ -129,7 +155,7 @@ class VisitorCore:
         """
         if self.started or not self.on_start_floor:
             return []
-        self.started = True
+        self.started, self.asked_at = True, now
         c = self.cfg
         if c.tour_file:
             cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
@@ -172,12 +198,24 @@ class VisitorCore:
             elif math.isclose(target_floor, self.cfg.floor) and math.isfinite(floor):
                 self.arrivals[goal_uid] = now + self.cfg.walk_time(floor, self.cfg.floor)
             return
+        if phase == NO_ROBOT_ON_FLOOR and ours:
+            if mine:
+                self.present = False
+            if not self.cfg.tour_file:
+                self.finished, self.outcome = True, "found the goal alone on a floor without robot"
+            elif math.isfinite(floor):
+                self._walk_alone(now, floor, tour_step)
+            return
         if not mine:
             if phase in ENDS and phase != TOUR_FINISHED:
                 self.finished, self.outcome = True, f"phase {phase} from {robot}"
             return
         if phase == WAITING_VISITOR:
+            if self.cfg.no_show and not self.on_start_floor:
+                return                       # it never comes: the robot waiting here gives up (TIMEOUT)
             self.waiting.add(goal_uid)
+            if goal_uid not in self.arrivals and tour_step in self.step_arrivals:
+                self.arrivals[goal_uid] = self.step_arrivals.pop(tour_step)
         elif phase == TOUR_STEP_DONE:
             self.present = True
             nxt = dict(self.cfg.skips).get(tour_step)
@@ -191,6 +229,28 @@ class VisitorCore:
         elif phase in ENDS:
             self.finished = True
             self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+
+    def on_goal(self, goal_uid: str) -> None:
+        """A trip made for this visitor (its Goal names the visitor)."""
+        if goal_uid not in self.goal_uids:
+            self.goal_uids.append(goal_uid)
+
+    def on_tour(self, floors: tuple[float, ...]) -> None:
+        """The floor of each step of this visit's tour (from the tour store's catalog)."""
+        self.tour_floors = tuple(floors)
+
+    def _walk_alone(self, now: float, floor: float, step: int) -> None:
+        """Sent from ``floor`` to tour step ``step`` on a floor without robot: find it and the following such
+        stops alone, then walk to the next stop with a robot (its robot waits at the meeting point)."""
+        t, here = now, floor
+        for k in range(max(step, 0), len(self.tour_floors)):
+            there = self.tour_floors[k]
+            t += self.cfg.walk_time(here, there)
+            here = there
+            if any(math.isclose(there, f) for f in self.cfg.robot_floors):
+                self.step_arrivals[k] = t
+                return
+            t += self.cfg.visit_s
 
     def _refused(self, now: float, step: int) -> None:
         """Our own request was refused (a robot it needs is offline): ask again later, or give up."""
@@ -220,6 +280,12 @@ class VisitorCore:
                 self._due.append(_Due(now + self.cfg.think_s, ButtonPress(CONTINUE, goal_uid=goal_uid,
                                                                           way=self.cfg.way,
                                                                           language=self.cfg.language)))
+        c = self.cfg
+        if (c.cancel_after_s >= 0 and self.asked_at is not None and now >= self.asked_at + c.cancel_after_s
+                and self.goal_uids and not self.finished and not self.cancel_sent):
+            self.cancel_sent = True          # at the screen where it asked, about its latest trip
+            self._due.append(_Due(now, ButtonPress(CANCEL, goal_uid=self.goal_uids[-1], tour_file=c.tour_file,
+                                                   way=c.way, language=c.language)))
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]
         return [d.press for d in sorted(ready, key=lambda d: d.at)]

@@ -3,18 +3,22 @@
 from __future__ import annotations
 
 import threading
+from collections import deque
+from dataclasses import replace
 
 import rospy
 
-from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import Goal, NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import GidaBotError, TourError, TourNameError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, WAYS, Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.tours.tour_file import tour_from_lines
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.visitor.population import plans_from_list
 from gidabot_sim.visitor.visitor import ButtonPress, VisitorConfig, VisitorCore
 
 
@@ -26,18 +30,20 @@ def _skips_param(raw: object) -> tuple[tuple[int, int], ...]:
 
 
 class VisitorNode:
-    """One floor's share of the simulated visitor, on that floor's robot's master.
+    """One robot's share of the simulated visitor (its touch screen), on that robot's master.
 
     Subscribes:
       /gidabot/nav_events (gidabot_msgs/NavEvent)   every robot's events (relayed)
+      /gidabot/goals (gidabot_msgs/Goal)            population only: which visitor each trip is for
       /gidabot/status (gidabot_msgs/RobotStatus)    to start once every robot is up (then unsubscribed)
-      tour_store/catalog (gidabot_msgs/TourCatalog) start floor, tour mode: start once the tour is stored here
+      tour_store/catalog (gidabot_msgs/TourCatalog) tour mode: the tour's floors (stops on floors without robot);
+                                                    the start robot starts once the tour is stored here
     Publishes:
       visitor/command (gidabot_msgs/VisitorCommand) Continue / skip / start, as the GUI would (the last 60 s
                                                     are sent again to a late subscriber: a restarted node)
     Params:
-      ~building (str)             building.yaml path;  ~robot (str) this floor's robot
-      ~start_floor (float, 0)     where the visitor starts (only that floor's node starts the visit)
+      ~building (str)             building.yaml path;  ~robot (str) this node's robot
+      ~start_floor (float, 0)     where the visitor starts: the node of its first robot starts the visit
       ~tour_file (str, "")        tour to start, or ~goal_id (str, "") a single target
       ~way (str, "stairs")        stairs | lift, for every floor change
       ~language (str, "en")       eu | en | es
@@ -47,15 +53,25 @@ class VisitorNode:
                                   walking time between floors (sim time)
       ~retry (float, 30 s), ~retry_for (float, 1800 s): a request of this visitor refused with
                                   PARTNER_OFFLINE is asked again after ~retry, for at most ~retry_for
+      ~visit_time (float, 60 s)   time spent at a tour stop on a floor without robot (sim time)
       ~start_delay (float, 2.0 s) after every robot reported status (sim time)
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
+      ~population (list, [])      many visitors instead of one: their plans (gidabot_sim.visitor.population:
+                                  visitor_id, arrive_s after every robot is up (sim s), robot, way, goal_id or
+                                  tour_file, cancel_after_s, no_show); ~start_floor, ~tour_file, ~goal_id, ~way
+                                  and ~skips are then not used
     """
 
     def __init__(self) -> None:
         building = load_building(str(rospy.get_param("~building")))
         robot = building.robot(str(rospy.get_param("~robot")))
+        start_floor = param_number("~start_floor", 0.0, -1e6, strict=False)
+        starters = building.robots_on(start_floor)
         self.cfg = VisitorConfig(
-            robot=robot.name, floor=robot.floor, start_floor=param_number("~start_floor", 0.0, -1e6, strict=False),
+            robot=robot.name, floor=robot.floor, start_floor=start_floor,
+            start_robot=starters[0].name if starters else "",
+            robot_floors=tuple(sorted({r.floor for r in building.robots})),
+            visit_s=param_number("~visit_time", 60.0, strict=False),
             way=str(rospy.get_param("~way", WAY_STAIRS)), language=str(rospy.get_param("~language", DEFAULT_LANGUAGE)),
             stairs_s_per_floor=param_number("~stairs_s_per_floor", 20.0, strict=False),
             lift_wait_s=param_number("~lift_wait", 25.0, strict=False),
@@ -67,39 +83,88 @@ class VisitorNode:
             retry_for_s=param_number("~retry_for", 1800.0, strict=False))
         if self.cfg.way not in WAYS:
             raise SimConfigError(f"~way: {self.cfg.way!r} must be one of {', '.join(WAYS)}")
+        population = plans_from_list(rospy.get_param("~population", []), building)
+        # one core per visitor: the single visitor of the params, or each of the population
+        self.cores = {p.visitor_id: VisitorCore(replace(
+            self.cfg, start_floor=building.robot(p.robot).floor, start_robot=p.robot, way=p.way, goal_id=p.goal_id,
+            tour_file=p.tour_file, skips=(), visitor_id=p.visitor_id, arrive_s=p.arrive_s,
+            cancel_after_s=p.cancel_after_s, no_show=p.no_show)) for p in population} \
+            or {self.cfg.visitor_id: VisitorCore(self.cfg)}
         self.robots = {r.name for r in building.robots}
         self.start_delay = param_number("~start_delay", 2.0, strict=False)
         rate = param_number("~rate", 1.0)
-        self.core = VisitorCore(self.cfg)
+        self.building = building
         self._lock = threading.Lock()
         self._seen: set[str] = set()
         self._all_up_at: float | None = None
-        # tour mode: wait until the tour store of this robot holds the tour (START_TOUR reads it there)
-        self._tour_ready = not (self.cfg.tour_file and self.core.on_start_floor)
+        self._visitor_of: dict[str, str] = {}          # goal uid -> visitor id (population: from the goals)
+        self._unrouted: deque[NavEvent] = deque(maxlen=2000)   # events whose goal was not seen yet
+        # tour mode: the tours' floors, and the start robot waits until its tour store holds the tour (START_TOUR
+        # reads it there)
+        self._tours_missing = {c.cfg.tour_file for c in self.cores.values() if c.cfg.tour_file}
         self._seq = 0
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
         self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
+        if population:
+            rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
         rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=100)
         self._status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50)
         self._catalog_sub = None
-        if not self._tour_ready:
+        if self._tours_missing:
             self._catalog_sub = rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._on_catalog, queue_size=2)
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
+    def _on_goal(self, msg: Goal) -> None:
+        """Population: which visitor a trip is for (Goal.visitor_id); its events held back so far go to it."""
+        with self._lock:
+            core = self.cores.get(msg.visitor_id)
+            if core is None or msg.uid in self._visitor_of:
+                return
+            self._visitor_of[msg.uid] = msg.visitor_id
+            core.on_goal(msg.uid)
+            held = [m for m in self._unrouted if m.goal_uid == msg.uid]
+            for m in held:
+                self._unrouted.remove(m)
+                self._deliver(core, m)
+
     def _on_event(self, msg: NavEvent) -> None:
+        with self._lock:
+            if len(self.cores) == 1:
+                self._deliver(next(iter(self.cores.values())), msg)
+            elif msg.goal_uid:
+                visitor = self._visitor_of.get(msg.goal_uid)
+                if visitor is None:
+                    self._unrouted.append(msg)
+                else:
+                    self._deliver(self.cores[visitor], msg)
+            else:      # an answer to a request, before any trip: the visitors who asked at that robot
+                for core in self.cores.values():
+                    if core.cfg.start_robot == msg.robot:
+                        self._deliver(core, msg)
+
+    @staticmethod
+    def _deliver(core: VisitorCore, msg: NavEvent) -> None:
         # the visitor sees what a robot does when it happens (the event's stamp), not when its message got here:
         # the messages' wall latency would otherwise add sim time, the more the faster the run (never later than
         # now: another floor's clock may be a little ahead)
         now, happened = rospy.get_time(), msg.header.stamp.to_sec()
-        seen = min(happened, now) if happened > 0 else now
-        with self._lock:
-            self.core.on_event(seen, msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor, msg.target_floor,
-                               msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
+        core.on_event(min(happened, now) if happened > 0 else now, msg.uid, msg.robot, msg.phase, msg.goal_uid,
+                      msg.floor, msg.target_floor, msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
-        with self._lock:
-            if any(t.file_name == self.cfg.tour_file for t in msg.tours):
-                self._tour_ready = True
+        for t in msg.tours:
+            if t.file_name not in self._tours_missing:
+                continue
+            try:
+                tour = tour_from_lines(t.file_name, t.tour_name, list(t.tour_goals_info), self.building)
+            except (TourError, TourNameError) as err:
+                rospy.logwarn("visitor on %s: tour %s in the catalog is invalid: %s", self.cfg.robot, t.file_name, err)
+                continue
+            with self._lock:
+                for core in self.cores.values():
+                    if core.cfg.tour_file == t.file_name:
+                        core.on_tour(tuple(g.floor for g in tour.goals))
+                self._tours_missing.discard(t.file_name)
 
     def _on_status(self, msg: RobotStatus) -> None:
         with self._lock:
@@ -112,27 +177,30 @@ class VisitorNode:
         if self._all_up_at is not None and self._status_sub is not None:
             self._status_sub.unregister()    # statuses are 4 x 2 Hz of sim time: only needed until all are up
             self._status_sub = None
-        if self._tour_ready and self._catalog_sub is not None:
+        if not self._tours_missing and self._catalog_sub is not None:
             self._catalog_sub.unregister()
             self._catalog_sub = None
+        presses: list[tuple[VisitorConfig, ButtonPress]] = []
         with self._lock:
-            commands = self.core.step(now)
-            if (self._all_up_at is not None and self._tour_ready and not self.core.started
-                    and now >= self._all_up_at + self.start_delay):
-                commands = self.core.start(now) + commands
-                if self.core.started:
-                    rospy.loginfo("visitor on %s: every robot is up; starting the visit", self.cfg.robot)
-        for cmd in commands:
-            self._publish(cmd)
+            for core in self.cores.values():
+                commands = core.step(now)
+                if (self._all_up_at is not None and not self._tours_missing and not core.started
+                        and now >= self._all_up_at + self.start_delay + core.cfg.arrive_s):
+                    commands = core.start(now) + commands
+                    if core.started:
+                        rospy.loginfo("visitor %s on %s: starting the visit", core.cfg.visitor_id, self.cfg.robot)
+                presses += [(core.cfg, cmd) for cmd in commands]
+        for cfg, cmd in presses:
+            self._publish(cfg, cmd)
 
-    def _publish(self, cmd: ButtonPress) -> None:
+    def _publish(self, cfg: VisitorConfig, cmd: ButtonPress) -> None:
         self._seq += 1
-        msg = VisitorCommand(uid=f"{self.cfg.robot}/{self.cfg.visitor_id}/cmd/{self._seq}",
-                             visitor_id=self.cfg.visitor_id, command=cmd.command, goal_id=cmd.goal_id,
+        msg = VisitorCommand(uid=f"{cfg.robot}/{cfg.visitor_id}/cmd/{self._seq}",
+                             visitor_id=cfg.visitor_id, command=cmd.command, goal_id=cmd.goal_id,
                              way=cmd.way, language=cmd.language, goal_uid=cmd.goal_uid, tour_file=cmd.tour_file,
                              tour_step=cmd.tour_step)
         msg.header.stamp = rospy.Time.now()
-        rospy.loginfo("visitor on %s: command %d %s", self.cfg.robot, cmd.command, cmd)
+        rospy.loginfo("visitor %s on %s: command %d %s", cfg.visitor_id, cfg.robot, cmd.command, cmd)
         self.pub.publish(msg)
 
 

@@ -1,0 +1,388 @@
+"""Who serves each leg of a visitor's trip, with no central computer (ROS-free core).
+
+A trip has up to two legs: the *start* leg (from where the visitor asked; on one floor the
+whole trip, across floors to the connector) and the *goal* leg (on the goal floor: meet the
+visitor at the connector, guide to the goal). A floor may have several robots, so each leg
+needs exactly one of them, whatever the network does. The protocol (``docs/guiding.md``,
+*Who serves a leg*, with every failure case):
+
+1. The robot where the visitor confirmed (the trip's origin: the *requester*) is the only
+   writer of the trip's assignment (:class:`Assigner`). For each leg it ranks the online
+   robots of that floor (:func:`~gidabot_navigation.guiding.trips.rank_candidates`) and
+   proposes the leg to the first: it broadcasts the Goal with the leg ``LEG_PROPOSED`` to
+   that robot, as assignment ``attempt`` n (every change is a new, higher attempt).
+2. A robot that finds a leg newly proposed to it answers once, ACCEPTED (leg, attempt, its
+   own eta; it queues the trip but does not run it) or DECLINED (queue full, busy too long).
+3. The requester commits on an ACCEPTED of the robot the leg is proposed to *now*: it
+   broadcasts the Goal with the leg ``LEG_COMMITTED`` (attempt n+1) and an ASSIGNED event.
+   A leg is committed once, to one robot, and never changes afterwards.
+4. DECLINED, no answer within ``answer_timeout`` or the robot offline: the leg is proposed
+   to the next robot (a new attempt); an answer to an older proposal is ignored. No robot
+   left: the requester gives the trip up (:class:`GaveUp`), visibly, for every robot.
+5. A robot runs a leg only while the newest Goal it has of the trip (highest attempt)
+   commits that leg to it; it drops a trip the newest Goal no longer names it in, ignores
+   a Goal older than the newest it has, and forgets an unconfirmed proposal after
+   ``proposal_ttl`` (:class:`LegBook`).
+
+Safety (never two robots on a leg) rests only on 3 and 5: one writer commits a leg once, and
+nobody acts without that commit, so late, lost, duplicated or reordered messages can delay a
+leg but never give it twice. :func:`audit_legs` checks it from what the robots published.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import asdict, dataclass, field, replace
+from typing import Any
+
+from gidabot_navigation.building.model import format_floor
+from gidabot_navigation.errors import GuidingError
+from gidabot_navigation.guiding.messages import NavEventData, SeenSet, Trip
+from gidabot_navigation.guiding.state import GuidingStateError, number, str_list, trip_from_dict, trip_to_dict
+from gidabot_navigation.guiding.trips import Candidate, leg_floor
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    ASSIGNED,
+    DECLINED,
+    FINAL_PHASES,
+    LEG_COMMITTED,
+    LEG_NONE,
+    LEG_PROPOSED,
+    LEGS,
+    SERVING_PHASES,
+)
+
+
+@dataclass(frozen=True)
+class AssignConfig:
+    """``answer_timeout`` (wall s): how long a proposed robot has to answer; ``proposal_ttl`` (wall s): how
+    long a robot keeps a proposal that is never confirmed; ``max_wait`` (s): a robot declines a leg it could
+    not be at before this; ``helper_gain`` (s): another robot of the start floor comes to the visitor only if
+    it is there at least this much sooner than the robot the visitor stands at."""
+
+    answer_timeout: float = 3.0
+    proposal_ttl: float = 60.0
+    max_wait: float = 900.0
+    helper_gain: float = 20.0
+
+    def __post_init__(self) -> None:
+        for name in ("answer_timeout", "proposal_ttl", "max_wait", "helper_gain"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+                    or value < 0 or (value == 0 and name != "helper_gain"):
+                raise GuidingError(f"{name}: {value!r} must be a positive number of seconds")
+
+
+# -- what the requester asks its goal manager to do ---------------------------------------
+
+@dataclass(frozen=True)
+class Publish:
+    """Broadcast this snapshot of the trip (a new attempt) on /gidabot/goals, and apply it here."""
+
+    trip: Trip
+
+
+@dataclass(frozen=True)
+class Assigned:
+    """``robot`` serves ``leg`` (committed): tell it with an ASSIGNED event (``eta`` s until it is there)."""
+
+    trip: Trip
+    leg: str
+    robot: str
+    eta: float
+
+
+@dataclass(frozen=True)
+class GaveUp:
+    """No robot can serve ``leg``: the trip cannot be made (``detail``: who was asked and why not)."""
+
+    trip: Trip
+    leg: str
+    detail: str
+
+
+Output = Publish | Assigned | GaveUp
+# (trip, leg, robots to leave out, wall s) -> the online robots that could serve the leg, best first
+Ranker = Callable[[Trip, str, Sequence[str], float], list[Candidate]]
+
+
+@dataclass
+class LegTry:
+    """The requester's record of one leg: proposed to (or committed to) ``robot``."""
+
+    robot: str
+    state: int               # LEG_PROPOSED or LEG_COMMITTED
+    since: float             # wall s, when it was proposed to ``robot``
+    attempt: int             # the attempt that proposed it to ``robot``
+    eta: float = 0.0         # s, the estimate for ``robot``
+    tried: list[str] = field(default_factory=list)     # every robot proposed so far, in order
+    passed: list[str] = field(default_factory=list)    # why the earlier ones do not serve it
+    done: bool = False       # the committed robot has finished its part
+
+
+class Assigner:
+    """The requester's side: the assignment of every open trip this robot originated (their single writer)."""
+
+    def __init__(self, me: str, cfg: AssignConfig, rank: Ranker) -> None:
+        self.me = me
+        self.cfg = cfg
+        self.rank = rank
+        self.trips: dict[str, Trip] = {}                 # uid -> the latest snapshot published
+        self.legs: dict[str, dict[str, LegTry]] = {}     # uid -> leg -> record
+
+    def __contains__(self, uid: object) -> bool:
+        return uid in self.trips
+
+    def __len__(self) -> int:
+        return len(self.trips)
+
+    def open(self, trip: Trip, legs: Sequence[str], now_wall: float) -> list[Output]:
+        """Propose each of ``legs`` to its best candidate (attempt 1). A leg without any candidate:
+        ``[GaveUp]`` and nothing is kept."""
+        records: dict[str, LegTry] = {}
+        snapshot = trip
+        for leg in legs:
+            candidates = self.rank(trip, leg, (), now_wall)
+            if not candidates:
+                floor = format_floor(leg_floor(trip, leg))
+                return [GaveUp(trip, leg, f"no robot of floor {floor} is online")]
+            best = candidates[0]
+            snapshot = snapshot.with_leg(leg, best.robot, LEG_PROPOSED, 1)
+            records[leg] = LegTry(best.robot, LEG_PROPOSED, now_wall, 1, best.eta, [best.robot])
+        snapshot = replace(snapshot, attempt=1)
+        self.trips[trip.uid] = snapshot
+        self.legs[trip.uid] = records
+        return [Publish(snapshot)]
+
+    def on_answer(self, goal_uid: str, leg: str, robot: str, attempt: int, accepted: bool, eta: float,
+                  detail: str, now_wall: float) -> list[Output]:
+        """ACCEPTED / DECLINED of ``robot`` for ``leg``: commit, or ask the next robot. An answer to an
+        older proposal, or from a robot the leg is not proposed to now, changes nothing."""
+        rec = self.legs.get(goal_uid, {}).get(leg)
+        if rec is None or rec.state != LEG_PROPOSED or rec.robot != robot or attempt < rec.attempt:
+            return []
+        if not accepted:
+            return self._next(goal_uid, leg, f"{robot} declined" + (f" ({detail})" if detail else ""), now_wall)
+        rec.state, rec.eta = LEG_COMMITTED, eta
+        trip = self._bump(goal_uid, leg, robot, LEG_COMMITTED)
+        return [Publish(trip), Assigned(trip, leg, robot, eta)]
+
+    def tick(self, now_wall: float, online: Callable[[str], bool]) -> list[Output]:
+        """Proposals nobody answered in time, or made to a robot that went offline: the next robot."""
+        out: list[Output] = []
+        for uid in list(self.legs):
+            for leg, rec in list(self.legs.get(uid, {}).items()):
+                if rec.state != LEG_PROPOSED or uid not in self.legs:      # (given up by its other leg)
+                    continue
+                rec.since = min(rec.since, now_wall)         # the monotonic clock restarted (host reboot)
+                if not online(rec.robot):
+                    out += self._next(uid, leg, f"{rec.robot} is offline", now_wall)
+                elif now_wall - rec.since >= self.cfg.answer_timeout:
+                    out += self._next(uid, leg, f"{rec.robot} did not answer within "
+                                                f"{self.cfg.answer_timeout:g} s", now_wall)
+        return out
+
+    def on_done(self, goal_uid: str, leg: str, robot: str) -> None:
+        """``robot`` ended its part of the trip (a final phase): once every leg is done, the trip is closed."""
+        rec = self.legs.get(goal_uid, {}).get(leg)
+        if rec is None or rec.robot != robot:
+            return
+        if rec.state == LEG_PROPOSED:
+            return                      # a final phase of a robot that never served it (e.g. DECLINED): on_answer
+        rec.done = True
+        if all(r.done for r in self.legs[goal_uid].values()):
+            self.close(goal_uid)
+
+    def close(self, goal_uid: str) -> None:
+        """The trip is over (cancelled, given up, finished): nothing more to assign."""
+        self.trips.pop(goal_uid, None)
+        self.legs.pop(goal_uid, None)
+
+    def _next(self, uid: str, leg: str, why: str, now_wall: float) -> list[Output]:
+        rec = self.legs[uid][leg]
+        rec.passed.append(why)
+        trip = self.trips[uid]
+        candidates = self.rank(trip, leg, tuple(rec.tried), now_wall)
+        if not candidates:
+            self.close(uid)
+            floor = format_floor(leg_floor(trip, leg))
+            return [GaveUp(trip, leg, f"no robot of floor {floor} can serve it: {'; '.join(rec.passed)}")]
+        best = candidates[0]
+        rec.robot, rec.since, rec.eta = best.robot, now_wall, best.eta
+        rec.tried.append(best.robot)
+        trip = self._bump(uid, leg, best.robot, LEG_PROPOSED)
+        rec.attempt = trip.attempt
+        return [Publish(trip)]
+
+    def _bump(self, uid: str, leg: str, robot: str, state: int) -> Trip:
+        trip = self.trips[uid]
+        trip = trip.with_leg(leg, robot, state, trip.attempt + 1)
+        self.trips[uid] = trip
+        return trip
+
+    # -- restarts --------------------------------------------------------------------------
+    def state(self) -> list[dict[str, Any]]:
+        return [{"trip": trip_to_dict(self.trips[uid]), "legs": {leg: asdict(r) for leg, r in legs.items()}}
+                for uid, legs in self.legs.items()]
+
+    def load_state(self, records: object) -> None:
+        if not isinstance(records, list):
+            raise GuidingStateError("assignments: expected a list")
+        trips: dict[str, Trip] = {}
+        legs: dict[str, dict[str, LegTry]] = {}
+        for rec in records:
+            trip = trip_from_dict(rec["trip"])
+            parsed = {}
+            for leg, r in rec["legs"].items():
+                if leg not in LEGS or r["state"] not in (LEG_PROPOSED, LEG_COMMITTED):
+                    raise GuidingStateError(f"assignment of {trip.uid}: bad leg {leg!r} or state")
+                parsed[leg] = LegTry(str(r["robot"]), int(r["state"]), number(r["since"], "since"),
+                                     int(number(r["attempt"], "attempt")), number(r.get("eta", 0.0), "eta"),
+                                     str_list(r.get("tried", []), "tried"), str_list(r.get("passed", []), "passed"),
+                                     bool(r.get("done", False)))
+            trips[trip.uid], legs[trip.uid] = trip, parsed
+        self.trips, self.legs = trips, legs
+
+
+class LegBook:
+    """A serving robot's side: the newest assignment attempt seen of each trip, the proposals it answered,
+    and since when it holds proposals that are not confirmed yet."""
+
+    def __init__(self, me: str, limit: int = 20000) -> None:
+        self.me = me
+        self.limit = limit
+        self._newest: OrderedDict[str, int] = OrderedDict()   # goal uid -> highest attempt seen
+        self._answered = SeenSet(limit)                       # "<goal uid>#<leg>" answered
+        self._proposed: dict[str, float] = {}                 # goal uid -> wall s, held and not committed
+
+    def newer(self, trip: Trip) -> bool:
+        """True (and remembered) if ``trip`` is a newer attempt than any seen of that trip."""
+        seen = self._newest.get(trip.uid)
+        if seen is not None and trip.attempt <= seen:
+            return False
+        self._newest[trip.uid] = trip.attempt
+        self._newest.move_to_end(trip.uid)
+        while len(self._newest) > self.limit:
+            self._newest.popitem(last=False)
+        return True
+
+    def first_answer(self, goal_uid: str, leg: str) -> bool:
+        """True the first time this robot answers for ``leg`` of the trip."""
+        return self._answered.add(f"{goal_uid}#{leg}")
+
+    def answered(self, goal_uid: str, leg: str) -> bool:
+        return f"{goal_uid}#{leg}" in self._answered
+
+    def holding(self, goal_uid: str, now_wall: float) -> None:
+        """This robot holds a proposal of the trip that is not confirmed yet (kept at most ``proposal_ttl``)."""
+        self._proposed.setdefault(goal_uid, now_wall)
+
+    def settled(self, goal_uid: str) -> None:
+        """The proposal was confirmed, or the trip dropped."""
+        self._proposed.pop(goal_uid, None)
+
+    def expired(self, now_wall: float, ttl: float) -> list[str]:
+        """The trips held unconfirmed for ``ttl`` s or more (forgotten here)."""
+        out = []
+        for uid, since in list(self._proposed.items()):
+            since = min(since, now_wall)           # the monotonic clock restarted (host reboot)
+            self._proposed[uid] = since
+            if now_wall - since >= ttl:
+                out.append(uid)
+                del self._proposed[uid]
+        return out
+
+    def state(self, remember: int) -> dict[str, Any]:
+        return {"newest": [[uid, n] for uid, n in self._newest.items()][-remember:],
+                "answered": self._answered.recent(remember),
+                "proposed": [[uid, t] for uid, t in self._proposed.items()]}
+
+    def load_state(self, state: object) -> None:
+        if not isinstance(state, dict):
+            raise GuidingStateError("legs: expected an object")
+        newest = [(str(uid), int(number(n, "attempt"))) for uid, n in state.get("newest", [])]
+        proposed = [(str(uid), number(t, "proposed since")) for uid, t in state.get("proposed", [])]
+        answered = str_list(state.get("answered", []), "answered")
+        for uid, n in newest:
+            self._newest[uid] = n
+        self._answered.update(answered)
+        self._proposed.update(proposed)
+
+
+# ---------------------------------------------------------------------------
+# Checking the invariant from what the robots published
+# ---------------------------------------------------------------------------
+
+@dataclass
+class LegRecord:
+    """What the published goals and events say about one leg of one trip."""
+
+    committed: set[str] = field(default_factory=set)    # robots a Goal snapshot committed it to
+    assigned: set[str] = field(default_factory=set)     # assignees of ASSIGNED events
+    served: set[str] = field(default_factory=set)       # robots that sent a serving phase for it
+    accepted: set[str] = field(default_factory=set)     # robots that answered ACCEPTED
+    declined: set[str] = field(default_factory=set)
+
+    @property
+    def robots(self) -> set[str]:
+        """Every robot that had the leg (committed, assigned or serving): one at most."""
+        return self.committed | self.assigned | self.served
+
+
+@dataclass
+class LegAudit:
+    """:func:`audit_legs`: per (goal uid, leg) what happened, and the legs that break the invariant."""
+
+    legs: dict[tuple[str, str], LegRecord]
+    ended: set[str]                                       # goal uids with a final phase from some robot
+
+    @property
+    def double_served(self) -> list[tuple[str, str, list[str]]]:
+        """Legs that two or more robots had."""
+        return [(uid, leg, sorted(r.robots)) for (uid, leg), r in sorted(self.legs.items()) if len(r.robots) > 1]
+
+    @property
+    def unserved(self) -> list[tuple[str, str]]:
+        """Legs some robot was asked to serve that nobody got, of trips that never ended."""
+        return [(uid, leg) for (uid, leg), r in sorted(self.legs.items())
+                if not r.robots and uid not in self.ended]
+
+    def served_by(self, goal_uid: str, leg: str) -> str:
+        """The robot that had the leg ("" none, or several: see :attr:`double_served`)."""
+        robots = self.legs.get((goal_uid, leg), LegRecord()).robots
+        return next(iter(robots)) if len(robots) == 1 else ""
+
+
+def audit_legs(goals: Iterable[Trip], events: Iterable[NavEventData]) -> LegAudit:
+    """Who had each leg, from every Goal snapshot and NavEvent published (e.g. read from the bags; duplicates
+    and any order are fine). The invariant: every leg has at most one robot; a leg needed by a trip that
+    did not end has one."""
+    legs: dict[tuple[str, str], LegRecord] = {}
+    ended: set[str] = set()
+    for trip in goals:
+        for leg in LEGS:
+            state = trip.leg_state(leg)
+            if state == LEG_NONE:
+                continue
+            rec = legs.setdefault((trip.uid, leg), LegRecord())
+            if state == LEG_COMMITTED:
+                rec.committed.add(trip.leg_robot(leg))
+    for ev in events:
+        if not ev.goal_uid:
+            continue
+        if ev.phase in FINAL_PHASES and ev.phase != DECLINED:
+            ended.add(ev.goal_uid)
+        if ev.leg not in LEGS:
+            continue
+        rec = legs.setdefault((ev.goal_uid, ev.leg), LegRecord())
+        if ev.phase == ASSIGNED:
+            rec.assigned.add(ev.assignee)
+        elif ev.phase == ACCEPTED:
+            rec.accepted.add(ev.robot)
+        elif ev.phase == DECLINED:
+            rec.declined.add(ev.robot)
+        elif ev.phase in SERVING_PHASES:
+            rec.served.add(ev.robot)
+    return LegAudit(legs, ended)

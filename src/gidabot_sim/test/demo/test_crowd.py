@@ -1,0 +1,94 @@
+"""Statistics of many visitors from monitor records: waits, outcomes against the visitors' choices, queues."""
+
+from __future__ import annotations
+
+import json
+import math
+
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Phase
+from gidabot_sim.demo.crowd import CANCELLED, COMPLETED, TIMED_OUT, UNFINISHED, Crowd, percentile
+from gidabot_sim.visitor.population import VisitorPlan
+
+
+def plan(vid: str, robot: str = "Tartalo", **kw) -> VisitorPlan:
+    return VisitorPlan(**{"visitor_id": vid, "arrive_s": 0.0, "robot": robot, "way": "stairs", "goal_id": "305",
+                          **kw})
+
+
+def goal(uid: str, visitor: str, t: float, start: str = "Tartalo", goal_robot: str = "", goal_state: int = LEG_NONE,
+         attempt: int = 1, step: int = -1, tour: str = "") -> dict:
+    return {"kind": "goal", "uid": uid, "visitor_id": visitor, "sim": t, "wall": t / 10, "start_robot": start,
+            "start_state": LEG_COMMITTED, "goal_robot": goal_robot, "goal_state": goal_state, "attempt": attempt,
+            "tour_step": step, "tour_file": tour}
+
+
+def event(n: int, robot: str, phase: int, goal_uid: str, t: float) -> dict:
+    return {"kind": "event", "uid": f"{robot}/event/{n}", "robot": robot, "phase": phase, "goal_uid": goal_uid,
+            "sim": t, "wall": t / 10}
+
+
+def test_waits_trip_times_outcomes_and_the_verdict() -> None:
+    plans = [plan("v1"), plan("v2", cancel_after_s=30.0), plan("v3", no_show=True), plan("v4"), plan("v5")]
+    c = Crowd(plans)
+    records = [
+        goal("T/v1/1", "v1", 100.0, goal_robot="MariSorgin", goal_state=LEG_PROPOSED),
+        goal("T/v1/1", "v1", 101.0, goal_robot="MariSorgin", goal_state=LEG_COMMITTED, attempt=2),
+        event(1, "Tartalo", Phase.ON_THE_WAY, "T/v1/1", 110.0),            # v1 waited 10 s
+        goal("T/v2/1", "v2", 120.0),
+        event(2, "Tartalo", Phase.GO_TO_FLOOR, "T/v1/1", 150.0),
+        event(3, "Tartalo", Phase.CANCELLED_HERE, "T/v2/1", 150.0),        # v2 cancelled, as it chose
+        goal("T/v3/1", "v3", 160.0, goal_robot="MariSorgin", goal_state=LEG_COMMITTED),
+        event(4, "MariSorgin", Phase.GOAL_REACHED, "T/v1/1", 250.0),       # v1 completed: trip 150 s
+        event(5, "Tartalo", Phase.ON_THE_WAY, "T/v3/1", 200.0),
+        event(6, "MariSorgin", Phase.TIMEOUT, "T/v3/1", 500.0),            # v3 never came: as it chose
+        goal("T/v4/1", "v4", 300.0),
+        event(7, "Tartalo", Phase.TIMEOUT, "T/v4/1", 400.0),               # v4 wanted to arrive: not as chosen
+        event(7, "Tartalo", Phase.TIMEOUT, "T/v4/1", 400.0),               # (the same event again: once)
+        {"kind": "goal", "uid": "X/other/1", "visitor_id": "stranger", "sim": 1.0},   # not of the population
+    ]
+    for rec in records:
+        c.feed_line(json.dumps(rec))
+    assert not c.finished and c.visit_end("v5") == (UNFINISHED, None)
+    rows = {v["visitor"]: v for v in c.visitor_rows()}
+    assert (rows["v1"]["outcome"], rows["v1"]["wait_s"], rows["v1"]["trip_s"]) == (COMPLETED, 10.0, 150.0)
+    assert rows["v2"]["outcome"] == CANCELLED and rows["v2"]["as_chosen"] and rows["v2"]["wait_s"] is None
+    assert rows["v3"]["outcome"] == TIMED_OUT and rows["v3"]["as_chosen"] and rows["v3"]["wait_s"] == 40.0
+    assert rows["v4"]["outcome"] == TIMED_OUT and not rows["v4"]["as_chosen"]
+    s = c.summary(["Tartalo", "MariSorgin"])
+    assert (s["visitors"], s["completed"], s["cancelled"], s["timed_out"], s["unfinished"]) == (5, 1, 1, 2, 1)
+    assert s["wait_mean_s"] == 25.0 and s["wait_p95_s"] == 40.0
+    assert [p.split(" ")[0] for p in s["problems"]] == ["v4", "v5", "v5:"]     # not as chosen; v5: lost too
+    assert "visitors: 4 of 5 with a trip, 1 completed" in c.line()
+
+
+def test_duplicated_goals_of_one_request_fail_the_verdict() -> None:
+    c = Crowd([plan("v1")])
+    for rec in (goal("T/v1/1", "v1", 1.0), goal("K/v1/2", "v1", 2.0, start="Kbot"),
+                event(1, "Tartalo", Phase.GOAL_REACHED, "T/v1/1", 9.0)):
+        c.feed(rec)
+    s = c.summary(["Tartalo"])
+    assert s["completed"] == 1 and s["problems"] == ["v1: 1 duplicated goal(s)"]
+
+
+def test_legs_busy_fraction_and_queue_length_per_robot() -> None:
+    """Lamia gets two goal legs (committed at 10 and 20, ended at 40 and 60) over a run from 0 to 100."""
+    c = Crowd([plan("a"), plan("b"), plan("c")])
+    for rec in (goal("T/a/1", "a", 0.0),
+                goal("T/b/1", "b", 5.0, goal_robot="Lamia", goal_state=LEG_PROPOSED),
+                goal("T/b/1", "b", 10.0, goal_robot="Lamia", goal_state=LEG_COMMITTED, attempt=2),
+                goal("T/c/1", "c", 20.0, goal_robot="Lamia", goal_state=LEG_COMMITTED),
+                event(1, "Lamia", Phase.GOAL_REACHED, "T/b/1", 40.0),
+                event(2, "Lamia", Phase.GOAL_REACHED, "T/c/1", 60.0),
+                event(3, "Tartalo", Phase.GOAL_REACHED, "T/a/1", 100.0)):
+        c.feed(rec)
+    lamia, tartalo, idle = c.robot_rows(["Lamia", "Tartalo", "Kbot"])
+    assert (lamia["legs_served"], lamia["queue_max"]) == (2, 2)
+    assert lamia["busy_fraction"] == 0.5 and math.isclose(lamia["queue_mean"], (30 + 40) / 100)
+    assert tartalo["legs_served"] == 3 and tartalo["queue_max"] == 3
+    assert idle == {"robot": "Kbot", "legs_served": 0, "busy_fraction": 0.0, "queue_max": 0, "queue_mean": 0.0}
+    assert c.finished
+
+
+def test_percentile_is_the_nearest_rank() -> None:
+    assert percentile([5.0, 1.0, 3.0], 95) == 5.0 and percentile([2.0], 50) == 2.0
+    assert percentile(list(range(1, 101)), 95) == 95 and math.isnan(percentile([], 95))
