@@ -19,12 +19,14 @@ from pathlib import Path
 
 from probe import Probe
 
-from gidabot_sim.runner.procs import ProcessError, wait_until
+from gidabot_navigation.interface import Topic, is_relay_end
+from gidabot_sim.errors import ProcessError
+from gidabot_sim.runner.procs import wait_until
 
 REPO = Path(__file__).resolve().parents[1]
 RELAYS_LAUNCH = REPO / "launch" / "relays.launch"
-GOALS, GOAL = "/gidabot/goals", "gidabot_msgs/Goal"
-DIAG, DIAG_T = "/diagnostics", "diagnostic_msgs/DiagnosticArray"
+GOALS, GOAL = Topic.GOALS, "gidabot_msgs/Goal"
+DIAG, DIAG_T = Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray"
 SECRET = "relay-test-secret-0123456789"
 
 
@@ -167,11 +169,11 @@ class RelayMesh:
             assert not dups, f"{r} received {dups} more than once on {topic}"
 
     # -- master ---------------------------------------------------------------------------
-    def relay_nodes(self, robot: str) -> list[str]:
+    def relay_ends(self, robot: str) -> list[str]:
         uri = self.robot(robot).master_uri
         _, _, state = xmlrpc.client.ServerProxy(uri).getSystemState("/test")
         nodes = {n for group in state for _, ns in group for n in ns}
-        return sorted(n for n in nodes if n.startswith("/gidabot_relay_"))
+        return sorted(n for n in nodes if is_relay_end(n))
 
 
 def detection_delay(d: dict[str, str], since_key: str, t_fault_wall: float) -> float:

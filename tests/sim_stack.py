@@ -23,6 +23,7 @@ from pathlib import Path
 from probe import Probe, ProbeError
 
 from gidabot_navigation.building.model import Building
+from gidabot_navigation.interface import Topic
 from gidabot_sim.runner.building_runner import SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address, wait_until
 
@@ -30,13 +31,14 @@ REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 
-EVENTS, GOALS, CANCELS = "/gidabot/nav_events", "/gidabot/goals", "/gidabot/cancels"
-STATUS, PENDING, POSES = "/gidabot/status", "/gidabot/pending", "/gidabot/poses"
-MB_RESULT, AMCL = "move_base/result", "amcl_pose"
+EVENTS, GOALS, CANCELS = Topic.NAV_EVENTS, Topic.GOALS, Topic.CANCELS
+STATUS, PENDING, POSES = Topic.STATUS, Topic.PENDING, Topic.POSES
+MB_RESULT, AMCL = Topic.MOVE_BASE_RESULT, Topic.AMCL_POSE
 TYPES = {EVENTS: "gidabot_msgs/NavEvent", GOALS: "gidabot_msgs/Goal", CANCELS: "gidabot_msgs/Cancel",
          STATUS: "gidabot_msgs/RobotStatus", PENDING: "gidabot_msgs/PendingRequests", POSES: "gidabot_msgs/NavPose",
          MB_RESULT: "move_base_msgs/MoveBaseActionResult", AMCL: "geometry_msgs/PoseWithCovarianceStamped",
-         "visitor/command": "gidabot_msgs/VisitorCommand", "initialpose": "geometry_msgs/PoseWithCovarianceStamped"}
+         Topic.VISITOR_COMMAND: "gidabot_msgs/VisitorCommand",
+         Topic.INITIALPOSE: "geometry_msgs/PoseWithCovarianceStamped"}
 
 # gidabot_msgs/NavEvent phases
 (ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE, NO_ROBOT_ON_FLOOR,
@@ -188,7 +190,7 @@ class SimStack:
         uid = f"{robot}/systest/cmd/{self.n}"
         msg = {"uid": uid, "visitor_id": "systest", "command": command, "language": "en", "tour_step": -1}
         msg.update(fields)
-        self.rec[robot].pub("visitor/command", msg, subs=2)
+        self.rec[robot].pub(Topic.VISITOR_COMMAND, msg, subs=2)
         return uid
 
     def request(self, robot: str, goal_id: str, way: str = "stairs", timeout: float = 20.0) -> tuple[str, int]:
@@ -207,7 +209,7 @@ class SimStack:
         rec = self.rec[robot]
         msg = {"pose": {"pose": {"position": {"x": x, "y": y, "z": 0.0},
                                  "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}}}
-        rec.pub("initialpose", msg)
+        rec.pub(Topic.INITIALPOSE, msg)
         # amcl publishes after a jump; a robot already there publishes nothing new
         wait_until(lambda: dist(self.pose(robot), (x, y)) < 0.3, timeout, f"{robot} relocated to ({x}, {y})")
 

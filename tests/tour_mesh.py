@@ -13,6 +13,7 @@ directory. Every process is in a ProcessGroup and stopped by process group on cl
 
 from __future__ import annotations
 
+import json
 import os
 import time
 import xmlrpc.client
@@ -24,18 +25,13 @@ from relay_system import RelayMesh
 from tour_system import FACULTY, TOUR, start_store
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_sim.runner.procs import (
-    ProcessError,
-    ProcessGroup,
-    master_pid,
-    robot_address,
-    ros_env,
-    start_master,
-    wait_until,
-)
+from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.tours.tour_store import META_NAME
+from gidabot_sim.errors import ProcessError
+from gidabot_sim.runner.procs import ProcessGroup, master_pid, robot_address, ros_env, start_master, wait_until
 
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
-CATALOG, RESULT, DIAG = "tour_store/catalog", "tour_store/edit_result", "/diagnostics"
+CATALOG, RESULT, DIAG = Topic.TOUR_CATALOG, Topic.TOUR_EDIT_RESULT, Topic.DIAGNOSTICS
 TYPES = {CATALOG: "gidabot_msgs/TourCatalog", RESULT: "gidabot_msgs/TourEditResult"}
 
 
@@ -69,6 +65,17 @@ def dir_files(directory: Path, hidden: bool = False) -> dict[str, bytes]:
         if path.is_file() and not path.is_symlink():
             out[name] = path.read_bytes()
     return out
+
+
+def committed(directory: Path) -> bool:
+    """The store's metadata records no change half done: every tour's file is the store's copy of its
+    record and every deleted tour's file is gone (the second phase of each change is written; see
+    ``TourStore._apply``). Until then the store writes its metadata once more."""
+    try:
+        meta = json.loads((directory / META_NAME).read_bytes())
+    except (OSError, ValueError):
+        return False
+    return all(rec["disk"] == ("" if rec["deleted"] else rec["sha256"]) for rec in meta["tours"].values())
 
 
 def node_pid(master_uri: str, node: str) -> int | None:
@@ -164,7 +171,7 @@ class TourMesh:
 
     def store_pid(self, robot: str) -> int | None:
         assert self.masters is not None
-        return node_pid(self.masters.building.robot(robot).master_uri, "/tour_store")
+        return node_pid(self.masters.building.robot(robot).master_uri, global_name(Node.TOUR_STORE))
 
     # -- messages -------------------------------------------------------------------------
     def probe(self, robot: str):
@@ -177,7 +184,7 @@ class TourMesh:
         self.n += 1
         msg = {**msg, "uid": f"systest/edit/{self.n}"}
         since = len(self.probe(robot).msgs(RESULT))
-        self.probe(robot).pub("tour_store/edit", TOUR, msg, subs=1)
+        self.probe(robot).pub(Topic.TOUR_EDIT, TOUR, msg, subs=1)
         if not wait:
             return None
         return self.result(robot, msg["uid"], since)
@@ -213,7 +220,8 @@ class TourMesh:
             time.sleep(0.005)
 
     def wait_same(self, timeout: float, what: str = "the same tours everywhere") -> dict[str, bytes]:
-        """Until every robot's directory holds the same files, byte for byte; returns them."""
-        wait_until(lambda: all(self.files(r) == self.files(ROBOTS[0]) for r in ROBOTS[1:]), timeout, what,
-                   interval=0.02)
+        """Until every robot's directory holds the same files, byte for byte, and no store is between
+        the two metadata writes of a change (:func:`committed`); returns the files."""
+        wait_until(lambda: all(self.files(r) == self.files(ROBOTS[0]) for r in ROBOTS[1:])
+                   and all(committed(self.dirs[r]) for r in ROBOTS), timeout, what, interval=0.02)
         return self.files(ROBOTS[0])

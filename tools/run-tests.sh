@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Run GidaBot's test suites. Usage: tools/run-tests.sh [all|lint|unit|system] [pytest args...]
 #   lint    ruff on every Python file, catkin_lint on src/
-#   unit    pytest of the ROS-free cores (src/*/test), no master
+#   unit    pytest of the ROS-free cores (src/*/test) and the repository's rule checks (tests/, not system:
+#           core purity, package.xml dependencies), no master
 #   system  pytest system tests and rostests across several masters (tests/, src/*/test/*.test)
 set -euo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -19,7 +20,7 @@ lint() {
   run catkin_lint catkin_lint -W2 --strict --ignore missing_directory src
 }
 unit() {
-  run unit pytest_suite -q -p no:cacheprovider -m "not system" src "$@"
+  run unit pytest_suite -q -p no:cacheprovider -m "not system" src tests "$@"
 }
 # pytest exits 5 when a selection holds no test: not a failure for a suite
 pytest_suite() { local rc=0; pytest "$@" || rc=$?; [ "$rc" -eq 5 ] && rc=0; return "$rc"; }

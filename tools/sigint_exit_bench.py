@@ -17,6 +17,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from gidabot_navigation.interface import Node, Topic
+
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO / "tests"))
 from probe import Probe  # noqa: E402
@@ -61,20 +63,21 @@ def main() -> int:
                 uri = start_master(procs, "master", ip, port=int(uri.rsplit(":", 1)[1].strip("/")))
             if not procs.alive("master"):
                 procs.signal("master", signal.SIGCONT)
-            procs.start("sim", [sys.executable, "-c", WRAP, str(NODES / "sim"), "__name:=sim", f"_building:={building}",
-                                f"_robot:={robot}", f"_speed:={a.speed}", "_use_sim_time:=true"], env)
-            procs.start("move_base", [sys.executable, str(NODES / "move_base"), "__name:=move_base",
+            procs.start("sim", [sys.executable, "-c", WRAP, str(NODES / "sim"), f"__name:={Node.SIM}",
+                                f"_building:={building}", f"_robot:={robot}", f"_speed:={a.speed}",
+                                "_use_sim_time:=true"], env)
+            procs.start("move_base", [sys.executable, str(NODES / "move_base"), f"__name:={Node.MOVE_BASE}",
                                       f"_building:={building}", f"_robot:={robot}"], env)
-            procs.start("amcl", [sys.executable, str(NODES / "amcl"), "__name:=amcl"], env)
+            procs.start("amcl", [sys.executable, str(NODES / "amcl"), f"__name:={Node.AMCL}"], env)
             probes = [Probe(env, out / f"probe{i}.log") for i in range(2)]
             try:
                 for p in probes:
-                    for topic, type_ in (("/clock", "rosgraph_msgs/Clock"), ("odom", "nav_msgs/Odometry"),
-                                         ("base_pose_ground_truth", "nav_msgs/Odometry"),
-                                         ("base_scan", "sensor_msgs/LaserScan"), ("/tf", "tf2_msgs/TFMessage"),
-                                         ("battery", "sensor_msgs/BatteryState")):
+                    for topic, type_ in ((Topic.CLOCK, "rosgraph_msgs/Clock"), (Topic.ODOM, "nav_msgs/Odometry"),
+                                         (Topic.BASE_POSE_GROUND_TRUTH, "nav_msgs/Odometry"),
+                                         (Topic.BASE_SCAN, "sensor_msgs/LaserScan"), (Topic.TF, "tf2_msgs/TFMessage"),
+                                         (Topic.BATTERY, "sensor_msgs/BatteryState")):
                         p.sub(topic, type_)
-                probes[0].wait("odom", lambda m: True, 60, "odom")
+                probes[0].wait(Topic.ODOM, lambda m: True, 60, "odom")
                 time.sleep(random.uniform(0.2, 1.5))    # a random moment of the run
                 if mode == "stop_sub":
                     os.killpg(probes[1].proc.pid, signal.SIGSTOP)

@@ -22,6 +22,8 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseResult
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
+from gidabot_navigation.interface import Topic
+
 
 def quat(yaw: float) -> Quaternion:
     return Quaternion(0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
@@ -35,11 +37,11 @@ class FakeNav:
         self.abort_at = [tuple(p) for p in rospy.get_param("~abort_at", [])]
         self.abort_after = float(rospy.get_param("~abort_after", 0.3))
         self.lock = threading.Lock()
-        self.amcl = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=2, latch=True)
-        self.odom = rospy.Publisher("odom", Odometry, queue_size=2)
-        self.battery = rospy.Publisher("battery", BatteryState, queue_size=1, latch=True)
+        self.amcl = rospy.Publisher(Topic.AMCL_POSE, PoseWithCovarianceStamped, queue_size=2, latch=True)
+        self.odom = rospy.Publisher(Topic.ODOM, Odometry, queue_size=2)
+        self.battery = rospy.Publisher(Topic.BATTERY, BatteryState, queue_size=1, latch=True)
         self.goals = 0
-        self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction, self.execute, auto_start=False)
+        self.server = actionlib.SimpleActionServer(Topic.MOVE_BASE, MoveBaseAction, self.execute, auto_start=False)
         self.server.start()
         self.publish(0.0)
         b = BatteryState()

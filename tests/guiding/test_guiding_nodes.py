@@ -15,6 +15,7 @@ import pytest
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.interface import Topic
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -41,26 +42,26 @@ class Robot:
         self.n += 1
         msg = {"uid": f"Tartalo/test/cmd/{self.n}", "visitor_id": "test", "command": command, "language": "en",
                "tour_step": -1, **fields}
-        self.probe.pub("visitor/command", CMD, msg, subs=2)
+        self.probe.pub(Topic.VISITOR_COMMAND, CMD, msg, subs=2)
 
     def statuses(self) -> None:
         """The other robots are alive (their statuses, as the relays would deliver them)."""
         for name, floor in (("Kbot", 1.0), ("Galtxagorri", 2.0), ("MariSorgin", 3.0)):
-            self.probe.pub("/gidabot/status", STATUS, {"robot": name, "floor": floor, "state": "idle"}, subs=2)
+            self.probe.pub(Topic.STATUS, STATUS, {"robot": name, "floor": floor, "state": "idle"}, subs=2)
 
     def events(self, goal_uid: str | None = None, since: int = 0) -> list[dict]:
-        return [m for m in self.probe.msgs("/gidabot/nav_events", since)
+        return [m for m in self.probe.msgs(Topic.NAV_EVENTS, since)
                 if goal_uid is None or m["goal_uid"] == goal_uid]
 
     def wait_phase(self, phase: int, goal_uid: str | None = None, since: int = 0, timeout: float = 20.0,
                    robot: str = "Tartalo") -> dict:
-        return self.probe.wait("/gidabot/nav_events", lambda m: m["phase"] == phase and m["robot"] == robot and
+        return self.probe.wait(Topic.NAV_EVENTS, lambda m: m["phase"] == phase and m["robot"] == robot and
                                (goal_uid is None or m["goal_uid"] == goal_uid), timeout,
                                f"phase {phase} for {goal_uid}", since=since)
 
     def idle(self, timeout: float = 20.0) -> dict:
-        return self.probe.wait("/gidabot/status", lambda m: m["state"] == "idle" and m["pending"] == 0, timeout,
-                               "Tartalo idle", since=max(0, len(self.probe.msgs("/gidabot/status")) - 1))
+        return self.probe.wait(Topic.STATUS, lambda m: m["state"] == "idle" and m["pending"] == 0, timeout,
+                               "Tartalo idle", since=max(0, len(self.probe.msgs(Topic.STATUS)) - 1))
 
 
 @pytest.fixture(scope="module")
@@ -77,17 +78,17 @@ def robot(tmp_path_factory) -> Iterator[Robot]:
         procs.start("guiding", ["roslaunch", "--skip-log-check", str(LAUNCH), f"building:={FACULTY}",
                                 "robot:=Tartalo", "continue_timeout:=4", "output:=screen"], env)
         with Probe(env, tmp / "logs" / "probe.log") as probe:
-            for topic, type_ in (("/gidabot/nav_events", EVENT), ("/gidabot/goals", GOAL),
-                                 ("/gidabot/cancels", CANCEL), ("/gidabot/status", STATUS),
-                                 ("/gidabot/pending", PENDING), ("/gidabot/poses", "gidabot_msgs/NavPose"),
-                                 ("/diagnostics", "diagnostic_msgs/DiagnosticArray")):
+            for topic, type_ in ((Topic.NAV_EVENTS, EVENT), (Topic.GOALS, GOAL),
+                                 (Topic.CANCELS, CANCEL), (Topic.STATUS, STATUS),
+                                 (Topic.PENDING, PENDING), (Topic.POSES, "gidabot_msgs/NavPose"),
+                                 (Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray")):
                 probe.sub(topic, type_)
             r = Robot(procs, probe, env)
             # the nodes are up, localised and connected to move_base
-            probe.wait("/gidabot/status", lambda m: m["robot"] == "Tartalo" and m["state"] == "idle"
+            probe.wait(Topic.STATUS, lambda m: m["robot"] == "Tartalo" and m["state"] == "idle"
                        and abs(m["nav_pose"]["position"]["x"] - 30.0) < 0.01 and abs(m["battery"] - 0.8) < 1e-6,
                        60, "Tartalo's status")
-            probe.wait("/gidabot/pending", lambda m: m["robot"] == "Tartalo", 30, "Tartalo's pending list")
+            probe.wait(Topic.PENDING, lambda m: m["robot"] == "Tartalo", 30, "Tartalo's pending list")
             yield r
 
 
@@ -96,17 +97,17 @@ def test_same_floor_request_is_guided_to_the_goal(robot: Robot) -> None:
     robot.command(REQUEST, goal_id="001", way="stairs")
     acc = robot.wait_phase(ACCEPTED, since=n)
     uid = acc["goal_uid"]
-    goal = robot.probe.wait("/gidabot/goals", lambda m: m["uid"] == uid, 5, "the broadcast goal")
+    goal = robot.probe.wait(Topic.GOALS, lambda m: m["uid"] == uid, 5, "the broadcast goal")
     assert (goal["origin_robot"], goal["initial_floor"], goal["goal_floor"], goal["goal_id"]) == \
         ("Tartalo", 0.0, 0.0, "001")
     assert goal["initial_pose"]["x"] == pytest.approx(30.0, abs=0.01)
-    pend = robot.probe.wait("/gidabot/pending", lambda m: m["num"] == 1 and m["goals"][0]["uid"] == uid, 5)
+    pend = robot.probe.wait(Topic.PENDING, lambda m: m["num"] == 1 and m["goals"][0]["uid"] == uid, 5)
     assert pend["eta"][0] > 0 and pend["wait_new"] == pend["eta"][0]
-    robot.probe.wait("/gidabot/status", lambda m: m["current_goal_uid"] == uid and m["state"] == "guiding", 10)
+    robot.probe.wait(Topic.STATUS, lambda m: m["current_goal_uid"] == uid and m["state"] == "guiding", 10)
     robot.wait_phase(GOAL_REACHED, uid)
     assert [e["phase"] for e in robot.events(uid)] == [ACCEPTED, ON_THE_WAY, GOAL_REACHED]
     robot.idle()
-    robot.probe.wait("/gidabot/poses", lambda m: m["robot"] == "Tartalo" and m["floor"] == 0.0
+    robot.probe.wait(Topic.POSES, lambda m: m["robot"] == "Tartalo" and m["floor"] == 0.0
                      and abs(m["nav_pose"]["position"]["x"] - 9.0) < 0.01, 5, "the pose at the goal")
 
 
@@ -115,7 +116,7 @@ def test_cross_floor_request_from_the_start_robot(robot: Robot) -> None:
     n = len(robot.events())
     robot.command(REQUEST, goal_id="301", way="stairs")
     uid = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
-    goal = robot.probe.wait("/gidabot/goals", lambda m: m["uid"] == uid, 5)
+    goal = robot.probe.wait(Topic.GOALS, lambda m: m["uid"] == uid, 5)
     assert goal["connector"] == "stairs_west" and goal["way"] == "stairs" and goal["goal_floor"] == 3.0
     otw = robot.wait_phase(ON_THE_WAY, uid)
     assert otw["location_id"] == "stairs_west"
@@ -137,21 +138,21 @@ def test_goal_floor_meets_the_visitor_and_times_out(robot: Robot) -> None:
                 "tour_file": "", "tour_step": -1}
 
     n = len(robot.events())
-    robot.probe.pub("/gidabot/goals", GOAL, goal("MariSorgin/v/t.1"), subs=2)
+    robot.probe.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.1"), subs=2)
     robot.wait_phase(GOING_TO_MEETING, "MariSorgin/v/t.1", since=n)
     robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.1", since=n)
     robot.command(CONTINUE, goal_uid="MariSorgin/v/t.1")
     robot.wait_phase(GOAL_REACHED, "MariSorgin/v/t.1", since=n)
     assert robot.events("MariSorgin/v/t.1")[0]["language"] == "eu"
     # a second visitor never shows up: 4 s after MariSorgin released them, the trip is dropped
-    robot.probe.pub("/gidabot/goals", GOAL, goal("MariSorgin/v/t.2"), subs=2)
+    robot.probe.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.2"), subs=2)
     robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.2", since=n)
-    robot.probe.pub("/gidabot/nav_events", EVENT, {"uid": "MariSorgin/event/t.1", "robot": "MariSorgin",
-                                                   "floor": 3.0, "goal_uid": "MariSorgin/v/t.2",
-                                                   "phase": GO_TO_FLOOR, "target_floor": 0.0, "tour_step": -1},
+    robot.probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "MariSorgin/event/t.1", "robot": "MariSorgin",
+                                              "floor": 3.0, "goal_uid": "MariSorgin/v/t.2",
+                                              "phase": GO_TO_FLOOR, "target_floor": 0.0, "tour_step": -1},
                     subs=3)
     robot.wait_phase(TIMEOUT, "MariSorgin/v/t.2", since=n, timeout=15)
-    robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == "MariSorgin/v/t.2" and m["reason"] == "timeout",
+    robot.probe.wait(Topic.CANCELS, lambda m: m["goal_uid"] == "MariSorgin/v/t.2" and m["reason"] == "timeout",
                      5, "the timeout cancel")
     robot.idle()
 
@@ -162,7 +163,7 @@ def test_cancel_stops_the_robot(robot: Robot) -> None:
     uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
     robot.command(CANCEL_CMD, goal_uid="")
     robot.wait_phase(CANCELLED_HERE, uid)
-    cancel = robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == uid, 5, "the broadcast cancel")
+    cancel = robot.probe.wait(Topic.CANCELS, lambda m: m["goal_uid"] == uid, 5, "the broadcast cancel")
     assert (cancel["origin_robot"], cancel["reason"]) == ("Tartalo", "visitor")
     status = robot.idle(10)
     x = status["nav_pose"]["position"]["x"]
@@ -176,7 +177,7 @@ def test_aborted_navigation_is_unreachable_and_broadcast(robot: Robot) -> None:
     uid = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
     ev = robot.wait_phase(UNREACHABLE, uid)
     assert "Failed to find a valid plan" in ev["detail"] or "aborted" in ev["detail"]
-    cancel = robot.probe.wait("/gidabot/cancels", lambda m: m["goal_uid"] == uid, 5, "the unreachable cancel")
+    cancel = robot.probe.wait(Topic.CANCELS, lambda m: m["goal_uid"] == uid, 5, "the unreachable cancel")
     assert (cancel["origin_robot"], cancel["reason"]) == ("Tartalo", "unreachable")
     robot.idle()
     # a cancel from the goal floor of another trip tells this visitor
@@ -184,8 +185,8 @@ def test_aborted_navigation_is_unreachable_and_broadcast(robot: Robot) -> None:
     n = len(robot.events())
     robot.command(REQUEST, goal_id="223", way="lift")
     uid2 = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
-    robot.probe.pub("/gidabot/cancels", CANCEL, {"uid": "Galtxagorri/cancel/t.1", "goal_uid": uid2,
-                                                 "origin_robot": "Galtxagorri", "reason": "visitor"}, subs=3)
+    robot.probe.pub(Topic.CANCELS, CANCEL, {"uid": "Galtxagorri/cancel/t.1", "goal_uid": uid2,
+                                            "origin_robot": "Galtxagorri", "reason": "visitor"}, subs=3)
     robot.wait_phase(CANCELLED_ELSEWHERE, uid2)
     robot.idle()
 
@@ -208,13 +209,13 @@ def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
                {"connector": "chimney"}, {"tour_file": "../../x.tour", "tour_step": 0}, {"language": "x" * 5000}]
     for i, change in enumerate(hostile):
         msg = {**base, "uid": f"Evil/{i}", **change}
-        p.pub("/gidabot/goals", GOAL, msg, subs=2)
-    p.pub("/gidabot/cancels", CANCEL, {"uid": "", "goal_uid": "x", "origin_robot": "Evil", "reason": "why"}, subs=3)
-    p.pub("/gidabot/nav_events", EVENT, {"uid": "e/1", "robot": "Tartalo", "floor": "nan", "goal_uid": "",
-                                         "phase": 250, "tour_step": -5}, subs=3)
+        p.pub(Topic.GOALS, GOAL, msg, subs=2)
+    p.pub(Topic.CANCELS, CANCEL, {"uid": "", "goal_uid": "x", "origin_robot": "Evil", "reason": "why"}, subs=3)
+    p.pub(Topic.NAV_EVENTS, EVENT, {"uid": "e/1", "robot": "Tartalo", "floor": "nan", "goal_uid": "",
+                                    "phase": 250, "tour_step": -5}, subs=3)
     # the goal manager counted the rejections
     def rejected() -> int:
-        for m in reversed(p.msgs("/diagnostics")):
+        for m in reversed(p.msgs(Topic.DIAGNOSTICS)):
             st = m["status"][0]
             if st["name"] == "guiding: goal_manager Tartalo":
                 return int({kv["key"]: kv["value"] for kv in st["values"]}.get("rejected", 0))
@@ -228,7 +229,7 @@ def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
     n = len(robot.events())
     robot.command(REQUEST, goal_id="014", way="stairs")
     uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
-    p.pub("/gidabot/pending", PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, subs=2)
+    p.pub(Topic.PENDING, PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, subs=2)
     robot.wait_phase(GOAL_REACHED, uid)
     log = (robot.procs.get("guiding").log_path or Path("/dev/null")).read_text(errors="replace")
     assert "Traceback" not in log

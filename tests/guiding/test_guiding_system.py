@@ -1,6 +1,6 @@
 """Guiding across the whole simulated building (issue 5, "What it must show", multi-master part).
 
-Four masters on this session's loopback addresses linked by the relays (6 links, HMAC), and on
+Four masters on this session's loopback addresses joined by the relays (6 relays, HMAC), and on
 every one `launch/robot.launch sim:=true gui:=false`: simulator + move_base/amcl stand-ins,
 goal_manager + multirobot_navigation, tour store. A recorder probe on every master plays the
 visitor (visitor/command) and records events, goals, cancels, pending lists, move_base results

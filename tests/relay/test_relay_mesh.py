@@ -13,14 +13,13 @@ import xmlrpc.client
 import pytest
 from relay_system import DIAG, GOAL, GOALS, RelayMesh, settle, wait_pid_gone
 
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, STATE, Node, Topic, global_name, relay_end_name
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
 
-EVENTS = [("/gidabot/goals", "gidabot_msgs/Goal"), ("/gidabot/cancels", "gidabot_msgs/Cancel"),
-          ("/gidabot/nav_events", "gidabot_msgs/NavEvent"), ("/gidabot/tours", "gidabot_msgs/Tour")]
-STATES = [("/gidabot/status", "gidabot_msgs/RobotStatus"), ("/gidabot/poses", "gidabot_msgs/NavPose"),
-          ("/gidabot/pending", "gidabot_msgs/PendingRequests"), ("/gidabot/tour_index", "gidabot_msgs/TourIndex")]
+EVENTS = [(t.name, t.type) for t in SHARED_TOPICS if t.kind == EVENT]
+STATES = [(t.name, t.type) for t in SHARED_TOPICS if t.kind == STATE]
 
 
 @pytest.fixture
@@ -33,11 +32,11 @@ def test_goal_from_robot_0_reaches_robots_1_to_3_exactly_once(mesh) -> None:
     mesh.start(subscribe=[(GOALS, GOAL)])
     first, others = mesh.robots[0], mesh.robots[1:]
     # n(n-1)/2 relays, derived from the building: every master has one end of each of its n-1 relays
-    names = {f"/gidabot_relay_{a.name}_{b.name}" for a, b in mesh.sim.building.relay_pairs()}
+    names = {relay_end_name(a.name, b.name) for a, b in mesh.sim.building.relay_pairs()}
     assert len(names) == 6
     for r in mesh.robots:
-        assert len(mesh.relay_nodes(r)) == 3 and set(mesh.relay_nodes(r)) <= names
-    assert set().union(*(mesh.relay_nodes(r) for r in mesh.robots)) == names
+        assert len(mesh.relay_ends(r)) == 3 and set(mesh.relay_ends(r)) <= names
+    assert set().union(*(mesh.relay_ends(r) for r in mesh.robots)) == names
 
     for k in range(5):
         mesh.publish(first, GOALS, GOAL, {"uid": f"{first}/v/{k}", "origin_robot": first})
@@ -87,7 +86,7 @@ def test_every_robot_reaches_every_other_exactly_once_with_all_topics_both_ways(
 
 def test_state_topics_are_latched_for_late_subscribers_and_resent_on_reconnect(mesh, faculty_masters) -> None:
     mesh.start()
-    status = ("/gidabot/status", "gidabot_msgs/RobotStatus")
+    status = (Topic.STATUS, "gidabot_msgs/RobotStatus")
     mesh.publish("Tartalo", *status, {"robot": "Tartalo", "state": "idle"})
     mesh.wait_end("Kbot", "Tartalo", lambda d: d["delivered_states"] == "1", 10, "status delivered")
     mesh.sub("Kbot", *status)                                  # a late subscriber gets it at once
@@ -105,7 +104,8 @@ def test_relays_launch_supervisor_death_takes_its_ends_and_roslaunch_brings_them
     mesh.start(subscribe=[(GOALS, GOAL)])
     owner = mesh.robots[0]
     pids = [mesh.end_pid(owner, f"{owner}_{o}.{side}") for o in mesh.robots[1:] for side in "ab"]
-    api = xmlrpc.client.ServerProxy(mesh.robot(owner).master_uri).lookupNode("/test", "/relay_supervisor")[2]
+    master = xmlrpc.client.ServerProxy(mesh.robot(owner).master_uri)
+    api = master.lookupNode("/test", global_name(Node.RELAY_SUPERVISOR))[2]
     sup_pid = xmlrpc.client.ServerProxy(api).getPid("/test")[2]
     t = time.monotonic()
     os.kill(sup_pid, signal.SIGKILL)

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import contextlib
 import socket
+import time
 
 import pytest
 from relay_system import GOAL, GOALS, RelayMesh, settle, spoof_publish
 
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.relay.protocol import HEADER, FrameType, Hello, Message, encode_frame, encode_message, hello_key
 
 pytestmark = pytest.mark.system
@@ -20,7 +22,7 @@ pytestmark = pytest.mark.system
 @pytest.fixture
 def mesh(faculty_masters, tmp_path):
     with RelayMesh(faculty_masters, tmp_path) as m:
-        m.start(subscribe=[(GOALS, GOAL), ("/gidabot/tours", "gidabot_msgs/Tour")])
+        m.start(subscribe=[(GOALS, GOAL), (Topic.TOURS, "gidabot_msgs/Tour")])
         yield m
 
 
@@ -44,9 +46,9 @@ def test_spoofed_unauthenticated_and_oversized_frames_are_rejected_and_counted(m
     a, b = "Tartalo", "Kbot"
     addr = mesh.link_address(a, f"{a}_{b}.b")
     attacker_ip = mesh.robot("Galtxagorri").ip                  # another machine of the building
-    link = f"{a}_{b}"
-    hello = Hello(link, "a", b"n" * 16, b"", 1, 0, 0).encode()
-    event = encode_message(Message(GOALS, "/goal_manager", "0" * 32, b"evil", 1), True)
+    pair = f"{a}_{b}"
+    hello = Hello(pair, "a", b"n" * 16, b"", 1, 0, 0).encode()
+    event = encode_message(Message(GOALS, global_name(Node.GOAL_MANAGER), "0" * 32, b"evil", 1), True)
     attacks = {
         "auth": [encode_frame(FrameType.HELLO, hello),                                     # no HMAC
                  encode_frame(FrameType.HELLO, hello, hello_key(b"guessed-wrong-secret-123")),  # bad HMAC
@@ -76,10 +78,11 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     env = mesh.sim.env(src)
     n_ends = len(mesh.robots) - 1
     spoof_publish(env, "impostor", GOALS, "std_msgs/String", "wrong-type", subs=n_ends)
-    spoof_publish(env, "garbler", GOALS, GOAL, "garbage", subs=n_ends)
+    # the right type: the probe subscribes it too (the impostor's std_msgs/String it refuses)
+    spoof_publish(env, "garbler", GOALS, GOAL, "garbage", subs=n_ends + 1)
     spoof_publish(env, "gidabot_relay_fake", GOALS, GOAL, "fake-relay", subs=n_ends + 1)
     big = ["0, 014, " + "x" * (1 << 20)]                          # a 1 MiB tour: over the 1 MiB limit
-    mesh.publish(src, "/gidabot/tours", "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
+    mesh.publish(src, Topic.TOURS, "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
     mesh.publish(src, GOALS, GOAL, {"uid": "legit"})
     others = [r for r in mesh.robots if r != src]
     for r in others:
@@ -87,13 +90,15 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
 
     def counted(d: dict[str, str]) -> bool:
         return (int(d["rejected_type"]) >= 1 and int(d["rejected_malformed"]) >= 1
-                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1)
+                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1
+                and int(d["forwarded_events"]) >= 1)
 
+    arrived = time.time()           # diagnostics stamped later count "legit" as forwarded (1 Hz)
     for o in others:
-        mesh.wait_end(src, o, counted, 10, "impostors counted")
+        mesh.wait_end(src, o, counted, 10, "impostors counted", after=arrived)
         assert mesh.end_diag(src, o)["forwarded_events"] == "1"   # only "legit"
     settle(1.0)
     for r in others:
         assert mesh.uids(r) == ["legit"], r
-        assert mesh.uids(r, "/gidabot/tours") == [], r
+        assert mesh.uids(r, Topic.TOURS) == [], r
     assert "fake-relay" in mesh.uids(src)                         # it was published locally, just not relayed

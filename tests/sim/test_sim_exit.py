@@ -20,7 +20,9 @@ import pytest
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building, relocate_building
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_navigation.interface import Node, Topic
+from gidabot_sim.errors import ProcessError
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
 REPO = Path(__file__).resolve().parents[2]
@@ -28,9 +30,9 @@ FACULTY = REPO / "maps" / "faculty"
 NODES = REPO / "src" / "gidabot_sim" / "nodes"
 ROBOT = "Kbot"
 EXIT_BOUND = 2.0     # s: the guard's 1 s grace plus slack for a loaded machine (rospy alone: forever)
-SUBSCRIPTIONS = (("/clock", "rosgraph_msgs/Clock"), ("odom", "nav_msgs/Odometry"),
-                 ("base_pose_ground_truth", "nav_msgs/Odometry"), ("base_scan", "sensor_msgs/LaserScan"),
-                 ("/tf", "tf2_msgs/TFMessage"), ("battery", "sensor_msgs/BatteryState"))
+SUBSCRIPTIONS = ((Topic.CLOCK, "rosgraph_msgs/Clock"), (Topic.ODOM, "nav_msgs/Odometry"),
+                 (Topic.BASE_POSE_GROUND_TRUTH, "nav_msgs/Odometry"), (Topic.BASE_SCAN, "sensor_msgs/LaserScan"),
+                 (Topic.TF, "tf2_msgs/TFMessage"), (Topic.BATTERY, "sensor_msgs/BatteryState"))
 
 
 @pytest.fixture
@@ -48,10 +50,10 @@ def start_floor(procs: ProcessGroup, tmp_path: Path, speed: str = "20") -> dict[
     building = relocate_building(FACULTY, tmp_path / "building", {ROBOT: uri})
     env = ros_env(uri, ip, log_dir=tmp_path / "ros")
     common = [f"_building:={building}", f"_robot:={ROBOT}"]
-    procs.start("sim", [sys.executable, str(NODES / "sim"), "__name:=sim", *common, f"_speed:={speed}",
+    procs.start("sim", [sys.executable, str(NODES / "sim"), f"__name:={Node.SIM}", *common, f"_speed:={speed}",
                         "_use_sim_time:=true"], env)
-    procs.start("move_base", [sys.executable, str(NODES / "move_base"), "__name:=move_base", *common], env)
-    procs.start("amcl", [sys.executable, str(NODES / "amcl"), "__name:=amcl"], env)
+    procs.start("move_base", [sys.executable, str(NODES / "move_base"), f"__name:={Node.MOVE_BASE}", *common], env)
+    procs.start("amcl", [sys.executable, str(NODES / "amcl"), f"__name:={Node.AMCL}"], env)
     return env
 
 
@@ -89,7 +91,7 @@ def forced_exits(procs: ProcessGroup, name: str) -> list[str]:
 def test_nodes_exit_promptly_while_their_master_is_frozen(procs: ProcessGroup, tmp_path: Path) -> None:
     env = start_floor(procs, tmp_path)
     with subscribed_probe(env, tmp_path / "probe.log") as probe:
-        probe.wait("odom", lambda m: True, 60, "the simulator running")
+        probe.wait(Topic.ODOM, lambda m: True, 60, "the simulator running")
         procs.signal("master", signal.SIGSTOP)     # rospy's unregistration would wait for it forever
         exits = sigint_and_time(procs, ("sim", "move_base", "amcl"))
         procs.signal("master", signal.SIGCONT)
@@ -103,16 +105,16 @@ def test_sim_exits_promptly_with_a_frozen_subscriber_and_again_after_a_master_re
     live = subscribed_probe(env, tmp_path / "live.log")
     frozen = subscribed_probe(env, tmp_path / "frozen.log")
     try:
-        live.wait("odom", lambda m: True, 60, "the simulator running")
-        frozen.wait("base_scan", lambda m: True, 30, "scans reaching the second subscriber")
+        live.wait(Topic.ODOM, lambda m: True, 60, "the simulator running")
+        frozen.wait(Topic.BASE_SCAN, lambda m: True, 30, "scans reaching the second subscriber")
         # the master restarts (the nodes re-register), then a subscriber freezes for good
         master_uri = env["ROS_MASTER_URI"]
         procs.stop("master", grace=3.0)
         start_master(procs, "master", env["ROS_IP"], port=int(master_uri.rstrip("/").rsplit(":", 1)[1]))
         wait_until(lambda: live.call(op="status")["generation"] >= 1, 20, "the probe re-registered")
         os.killpg(frozen.proc.pid, signal.SIGSTOP)
-        n = len(live.msgs("odom"))
-        live.wait("odom", lambda m: True, 10, "the simulator still running", since=n)
+        n = len(live.msgs(Topic.ODOM))
+        live.wait(Topic.ODOM, lambda m: True, 10, "the simulator still running", since=n)
         exits = sigint_and_time(procs, ("sim", "move_base", "amcl"))
     finally:
         os.killpg(frozen.proc.pid, signal.SIGCONT)

@@ -18,6 +18,7 @@ import pytest
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building, relocate_building
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.timeline import Timeline
 
@@ -53,7 +54,7 @@ def launch_floor(procs: ProcessGroup, env: dict[str, str], building: Path, robot
 
 
 def sim_diag(probe: Probe) -> dict[str, str]:
-    for msg in reversed(probe.msgs("/diagnostics")):
+    for msg in reversed(probe.msgs(Topic.DIAGNOSTICS)):
         for status in msg["status"]:
             if status["name"].startswith("sim: "):
                 return {kv["key"]: kv["value"] for kv in status["values"]}
@@ -73,11 +74,11 @@ def test_floors_on_one_timeline_keep_under_the_ceiling_and_within_the_drift_boun
             launch_floor(procs, env, building, robot, speed=f"{speed:g}", start_wall=f"{start_wall:.3f}",
                          timeline=str(timeline.path), timeline_slot=str(slot))
             probe = Probe(env, tmp_path / f"probe_{robot}.log")
-            probe.sub("/clock", "rosgraph_msgs/Clock")
+            probe.sub(Topic.CLOCK, "rosgraph_msgs/Clock")
             probes.append(probe)
-        assert all(not p.msgs("/clock") for p in probes) or time.time() >= start_wall   # nothing before the start
+        assert all(not p.msgs(Topic.CLOCK) for p in probes) or time.time() >= start_wall   # nothing before the start
         for p in probes:
-            p.wait("/clock", lambda m: m["clock"] > 5.0, 30, "sim time past 5 s")
+            p.wait(Topic.CLOCK, lambda m: m["clock"] > 5.0, 30, "sim time past 5 s")
         for _ in range(20):
             wall = time.time()
             clocks = [c.sim for c in timeline.clocks()]
@@ -108,16 +109,16 @@ def test_lockstep_waits_for_move_base_and_goes_on_without_it_when_it_is_frozen(p
     building, env = floor_master(procs, tmp_path, "Kbot")
     launch_floor(procs, env, building, "Kbot", speed="max", initial_pose="[20.0, 12.0, 0.0]", seed="3")
     with Probe(env, tmp_path / "probe.log") as probe:
-        probe.sub("/diagnostics", DIAG)
-        probe.sub("move_base/result", "move_base_msgs/MoveBaseActionResult")
-        probe.sub("amcl_pose", "geometry_msgs/PoseWithCovarianceStamped")
-        probe.wait("amcl_pose", lambda m: True, 60, "amcl_pose")
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
+        probe.sub(Topic.MOVE_BASE_RESULT, "move_base_msgs/MoveBaseActionResult")
+        probe.sub(Topic.AMCL_POSE, "geometry_msgs/PoseWithCovarianceStamped")
+        probe.wait(Topic.AMCL_POSE, lambda m: True, 60, Topic.AMCL_POSE)
         goal = {"header": {"frame_id": "map"}, "pose": {"position": {"x": 60.0, "y": 12.0}, "orientation": {"w": 1}}}
-        probe.pub("move_base_simple/goal", "geometry_msgs/PoseStamped", goal)
+        probe.pub(Topic.MOVE_BASE_SIMPLE_GOAL, "geometry_msgs/PoseStamped", goal)
         wait_until(lambda: "participant /move_base" in sim_diag(probe)
                    and json.loads(sim_diag(probe)["participant /move_base"])["answered"] > 20, 30, "move_base in step")
         before = sim_diag(probe)
-        pid = node_pid(env, "/move_base")
+        pid = node_pid(env, global_name(Node.MOVE_BASE))
         os.kill(pid, signal.SIGSTOP)               # move_base, while it drives
         try:
             time.sleep(3.5)
@@ -129,7 +130,7 @@ def test_lockstep_waits_for_move_base_and_goes_on_without_it_when_it_is_frozen(p
         # the world waited 2 s for it, then went on (no ceiling: much faster than the wall clock)
         assert float(stopped["wait_controllers_s"]) - float(before["wait_controllers_s"]) >= 1.9
         assert float(stopped["sim_time"]) - float(before["sim_time"]) > 10.0
-        result = probe.wait("move_base/result", lambda m: True, 60, "the goal's end")
+        result = probe.wait(Topic.MOVE_BASE_RESULT, lambda m: True, 60, "the goal's end")
         assert result["status"]["status"] == 3, result        # back in step, it got there
         mb = json.loads(sim_diag(probe)["participant /move_base"])
         assert mb["absent"] == 0 and mb["sessions"] == 1
@@ -147,29 +148,29 @@ def test_obstacles_laser_battery_and_hostile_input(procs: ProcessGroup, tmp_path
     building, env = floor_master(procs, tmp_path, "Kbot")
     launch_floor(procs, env, building, "Kbot", speed="5", initial_pose="[20.0, 12.0, 0.0]", seed="2")
     with Probe(env, tmp_path / "probe.log") as probe:
-        probe.sub("/diagnostics", DIAG)
-        probe.sub("amcl_pose", "geometry_msgs/PoseWithCovarianceStamped")
-        probe.sub("/sim/obstacles", "gidabot_msgs/ObstacleArray")
-        probe.sub("map_metadata", "nav_msgs/MapMetaData")
-        amcl = probe.wait("amcl_pose", lambda m: True, 60, "amcl_pose")["pose"]["pose"]["position"]
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
+        probe.sub(Topic.AMCL_POSE, "geometry_msgs/PoseWithCovarianceStamped")
+        probe.sub(Topic.SIM_OBSTACLES, "gidabot_msgs/ObstacleArray")
+        probe.sub(Topic.MAP_METADATA, "nav_msgs/MapMetaData")
+        amcl = probe.wait(Topic.AMCL_POSE, lambda m: True, 60, Topic.AMCL_POSE)["pose"]["pose"]["position"]
         assert math.hypot(amcl["x"] - 20.0, amcl["y"] - 12.0) < 0.2          # the launch's initial pose
-        meta = probe.wait("map_metadata", lambda m: True, 10)
+        meta = probe.wait(Topic.MAP_METADATA, lambda m: True, 10)
         assert (meta["width"], meta["height"], meta["origin"]["position"]["x"]) == (1480, 520, -1.0)
         # nobody listens to base_scan: no scan is made
         wait_until(lambda: float(sim_diag(probe).get("sim_time", 0)) > 5.0, 30, "sim time")
         assert sim_diag(probe)["laser_scans"] == "0"
-        probe.sub("base_scan", "sensor_msgs/LaserScan")
-        scan = probe.wait("base_scan", lambda m: True, 10, "a scan")
+        probe.sub(Topic.BASE_SCAN, "sensor_msgs/LaserScan")
+        scan = probe.wait(Topic.BASE_SCAN, lambda m: True, 10, "a scan")
         ahead = len(scan["ranges"]) // 2
         angle = scan["angle_min"] + ahead * scan["angle_increment"]
         free_ahead = scan["ranges"][ahead]
         assert free_ahead > 10.0                                              # down the corridor
         # a person 2 m ahead: the laser sees it, the latched obstacle list has it
-        probe.pub("/sim/obstacle", "gidabot_msgs/Obstacle",
+        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle",
                   {"id": "person", "action": 0, "shape": 0, "x": 22.0, "y": 12.0, "radius": 0.25})
-        probe.wait("/sim/obstacles", lambda m: [o["id"] for o in m["obstacles"]] == ["person"], 10)
-        n = len(probe.msgs("base_scan"))
-        seen = probe.wait("base_scan", lambda m: m["ranges"][ahead] < 2.0, 10, "the person", since=n)
+        probe.wait(Topic.SIM_OBSTACLES, lambda m: [o["id"] for o in m["obstacles"]] == ["person"], 10)
+        n = len(probe.msgs(Topic.BASE_SCAN))
+        seen = probe.wait(Topic.BASE_SCAN, lambda m: m["ranges"][ahead] < 2.0, 10, "the person", since=n)
         expected = (2.0 - 0.25 - 0.1) / math.cos(angle)                       # laser 0.1 m ahead of the centre
         assert seen["ranges"][ahead] == pytest.approx(expected, abs=0.08)
         # hostile and malformed input: counted, logged, ignored; the node keeps running
@@ -183,54 +184,56 @@ def test_obstacles_laser_battery_and_hostile_input(procs: ProcessGroup, tmp_path
             {"id": "tri", "action": 0, "shape": 5, "x": 25.0, "y": 12.0, "radius": 0.2},
         ]
         for msg in bad_obstacles:
-            probe.pub("/sim/obstacle", "gidabot_msgs/Obstacle", msg)
+            probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", msg)
         for twist in ({"linear": {"x": "nan"}}, {"angular": {"z": "nan"}}):
-            probe.pub("cmd_vel", "geometry_msgs/Twist", twist)
+            probe.pub(Topic.CMD_VEL, "geometry_msgs/Twist", twist)
         wait_until(lambda: sim_diag(probe).get("rejected_obstacle") == str(len(bad_obstacles))
                    and sim_diag(probe).get("rejected_cmd_vel") == "2", 20, "the rejections counted")
-        assert [o["id"] for o in probe.msgs("/sim/obstacles")[-1]["obstacles"]] == ["person"]
-        probe.pub("/sim/obstacle", "gidabot_msgs/Obstacle", {"action": 2})   # CLEAR
-        probe.wait("/sim/obstacles", lambda m: m["obstacles"] == [], 10, "cleared")
-        n = len(probe.msgs("base_scan"))
-        probe.wait("base_scan", lambda m: m["ranges"][ahead] > 10.0, 10, "the corridor free again", since=n)
+        assert [o["id"] for o in probe.msgs(Topic.SIM_OBSTACLES)[-1]["obstacles"]] == ["person"]
+        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", {"action": 2})   # CLEAR
+        probe.wait(Topic.SIM_OBSTACLES, lambda m: m["obstacles"] == [], 10, "cleared")
+        n = len(probe.msgs(Topic.BASE_SCAN))
+        probe.wait(Topic.BASE_SCAN, lambda m: m["ranges"][ahead] > 10.0, 10, "the corridor free again", since=n)
         assert procs.alive("floor_Kbot")
         assert int(sim_diag(probe)["laser_scans"]) > 0
 
 
 def test_several_robots_on_one_floor_get_their_own_topics(procs: ProcessGroup, tmp_path: Path) -> None:
     building, env = floor_master(procs, tmp_path, "Kbot")
-    procs.start("sim", ["python3", str(SIM_NODE), "__name:=sim", f"_building:={building}",
+    procs.start("sim", ["python3", str(SIM_NODE), f"__name:={Node.SIM}", f"_building:={building}",
                         "_robots:=[Kbot, Tartalo]", "_floor:=1.0", "_speed:=2",
                         "_initial_poses:=[[20.0, 12.0, 0.0], [21.5, 12.0, 3.14159]]"],
                 ros_env(env["ROS_MASTER_URI"], env["ROS_IP"], log_dir=tmp_path / "ros" / "multi"))
     with Probe(env, tmp_path / "probe.log") as probe:
-        probe.sub("/diagnostics", DIAG)
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
         for i in (0, 1):
-            probe.sub(f"robot_{i}/base_pose_ground_truth", "nav_msgs/Odometry")
-            probe.sub(f"robot_{i}/battery", "sensor_msgs/BatteryState")
-            probe.sub(f"robot_{i}/robots_seen", "gidabot_msgs/ObstacleArray")
+            probe.sub(f"robot_{i}/{Topic.BASE_POSE_GROUND_TRUTH}", "nav_msgs/Odometry")
+            probe.sub(f"robot_{i}/{Topic.BATTERY}", "sensor_msgs/BatteryState")
+            probe.sub(f"robot_{i}/{Topic.ROBOTS_SEEN}", "gidabot_msgs/ObstacleArray")
         # each laser sees the other (they face each other): its obstacle layer's input
-        seen = probe.wait("robot_0/robots_seen", lambda m: m["obstacles"], 60, "Kbot sees Tartalo")["obstacles"]
-        assert [(o["id"], o["x"], o["radius"]) for o in seen] == [("Tartalo", pytest.approx(21.5), pytest.approx(0.33))]
-        seen = probe.wait("robot_1/robots_seen", lambda m: m["obstacles"], 20, "Tartalo sees Kbot")["obstacles"]
-        assert [o["id"] for o in seen] == ["Kbot"]
+        seen = probe.wait(f"robot_0/{Topic.ROBOTS_SEEN}", lambda m: m["obstacles"], 60, "Kbot sees Tartalo")
+        assert [(o["id"], o["x"], o["radius"]) for o in seen["obstacles"]] == [
+            ("Tartalo", pytest.approx(21.5), pytest.approx(0.33))]
+        seen = probe.wait(f"robot_1/{Topic.ROBOTS_SEEN}", lambda m: m["obstacles"], 20, "Tartalo sees Kbot")
+        assert [o["id"] for o in seen["obstacles"]] == ["Kbot"]
         for i, x in ((0, 20.0), (1, 21.5)):
-            truth = probe.wait(f"robot_{i}/base_pose_ground_truth", lambda m: True, 60, f"robot_{i}")
+            truth = probe.wait(f"robot_{i}/{Topic.BASE_POSE_GROUND_TRUTH}", lambda m: True, 60, f"robot_{i}")
             assert truth["pose"]["pose"]["position"]["x"] == pytest.approx(x)
             assert truth["child_frame_id"] == f"robot_{i}/base_footprint"
-            assert probe.wait(f"robot_{i}/battery", lambda m: True, 20)["location"] == ("Kbot", "Tartalo")[i]
+            assert probe.wait(f"robot_{i}/{Topic.BATTERY}", lambda m: True, 20)["location"] == ("Kbot", "Tartalo")[i]
         # robot_0 drives into robot_1 (commands every ~0.1 s sim, within the 0.2 s timeout): it stops touching it
         deadline = time.monotonic() + 20.0
         while int(sim_diag(probe).get("stalls", 0)) < 1:
             assert time.monotonic() < deadline, "no collision between the robots"
-            probe.pub("robot_0/cmd_vel", "geometry_msgs/Twist", {"linear": {"x": 0.5}})
+            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}})
             time.sleep(0.04)
-        n = len(probe.msgs("robot_0/base_pose_ground_truth"))
-        x0 = probe.wait("robot_0/base_pose_ground_truth", lambda m: True, 10, since=n)["pose"]["pose"]["position"]["x"]
+        truth = "robot_0/" + Topic.BASE_POSE_GROUND_TRUTH
+        n = len(probe.msgs(truth))
+        x0 = probe.wait(truth, lambda m: True, 10, since=n)["pose"]["pose"]["position"]["x"]
         assert 21.5 - 0.3 - 0.33 - 0.01 <= x0 <= 21.5 - 0.3 - 0.33 + 0.06    # Kbot 0.3 m, Tartalo 0.33 m
         # pushing on is the same contact: counted once, in the diagnostics
         for _ in range(10):
-            probe.pub("robot_0/cmd_vel", "geometry_msgs/Twist", {"linear": {"x": 0.5}})
+            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}})
             time.sleep(0.04)
         wait_until(lambda: sim_diag(probe).get("robot_collisions") == "1", 10, "the collision counted")
         assert sim_diag(probe)["robot_deadlocks"] == "0"
@@ -243,18 +246,18 @@ def test_two_robots_driven_by_their_move_base_cross_each_other_without_a_collisi
     procs.start("floor", ["roslaunch", "--skip-log-check", str(TWO_ROBOTS_LAUNCH), f"building:={building}"], env)
     goals = {0: (40.0, 12.0, 0.0, 1.0), 1: (20.0, 12.0, 1.0, 0.0)}       # x, y (m), quaternion z, w: east, west
     with Probe(env, tmp_path / "probe.log") as probe:
-        probe.sub("/diagnostics", DIAG)
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
         for i in goals:
-            probe.sub(f"robot_{i}/move_base/result", "move_base_msgs/MoveBaseActionResult")
-            probe.sub(f"robot_{i}/amcl_pose", "geometry_msgs/PoseWithCovarianceStamped")
+            probe.sub(f"robot_{i}/{Topic.MOVE_BASE_RESULT}", "move_base_msgs/MoveBaseActionResult")
+            probe.sub(f"robot_{i}/{Topic.AMCL_POSE}", "geometry_msgs/PoseWithCovarianceStamped")
         for i in goals:
-            probe.wait(f"robot_{i}/amcl_pose", lambda m: True, 60, f"robot_{i}'s amcl_pose")
+            probe.wait(f"robot_{i}/{Topic.AMCL_POSE}", lambda m: True, 60, f"robot_{i}'s amcl_pose")
         for i, (x, y, z, w) in goals.items():
             pose = {"position": {"x": x, "y": y}, "orientation": {"z": z, "w": w}}
             goal = {"header": {"frame_id": "map"}, "pose": pose}
-            probe.pub(f"robot_{i}/move_base_simple/goal", "geometry_msgs/PoseStamped", goal)
+            probe.pub(f"robot_{i}/{Topic.MOVE_BASE_SIMPLE_GOAL}", "geometry_msgs/PoseStamped", goal)
         for i in goals:
-            result = probe.wait(f"robot_{i}/move_base/result", lambda m: True, 120, f"robot_{i}'s goal")
+            result = probe.wait(f"robot_{i}/{Topic.MOVE_BASE_RESULT}", lambda m: True, 120, f"robot_{i}'s goal")
             assert result["status"]["status"] == 3, result                 # SUCCEEDED
         diag = sim_diag(probe)
         assert diag["robot_collisions"] == "0" and diag["robot_deadlocks"] == "0", diag

@@ -24,6 +24,7 @@ import pytest
 from tour_mesh import ROBOTS, TourMesh
 from tour_system import T_NOW, VISIT, hostile, tour
 
+from gidabot_navigation.interface import Topic
 from gidabot_navigation.tours.tour_file import format_tour, tour_from_lines
 from gidabot_sim.runner.procs import wait_until
 
@@ -67,7 +68,7 @@ def test_created_tour_reaches_every_robot_within_2_s(mesh: TourMesh) -> None:
     assert mesh.files("Galtxagorri")["open_day.tour"] == want
     assert max(delays.values()) <= PROPAGATION_LIMIT, delays
     for r in ROBOTS:
-        mesh.probe(r).wait("tour_store/catalog", lambda m: "open_day.tour" in [t["file_name"] for t in m["tours"]],
+        mesh.probe(r).wait(Topic.TOUR_CATALOG, lambda m: "open_day.tour" in [t["file_name"] for t in m["tours"]],
                            5, f"open_day.tour in {r}'s catalog")
     mesh.wait_same(5)
 
@@ -91,7 +92,7 @@ def test_edit_and_delete_propagate(mesh: TourMesh) -> None:
     delays = mesh.wait_files(OTHERS, lambda f: "edit_me.tour" not in f, 10, "the deleted tour gone", t0)
     report("deleted on Galtxagorri, gone at", delays)
     for r in ROBOTS:
-        mesh.probe(r).wait("tour_store/catalog", lambda m: "edit_me.tour" not in [t["file_name"] for t in m["tours"]],
+        mesh.probe(r).wait(Topic.TOUR_CATALOG, lambda m: "edit_me.tour" not in [t["file_name"] for t in m["tours"]],
                            5, f"edit_me.tour out of {r}'s catalog")
     mesh.wait_same(5)
 
@@ -132,7 +133,7 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
     assert all(".gidabot-tours.json" in s for s in stored.values())
     pids = {r: mesh.store_pid(r) for r in ROBOTS}
     assert None not in pids.values(), pids
-    relays = {r: mesh.mesh.relay_nodes(r) for r in ROBOTS}
+    relays = {r: mesh.mesh.relay_ends(r) for r in ROBOTS}
     rejected = {r: int(mesh.store_diag(r).get("rejected", 0)) for r in ROBOTS}
 
     cases = hostile("Tartalo", version=T_NOW)
@@ -143,7 +144,7 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
     # published on Galtxagorri's master as if a relay had brought them: its store and the three
     # relay ends listen, so every robot receives them (but the relays refuse to carry the 10 MB one)
     for _, msg, _ in cases:
-        mesh.probe("Galtxagorri").pub("/gidabot/tours", "gidabot_msgs/Tour", msg, subs=4)
+        mesh.probe("Galtxagorri").pub(Topic.TOURS, "gidabot_msgs/Tour", msg, subs=4)
 
     expected = {r: len(cases) if r == "Galtxagorri" else len(cases) - 1 for r in ROBOTS}
 
@@ -161,7 +162,7 @@ def test_hostile_remote_tours_are_rejected_and_change_nothing(mesh: TourMesh) ->
         assert not (mesh.dirs[r].parent / "escape.tour").exists() and not (mesh.tmp / "escape.tour").exists()
         assert mesh.store_pid(r) == pids[r], f"{r}'s tour store was restarted"
         assert mesh.procs.alive(f"tour_store_{r}") and mesh.procs.alive(f"relays_{r}")
-        assert mesh.mesh.relay_nodes(r) == relays[r]
+        assert mesh.mesh.relay_ends(r) == relays[r]
     mesh.mesh.wait_connected(10)
 
     # and the stores still work: a new tour still reaches everyone
@@ -240,6 +241,6 @@ def test_robot_down_during_edits_catches_up_within_5_s(mesh: TourMesh) -> None:
     # runs both ends of Kbot-Galtxagorri and Kbot-MariSorgin): the exchange of indexes brought them
     wait_until(lambda: any(int(mesh.store_diag(r).get("resent", 0)) > resent[r] for r in up), 5,
                "a re-send (anti-entropy) to the robot back", interval=0.2)
-    mesh.probe(down).wait("tour_store/catalog", lambda m: m["robot"] == down and
+    mesh.probe(down).wait(Topic.TOUR_CATALOG, lambda m: m["robot"] == down and
                           "while_down.tour" in [t["file_name"] for t in m["tours"]] and
                           "goes_away.tour" not in [t["file_name"] for t in m["tours"]], 10, f"{down}'s catalog")

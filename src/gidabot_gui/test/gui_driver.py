@@ -16,6 +16,8 @@ import json
 import os
 import sys
 
+from gidabot_navigation.interface import Node
+
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 
 
@@ -32,7 +34,7 @@ def main() -> int:
     from gidabot_gui.qt.window import GuiConfig, MainWindow
     from gidabot_navigation.building.model import load_building
 
-    rospy.init_node("gui", disable_signals=True)
+    rospy.init_node(Node.GUI, disable_signals=True)
     app = QApplication(sys.argv[:1])
     building = load_building(building_path)
     params = Params(building_path, robot, "en", False, "", False, "null", 150, False, 800, 480, 5.0, 20.0, "")

@@ -20,10 +20,12 @@ from gidabot_gui.gui_node import (
     command_to_msg,
     initial_pose_to_msg,
     tour_edit_to_msg,
+    tour_from_msg,
 )
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.guiding.messages import Cmd, CommandData
+from gidabot_navigation.guiding.messages import CommandData
+from gidabot_navigation.interface import Cmd
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -73,6 +75,24 @@ def test_catalog_skips_malformed_tours() -> None:
     cat.tours = [good, bad]
     (info,) = catalog_from_msg(cat)
     assert info.goals == ((0.0, "014", "Computer Technicians 1"), (1.0, "101", "Secretary's Office, main desk"))
+
+
+@pytest.mark.parametrize("lines, ok", [
+    ([" 0 ,014,  Lab ", "1.0,101,Office\t"], True),          # spacing, 0.0-style floors: a tolerated variant
+    (["0, 014, Lab", ""], True),                              # a trailing blank line
+    (["0, 014, Lab\r", "1, 101, Office"], False),              # a CR inside a field would add a line
+    (["0, 014, Lab\n0, 008, Injected"], False),
+    (["0, 014, Lab", "", "1, 101, Office"], False),           # a blank line between goals
+    (["0, 014"], False),
+])
+def test_catalog_goal_lines_are_read_like_a_tour_file(lines: list[str], ok: bool) -> None:
+    """One parser for files, the store and the GUI (issue 19.2): what the store accepts, the GUI shows."""
+    t = Tour()
+    t.file_name, t.tour_name, t.language, t.tour_goals_info = "a.tour", "A", "en", lines
+    info = tour_from_msg(t)
+    assert (info is not None) == ok
+    if ok:
+        assert info.goals[0] == (0.0, "014", "Lab")
 
 
 def test_receiver_filters_converts_and_survives_hostile_input() -> None:

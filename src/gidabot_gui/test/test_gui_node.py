@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 from probe import Probe
 
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -101,10 +102,10 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
     driver = Driver(env, "Kbot", tmp_path / "logs" / "gui.log")
     try:
         with Probe(env, tmp_path / "logs" / "probe.log") as probe:
-            probe.sub("visitor/command", "gidabot_msgs/VisitorCommand")
+            probe.sub(Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand")
             for name, floor in (("Tartalo", 0), ("Kbot", 1), ("Galtxagorri", 2), ("MariSorgin", 3)):
-                probe.pub("/gidabot/status", STATUS, status(name, floor, pending=1, busy=240.0))
-            probe.pub("/gidabot/pending", "gidabot_msgs/PendingRequests",
+                probe.pub(Topic.STATUS, STATUS, status(name, floor, pending=1, busy=240.0))
+            probe.pub(Topic.PENDING, "gidabot_msgs/PendingRequests",
                       {"robot": "Galtxagorri", "floor": 2, "num": 2, "wait_new": 400.0})
             driver.until(lambda s: all(s["robots"].values()) and s["pending"]["Galtxagorri"], 20,
                          "every robot's status and Galtxagorri's pending requests")
@@ -113,21 +114,21 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
             assert "Galtxagorri: 2 requests before yours, about 7 minutes" in st["body"]
             driver("press", key="go")
             driver("press", key="stairs")
-            cmd = probe.wait("visitor/command", lambda m: m["command"] == 0, 10, "the REQUEST")
+            cmd = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == 0, 10, "the REQUEST")
             assert (cmd["goal_id"], cmd["way"], cmd["language"], cmd["visitor_id"]) == ("223", "stairs", "en",
                                                                                         "guidriver")
             uid = "Kbot/guidriver/r1.1"
-            probe.pub("/gidabot/nav_events", EVENT, {"uid": "Kbot/event/1", "robot": "Kbot", "phase": 1,
-                                                     "goal_uid": uid, "connector": "stairs_west",
-                                                     "location_id": "stairs_west", "target_floor": 2.0,
-                                                     "language": "en", "way": "stairs"})
+            probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Kbot/event/1", "robot": "Kbot", "phase": 1,
+                                                "goal_uid": uid, "connector": "stairs_west",
+                                                "location_id": "stairs_west", "target_floor": 2.0,
+                                                "language": "en", "way": "stairs"})
             st = driver.until(lambda s: s["popup"] == "event:ON_THE_WAY", 10, "the walk-behind pop-up")
             assert "walk behind me" in st["note"] and st["cancel"] and "walk behind me" in st["said"]
             # another robot's event is not shown here
-            probe.pub("/gidabot/nav_events", EVENT, {"uid": "Tartalo/event/1", "robot": "Tartalo", "phase": 7,
-                                                     "goal_uid": "x"})
+            probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Tartalo/event/1", "robot": "Tartalo", "phase": 7,
+                                                "goal_uid": "x"})
             st = driver("cancel")
-            cancel = probe.wait("visitor/command", lambda m: m["command"] == 2, 10, "the CANCEL")
+            cancel = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == 2, 10, "the CANCEL")
             assert cancel["goal_uid"] == uid
             assert driver("state")["popup"] == ""
     finally:
@@ -145,19 +146,21 @@ def test_launch_file_registers_the_documented_topics_and_stops_cleanly(kbot, tmp
         _code, _msg, (pubs, subs, _srvs) = master.getSystemState("/test")
         return ({t: n for t, n in pubs}, {t: n for t, n in subs})
 
-    wait_until(lambda: "/gui" in topics()[0].get("/visitor/command", []), 60, "the gui node's publishers")
+    gui, commands = global_name(Node.GUI), global_name(Topic.VISITOR_COMMAND)
+    wait_until(lambda: gui in topics()[0].get(commands, []), 60, "the gui node's publishers")
     pubs, subs = topics()
-    for topic in ("/visitor/command", "/initialpose", "/tour_store/edit"):
-        assert "/gui" in pubs.get(topic, []), topic
-    for topic in ("/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/nav_events",
-                  "/tour_store/catalog", "/tour_store/edit_result"):
-        assert "/gui" in subs.get(topic, []), topic
-    published_by_gui = sorted(t for t, nodes in pubs.items() if "/gui" in nodes)
-    assert published_by_gui == ["/initialpose", "/rosout", "/tour_store/edit", "/visitor/command"]
+    for topic in (commands, global_name(Topic.INITIALPOSE), global_name(Topic.TOUR_EDIT)):
+        assert gui in pubs.get(topic, []), topic
+    for topic in (Topic.STATUS, Topic.POSES, Topic.PENDING, Topic.NAV_EVENTS,
+                  global_name(Topic.TOUR_CATALOG), global_name(Topic.TOUR_EDIT_RESULT)):
+        assert gui in subs.get(topic, []), topic
+    published_by_gui = sorted(t for t, nodes in pubs.items() if gui in nodes)
+    assert published_by_gui == sorted([global_name(Topic.INITIALPOSE), "/rosout", global_name(Topic.TOUR_EDIT),
+                                       commands])
     t0 = time.monotonic()
     rc = procs.stop("gui", grace=15.0)
     assert rc == 0 and time.monotonic() - t0 < 15.0
-    wait_until(lambda: "/gui" not in topics()[0].get("/visitor/command", []), 10, "the gui node to unregister")
+    wait_until(lambda: gui not in topics()[0].get(commands, []), 10, "the gui node to unregister")
 
 
 def test_with_the_real_guiding_nodes_and_simulator(kbot, tmp_path: Path) -> None:

@@ -16,11 +16,6 @@ from dataclasses import dataclass, field
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import (
-    CANCEL,
-    CONTINUE,
-    REQUEST,
-    SKIP,
-    START_TOUR,
     CancelData,
     CommandData,
     MoveTo,
@@ -33,6 +28,7 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.tour_mode import CatalogEntry
+from gidabot_navigation.interface import CANCEL, CONTINUE, REQUEST, SKIP, START_TOUR
 from gidabot_navigation.tours.tour_file import parse_tour
 
 

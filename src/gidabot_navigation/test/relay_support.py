@@ -1,17 +1,16 @@
-"""Helpers of the relay unit tests: two link cores joined by an in-memory wire (no sockets, no master)."""
+"""Helpers of the relay unit tests: the cores of two relay ends joined by an in-memory wire (no sockets, no master)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gidabot_navigation.relay.end import Close, LinkConfig, LinkCore, Send, TopicSpec
+from gidabot_navigation.interface import EVENT, SHARED_TOPICS, Node, Topic, global_name
+from gidabot_navigation.relay.end import Close, RelayEndConfig, RelayEndCore, Send
 from gidabot_navigation.relay.journal import Journal
 
-TOPICS = (TopicSpec("/gidabot/goals", "gidabot_msgs/Goal", "event"),
-          TopicSpec("/gidabot/cancels", "gidabot_msgs/Cancel", "event"),
-          TopicSpec("/gidabot/status", "gidabot_msgs/RobotStatus", "state"))
-MD5 = {"/gidabot/goals": "a" * 32, "/gidabot/cancels": "b" * 32, "/gidabot/status": "c" * 32}
+TOPICS = tuple(t for t in SHARED_TOPICS if t.name in (Topic.GOALS, Topic.CANCELS, Topic.STATUS))
+MD5 = {Topic.GOALS: "a" * 32, Topic.CANCELS: "b" * 32, Topic.STATUS: "c" * 32}
 TYPES = {t.name: t.type for t in TOPICS}
 SECRET = b"correct horse battery staple"
 
@@ -46,18 +45,18 @@ def validate(topic: str, payload: bytes) -> str | None:
 
 
 def make_core(side: str, journal: Journal, clock: Clock, log: Log, secret: bytes | None = SECRET,
-              **kw: object) -> LinkCore:
-    cfg = LinkConfig(robot_a="Tartalo", robot_b="Kbot", side=side, topics=TOPICS, md5s=MD5, secret=secret,
-                     **kw)  # type: ignore[arg-type]
-    return LinkCore(cfg, journal, clock, log, validate)
+              **kw: object) -> RelayEndCore:
+    cfg = RelayEndConfig(robot_a="Tartalo", robot_b="Kbot", side=side, topics=TOPICS, md5s=MD5, secret=secret,
+                         **kw)  # type: ignore[arg-type]
+    return RelayEndCore(cfg, journal, clock, log, validate)
 
 
 @dataclass
 class Wire:
     """Joins end a and end b; ``conn`` is the id of the current connection on both sides."""
 
-    a: LinkCore
-    b: LinkCore
+    a: RelayEndCore
+    b: RelayEndCore
     conn: int = 0
     open: bool = False
     published: dict[str, list] = field(default_factory=lambda: {"a": [], "b": []})
@@ -96,11 +95,11 @@ class Wire:
     def deliver(self) -> None:
         for side, core in (("a", self.a), ("b", self.b)):
             ds = core.take_deliveries()
-            events = [d for d in ds if d.kind == "event"]
+            events = [d for d in ds if d.kind == EVENT]
             self.published[side] += [(d.kind, d.msg.topic, d.msg.callerid, d.msg.payload) for d in ds]
             core.delivered(len(events), len(ds) - len(events))
 
-    def local(self, side: str, topic: str, payload: bytes, callerid: str = "/goal_manager") -> None:
+    def local(self, side: str, topic: str, payload: bytes, callerid: str = global_name(Node.GOAL_MANAGER)) -> None:
         core = self.a if side == "a" else self.b
         self.run(side, core.local_message(topic, callerid, TYPES[topic], MD5[topic], payload))
 
@@ -108,7 +107,7 @@ class Wire:
         self.run("a", self.a.tick())
         self.run("b", self.b.tick())
 
-    def payloads(self, side: str, topic: str = "/gidabot/goals") -> list[bytes]:
+    def payloads(self, side: str, topic: str = Topic.GOALS) -> list[bytes]:
         return [p for kind, t, _, p in self.published[side] if t == topic]
 
 

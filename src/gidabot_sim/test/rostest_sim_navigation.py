@@ -32,6 +32,7 @@ from tf2_msgs.msg import TFMessage
 
 from gidabot_msgs.msg import Obstacle
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
+from gidabot_navigation.interface import Service, Topic
 from gidabot_sim.ros.convert import pose_msg
 
 NAME = "sim_navigation"
@@ -63,16 +64,16 @@ class SimNavigation(unittest.TestCase):
     @classmethod
     def setUpClass(cls) -> None:
         rospy.init_node("sim_navigation_test")
-        rospy.Subscriber("base_pose_ground_truth", Odometry, cls._on_truth, queue_size=5)
-        rospy.Subscriber("odom", Odometry, cls._on_odom, queue_size=5)
-        rospy.Subscriber("/diagnostics", DiagnosticArray, cls._on_diag, queue_size=5)
-        cls.obstacles = rospy.Publisher("/sim/obstacle", Obstacle, queue_size=10)
-        cls.initialpose = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=5)
-        cls.client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+        rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, cls._on_truth, queue_size=5)
+        rospy.Subscriber(Topic.ODOM, Odometry, cls._on_odom, queue_size=5)
+        rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, cls._on_diag, queue_size=5)
+        cls.obstacles = rospy.Publisher(Topic.SIM_OBSTACLE, Obstacle, queue_size=10)
+        cls.initialpose = rospy.Publisher(Topic.INITIALPOSE, PoseWithCovarianceStamped, queue_size=5)
+        cls.client = actionlib.SimpleActionClient(Topic.MOVE_BASE, MoveBaseAction)
         deadline = time.monotonic() + 60
         while not cls.client.wait_for_server(rospy.Duration(0.5)):
             assert time.monotonic() < deadline, "no move_base action server"
-        rospy.wait_for_message("amcl_pose", PoseWithCovarianceStamped, timeout=60)
+        rospy.wait_for_message(Topic.AMCL_POSE, PoseWithCovarianceStamped, timeout=60)
         wait_for(lambda: cls.truth is not None and cls.obstacles.get_num_connections() > 0
                  and cls.initialpose.get_num_connections() > 0, 30, "the simulator")
 
@@ -164,7 +165,7 @@ class SimNavigation(unittest.TestCase):
         self.assertLess(math.hypot(self.pose().x - stopped.x, self.pose().y - stopped.y), 0.01)
 
     def test_5_a_new_goal_preempts_the_current_one(self) -> None:
-        client = actionlib.ActionClient("move_base", MoveBaseAction)
+        client = actionlib.ActionClient(Topic.MOVE_BASE, MoveBaseAction)
         self.assertTrue(client.wait_for_server(rospy.Duration(50)))
         first = client.send_goal(goal_msg(60.0, 12.0, 0.0))
         wait_for(lambda: first.get_goal_status() == GoalStatus.ACTIVE, 10, "the first goal to run")
@@ -173,8 +174,8 @@ class SimNavigation(unittest.TestCase):
         wait_for(lambda: second.get_goal_status() == GoalStatus.SUCCEEDED, 60, "the second goal SUCCEEDED")
 
     def test_6_make_plan_and_clear_costmaps(self) -> None:
-        rospy.wait_for_service("move_base/make_plan", 10)
-        make_plan = rospy.ServiceProxy("move_base/make_plan", GetPlan)
+        rospy.wait_for_service(Service.MAKE_PLAN, 10)
+        make_plan = rospy.ServiceProxy(Service.MAKE_PLAN, GetPlan)
         req = GetPlanRequest()
         req.goal.header.frame_id = "map"
         req.goal.pose = pose_msg(Pose2D(60.0, 12.0, 0.0))
@@ -186,7 +187,7 @@ class SimNavigation(unittest.TestCase):
         self.assertAlmostEqual(length, math.hypot(60.0 - p.x, 12.0 - p.y), delta=1.5)
         req.goal.pose = pose_msg(Pose2D(30.0, 10.35, 0.0))
         self.assertEqual(make_plan(req).plan.poses, [])                       # no plan: empty
-        rospy.ServiceProxy("move_base/clear_costmaps", Empty)()
+        rospy.ServiceProxy(Service.CLEAR_COSTMAPS, Empty)()
 
     def test_7_initialpose_relocates_and_bad_ones_are_refused(self) -> None:
         msg = PoseWithCovarianceStamped()
@@ -194,7 +195,7 @@ class SimNavigation(unittest.TestCase):
         msg.pose.pose = pose_msg(Pose2D(20.0, 12.0, math.pi))
         self.initialpose.publish(msg)
         wait_for(lambda: math.hypot(self.pose().x - 20.0, self.pose().y - 12.0) < 0.01, 10, "the relocation")
-        amcl = rospy.wait_for_message("amcl_pose", PoseWithCovarianceStamped, timeout=10)
+        amcl = rospy.wait_for_message(Topic.AMCL_POSE, PoseWithCovarianceStamped, timeout=10)
         self.assertLess(math.hypot(amcl.pose.pose.position.x - 20.0, amcl.pose.pose.position.y - 12.0), 0.2)
         self.assertEqual(amcl.header.frame_id, "map")
         self.assertGreater(amcl.pose.covariance[0], 0.0)
@@ -210,37 +211,37 @@ class SimNavigation(unittest.TestCase):
 
 
     def test_8_map_laser_battery_and_frames(self) -> None:
-        grid = rospy.wait_for_message("map", OccupancyGrid, timeout=10)      # latched, as map_server
+        grid = rospy.wait_for_message(Topic.MAP, OccupancyGrid, timeout=10)      # latched, as map_server
         self.assertEqual((grid.info.width, grid.info.height, grid.header.frame_id), (1480, 520, "map"))
         self.assertAlmostEqual(grid.info.resolution, 0.05, places=6)
         self.assertEqual((grid.info.origin.position.x, grid.info.origin.position.y), (-1.0, -1.0))
         self.assertEqual(len(grid.data), 1480 * 520)
-        served = rospy.ServiceProxy("static_map", GetMap)().map
+        served = rospy.ServiceProxy(Service.STATIC_MAP, GetMap)().map
         self.assertEqual(served.info.width, grid.info.width)
-        scan = rospy.wait_for_message("base_scan", LaserScan, timeout=10)
+        scan = rospy.wait_for_message(Topic.BASE_SCAN, LaserScan, timeout=10)
         self.assertEqual((len(scan.ranges), scan.header.frame_id), (360, "base_laser_link"))
         self.assertTrue(all(scan.range_min <= r <= scan.range_max or math.isinf(r) for r in scan.ranges))
         self.assertGreater(sum(1 for r in scan.ranges if math.isfinite(r)), 300)
-        battery = rospy.wait_for_message("battery", BatteryState, timeout=10)
+        battery = rospy.wait_for_message(Topic.BATTERY, BatteryState, timeout=10)
         self.assertTrue(0.0 < battery.percentage < 1.0 and battery.present)
-        statics = rospy.wait_for_message("/tf_static", TFMessage, timeout=10)
+        statics = rospy.wait_for_message(Topic.TF_STATIC, TFMessage, timeout=10)
         pairs = {(t.header.frame_id, t.child_frame_id) for t in statics.transforms}
         self.assertEqual(pairs, {("base_footprint", "base_link"), ("base_link", "base_laser_link")})
-        tf = rospy.wait_for_message("/tf", TFMessage, timeout=10)            # odom -> base and map -> odom
+        tf = rospy.wait_for_message(Topic.TF, TFMessage, timeout=10)            # odom -> base and map -> odom
         seen = {(t.header.frame_id, t.child_frame_id) for t in tf.transforms}
         deadline = time.monotonic() + 10
         while not {("odom", "base_footprint"), ("map", "odom")} <= seen and time.monotonic() < deadline:
             seen |= {(t.header.frame_id, t.child_frame_id)
-                     for t in rospy.wait_for_message("/tf", TFMessage, timeout=10).transforms}
+                     for t in rospy.wait_for_message(Topic.TF, TFMessage, timeout=10).transforms}
         self.assertLessEqual({("odom", "base_footprint"), ("map", "odom")}, seen)
 
 
     def test_9_move_base_simple_goal_and_feedback(self) -> None:
         results: list[MoveBaseActionResult] = []
         feedback: list[MoveBaseActionFeedback] = []
-        subs = [rospy.Subscriber("move_base/result", MoveBaseActionResult, results.append),
-                rospy.Subscriber("move_base/feedback", MoveBaseActionFeedback, feedback.append)]
-        simple = rospy.Publisher("move_base_simple/goal", PoseStamped, queue_size=1)
+        subs = [rospy.Subscriber(Topic.MOVE_BASE_RESULT, MoveBaseActionResult, results.append),
+                rospy.Subscriber(Topic.MOVE_BASE_FEEDBACK, MoveBaseActionFeedback, feedback.append)]
+        simple = rospy.Publisher(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, queue_size=1)
         wait_for(lambda: simple.get_num_connections() > 0 and all(s.get_num_connections() for s in subs), 10,
                  "connections")
         goal = PoseStamped()

@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import math
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -48,12 +46,15 @@ from gidabot_msgs.msg import (
 )
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
-MAX_TOUR_GOALS = 100
 COMMAND_REPLAY_S = 10.0   # wall s of visitor commands replayed to a late subscriber
 
 
@@ -90,20 +91,14 @@ def event_from_msg(m: NavEvent) -> NavEventData:
 
 
 def tour_from_msg(t: Tour) -> TourInfo | None:
-    """A catalog entry, or None if its goal lines are malformed (the store validated them already)."""
-    goals = []
-    for line in t.tour_goals_info[:MAX_TOUR_GOALS]:
-        parts = line.split(",", 2)
-        if len(parts) != 3:
-            return None
-        try:
-            floor = float(parts[0])
-        except ValueError:
-            return None
-        if not math.isfinite(floor):
-            return None
-        goals.append((floor, clip(parts[1].strip(), 32), clip(parts[2].strip(), 200)))
-    return TourInfo(clip(t.file_name, 64), clip(t.tour_name, 80), clip(t.language, 8), tuple(goals))
+    """A catalog entry, its goal lines read exactly as a tour file's (``tour_file.tour_from_lines``: spacing
+    and floors such as ``0.0`` tolerated), or None if they are malformed (the store validated them already)."""
+    try:
+        tour = tour_from_lines(t.file_name, t.tour_name.strip(), list(t.tour_goals_info[:MAX_GOALS]))
+    except (TourError, TourNameError):
+        return None
+    return TourInfo(tour.file_name, clip(t.tour_name, 80), clip(t.language, 8),
+                    tuple((g.floor, g.room, g.description) for g in tour.goals))
 
 
 def catalog_from_msg(m: TourCatalog) -> list[TourInfo]:
@@ -289,18 +284,18 @@ class GuiNode:
         # a guiding node that connects late (starting, or respawned) still gets the commands of the last
         # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
         # request the visitor was told got no answer is never acted on later.
-        self.cmd_pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=20,
+        self.cmd_pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=20,
                                        window=min(COMMAND_REPLAY_S, params.request_timeout / 2))
-        self.pose_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=2)
-        self.edit_pub = rospy.Publisher("tour_store/edit", Tour, queue_size=10)
+        self.pose_pub = rospy.Publisher(Topic.INITIALPOSE, PoseWithCovarianceStamped, queue_size=2)
+        self.edit_pub = rospy.Publisher(Topic.TOUR_EDIT, Tour, queue_size=10)
         r = self.receiver
         self.subs = [
-            rospy.Subscriber("/gidabot/status", RobotStatus, r.status, queue_size=100),
-            rospy.Subscriber("/gidabot/poses", NavPose, r.pose, queue_size=100),
-            rospy.Subscriber("/gidabot/pending", PendingRequests, r.pending, queue_size=50),
-            rospy.Subscriber("/gidabot/nav_events", NavEvent, r.nav_event, queue_size=200),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, r.catalog, queue_size=2),
-            rospy.Subscriber("tour_store/edit_result", TourEditResult, r.edit_result, queue_size=20),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, r.status, queue_size=100),
+            rospy.Subscriber(Topic.POSES, NavPose, r.pose, queue_size=100),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, r.pending, queue_size=50),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, r.nav_event, queue_size=200),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, r.catalog, queue_size=2),
+            rospy.Subscriber(Topic.TOUR_EDIT_RESULT, TourEditResult, r.edit_result, queue_size=20),
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)
@@ -336,14 +331,10 @@ def _base36(n: int) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
-    stop_requested = threading.Event()
-
-    def on_signal(*_args: object) -> None:
-        stop_requested.set()          # the Qt loop polls it (Python handlers run between Qt events)
-
-    signal.signal(signal.SIGINT, on_signal)
-    signal.signal(signal.SIGTERM, on_signal)
-    rospy.init_node("gui", argv=argv, disable_signals=True)
+    # SIGINT/SIGTERM: the Qt loop (polling the guard) quits, then the guard shuts rospy down in a thread of
+    # its own and ends the process within 1 s of the signal, master frozen or not (issue 19.5)
+    guard = rospy_exit_guard(Node.GUI, main_loop=True)
+    rospy.init_node(Node.GUI, argv=argv, disable_signals=True)
     try:
         from gidabot_navigation.ros.master_watch import keep_registered
     except ImportError:
@@ -400,14 +391,18 @@ def main(argv: list[str] | None = None) -> int:
         window.show()
 
     watchdog = QTimer()
-    watchdog.timeout.connect(lambda: (stop_requested.is_set() or rospy.is_shutdown()) and app.quit())
-    watchdog.start(200)
+    watchdog.timeout.connect(lambda: (guard.requested or rospy.is_shutdown()) and app.quit())
+    watchdog.start(100)
     rospy.loginfo(f"gui: {params.robot} ready ({'admin mode available' if admin else 'visitor mode'}, "
                   f"language {params.language}, speech {'on' if params.speech else 'off'})")
-    rc = 0 if stop_requested.is_set() else app.exec_()
+    rc = 0 if guard.requested else app.exec_()
     speaker.stop()
     node.shutdown()
-    rospy.signal_shutdown("gui closed")
+    guard.loop_stopped()
+    if guard.requested:
+        guard.spin(rospy.is_shutdown)     # the guard's thread shuts rospy down, never this one
+    else:
+        rospy.signal_shutdown("gui closed")
     return rc
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from gidabot_gui.core.flow import Activity, Mode, VisitorFlow
 from gidabot_gui.errors import GuiError
-from gidabot_navigation.guiding.messages import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Phase
 
 VID = "gui-test"
 

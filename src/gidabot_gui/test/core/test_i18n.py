@@ -9,8 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_gui.core.i18n import LANGUAGES, Translator, format_number, package_locale_dir
+from gidabot_gui.core.i18n import Translator, format_number, package_locale_dir
 from gidabot_gui.errors import ConfigError
+from gidabot_navigation.interface import LANGUAGES
 
 PKG = Path(__file__).resolve().parents[2]
 SRC = PKG / "src" / "gidabot_gui"

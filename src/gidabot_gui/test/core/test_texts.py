@@ -7,7 +7,7 @@ import pytest
 from gidabot_gui.core.flow import Notice
 from gidabot_gui.core.i18n import Translator
 from gidabot_gui.core.texts import Texts
-from gidabot_navigation.guiding.messages import Phase
+from gidabot_navigation.interface import Phase
 
 KINDS = [p.name for p in Phase if p not in (Phase.ACCEPTED,)] + ["NO_ANSWER", "BUSY"]
 

@@ -14,7 +14,8 @@ from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
 from gidabot_gui.core.model import PendingData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData, Phase
+from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_navigation.interface import Phase
 
 LANGS = ("en", "eu", "es")
 PAGES = ("floor:0", "floor:1", "floor:2", "floor:3", "offices", "tours", "info")

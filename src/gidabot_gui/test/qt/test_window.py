@@ -13,7 +13,8 @@ from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
 from gidabot_gui.core.model import EditResultData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import Cmd, NavEventData, Phase
+from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_navigation.interface import Cmd, Phase
 
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",
                 ((0, "014", "Technicians' Lab"), (0, "008", "Caretakers' Office"), (1, "101", "Secretary's Office"),

@@ -1,9 +1,11 @@
 """``gidabot check`` (also ``python -m gidabot_navigation.cli``): validate a building, or tour files against one.
 
-    gidabot check maps/faculty
+    gidabot check maps/faculty         (the rules: docs/building-format.md)
     gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
 
-Prints every problem (file, key or line, value) and exits 1 if there is any.
+Prints every problem (file, key or line, value) and exits 1 if there is any. A tour
+file in a form the tour store accepts but writes differently (CRLF line endings,
+byte-order mark, spacing...) passes, with a note.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ import argparse
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building
+from gidabot_navigation.building.reachability import reachability_problems
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
+from gidabot_navigation.tours.tour_file import check_tour_file_name, format_tour, parse_tour
 
 
 def main(argv: list[str]) -> int:
@@ -35,6 +38,9 @@ def main(argv: list[str]) -> int:
         if path.is_dir() or path.suffix in (".yaml", ".yml"):
             try:
                 b = load_building(path)
+                problems = reachability_problems(b)
+                if problems:
+                    raise BuildingError(problems)
             except BuildingError as err:
                 print(f"FAIL {path}: {err}")
                 failures += 1
@@ -56,6 +62,9 @@ def main(argv: list[str]) -> int:
             continue
         floors = sorted({g.floor for g in tour.goals})
         note = "" if building else " (rooms not checked: pass --building)"
+        if format_tour(tour).encode("utf-8") != data:
+            note += " (not in the canonical form: the tour store writes it with '\\n' line endings, no BOM, "\
+                    "', ' between columns)"
         print(f"ok   {path}: tour {tour.display_name!r}: {len(tour.goals)} goals on floors "
               f"{', '.join(f'{f:g}' for f in floors)}{note}")
     return 1 if failures else 0

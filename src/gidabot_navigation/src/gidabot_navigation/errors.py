@@ -93,3 +93,42 @@ class GoalRejected(GuidingError):
 
 class NoRouteError(GuidingError):
     """No connector or no path joins the start and the goal of a trip."""
+
+
+class GuidingStateError(GuidingError):
+    """A guiding state file cannot be read or written."""
+
+
+# -- relay -----------------------------------------------------------------------------------
+class RelayConfigError(GidaBotError):
+    """The relay's configuration (shared topics, link parameters, secret) is invalid."""
+
+
+class FrameRejected(GidaBotError):
+    """A frame (or a message inside one) is refused; ``reason`` is auth, oversize, malformed or type."""
+
+    def __init__(self, reason: str, message: str) -> None:
+        self.reason = reason
+        super().__init__(message)
+
+
+class JournalError(GidaBotError):
+    """The journal cannot be opened, locked or written."""
+
+
+# -- ROS infrastructure (gidabot_navigation.ros) ---------------------------------------------
+class ParamError(GidaBotError):
+    """A node's ~parameter is missing or invalid."""
+
+
+class MasterWatchError(GidaBotError):
+    """Re-registration with the master failed (the master refused a registration or went away)."""
+
+
+class ExitGuardError(GidaBotError):
+    """The exit guard cannot be installed (a bad grace time, not called from the main thread)."""
+
+
+class ResourceError(GidaBotError):
+    """A file the packages ship (launch file, map, tour, config) is not found: the workspace is not built
+    or not sourced (:mod:`gidabot_navigation.resources`)."""

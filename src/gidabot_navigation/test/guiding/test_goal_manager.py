@@ -11,7 +11,8 @@ from guiding_support import Bus, ListLog, catalog_of
 
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import CancelData, CommandData, NavEventData, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCEL,
     CANCELLED_ELSEWHERE,
@@ -30,12 +31,6 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
-    CancelData,
-    CommandData,
-    NavEventData,
-    SendCancel,
-    SendEvent,
-    SendGoal,
 )
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"

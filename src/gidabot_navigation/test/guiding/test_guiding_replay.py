@@ -11,14 +11,14 @@ from pathlib import Path
 
 from guiding_support import Bus, catalog_of
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_navigation.interface import (
     ACCEPTED,
     GO_TO_FLOOR,
     GOAL_REACHED,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     WAITING_VISITOR,
-    NavEventData,
 )
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"

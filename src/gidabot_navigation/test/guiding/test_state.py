@@ -8,15 +8,9 @@ from pathlib import Path
 import pytest
 from guiding_support import Bus, ListLog
 
+from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import (
-    ACCEPTED,
-    CONTINUE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    ON_THE_WAY,
-    REQUEST,
-    WAITING_VISITOR,
     CancelData,
     CommandData,
     MoveTo,
@@ -26,7 +20,17 @@ from gidabot_navigation.guiding.messages import (
     command_key,
 )
 from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.guiding.state import GuidingStateError, StateFile, actions_from_list, actions_to_list
+from gidabot_navigation.guiding.state import StateFile, actions_from_list, actions_to_list
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    CONTINUE,
+    GO_TO_FLOOR,
+    GOAL_REACHED,
+    ON_THE_WAY,
+    REJECTED,
+    REQUEST,
+    WAITING_VISITOR,
+)
 
 
 def roundtrip(state: dict) -> dict:
@@ -218,7 +222,8 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     TOUR_STEP_DONE it answers (replayed by the navigation): it is applied once the step is done."""
     from guiding_support import catalog_of
 
-    from gidabot_navigation.guiding.messages import TOUR_STEP_DONE, NavEventData
+    from gidabot_navigation.guiding.messages import NavEventData
+    from gidabot_navigation.interface import TOUR_STEP_DONE
 
     tour = tmp_path / "two.tour"
     tour.write_text("Tour: Two\n0, 008, A\n0, 014, B\n", encoding="utf-8")
@@ -246,3 +251,92 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     actions = gm2.on_nav_event(done, bus.now_ros, bus.now_wall)
     [goal] = [a.trip for a in actions if isinstance(a, SendGoal)]
     assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1
+
+
+# ---------------------------------------------------------------- when the state is written (issue 19.7)
+class _Monotonic:
+    def __init__(self) -> None:
+        self.t = 0.0
+
+    def __call__(self) -> float:
+        return self.t
+
+
+def _hostile(faculty, n: int) -> list[tuple[str, object]]:
+    """Messages a goal manager rejects at once: invalid goals, cancels, events and visitor commands."""
+    from dataclasses import replace
+
+    from gidabot_navigation.guiding.messages import NavEventData
+
+    bus = Bus(faculty, auto_move=False)
+    bus.status_all()
+    bus.request("Tartalo", "101")
+    good = bus.goals[0]
+    out: list[tuple[str, object]] = []
+    for i in range(n):
+        out += [
+            ("goal", replace(good, uid=f"Kbot/x/{i}", goal_id="nowhere")),                   # unknown location
+            ("goal", replace(good, uid=f"Mallory/x/{i}", origin_robot="Mallory")),          # not a robot
+            ("cancel", CancelData(f"Kbot/cancel/{i}", good.uid, "Mallory", "visitor")),      # not a robot
+            ("event", NavEventData(uid=f"Kbot/event/{i}", robot="Mallory", floor=1.0, goal_uid="x", phase=ACCEPTED)),
+            ("command", CommandData(command=99, uid=f"Kbot/v/cmd/{i}", stamp=float(i))),   # unknown command
+            ("command", CommandData(command=REQUEST, uid=f"Kbot/v/cmd/r{i}", goal_id="../x", stamp=float(i))),
+        ]
+    return out
+
+
+def _feed(gm: GoalManagerCore, sf: StateFile, kind: str, msg: object, now: float) -> list:
+    """What GoalManagerNode does with one input: the core's answer, committed (REJECTED answers are not kept)."""
+    actions = {"goal": gm.on_goal, "cancel": gm.on_cancel, "event": gm.on_nav_event,
+               "command": gm.on_command}[kind](msg, 100.0, now)
+    durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+    sf.commit(gm.state, actions, durable, lambda _a: None, changed=True)
+    return actions
+
+
+def test_rejected_messages_cost_no_state_write(faculty, tmp_path: Path) -> None:
+    """A flood of rejected goals, cancels, events and commands: not one write of the state file (today's
+    main wrote it, with fsync, for every one of them)."""
+    mono = _Monotonic()
+    sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    sf.save(gm.state(), [])
+    before = (sf.saves, sf.path.read_bytes())
+    for k, (kind, msg) in enumerate(_hostile(faculty, 200)):
+        mono.t = k * 0.001                              # 1,200 messages in 1.2 s
+        _feed(gm, sf, kind, msg, mono.t)
+    mono.t += 10.0
+    sf.flush(gm.state)
+    sf.flush(gm.state, force=True)
+    assert gm.stats["rejected"] + gm.stats["rejected_location"] >= 1000
+    assert (sf.saves, sf.path.read_bytes()) == before
+
+
+def test_state_changes_are_written_before_publishing_or_within_the_soft_interval(faculty, tmp_path: Path) -> None:
+    from gidabot_navigation.guiding.messages import NavEventData
+
+    mono = _Monotonic()
+    sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    gm.on_status("Tartalo", 0.0)
+    bus = Bus(faculty, auto_move=False)
+    bus.status_all()
+    bus.request("Tartalo", "101")                       # a goal from floor 0 to floor 1: Kbot keeps it
+    seen_at_publish: list[dict] = []
+    actions = gm.on_goal(bus.goals[0], 100.0, 0.0)
+    assert [type(a) for a in actions] == [SendEvent]     # ACCEPTED
+    sf.commit(gm.state, actions, actions, lambda _a: seen_at_publish.append(json.loads(sf.path.read_bytes())))
+    assert seen_at_publish[0]["outbox"] and [t["uid"] for t in seen_at_publish[0]["state"]["queue"]] == \
+        [bus.goals[0].uid]                               # on disk, with its outbox, before it was published
+    saves = sf.saves
+    # valid events of other robots about trips that do not exist: remembered (state), published nothing
+    for i in range(1000):
+        mono.t = 0.1 + i * 0.001
+        ev = NavEventData(uid=f"MariSorgin/event/flood.{i}", robot="MariSorgin", floor=3.0, goal_uid=f"M/v/{i}",
+                          phase=ACCEPTED)
+        sf.commit(gm.state, gm.on_nav_event(ev, 100.0, mono.t), [], lambda _a: None, changed=True)
+    assert sf.saves - saves <= 2                         # one write per soft interval at most
+    mono.t += 1.0
+    sf.flush(gm.state)
+    assert json.loads(sf.path.read_bytes())["state"] == roundtrip(gm.state())    # nothing lost after the interval
+    assert json.loads(sf.path.read_bytes())["outbox"] == []

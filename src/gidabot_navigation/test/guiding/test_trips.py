@@ -8,8 +8,9 @@ from dataclasses import replace
 import pytest
 
 from gidabot_navigation.errors import NoRouteError
-from gidabot_navigation.guiding.messages import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR, Trip
+from gidabot_navigation.guiding.messages import Trip
 from gidabot_navigation.guiding.trips import HeadProgress, Role, TripPlanner, WaitModel, estimate_queue, involved, role
+from gidabot_navigation.interface import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR
 
 
 def trip(faculty, a: float, goal_id: str, way: str = "stairs", connector: str = "stairs_west",
@@ -125,3 +126,21 @@ def test_goal_floor_estimate_waits_for_the_visitor(faculty, planner) -> None:
     driving = estimate_queue(planner, m, mari, (30.0, 12.0), [up], HeadProgress("b", GOING_TO_MEETING, 90.0),
                              {}, 100.0)[0]
     assert driving > 0
+
+
+def test_a_connector_is_offered_only_between_floors_it_serves(faculty) -> None:
+    """stairs_west serving floors 1-3 only (its floor-0 pose left in the model, as the loader no longer
+    allows): a trip from floor 0 is never sent to it, the validator refuses it, trips from floor 1 use it."""
+    from gidabot_navigation.errors import GoalRejected
+    from gidabot_navigation.guiding.messages import validate_trip
+
+    west = faculty.find_connector("stairs_west")
+    upper = replace(faculty, connectors=tuple(replace(c, serves=(1.0, 2.0, 3.0)) if c is west else c
+                                              for c in faculty.connectors))
+    assert [c.id for c in upper.connectors_between(0, 2, "stairs")] == ["stairs_east"]
+    near_west = (8.0, 12.0)                      # stairs_west would be far shorter
+    choice = TripPlanner(upper).choose_connector(0, near_west, 2, (8.0, 12.0), "stairs")
+    assert choice.connector.id == "stairs_east"
+    assert TripPlanner(upper).choose_connector(1, near_west, 2, (8.0, 12.0), "stairs").connector.id == "stairs_west"
+    with pytest.raises(GoalRejected, match="does not serve floors 0 and 2"):
+        validate_trip(upper, trip(upper, 0, "223", connector="stairs_west"))

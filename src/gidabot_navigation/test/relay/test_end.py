@@ -1,4 +1,4 @@
-"""The relay link core: handshake, HMAC, seq/ack, dedup, journal replay, bounded queues, coalescing, liveness.
+"""The core of a relay end: handshake, HMAC, seq/ack, dedup, journal replay, bounded queues, coalescing, liveness.
 
 Two cores joined by an in-memory wire (relay_support.Wire); no sockets, no master.
 """
@@ -8,22 +8,14 @@ from __future__ import annotations
 import pytest
 from relay_support import MD5, SECRET, TYPES, Clock, Log, make_core, pair
 
-from gidabot_navigation.relay.end import (
-    Close,
-    LinkConfig,
-    RelayConfigError,
-    Send,
-    TopicSpec,
-    is_relay,
-    parse_shared_topics,
-    read_secret,
-    relay_node_name,
-)
+from gidabot_navigation.errors import RelayConfigError
+from gidabot_navigation.interface import EVENT, Node, Topic, TopicSpec, global_name, is_relay_end, relay_end_name
+from gidabot_navigation.relay.end import Close, RelayEndConfig, Send, parse_shared_topics, read_secret
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.relay.protocol import FrameType, Hello, encode_frame, hello_key
 
-G = "/gidabot/goals"
-S = "/gidabot/status"
+G = Topic.GOALS
+S = Topic.STATUS
 
 
 # -- handshake and authentication ------------------------------------------------------------
@@ -113,7 +105,7 @@ def test_too_many_unauthenticated_connections_are_refused(tmp_path) -> None:
 def test_local_messages_that_must_not_cross(tmp_path) -> None:
     w, la, _, _ = pair(tmp_path, max_message_bytes=100)
     w.connect()
-    w.run("a", w.a.local_message(G, "/gidabot_relay_Kbot_Galtxagorri", TYPES[G], MD5[G], b"relayed"))
+    w.run("a", w.a.local_message(G, relay_end_name("Kbot", "Galtxagorri"), TYPES[G], MD5[G], b"relayed"))
     w.run("a", w.a.local_message(G, "/spoofer", "std_msgs/String", "f" * 32, b"wrong type"))
     w.run("a", w.a.local_message(G, "/spoofer", TYPES[G], "f" * 32, b"wrong md5"))
     w.run("a", w.a.local_message(G, "/big", TYPES[G], MD5[G], b"x" * 101))
@@ -155,8 +147,8 @@ def test_peer_event_of_wrong_md5_or_malformed_is_acknowledged_not_published(tmp_
 
 
 def test_relay_names() -> None:
-    assert relay_node_name("Tartalo", "Kbot") == "/gidabot_relay_Tartalo_Kbot"
-    assert is_relay("/gidabot_relay_Tartalo_Kbot") and not is_relay("/relay_supervisor")
+    assert relay_end_name("Tartalo", "Kbot") == "/gidabot_relay_Tartalo_Kbot"
+    assert is_relay_end("/gidabot_relay_Tartalo_Kbot") and not is_relay_end(global_name(Node.RELAY_SUPERVISOR))
 
 
 # -- sequence numbers, acknowledgements, de-duplication -------------------------------------------
@@ -252,7 +244,7 @@ def test_torn_journal_tail_is_cut_off(tmp_path) -> None:
 
 
 def test_journal_is_locked_against_a_second_process(tmp_path) -> None:
-    from gidabot_navigation.relay.journal import JournalError
+    from gidabot_navigation.errors import JournalError
 
     j = Journal(tmp_path / "x.journal")
     j.open()
@@ -341,7 +333,7 @@ def test_states_are_coalesced_per_publisher_and_resent_on_reconnect(tmp_path) ->
     w, _, _, clock = pair(tmp_path, state_rate=10.0)
     w.connect()
     for i in range(20):                                  # 20 updates within 50 ms
-        w.local("a", S, b"s%d" % i, callerid="/multirobot_navigation")
+        w.local("a", S, b"s%d" % i, callerid=global_name(Node.MULTIROBOT_NAVIGATION))
         clock.t += 0.0025
     w.local("a", S, b"other", callerid="/other_node")
     got = w.payloads("b", S)
@@ -397,19 +389,6 @@ def test_diagnostics_snapshot_has_the_required_keys(tmp_path) -> None:
 
 
 # -- configuration ----------------------------------------------------------------------------
-def test_shared_topics_file_of_the_package_is_valid() -> None:
-    from pathlib import Path
-
-    from gidabot_navigation.relay.end import load_shared_topics
-
-    path = Path(__file__).resolve().parents[2] / "config" / "shared_topics.yaml"
-    specs = load_shared_topics(path)
-    assert {s.name for s in specs if s.kind == "event"} == {"/gidabot/goals", "/gidabot/cancels",
-                                                             "/gidabot/nav_events", "/gidabot/tours"}
-    assert {s.name for s in specs if s.kind == "state"} == {"/gidabot/status", "/gidabot/poses",
-                                                             "/gidabot/pending", "/gidabot/tour_index"}
-
-
 @pytest.mark.parametrize(("doc", "text"), [
     ({}, "non-empty list"),
     ({"topics": [{"name": "rel", "type": "a/B", "class": "event"}]}, "global topic name"),
@@ -436,13 +415,13 @@ def test_secret_file_rules(tmp_path) -> None:
 
 
 def test_link_config_validation() -> None:
-    topics = (TopicSpec(G, TYPES[G], "event"),)
+    topics = (TopicSpec(G, TYPES[G], EVENT),)
     with pytest.raises(RelayConfigError, match="side"):
-        LinkConfig("A", "B", "c", topics, MD5)
+        RelayEndConfig("A", "B", "c", topics, MD5)
     with pytest.raises(RelayConfigError, match="shorter than link_timeout"):
-        LinkConfig("A", "B", "a", topics, MD5, heartbeat=3.0)
+        RelayEndConfig("A", "B", "a", topics, MD5, heartbeat=3.0)
     with pytest.raises(RelayConfigError, match="no md5"):
-        LinkConfig("A", "B", "a", topics, {})
+        RelayEndConfig("A", "B", "a", topics, {})
 
 
 def test_a_local_event_published_again_is_forwarded_once_even_after_a_restart(tmp_path) -> None:
@@ -460,9 +439,9 @@ def test_a_local_event_published_again_is_forwarded_once_even_after_a_restart(tm
     w.a.journal.compact(w.a.state)
     w.a.journal.close()
     a2 = make_core("a", Journal(tmp_path / "a.journal"), clock, Log(), header_topics=frozenset({G}))
-    assert a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-2") == []
+    assert a2.local_message(G, global_name(Node.GOAL_MANAGER), TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-2") == []
     assert a2.stats.replays_ignored == 1
-    a2.local_message(G, "/goal_manager", TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-3")
+    a2.local_message(G, global_name(Node.GOAL_MANAGER), TYPES[G], MD5[G], b"\x09\x00\x00\x00goal-3")
     assert a2.stats.forwarded_events == 1
 
 

@@ -7,11 +7,12 @@ import socket
 
 import pytest
 
+from gidabot_navigation.errors import FrameRejected
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.relay.protocol import (
     HEADER,
     MAC_LEN,
     FrameReader,
-    FrameRejected,
     FrameType,
     Hello,
     Message,
@@ -113,9 +114,9 @@ def test_session_keys_differ_per_direction_nonce_and_link() -> None:
 
 
 def test_message_and_hello_round_trip() -> None:
-    m = Message("/gidabot/goals", "/goal_manager", "f" * 32, b"\x00\x01payload", 42)
+    m = Message(Topic.GOALS, global_name(Node.GOAL_MANAGER), "f" * 32, b"\x00\x01payload", 42)
     assert decode_message(encode_message(m, True), True) == m
-    s = Message("/gidabot/status", "/multirobot_navigation", "e" * 32, b"x")
+    s = Message(Topic.STATUS, global_name(Node.MULTIROBOT_NAVIGATION), "e" * 32, b"x")
     assert decode_message(encode_message(s, False), False) == s
     h = Hello("A_B", "b", b"n" * 16, b"e" * 16, 7, 8, 9)
     assert Hello.decode(h.encode()) == h

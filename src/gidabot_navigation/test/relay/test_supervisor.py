@@ -5,12 +5,13 @@ from __future__ import annotations
 import sys
 import time
 
+from gidabot_navigation.interface import relay_end_name
+from gidabot_navigation.relay.end import PARENT_ENV
 from gidabot_navigation.relay.supervisor import (
-    PARENT_ENV,
     Backoff,
     EndOptions,
     EndSpec,
-    Supervisor,
+    RelaySupervisor,
     end_argv,
     end_env,
     plan_relays,
@@ -22,13 +23,13 @@ def test_plan_gives_n_n_minus_1_over_2_relays_two_ends_each(faculty) -> None:
     ports = iter(range(40000, 40100))
     plans = {r: plan_relays(faculty, r, lambda i, host: next(ports), is_local=lambda ip: True) for r in names}
     assert [len(plans[r]) for r in names] == [6, 4, 2, 0]          # robot i starts the relays to i+1..n-1
-    links = {e.link for ends in plans.values() for e in ends}
-    assert len(links) == len(names) * (len(names) - 1) // 2
+    pairs = {e.pair for ends in plans.values() for e in ends}
+    assert len(pairs) == len(names) * (len(names) - 1) // 2
     t, k = faculty.robot("Tartalo"), faculty.robot("Kbot")
     a, b = plans["Tartalo"][0], plans["Tartalo"][1]
     assert (a.side, a.master_uri, a.ros_ip, a.bind_ip) == ("a", t.master_uri, t.ip, t.ip)
     assert (b.side, b.master_uri, b.ros_ip, b.link_host) == ("b", k.master_uri, k.ip, k.ip)
-    assert a.link_port == b.link_port and a.node_name == b.node_name == "/gidabot_relay_Tartalo_Kbot"
+    assert a.link_port == b.link_port and a.node_name == b.node_name == relay_end_name("Tartalo", "Kbot")
 
 
 def test_plan_on_a_real_robot_keeps_the_link_on_this_machine(faculty) -> None:
@@ -46,6 +47,7 @@ def test_end_command_line_and_environment() -> None:
     spec = EndSpec("A", "B", "b", "http://10.0.0.2:11311/", "10.0.0.2", "10.0.0.2", 4000, "10.0.0.1")
     argv = end_argv(spec, EndOptions(state_dir="/var/lib/r", secret_file="/etc/gidabot/relay.secret",
                                      extra=(("max_queue", "50"),)))
+    assert argv[1:3] == ["-m", "gidabot_navigation.relay.end_node"]     # found as a module: no file to look up
     assert "--secret_file" in argv and "/etc/gidabot/relay.secret" in argv
     assert not any(":=" in a for a in argv)        # no _param:= (rospy would upload it to a maybe-dead master)
     assert argv[argv.index("--max_queue") + 1] == "50"
@@ -67,18 +69,18 @@ STAND_IN = ("import sys, time\n"
             "time.sleep(60)\n")
 
 
-def _supervisor(code: int = 0) -> tuple[Supervisor, list[str]]:
+def _supervisor(code: int = 0) -> tuple[RelaySupervisor, list[str]]:
     lines: list[str] = []
     ends = [EndSpec("A", "B", side, "http://127.0.0.1:1/", "127.0.0.1", "127.0.0.1", 1111 if code == 0 else 5,
                     "127.0.0.1") for side in "ab"]
-    sup = Supervisor(ends, EndOptions(state_dir="/tmp"), lambda level, msg: lines.append(f"{level}: {msg}"),
-                     new_port=lambda host: 2222,
-                     argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, spec.side, str(spec.link_port),
-                                                  str(code)])
+    sup = RelaySupervisor(ends, EndOptions(state_dir="/tmp"), lambda level, msg: lines.append(f"{level}: {msg}"),
+                          new_port=lambda host: 2222,
+                          argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, spec.side, str(spec.link_port),
+                                                       str(code)])
     return sup, lines
 
 
-def _step_until(sup: Supervisor, cond, timeout: float = 20.0) -> None:
+def _step_until(sup: RelaySupervisor, cond, timeout: float = 20.0) -> None:
     deadline = time.monotonic() + timeout
     while not cond():
         assert time.monotonic() < deadline, "supervisor did not get there in time"

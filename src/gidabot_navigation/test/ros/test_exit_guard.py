@@ -14,8 +14,8 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from gidabot_navigation.errors import ExitGuardError
 from gidabot_navigation.ros.exit_guard import ExitGuard, where
-from gidabot_sim.errors import SimConfigError
 
 GRACE = 0.4
 
@@ -204,7 +204,7 @@ def test_uninstall_restores_the_handlers_and_cancels_the_exit() -> None:
 
 @pytest.mark.parametrize("grace", [0.0, -1.0, float("nan"), float("inf"), "1"])
 def test_bad_grace(grace) -> None:
-    with pytest.raises(SimConfigError):
+    with pytest.raises(ExitGuardError):
         ExitGuard(lambda _r: None, grace=grace)
 
 
@@ -214,7 +214,7 @@ def test_install_only_from_the_main_thread() -> None:
     def install() -> None:
         try:
             ExitGuard(lambda _r: None).install()
-        except SimConfigError as err:
+        except ExitGuardError as err:
             errors.append(err)
 
     t = threading.Thread(target=install)

@@ -8,11 +8,12 @@ from xmlrpc.server import SimpleXMLRPCRequestHandler, SimpleXMLRPCServer
 
 import pytest
 
+from gidabot_navigation.errors import MasterWatchError
+from gidabot_navigation.interface import Topic
 from gidabot_navigation.ros.master_watch import (
-    Event,
+    MasterEvent,
     MasterWatch,
     MasterWatchCore,
-    MasterWatchError,
     ParamKeeper,
     Registrations,
     get_master_pid,
@@ -22,57 +23,57 @@ from gidabot_navigation.ros.master_watch import (
 
 def test_first_contact_then_quiet() -> None:
     core = MasterWatchCore()
-    assert core.observe(100, 0.0) is Event.FIRST_CONTACT
+    assert core.observe(100, 0.0) is MasterEvent.FIRST_CONTACT
     assert core.up
-    assert core.observe(100, 0.5) is Event.NONE
+    assert core.observe(100, 0.5) is MasterEvent.NONE
     assert core.generation == 0
 
 
 def test_one_failed_poll_is_not_an_outage() -> None:
     core = MasterWatchCore(down_after=2)
     core.observe(100, 0.0)
-    assert core.observe(None, 0.5) is Event.NONE
+    assert core.observe(None, 0.5) is MasterEvent.NONE
     assert core.up
-    assert core.observe(100, 1.0) is Event.NONE
+    assert core.observe(100, 1.0) is MasterEvent.NONE
 
 
 def test_outage_then_same_master_reregisters() -> None:
     core = MasterWatchCore(down_after=2)
     core.observe(100, 0.0)
-    assert core.observe(None, 0.5) is Event.NONE
-    assert core.observe(None, 1.0) is Event.DOWN
+    assert core.observe(None, 0.5) is MasterEvent.NONE
+    assert core.observe(None, 1.0) is MasterEvent.DOWN
     assert not core.up and core.down_since == 1.0
-    assert core.observe(None, 1.5) is Event.NONE        # DOWN is reported once
-    assert core.observe(100, 2.0) is Event.REREGISTER   # a network outage: registrations may be stale too
+    assert core.observe(None, 1.5) is MasterEvent.NONE        # DOWN is reported once
+    assert core.observe(100, 2.0) is MasterEvent.REREGISTER   # a network outage: registrations may be stale too
     core.registered()
     assert core.generation == 1 and core.up and core.outages == 1
-    assert core.observe(100, 2.5) is Event.NONE
+    assert core.observe(100, 2.5) is MasterEvent.NONE
 
 
 def test_fast_restart_between_polls_is_a_pid_change() -> None:
     core = MasterWatchCore()
     core.observe(100, 0.0)
-    assert core.observe(200, 0.5) is Event.REREGISTER
+    assert core.observe(200, 0.5) is MasterEvent.REREGISTER
     assert core.restarts == 1
     core.registered()
-    assert core.observe(200, 1.0) is Event.NONE
+    assert core.observe(200, 1.0) is MasterEvent.NONE
 
 
 def test_failed_registration_is_retried_on_the_next_answer() -> None:
     core = MasterWatchCore()
     core.observe(100, 0.0)
-    assert core.observe(200, 0.5) is Event.REREGISTER
+    assert core.observe(200, 0.5) is MasterEvent.REREGISTER
     core.registration_failed()
-    assert core.observe(200, 1.0) is Event.REREGISTER
+    assert core.observe(200, 1.0) is MasterEvent.REREGISTER
     core.registered()
     assert core.generation == 1
 
 
 def test_master_unreachable_at_start_reregisters_on_first_contact() -> None:
     core = MasterWatchCore()
-    assert core.observe(None, 0.0) is Event.NONE
-    assert core.observe(None, 0.5) is Event.NONE         # never up: no DOWN event
-    assert core.observe(100, 1.0) is Event.REREGISTER
+    assert core.observe(None, 0.0) is MasterEvent.NONE
+    assert core.observe(None, 0.5) is MasterEvent.NONE         # never up: no DOWN event
+    assert core.observe(100, 1.0) is MasterEvent.REREGISTER
 
 
 class _Quiet(SimpleXMLRPCRequestHandler):
@@ -162,7 +163,7 @@ def servers() -> Iterator[tuple[FakeMaster, str, FakeSlave, str]]:
 
 
 REGS = Registrations(publications=[("/chatter", "std_msgs/String"), ("/rosout", "rosgraph_msgs/Log")],
-                     subscriptions=[("/gidabot/goals", "*")],
+                     subscriptions=[(Topic.GOALS, "*")],
                      services=[("/node/get_loggers", "rosrpc://127.0.0.1:5555")])
 
 
@@ -172,13 +173,13 @@ def test_register_all_registers_everything_and_feeds_publisher_update(servers) -
     assert [c[0] for c in master.calls] == ["pub", "pub", "sub", "srv"]
     assert all(c[1] == "/node" and c[4] == suri for c in master.calls)
     assert master.calls[2][3] == "*"
-    assert slave.updates == [("/master", "/gidabot/goals", ["http://127.0.0.1:1/"])]
+    assert slave.updates == [("/master", Topic.GOALS, ["http://127.0.0.1:1/"])]
 
 
 def test_register_all_refusal_names_what(servers) -> None:
     master, muri, _, suri = servers
-    master.refuse = "/gidabot/goals"
-    with pytest.raises(MasterWatchError, match="refused to register subscriber /gidabot/goals"):
+    master.refuse = Topic.GOALS
+    with pytest.raises(MasterWatchError, match=f"refused to register subscriber {Topic.GOALS}"):
         register_all(muri, "/node", suri, REGS, timeout=2.0)
 
 
@@ -209,14 +210,14 @@ def test_watch_reregisters_after_pid_change_and_tells_listeners(servers) -> None
     master, muri, slave, suri = servers
     log = _Log()
     watch = MasterWatch(master_uri=muri, caller_id="/node", node_uri=suri, registrations=lambda: REGS, log=log)
-    seen: list[Event] = []
+    seen: list[MasterEvent] = []
     watch.add_listener(lambda ev, w: seen.append(ev))
-    assert watch.poll_once(0.0) is Event.FIRST_CONTACT
+    assert watch.poll_once(0.0) is MasterEvent.FIRST_CONTACT
     assert master.calls == []
     master.pid = 5151                                    # "restarted"
-    assert watch.poll_once(0.5) is Event.REREGISTER
+    assert watch.poll_once(0.5) is MasterEvent.REREGISTER
     assert watch.generation == 1 and watch.up
-    assert len(master.calls) == 4 and seen == [Event.REREGISTER]
+    assert len(master.calls) == 4 and seen == [MasterEvent.REREGISTER]
     assert any("re-registered 4" in line for line in log.lines)
 
 
@@ -225,13 +226,13 @@ def test_listener_errors_do_not_stop_the_watch(servers) -> None:
     log = _Log()
     watch = MasterWatch(master_uri=muri, caller_id="/node", node_uri=suri, registrations=lambda: REGS, log=log)
 
-    def bad(ev: Event, w: MasterWatch) -> None:
+    def bad(ev: MasterEvent, w: MasterWatch) -> None:
         raise RuntimeError("boom")
 
     watch.add_listener(bad)
     watch.poll_once(0.0)
     master.pid += 1
-    assert watch.poll_once(0.5) is Event.REREGISTER
+    assert watch.poll_once(0.5) is MasterEvent.REREGISTER
     assert any(line.startswith("E ") and "boom" in line for line in log.lines)
 
 
@@ -264,7 +265,7 @@ def test_watch_sets_parameters_again_before_reregistering(servers) -> None:
     watch.poll_once(100.0)                                      # a refresh is due: merged
     master.params, master.calls = {}, []
     master.pid += 1                                             # restarted, parameters gone
-    assert watch.poll_once(100.5) is Event.REREGISTER
+    assert watch.poll_once(100.5) is MasterEvent.REREGISTER
     kinds = [c[0] for c in master.calls]
     assert kinds[:3] == ["set", "set", "set"] and "pub" in kinds[3:]
     assert master.params == {"/node/speed": 20.0, "/node/start_wall": 1234.5, "/use_sim_time": True}

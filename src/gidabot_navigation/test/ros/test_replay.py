@@ -6,6 +6,7 @@ import threading
 
 import pytest
 
+from gidabot_navigation.interface import Node, global_name, relay_end_name
 from gidabot_navigation.ros.replay import ReplayBuffer, peer_of, replay_to_peer
 
 
@@ -67,10 +68,11 @@ def test_replay_goes_to_a_late_subscriber_under_the_lock_and_to_relays_unless_a_
     for i in range(3):
         buf.add(f"event-{i}")
     impl, sent = Impl(), []
-    assert peer_of(publish_single_for(Conn("/goal_manager"), impl, sent)) == "/goal_manager"
-    assert replay_to_peer(buf, impl, publish_single_for(Conn("/goal_manager"), impl, sent)) == 3
-    assert sent == [("/goal_manager", "event-0"), ("/goal_manager", "event-1"), ("/goal_manager", "event-2")]
-    relay = Conn("/gidabot_relay_Tartalo_Kbot")
+    node = global_name(Node.GOAL_MANAGER)
+    assert peer_of(publish_single_for(Conn(node), impl, sent)) == node
+    assert replay_to_peer(buf, impl, publish_single_for(Conn(node), impl, sent)) == 3
+    assert sent == [(node, "event-0"), (node, "event-1"), (node, "event-2")]
+    relay = Conn(relay_end_name("Tartalo", "Kbot"))
     assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent), skip_relays=True) == 0
     assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent)) == 3     # a node's events: forwarded
     assert buf.replayed == 6 and not impl.lock.locked()

@@ -84,10 +84,16 @@ MALFORMED: list[tuple[str, bytes, str]] = [
     ("duplicate header", b"Tour\n0, 014, Lab\nTour\n", "line 3: duplicate 'Tour' header"),
     ("bad encoding", b"Tour\n0, 014, T\xe9cnicos\n", "line 2: bad encoding at byte 14: tour files must be UTF-8"),
     ("missing header", b"0, 014, Lab\n", "line 1: expected the header 'Tour'"),
-    ("blank line", b"Tour\n\n0, 014, Lab\n", "line 2: blank line"),
+    ("blank line", b"Tour\n\n0, 014, Lab\n", "line 2: blank line between goals"),
+    ("blank line between goals, CRLF", b"Tour\r\n0, 014, Lab\r\n\r\n0, 008, Office\r\n", "line 3: blank line"),
+    ("blank line in a CR file", b"Tour\r0, 014, Lab\r \r0, 008, Office\r", "line 3: blank line"),
+    ("control character", b"Tour\n0, 014, L\x1bab\n", "line 2: holds the control character U+001B"),
+    ("control character in the name", b"Tour: A\x07B\n0, 014, Lab\n", "line 1: tour name holds the control"),
+    ("header without colon", b"Tour Open day\n0, 014, Lab\n", "line 1: expected the header 'Tour'"),
+    ("BOM and a bad line", b"\xef\xbb\xbfTour\r\n0, 014\r\n", "line 2: 2 column(s) in '0, 014'"),
+    ("only blank lines", b"\xef\xbb\xbf\r\n \r\n", "is empty; expected a 'Tour' header"),
+    ("bad encoding after CRLF lines", b"Tour\r\n0, 014, Lab\r\n0, 008, Caf\xe9\r\n", "line 3: bad encoding"),
     ("empty description", b"Tour\n0, 014, \n", "line 2: room description is empty"),
-    ("no final newline", b"Tour\n0, 014, Lab", "line 2: the last line must end with a newline"),
-    ("CRLF", b"Tour\r\n0, 014, Lab\r\n", "Windows (CRLF)"),
     ("NUL byte", b"Tour\n0, 014, L\x00ab\n", "contains a NUL byte"),
     ("too big", b"Tour\n" + b"0, 014, Lab\n" * (MAX_TOUR_BYTES // 10), f"more than the {MAX_TOUR_BYTES} a tour"),
     ("hostile room", b"Tour\n0, ../../etc, Lab\n", "room number '../../etc' must be letters/digits"),
@@ -100,6 +106,61 @@ def test_malformed_tours(faculty, label: str, data: bytes, expected: str) -> Non
         parse_tour(data, "bad.tour", faculty, source="tours/bad.tour")
     text = str(info.value)
     assert "tours/bad.tour" in text and expected in text, text
+
+
+CANONICAL = "Tour: Open day at the faculty\n0, 014, Computer Technicians 1\n1, 101, Secretary's Office\n"
+TOLERATED: list[tuple[str, bytes]] = [
+    ("CRLF (Windows editors)", CANONICAL.replace("\n", "\r\n").encode()),
+    ("CR (old Mac editors)", CANONICAL.replace("\n", "\r").encode()),
+    ("UTF-8 BOM (Notepad)", b"\xef\xbb\xbf" + CANONICAL.encode()),
+    ("BOM and CRLF", b"\xef\xbb\xbf" + CANONICAL.replace("\n", "\r\n").encode()),
+    ("no newline at the end", CANONICAL.rstrip("\n").encode()),
+    ("trailing blank lines", (CANONICAL + "\n\n  \n\t\n").encode()),
+    ("trailing blank lines, CRLF", (CANONICAL + "\n\n").replace("\n", "\r\n").encode()),
+    ("spaces around fields", b"  Tour :  Open day at the faculty  \n 0 ,014 ,  Computer Technicians 1 \n"
+                             b"\t1,\t101,\tSecretary's Office\t\n"),
+    ("header without space", b"Tour:Open day at the faculty\n0,014,Computer Technicians 1\n1,101,Secretary's Office"),
+    ("floors written 0.0 and 1.00", CANONICAL.replace("\n0,", "\n0.0,").replace("\n1,", "\n1.00,").encode()),
+    ("mixed line endings", CANONICAL.replace("\n", "\r\n", 1).replace("Office\n", "Office\r").encode()),
+]
+
+
+@pytest.mark.parametrize("label, data", TOLERATED, ids=[t[0] for t in TOLERATED])
+def test_what_editors_and_phones_write_is_accepted_and_canonicalised(faculty, label: str, data: bytes) -> None:
+    tour = parse_tour(data, "open_day.tour", faculty)
+    assert tour == parse_tour(CANONICAL, "open_day.tour", faculty)
+    assert format_tour(tour) == CANONICAL
+
+
+def test_unicode_normalisation_is_canonicalised(faculty) -> None:
+    decomposed = "Tour\n0, 014, Te\u0301cnicos\n"           # e + combining acute (macOS, some phones)
+    assert format_tour(parse_tour(decomposed, "x.tour", faculty)) == "Tour\n0, 014, T\u00e9cnicos\n"
+
+
+def test_a_name_equal_to_the_derived_one_has_one_canonical_form(faculty) -> None:
+    """"Tour: Open day" in open_day.tour and "Tour" show the same name: both are written "Tour", so
+    a robot that read the file and one that received the tour's fields hold the same bytes."""
+    from_file = parse_tour("Tour: Open day\n0, 014, Lab\n", "open_day.tour", faculty)
+    from_fields = tour_from_lines("open_day.tour", from_file.display_name, from_file.goal_lines(), faculty)
+    assert from_file == from_fields and format_tour(from_file) == "Tour\n0, 014, Lab\n"
+    assert from_file.display_name == "Open day"
+
+
+def test_canonical_form_is_a_fixed_point(faculty) -> None:
+    for _, data in TOLERATED:
+        once = format_tour(parse_tour(data, "open_day.tour", faculty))
+        assert format_tour(parse_tour(once, "open_day.tour", faculty)) == once
+
+
+@pytest.mark.parametrize("name, lines, where", [
+    ("x", ["0, 014, Lab\n0, 008, Injected"], "goal 1"),
+    ("x", ["0, 014, Lab", "0, 008, Lab\r0, 008, Injected"], "goal 2"),
+    ("x\n0, 008, Injected", ["0, 014, Lab"], "tour name"),
+])
+def test_fields_with_line_breaks_are_not_a_variant(faculty, name: str, lines: list[str], where: str) -> None:
+    """CR is a line ending in a file, but a message field holding one would add lines to the tour."""
+    with pytest.raises(TourError, match=f"{where}: holds a line break"):
+        tour_from_lines("visit.tour", name, lines, faculty)
 
 
 def test_every_problem_is_listed(faculty) -> None:

@@ -18,7 +18,7 @@ from gidabot_navigation.tours.tour_store import (
     NS,
     SEED_VERSION,
     IndexEntry,
-    Limits,
+    StoreLimits,
     TourStore,
     index_entries,
 )
@@ -201,6 +201,87 @@ def test_own_messages_round_trip(store, faculty, tmp_path) -> None:
     other.close()
 
 
+# ---------------------------------------------------------------- tours as people write them (issue 19.2)
+VARIANT_GOALS = [" 0 ,014,  Computer Technicians 1 ", "1.0,101,Secretary's Office\t", "3.00 , 305 , RSAIT Lab"]
+VARIANTS = [  # the same tour as VISIT_TEXT, written by a text editor or a phone
+    VISIT_TEXT.replace(b"\n", b"\r\n"),
+    VISIT_TEXT.replace(b"\n", b"\r"),
+    b"\xef\xbb\xbf" + VISIT_TEXT + b"\n\n",
+    b"Tour :  Visit\n" + b"\n".join(g.encode() for g in VARIANT_GOALS),
+]
+
+
+def test_a_remote_tour_in_a_tolerated_form_is_stored_canonically_and_compares_equal(store, faculty,
+                                                                                     tmp_path) -> None:
+    sloppy = remote("visit.tour", VARIANT_GOALS, T0, name=" Visit ")
+    assert store.receive(sloppy).status == "accepted"
+    assert (tmp_path / "tours" / "visit.tour").read_bytes() == VISIT_TEXT
+    other = open_store(tmp_path / "other", faculty, robot="Kbot", seed_dir=TOURS)
+    assert other.receive(remote("visit.tour", VISIT, T0, uid="Kbot/tour/canonical")).status == "accepted"
+    assert other.get("visit.tour") == store.get("visit.tour")                # same record, same digest
+    assert other.get("visit.tour").key == store.get("visit.tour").key
+    assert (tmp_path / "other" / "visit.tour").read_bytes() == VISIT_TEXT
+    # either form arriving again is the record held: nothing written, nothing re-sent
+    assert store.receive(remote("visit.tour", VISIT, T0, uid="Kbot/tour/again")).status == "duplicate"
+    assert other.receive(replace(sloppy, uid="Kbot/tour/sloppy-again")).status == "duplicate"
+    assert store.peer_index("Kbot", other.index(), 0.0) == [] and other.peer_index("Galtxagorri", store.index(),
+                                                                                     0.0) == []
+    other.close()
+
+
+def test_a_hand_written_tour_reaches_another_robot_as_the_same_bytes(tmp_path, faculty, clock) -> None:
+    """The file says "Tour: Open day" (the name its file name gives anyway) with Windows line endings;
+    the message carries the display name: both robots must hold one record, byte for byte."""
+    d = tmp_path / "tours"
+    d.mkdir()
+    (d / "open_day.tour").write_bytes(b"Tour: Open day\r\n0, 014, Lab\r\n\r\n")
+    here = open_store(d, faculty, clock=clock)
+    there = open_store(tmp_path / "kbot", faculty, robot="Kbot", clock=clock)
+    assert there.receive(here.outgoing(here.get("open_day.tour"))).status == "accepted"
+    assert there.get("open_day.tour") == here.get("open_day.tour")
+    assert (tmp_path / "kbot" / "open_day.tour").read_bytes() == (d / "open_day.tour").read_bytes() == \
+        b"Tour\n0, 014, Lab\n"
+    here.close()
+    there.close()
+
+
+@pytest.mark.parametrize("variant", range(len(VARIANTS)))
+def test_tour_files_in_tolerated_forms_are_adopted_and_rewritten_canonically(tmp_path, faculty, clock,
+                                                                             variant) -> None:
+    d = tmp_path / "tours"
+    d.mkdir()
+    (d / "visit.tour").write_bytes(VARIANTS[variant])
+    s = open_store(d, faculty, clock=clock)
+    assert [r.file_name for r in s.catalog()] == ["visit.tour"]
+    assert (d / "visit.tour").read_bytes() == VISIT_TEXT
+    s.close()
+
+
+def test_a_seed_in_a_tolerated_form_is_seeded_canonically(tmp_path, faculty, clock) -> None:
+    seeds = tmp_path / "seeds"
+    seeds.mkdir()
+    (seeds / "visit.tour").write_bytes(VARIANTS[0])
+    stores = [open_store(tmp_path / r, faculty, robot=r, clock=clock, seed_dir=seeds) for r in ("Kbot", "Tartalo")]
+    assert [(tmp_path / r / "visit.tour").read_bytes() for r in ("Kbot", "Tartalo")] == [VISIT_TEXT] * 2
+    assert stores[0].get("visit.tour") == stores[1].get("visit.tour")
+    for st in stores:
+        st.close()
+
+
+def test_the_same_tour_rewritten_by_hand_in_another_form_is_not_a_new_version(store, tmp_path, faculty, clock,
+                                                                              log) -> None:
+    rec = store.edit(tour_msg("visit.tour", VISIT))
+    store.close()
+    d = tmp_path / "tours"
+    (d / "visit.tour").write_bytes(VARIANTS[0])                # opened and saved on Windows
+    clock.advance(100)
+    again = open_store(d, faculty, clock=clock, log=log, seed_dir=TOURS)
+    assert again.get("visit.tour") == rec                        # no new version to share
+    assert (d / "visit.tour").read_bytes() == VISIT_TEXT
+    assert "rewritten in the canonical form" in log.text("info")
+    again.close()
+
+
 # ---------------------------------------------------------------- hostile and malformed remote tours
 TEN_MB = "x" * (10 * 1024 * 1024)
 HOSTILE = [
@@ -249,6 +330,25 @@ def test_hostile_remote_tours_are_rejected_and_touch_nothing(store, tmp_path, lo
     assert len(log.text()) < 20000               # a 10 MB value is never echoed into the log
 
 
+def test_rejected_stale_and_duplicate_messages_write_nothing(store, monkeypatch) -> None:
+    """Only an accepted record writes: a rejected, stale or duplicate one costs no write, not even a
+    rewrite of the metadata with the same bytes (which a byte-for-byte comparison would not see)."""
+    store.receive(remote("visit.tour", VISIT, T0 + 10))
+    writes: list[str] = []
+    for op in ("create", "replace", "remove", "write_atomic"):
+        real = getattr(SafeDir, op)
+        monkeypatch.setattr(SafeDir, op, lambda self, name, *a, _op=op, _real=real: (writes.append(f"{_op} {name}"),
+                                                                                   _real(self, name, *a))[1])
+    for _, msg, _ in HOSTILE:
+        assert store.receive(msg).status == "rejected"
+    assert store.receive(remote("visit.tour", VISIT, T0 + 5)).status == "stale"
+    assert store.receive(remote("visit.tour", VISIT, T0 + 10, uid="Kbot/tour/dup")).status == "duplicate"
+    assert store.peer_index("Kbot", [], 0.0) and not store.step()
+    assert writes == []
+    assert store.receive(remote("visit.tour", VISIT[:1], T0 + 20)).status == "accepted"
+    assert writes == ["write_atomic .gidabot-tours.json", "replace visit.tour", "write_atomic .gidabot-tours.json"]
+
+
 def test_rejection_logs_are_rate_limited(store, log, clock) -> None:
     for _ in range(50):
         store.receive(remote("real_world.tour", ["0, 014"], T0))
@@ -260,7 +360,7 @@ def test_rejection_logs_are_rate_limited(store, log, clock) -> None:
 
 
 def test_tour_limit(faculty, tmp_path) -> None:
-    s = open_store(tmp_path / "t", faculty, limits=Limits(max_tours=2))
+    s = open_store(tmp_path / "t", faculty, limits=StoreLimits(max_tours=2))
     assert s.receive(remote("a.tour", VISIT, T0)).status == "accepted"
     assert s.receive(remote("b.tour", VISIT, T0)).status == "accepted"
     assert s.receive(remote("c.tour", VISIT, T0)).reason == "limit"
@@ -416,7 +516,7 @@ def test_corrupt_metadata_is_moved_aside_and_tours_kept(store, tmp_path, faculty
 
 
 def test_tombstones_are_pruned_after_the_ttl(faculty, tmp_path, clock) -> None:
-    s = open_store(tmp_path / "t", faculty, clock=clock, seed_dir=TOURS, limits=Limits(tombstone_ttl_ns=10 * NS))
+    s = open_store(tmp_path / "t", faculty, clock=clock, seed_dir=TOURS, limits=StoreLimits(tombstone_ttl_ns=10 * NS))
     s.edit(tour_msg("long_tour.tour", [], deleted=True))
     clock.advance(5)
     assert s.step() is False and s.get("long_tour.tour").deleted

@@ -23,6 +23,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 # gidabot bench <name>
 BENCHES: dict[str, tuple[str, str]] = {
     "demo": ("gidabot_sim.bench.demo", "the Table 2 tour at 10x, 20x, 50x and max: times, rates, tables, judged"),
+    "flood": ("gidabot_sim.bench.flood", "a valid request answered under 1000 invalid messages/s per master"),
     "relay": ("gidabot_sim.bench.relay", "relay latency vs direct, and 4/8-robot meshes"),
     "sim": ("gidabot_sim.bench.sim", "planner time per floor and simulator real-time factor"),
 }

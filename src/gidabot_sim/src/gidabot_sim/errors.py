@@ -30,9 +30,29 @@ class ObstacleRejected(SimError):
     """A run-time obstacle command is invalid (bad id, shape, size, action, or it overlaps a robot)."""
 
 
-class GoalRejected(SimError):
-    """A navigation goal is invalid (not finite, invalid quaternion, wrong frame)."""
+class NavGoalRejected(SimError):
+    """A navigation goal (of the move_base stand-in) is invalid (not finite, invalid quaternion, wrong frame)."""
 
 
 class StepDoneRejected(SimError):
     """A lockstep participant's answer (gidabot_msgs/StepDone) is malformed, or one participant too many."""
+
+
+class ProcessError(SimError):
+    """A managed process could not be started or stopped, or a wait timed out."""
+
+
+class DemoError(SimError):
+    """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
+
+
+class ChaosError(DemoError):
+    """The chaos run cannot go on (a probe died, the building did not come up)."""
+
+
+class FaultError(SimError):
+    """A fault could not be injected or cleared."""
+
+
+class ReportError(SimError):
+    """A run folder cannot be reported on (missing files, unreadable bags)."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gidabot_sim.bench.demo import max_delta_pct, summarise, verdicts
+from gidabot_sim.bench.demo import format_markdown, max_delta_pct, summarise, verdicts
 
 ROBOTS = ["A", "B"]
 
@@ -34,3 +34,13 @@ def test_the_verdicts_name_every_missed_target() -> None:
                       "max: Table 5 differs by 5.0 % from the 10x run (target <= 3 %)", "max: 48.4x (target >= 50x)"]
     runs[1]["wall_s"] = 31.0
     assert verdicts(runs[:2]) == ["50x: the tour took 31.0 s of wall time (target <= 30 s)"]
+
+
+def test_the_markdown_table_has_one_row_per_run_and_the_verdict() -> None:
+    ten = _report((200.0, 300.0), (7, 8), 150.0)
+    runs = [summarise(ten, 10.0, ROBOTS, None), summarise(_report((200.0, 303.0), (7, 8), 29.0), 50.0, ROBOTS, ten)]
+    text = format_markdown({"seed": 1, "tour": "t.tour", "robots": ROBOTS, "runs": runs, "missed": ["x"],
+                            "pass": False})
+    rows = [line for line in text.splitlines() if line.startswith(("| 10x", "| 50x"))]
+    assert len(rows) == 2 and "| 29.0 |" in rows[1] and "| 1.00 % |" in rows[1] and "| 7, 8 |" in rows[1]
+    assert text.endswith("FAIL: x")

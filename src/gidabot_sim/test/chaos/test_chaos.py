@@ -8,8 +8,11 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import Node, Phase, global_name, relay_end_name
 from gidabot_sim.chaos import core as cc
+
+# callers as the probes record them
+GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
 
 
 def test_every_hostile_template_builds_a_message() -> None:
@@ -42,18 +45,18 @@ def test_tour_watch_follows_the_tours_own_events_only() -> None:
     from gidabot_sim.chaos.chaos import TourWatch
 
     w = TourWatch("t.tour", last_step=1, robots={"Tartalo", "Kbot"})
-    ev = {"k": "event", "m": "Tartalo", "robot": "Tartalo", "c": "/multirobot_navigation", "tour_file": "t.tour"}
-    w.feed([{"k": "goal", "m": "Tartalo", "origin": "Tartalo", "c": "/goal_manager", "uid": "T/v/1",
+    ev = {"k": "event", "m": "Tartalo", "robot": "Tartalo", "c": NAV, "tour_file": "t.tour"}
+    w.feed([{"k": "goal", "m": "Tartalo", "origin": "Tartalo", "c": GM, "uid": "T/v/1",
              "tour_file": "t.tour"},
-            {**ev, "phase": gt.TOUR_STEP_DONE, "tour_step": 0},
-            {**ev, "phase": gt.UNREACHABLE, "tour_file": "other.tour"},                  # another visit
-            {**ev, "c": "/chaos_probe", "phase": gt.TOUR_FINISHED, "tour_step": 1},      # hostile
-            {**ev, "m": "Kbot", "c": "/gidabot_relay_Tartalo_Kbot", "phase": gt.TOUR_FINISHED, "tour_step": 1}])
+            {**ev, "phase": Phase.TOUR_STEP_DONE, "tour_step": 0},
+            {**ev, "phase": Phase.UNREACHABLE, "tour_file": "other.tour"},                  # another visit
+            {**ev, "c": PROBE, "phase": Phase.TOUR_FINISHED, "tour_step": 1},      # hostile
+            {**ev, "m": "Kbot", "c": relay_end_name("Tartalo", "Kbot"), "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
     assert w.goals == {"T/v/1"} and w.last_step_done == 0 and not w.finished and not w.failure
-    w.feed([{**ev, "robot": "Kbot", "m": "Kbot", "phase": gt.TOUR_FINISHED, "tour_step": 1}])
+    w.feed([{**ev, "robot": "Kbot", "m": "Kbot", "phase": Phase.TOUR_FINISHED, "tour_step": 1}])
     assert w.finished and w.latest == "step 2 done at Kbot"
     w2 = TourWatch("t.tour", 1, {"Tartalo"})
-    w2.feed([{**ev, "phase": gt.TIMEOUT, "goal_uid": "T/v/1", "detail": "nobody came"}])
+    w2.feed([{**ev, "phase": Phase.TIMEOUT, "goal_uid": "T/v/1", "detail": "nobody came"}])
     assert "phase 10" in w2.failure
 
 

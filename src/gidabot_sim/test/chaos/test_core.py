@@ -8,9 +8,12 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import Node, Phase, global_name, relay_end_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_sim.chaos import core as cc
+
+# callers as the probes record them
+GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -54,13 +57,13 @@ def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
 
 
 def _goal(m: str, uid: str, origin: str, a: float, b: float, caller: str = "", w: float = 0.0) -> dict:
-    return {"k": "goal", "m": m, "c": caller or ("/goal_manager" if m == origin else f"/gidabot_relay_{origin}_{m}"),
+    return {"k": "goal", "m": m, "c": caller or (GM if m == origin else relay_end_name(origin, m)),
             "w": w, "uid": uid, "origin": origin, "initial_floor": a, "goal_floor": b, "goal_id": "x",
             "tour_step": 0}
 
 
 def _ev(m: str, robot: str, goal: str, phase: int, uid: str, w: float = 0.0) -> dict:
-    caller = "/multirobot_navigation" if m == robot else f"/gidabot_relay_{robot}_{m}"
+    caller = NAV if m == robot else relay_end_name(robot, m)
     return {"k": "event", "m": m, "c": caller, "w": w, "uid": uid, "robot": robot, "goal_uid": goal, "phase": phase}
 
 
@@ -75,27 +78,27 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     recs: list[dict] = []
     # g1: Tartalo 0 -> Kbot 1, both accept, Kbot completes
     recs += _everywhere(_goal, "T/v/1", "Tartalo", 0.0, 1.0)
-    recs += _everywhere(_ev, "Tartalo", "T/v/1", gt.ACCEPTED, "T/e/1")
-    recs += _everywhere(_ev, "Kbot", "T/v/1", gt.ACCEPTED, "K/e/1")
-    recs += _everywhere(_ev, "Tartalo", "T/v/1", gt.GO_TO_FLOOR, "T/e/2")
-    recs += _everywhere(_ev, "Kbot", "T/v/1", gt.TOUR_STEP_DONE, "K/e/2")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.ACCEPTED, "T/e/1")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.ACCEPTED, "K/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.GO_TO_FLOOR, "T/e/2")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.TOUR_STEP_DONE, "K/e/2")
     # g2: accepted only by Tartalo, never completed -> lost; delivered twice on Kbot's master -> duplicated
     recs += _everywhere(_goal, "T/v/2", "Tartalo", 0.0, 1.0)
     recs.append(_goal("Kbot", "T/v/2", "Tartalo", 0.0, 1.0))
-    recs += _everywhere(_ev, "Tartalo", "T/v/2", gt.ACCEPTED, "T/e/3")
+    recs += _everywhere(_ev, "Tartalo", "T/v/2", Phase.ACCEPTED, "T/e/3")
     # g3: cancelled: not lost, not in Table 3
     recs += _everywhere(_goal, "K/v/3", "Kbot", 1.0, 1.0)
-    recs += [{"k": "cancel", "m": m, "c": "/goal_manager", "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
+    recs += [{"k": "cancel", "m": m, "c": GM, "uid": "K/c/1", "goal_uid": "K/v/3", "origin": "Kbot",
               "reason": "visitor"} for m in ROBOTS]
     # g4: Kbot processed it twice (two ACCEPTED with different uids)
     recs += _everywhere(_goal, "K/v/4", "Kbot", 1.0, 1.0)
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.ACCEPTED, "K/e/4")
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.ACCEPTED, "K/e/5")
-    recs += _everywhere(_ev, "Kbot", "K/v/4", gt.GOAL_REACHED, "K/e/6")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.ACCEPTED, "K/e/4")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.ACCEPTED, "K/e/5")
+    recs += _everywhere(_ev, "Kbot", "K/v/4", Phase.GOAL_REACHED, "K/e/6")
     # hostile input: a goal from the probe and an event claiming to be a robot's, from a probe
-    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller="/chaos_probe"))
-    recs.append({"k": "event", "m": "Kbot", "c": "/chaos_probe", "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
-                 "phase": gt.GOAL_REACHED})
+    recs.append(_goal("Kbot", "Ghost/v/1", "Ghost", 0.0, 1.0, caller=PROBE))
+    recs.append({"k": "event", "m": "Kbot", "c": PROBE, "uid": "x", "robot": "Kbot", "goal_uid": "T/v/2",
+                 "phase": Phase.GOAL_REACHED})
     book = cc.Bookkeeping(faculty, recs)
     fates = book.fates()
     assert set(fates) == {"T/v/1", "T/v/2", "K/v/3", "K/v/4"}
@@ -110,9 +113,11 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
 
 
 def test_partner_notices_must_be_answered(faculty) -> None:
-    recs = [_ev("Kbot", "Kbot", "g", gt.PARTNER_LOST, "a", 1.0), _ev("Kbot", "Kbot", "g", gt.PARTNER_BACK, "b", 2.0),
-            _ev("Kbot", "Kbot", "h", gt.PARTNER_LOST, "c", 3.0), _ev("Kbot", "Kbot", "h", gt.GOAL_REACHED, "d", 4.0),
-            _ev("Kbot", "Kbot", "i", gt.PARTNER_LOST, "e", 5.0)]
+    recs = [_ev("Kbot", "Kbot", "g", Phase.PARTNER_LOST, "a", 1.0),
+            _ev("Kbot", "Kbot", "g", Phase.PARTNER_BACK, "b", 2.0),
+            _ev("Kbot", "Kbot", "h", Phase.PARTNER_LOST, "c", 3.0),
+            _ev("Kbot", "Kbot", "h", Phase.GOAL_REACHED, "d", 4.0),
+            _ev("Kbot", "Kbot", "i", Phase.PARTNER_LOST, "e", 5.0)]
     assert cc.Bookkeeping(faculty, recs).partner_notices() == (3, 2, ["Kbot i"])
 
 

@@ -58,7 +58,8 @@ def test_proc_labels() -> None:
         return br.ProcInfo(1, 0, 1, 0, 0.0, argv)
 
     assert info("/usr/bin/python3", "/x/nodes/sim", "__name:=sim", "__log:=/l").label == "sim"
-    assert info("/v/bin/python3", "/x/nodes/relay_end", "--robot_a", "A").label == "relay_end"
+    assert info("/v/bin/python3", "/x/lib/gidabot_sim/monitor", "_out:=/m").label == "monitor"
+    assert info("/v/bin/python3", "-m", "gidabot_navigation.relay.end_node", "--robot_a", "A").label == "end_node"
     assert info("/usr/bin/python3", "/usr/bin/rosmaster", "--core", "-p", "1").label == "rosmaster"
     assert info("/v/bin/python", "-m", "gidabot_sim.cli", "demo").label == "cli"
     assert info("/usr/lib/rosbag/record", "--quiet", "-O", "x.bag").label == "record"

@@ -13,7 +13,7 @@ from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.planning import Circle, Rectangle
 from gidabot_navigation.errors import PlanningError
 from gidabot_sim.bench.closed_loop import FloorLoop
-from gidabot_sim.errors import GoalRejected
+from gidabot_sim.errors import NavGoalRejected
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.world.kinematics import Limits
 
@@ -185,7 +185,7 @@ def test_no_pose_aborts_and_bad_goals_are_rejected(faculty) -> None:
         t = round(t + 0.1, 3)
     result = core.step(15.1)
     assert result.outcome == ABORTED and "No robot pose" in result.text
-    with pytest.raises(GoalRejected, match="not finite"):
+    with pytest.raises(NavGoalRejected, match="not finite"):
         core.set_goal(Pose2D(math.nan, 12.0, 0.0), 20.0)
     with pytest.raises(Exception, match="controller_frequency"):
         NavConfig(controller_frequency=0.0)

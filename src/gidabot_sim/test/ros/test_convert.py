@@ -16,7 +16,8 @@ from gidabot_msgs.msg import Obstacle
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.occupancy import load_map
 from gidabot_navigation.building.planning import Circle, Rectangle
-from gidabot_sim.errors import GoalRejected, PoseRejected
+from gidabot_navigation.interface import Topic
+from gidabot_sim.errors import NavGoalRejected, PoseRejected
 from gidabot_sim.ros import convert as ru
 from gidabot_sim.world.world import obstacle_shape
 
@@ -63,12 +64,12 @@ def test_poses_and_quaternions_are_checked() -> None:
         bad = Pose()
         bad.orientation = q
         with pytest.raises(PoseRejected, match=text):
-            ru.pose2d_of(bad, "initialpose")
+            ru.pose2d_of(bad, Topic.INITIALPOSE)
     msg.header.frame_id = "odom"
     with pytest.raises(PoseRejected, match="not the map frame"):
         ru.initialpose_to_pose2d(msg)
     msg.pose.pose.position.x = math.inf
-    with pytest.raises(GoalRejected, match="not finite"):
+    with pytest.raises(NavGoalRejected, match="not finite"):
         ru.goal_to_pose2d("map", msg.pose.pose)
 
 
@@ -80,5 +81,5 @@ def test_obstacles_round_trip_and_rejections_are_counted() -> None:
     lines: list[str] = []
     log = ru.CountingLog(lines.append, first=2, every=5)
     for k in range(10):
-        log.reject("cmd_vel", f"bad {k}")
-    assert log.counts == {"cmd_vel": 10} and len(lines) == 4 and lines[-1].startswith("rejected cmd_vel (#10)")
+        log.reject(Topic.CMD_VEL, f"bad {k}")
+    assert log.counts == {Topic.CMD_VEL: 10} and len(lines) == 4 and lines[-1].startswith("rejected cmd_vel (#10)")

@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+from gidabot_sim.errors import ProcessError
 from gidabot_sim.runner import procs
 
 # a session whose pid-derived start is network N (os.getpid replaced before the pick)
@@ -51,5 +52,5 @@ def test_a_network_with_a_bound_address_is_skipped(fresh, monkeypatch) -> None:
 
 def test_an_explicit_network_is_checked(monkeypatch) -> None:
     monkeypatch.setenv("GIDABOT_TEST_NET", "300")
-    with pytest.raises(procs.ProcessError, match="GIDABOT_TEST_NET"):
+    with pytest.raises(ProcessError, match="GIDABOT_TEST_NET"):
         procs.test_network()

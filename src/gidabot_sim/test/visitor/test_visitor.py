@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import Cmd, Phase
 from gidabot_sim.visitor import visitor as v
 
 
@@ -14,7 +14,7 @@ def test_only_start_floor_starts_the_tour() -> None:
     t0 = v.VisitorCore(cfg("Tartalo", 0, tour_file="real_world.tour"))
     t3 = v.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour"))
     [cmd] = t0.start(0.0)
-    assert cmd.command == gt.START_TOUR and cmd.tour_file == "real_world.tour" and cmd.way == "stairs"
+    assert cmd.command == Cmd.START_TOUR and cmd.tour_file == "real_world.tour" and cmd.way == "stairs"
     assert t3.start(0.0) == [] and not t3.present
     assert t0.start(1.0) == []  # once
 
@@ -22,60 +22,60 @@ def test_only_start_floor_starts_the_tour() -> None:
 def test_single_target_request() -> None:
     core = v.VisitorCore(cfg("Tartalo", 0, goal_id="014", way="lift", language="eu"))
     [cmd] = core.start(0.0)
-    assert (cmd.command, cmd.goal_id, cmd.way, cmd.language) == (gt.REQUEST, "014", "lift", "eu")
-    core.on_event(50.0, "e1", "Tartalo", gt.GOAL_REACHED, "g1", 0, 0)
+    assert (cmd.command, cmd.goal_id, cmd.way, cmd.language) == (Cmd.REQUEST, "014", "lift", "eu")
+    core.on_event(50.0, "e1", "Tartalo", Phase.GOAL_REACHED, "g1", 0, 0)
     assert core.finished and core.outcome == "goal reached"
 
 
 def test_cross_floor_walk_then_continue() -> None:
     up = v.VisitorCore(cfg("MariSorgin", 3, stairs_s_per_floor=20.0, think_s=2.0))
     # the robot up there arrives first and waits
-    up.on_event(10.0, "e1", "MariSorgin", gt.WAITING_VISITOR, "g1", 3, 3)
+    up.on_event(10.0, "e1", "MariSorgin", Phase.WAITING_VISITOR, "g1", 3, 3)
     assert up.step(10.0) == []
     # the start robot sends the visitor up three floors at t = 12
-    up.on_event(12.0, "e2", "Tartalo", gt.GO_TO_FLOOR, "g1", 0, 3)
+    up.on_event(12.0, "e2", "Tartalo", Phase.GO_TO_FLOOR, "g1", 0, 3)
     assert up.step(71.0) == []            # 12 + 60 s of stairs not over yet
     assert up.step(72.0) == []            # arrived: Continue after thinking
     [cmd] = up.step(74.0)
-    assert (cmd.command, cmd.goal_uid) == (gt.CONTINUE, "g1") and up.present
+    assert (cmd.command, cmd.goal_uid) == (Cmd.CONTINUE, "g1") and up.present
 
 
 def test_visitor_late_robot_later() -> None:
     core = v.VisitorCore(cfg("Kbot", 1, way="lift", lift_wait_s=25, lift_s_per_floor=5, think_s=0))
-    core.on_event(0.0, "e1", "Tartalo", gt.GO_TO_FLOOR, "g", 0, 1)      # arrives at 30
-    core.on_event(40.0, "e2", "Kbot", gt.WAITING_VISITOR, "g", 1, 1)    # robot gets there at 40
+    core.on_event(0.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 1)      # arrives at 30
+    core.on_event(40.0, "e2", "Kbot", Phase.WAITING_VISITOR, "g", 1, 1)    # robot gets there at 40
     [cmd] = core.step(40.0)
-    assert cmd.command == gt.CONTINUE
+    assert cmd.command == Cmd.CONTINUE
 
 
 def test_leaving_and_duplicates() -> None:
     core = v.VisitorCore(cfg("Tartalo", 0))
     assert core.present
-    core.on_event(5.0, "e1", "Tartalo", gt.GO_TO_FLOOR, "g", 0, 2)
+    core.on_event(5.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 2)
     assert not core.present
-    core.on_event(5.0, "e2", "Galtxagorri", gt.WAITING_VISITOR, "g", 2, 2)  # another floor's robot
+    core.on_event(5.0, "e2", "Galtxagorri", Phase.WAITING_VISITOR, "g", 2, 2)  # another floor's robot
     assert core.step(1000.0) == []
     other = v.VisitorCore(cfg("Galtxagorri", 2, think_s=0))
     for _ in range(2):  # a duplicated event is handled once
-        other.on_event(5.0, "e1", "Tartalo", gt.GO_TO_FLOOR, "g", 0, 2)
-        other.on_event(6.0, "e3", "Galtxagorri", gt.WAITING_VISITOR, "g", 2, 2)
+        other.on_event(5.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 2)
+        other.on_event(6.0, "e3", "Galtxagorri", Phase.WAITING_VISITOR, "g", 2, 2)
     assert len(other.step(100.0)) == 1
 
 
 def test_tour_steps_continue_and_skip() -> None:
     core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", skips=((3, 5),), think_s=1.0))
-    core.on_event(10.0, "a", "Kbot", gt.TOUR_STEP_DONE, "g2", 1, 1, tour_step=2)
+    core.on_event(10.0, "a", "Kbot", Phase.TOUR_STEP_DONE, "g2", 1, 1, tour_step=2)
     [cmd] = core.step(11.0)
-    assert cmd.command == gt.CONTINUE and cmd.tour_file == "t.tour"
-    core.on_event(20.0, "b", "Kbot", gt.TOUR_STEP_DONE, "g3", 1, 1, tour_step=3)
+    assert cmd.command == Cmd.CONTINUE and cmd.tour_file == "t.tour"
+    core.on_event(20.0, "b", "Kbot", Phase.TOUR_STEP_DONE, "g3", 1, 1, tour_step=3)
     [cmd] = core.step(21.0)
-    assert (cmd.command, cmd.tour_step) == (gt.SKIP, 5)
-    core.on_event(30.0, "c", "Kbot", gt.TOUR_FINISHED, "g5", 1, 1, tour_step=5, tour_file="t.tour")
+    assert (cmd.command, cmd.tour_step) == (Cmd.SKIP, 5)
+    core.on_event(30.0, "c", "Kbot", Phase.TOUR_FINISHED, "g5", 1, 1, tour_step=5, tour_file="t.tour")
     assert core.finished and core.outcome == "tour finished"
 
 
 def test_failures_end_the_visit() -> None:
-    for phase in (gt.UNREACHABLE, gt.TIMEOUT, gt.CANCELLED_ELSEWHERE, gt.PARTNER_OFFLINE):
+    for phase in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.CANCELLED_ELSEWHERE, Phase.PARTNER_OFFLINE):
         core = v.VisitorCore(cfg("Kbot", 1))
         core.on_event(1.0, "x", "Tartalo", phase, "g", 0, 1)
         assert core.finished
@@ -89,48 +89,48 @@ def test_walk_time() -> None:
 
 def test_arriving_on_another_floor_never_restarts_the_tour() -> None:
     up = v.VisitorCore(cfg("MariSorgin", 3, tour_file="long_tour.tour", think_s=0.0))
-    up.on_event(10.0, "e1", "Tartalo", gt.GO_TO_FLOOR, "g2", 0, 3)
-    up.on_event(20.0, "e2", "MariSorgin", gt.WAITING_VISITOR, "g2", 3, 3)
+    up.on_event(10.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g2", 0, 3)
+    up.on_event(20.0, "e2", "MariSorgin", Phase.WAITING_VISITOR, "g2", 3, 3)
     [cmd] = up.step(70.0)
-    assert cmd.command == gt.CONTINUE and up.present
-    up.on_event(90.0, "e3", "MariSorgin", gt.TOUR_STEP_DONE, "g2", 3, 3, tour_step=1)
+    assert cmd.command == Cmd.CONTINUE and up.present
+    up.on_event(90.0, "e3", "MariSorgin", Phase.TOUR_STEP_DONE, "g2", 3, 3, tour_step=1)
     assert up.present
     assert up.start(91.0) == []                       # present, but not the start floor
-    assert [c.command for c in up.step(91.0)] == [gt.CONTINUE]
+    assert [c.command for c in up.step(91.0)] == [Cmd.CONTINUE]
 
 
 def test_answers_to_other_commands_do_not_end_the_visit() -> None:
     core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour"))
     # somebody typed an unknown room, or a hostile tour file name, at Kbot's screen
-    core.on_event(1.0, "r1", "Kbot", gt.REJECTED, "", 1, 1, tour_file="", location_id="999")
-    core.on_event(2.0, "r2", "Kbot", gt.REJECTED, "", 1, 1, tour_file="../x.tour")
-    core.on_event(3.0, "r3", "Tartalo", gt.UNREACHABLE, "Tartalo/x/1", 0, 1, tour_file="")
+    core.on_event(1.0, "r1", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="", location_id="999")
+    core.on_event(2.0, "r2", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="../x.tour")
+    core.on_event(3.0, "r3", "Tartalo", Phase.UNREACHABLE, "Tartalo/x/1", 0, 1, tour_file="")
     assert not core.finished
-    core.on_event(4.0, "r4", "Kbot", gt.REJECTED, "", 1, 1, tour_file="t.tour")     # our START_TOUR refused
+    core.on_event(4.0, "r4", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="t.tour")     # our START_TOUR refused
     assert core.finished
     single = v.VisitorCore(cfg("Tartalo", 0, goal_id="014"))
-    single.on_event(1.0, "s1", "Tartalo", gt.REJECTED, "", 0, 0, tour_file="", location_id="zzz")
+    single.on_event(1.0, "s1", "Tartalo", Phase.REJECTED, "", 0, 0, tour_file="", location_id="zzz")
     assert not single.finished
-    single.on_event(2.0, "s2", "Tartalo", gt.UNREACHABLE, "", 0, 0, tour_file="", location_id="014")
+    single.on_event(2.0, "s2", "Tartalo", Phase.UNREACHABLE, "", 0, 0, tour_file="", location_id="014")
     assert single.finished
 
 
 def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None:
     core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", retry_s=30.0, retry_for_s=100.0))
-    core.on_event(10.0, "p1", "Kbot", gt.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
+    core.on_event(10.0, "p1", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
     assert not core.finished and core.step(39.0) == []
     [cmd] = core.step(40.0)
-    assert (cmd.command, cmd.tour_file, cmd.tour_step) == (gt.SKIP, "t.tour", 4) and core.retries == 1
-    core.on_event(41.0, "p2", "Kbot", gt.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
-    core.on_event(42.0, "a1", "Kbot", gt.ACCEPTED, "Kbot/v/1", 1, 3, tour_step=4, tour_file="t.tour")
-    core.on_event(200.0, "p3", "Kbot", gt.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
+    assert (cmd.command, cmd.tour_file, cmd.tour_step) == (Cmd.SKIP, "t.tour", 4) and core.retries == 1
+    core.on_event(41.0, "p2", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
+    core.on_event(42.0, "a1", "Kbot", Phase.ACCEPTED, "Kbot/v/1", 1, 3, tour_step=4, tour_file="t.tour")
+    core.on_event(200.0, "p3", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
     assert not core.finished                          # the clock restarted at the accepted goal
-    core.on_event(301.0, "p4", "Kbot", gt.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
+    core.on_event(301.0, "p4", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
     assert core.finished and "gave up" in core.outcome
     start = v.VisitorCore(cfg("Tartalo", 0, tour_file="t.tour", retry_s=5.0))
-    start.on_event(1.0, "q", "Tartalo", gt.PARTNER_OFFLINE, "", 0, 1, tour_step=0, tour_file="t.tour")
-    assert [c.command for c in start.step(6.0)] == [gt.START_TOUR]
+    start.on_event(1.0, "q", "Tartalo", Phase.PARTNER_OFFLINE, "", 0, 1, tour_step=0, tour_file="t.tour")
+    assert [c.command for c in start.step(6.0)] == [Cmd.START_TOUR]
     # a partner that gave a trip up (with a goal) ends the visit
     gone = v.VisitorCore(cfg("Kbot", 1))
-    gone.on_event(1.0, "o", "Tartalo", gt.PARTNER_OFFLINE, "Tartalo/v/1", 0, 1)
+    gone.on_event(1.0, "o", "Tartalo", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 0, 1)
     assert gone.finished

@@ -26,7 +26,8 @@ from enum import Enum
 from gidabot_gui.core.model import TourInfo, clip
 from gidabot_gui.errors import GuiError
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import Cmd, CommandData, NavEventData, Phase
+from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.interface import Cmd, Phase
 
 REQUEST_TIMEOUT = 20.0   # s (wall) without any event for a request before "no answer"
 SEEN_UIDS = 2000         # event uids remembered for de-duplication

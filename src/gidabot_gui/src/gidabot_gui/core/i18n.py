@@ -21,9 +21,9 @@ from pathlib import Path
 import rospkg
 
 from gidabot_gui.errors import ConfigError
+from gidabot_navigation.interface import LANGUAGES
 
 DOMAIN = "gidabot_gui"
-LANGUAGES = ("eu", "en", "es")
 # Each language is offered under its own name (never translated).
 LANGUAGE_NAMES = {"eu": "Euskara", "en": "English", "es": "Español"}
 PACKAGE = "gidabot_gui"

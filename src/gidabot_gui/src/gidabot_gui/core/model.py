@@ -21,11 +21,6 @@ MAX_TEXT = 256          # longer strings from other nodes are cut (hostile or br
 OFFLINE_AFTER = 5.0     # s (wall) without a status before a robot is shown offline
 
 
-WAY_LIFT = "lift"
-WAY_STAIRS = "stairs"
-ROBOT_STATES = ("idle", "guiding", "to_meeting", "waiting", "returning", "error")
-
-
 def clip(text: object, limit: int = MAX_TEXT) -> str:
     """``text`` as a str of at most ``limit`` characters (control characters removed)."""
     s = text if isinstance(text, str) else str(text)

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gidabot_gui.core.model import WAY_LIFT, WAY_STAIRS, Fleet, TourInfo
+from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_navigation.building.model import Building
+from gidabot_navigation.interface import WAY_LIFT, WAY_STAIRS
 
 
 @dataclass(frozen=True)

@@ -14,10 +14,11 @@ from dataclasses import dataclass
 
 from gidabot_gui.core.flow import Notice
 from gidabot_gui.core.i18n import N_, Translator
-from gidabot_gui.core.model import WAY_LIFT, TourInfo, finite
+from gidabot_gui.core.model import TourInfo, finite
 from gidabot_gui.core.places import floor_name, place_name
 from gidabot_gui.core.plans import RequestPlan, RobotWait
 from gidabot_navigation.building.model import Building
+from gidabot_navigation.interface import WAY_LIFT
 
 
 @dataclass(frozen=True)

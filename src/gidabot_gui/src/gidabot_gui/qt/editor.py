@@ -16,12 +16,13 @@ from PyQt5.QtWidgets import (
 )
 
 from gidabot_gui.core.admin import TourDraft, floor_text, slug_file_name
-from gidabot_gui.core.i18n import LANGUAGE_NAMES, LANGUAGES, Translator
+from gidabot_gui.core.i18n import LANGUAGE_NAMES, Translator
 from gidabot_gui.core.places import find_locations
 from gidabot_gui.qt.pages import KEY, MAIN, RowDelegate, make_list, row
 from gidabot_gui.qt.theme import DANGER, MUTED, Theme, icon
 from gidabot_gui.qt.widgets import FitLabel, Keyboard, WrapButton
 from gidabot_navigation.building.model import Building, Location
+from gidabot_navigation.interface import LANGUAGES
 
 
 class _FocusWatch(QObject):

@@ -2,7 +2,8 @@
 
 Map metres -> blueprint pixels by the building's
 :class:`~gidabot_navigation.building.geometry.BlueprintTransform`; blueprint pixels ->
-widget pixels by :class:`ViewMapping` (the blueprint is scaled to fit, centred).
+widget pixels by :class:`ViewMapping` (the blueprint is scaled to fit, centred, and turned
+a quarter turn when that shows it much larger: a tall, narrow building on a wide screen).
 """
 
 from __future__ import annotations
@@ -11,31 +12,54 @@ import math
 from dataclasses import dataclass
 
 from PyQt5.QtCore import QPointF, QRectF, QSize, Qt, pyqtSignal
-from PyQt5.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainter, QPainterPath, QPen, QPixmap
+from PyQt5.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainter, QPainterPath, QPen, QPixmap, QTransform
 from PyQt5.QtWidgets import QSizePolicy, QWidget
 
 from gidabot_gui.qt.theme import ACCENT, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
 from gidabot_navigation.building.model import Floor
 
+TURN_GAIN = 1.5    # a blueprint is turned when that shows it at least this much larger
+
 
 @dataclass(frozen=True)
 class ViewMapping:
-    """Blueprint pixels <-> widget pixels: the image scaled by ``k`` and offset by (ox, oy)."""
+    """Blueprint pixels <-> widget pixels: the image scaled by ``k`` and offset by (ox, oy); ``turned``:
+    drawn a quarter turn counter-clockwise first (its top edge on the left, its text reading upwards),
+    ``image_w`` being its width in pixels."""
 
     k: float
     ox: float
     oy: float
+    turned: bool = False
+    image_w: int = 0
 
     @staticmethod
     def fit(image_w: int, image_h: int, widget_w: int, widget_h: int) -> ViewMapping:
-        k = min(widget_w / max(1, image_w), widget_h / max(1, image_h))
-        return ViewMapping(k, (widget_w - image_w * k) / 2.0, (widget_h - image_h * k) / 2.0)
+        """The largest fit, upright or turned (turned only when it is ``TURN_GAIN`` times larger)."""
+        iw, ih = max(1, image_w), max(1, image_h)
+        k = min(widget_w / iw, widget_h / ih)
+        k_turned = min(widget_w / ih, widget_h / iw)
+        if k_turned >= TURN_GAIN * k:
+            return ViewMapping(k_turned, (widget_w - ih * k_turned) / 2.0, (widget_h - iw * k_turned) / 2.0, True, iw)
+        return ViewMapping(k, (widget_w - iw * k) / 2.0, (widget_h - ih * k) / 2.0)
 
     def to_widget(self, u: float, v: float) -> tuple[float, float]:
+        if self.turned:
+            u, v = v, self.image_w - u
         return self.ox + u * self.k, self.oy + v * self.k
 
     def to_blueprint(self, x: float, y: float) -> tuple[float, float]:
-        return (x - self.ox) / self.k, (y - self.oy) / self.k
+        u, v = (x - self.ox) / self.k, (y - self.oy) / self.k
+        return (self.image_w - v, u) if self.turned else (u, v)
+
+    def angle(self, blueprint_angle: float) -> float:
+        """An angle on the blueprint (rad, counter-clockwise from +u, v up) as drawn in the widget."""
+        return blueprint_angle + (math.pi / 2 if self.turned else 0.0)
+
+    def size(self, image_w: int, image_h: int) -> tuple[float, float]:
+        """Width and height (widget px) the blueprint is drawn at."""
+        w, h = (image_h, image_w) if self.turned else (image_w, image_h)
+        return w * self.k, h * self.k
 
 
 @dataclass(frozen=True)
@@ -82,14 +106,19 @@ class FloorView(QWidget):
     def widget_to_blueprint(self, x: float, y: float) -> tuple[float, float]:
         return self.mapping().to_blueprint(x, y)
 
+    def _aspect(self) -> float:
+        """Height per width the blueprint wants: lying (turned when needed) on a wide screen."""
+        w, h = max(1, self.image.width()), max(1, self.image.height())
+        return min(w, h) / max(w, h)
+
     def sizeHint(self) -> QSize:  # noqa: N802 - Qt naming
-        return QSize(600, int(600 * self.image.height() / max(1, self.image.width())))
+        return QSize(600, int(600 * self._aspect()))
 
     def hasHeightForWidth(self) -> bool:  # noqa: N802 - Qt naming
         return True
 
     def heightForWidth(self, w: int) -> int:  # noqa: N802 - Qt naming
-        return int(w * self.image.height() / max(1, self.image.width()))
+        return int(w * self._aspect())
 
     # ------------------------------------------------------------------ state
     def set_robots(self, robots: list[RobotMark]) -> None:
@@ -144,9 +173,9 @@ class FloorView(QWidget):
         p.setRenderHint(QPainter.Antialiasing)
         m = self.mapping()
         if self._scaled is None and not self.image.isNull():
-            self._scaled = self.image.scaled(max(1, int(self.image.width() * m.k)),
-                                             max(1, int(self.image.height() * m.k)),
-                                             Qt.KeepAspectRatio, Qt.SmoothTransformation)
+            image = self.image.transformed(QTransform().rotate(-90)) if m.turned else self.image
+            w, h = m.size(self.image.width(), self.image.height())
+            self._scaled = image.scaled(max(1, int(w)), max(1, int(h)), Qt.KeepAspectRatio, Qt.SmoothTransformation)
         if self._scaled is not None:
             p.drawPixmap(int(m.ox), int(m.oy), self._scaled)
         scale_px = self.floor.transform.scale * m.k                   # widget px per metre
@@ -158,7 +187,7 @@ class FloorView(QWidget):
         if self.goal is not None:
             self._paint_goal(p, *self.map_to_widget(*self.goal))
         for r in sorted(self.robots, key=lambda r: r.here):           # this robot on top
-            self._paint_robot(p, r, scale_px)
+            self._paint_robot(p, r, scale_px, m)
         if self.setting_pose and self.press_px is not None:
             self._paint_pose(p, m)
         p.end()
@@ -177,7 +206,7 @@ class FloorView(QWidget):
         p.setPen(Qt.NoPen)
         p.drawEllipse(QPointF(wx, wy - s * 1.5), s * 0.28, s * 0.28)
 
-    def _paint_robot(self, p: QPainter, r: RobotMark, scale_px: float) -> None:
+    def _paint_robot(self, p: QPainter, r: RobotMark, scale_px: float, m: ViewMapping) -> None:
         wx, wy = self.map_to_widget(r.x, r.y)
         radius = max(11.0 * self.theme.scale, r.radius * scale_px)
         color = QColor(OFFLINE if r.offline else ACCENT if r.here else OTHER_ROBOT)
@@ -190,7 +219,7 @@ class FloorView(QWidget):
         p.setPen(QPen(QColor("#FFFFFF"), 2.5))
         p.setBrush(QBrush(color))
         p.drawEllipse(QPointF(wx, wy), radius, radius)
-        angle = self.floor.transform.yaw_to_pixel_angle(r.yaw)
+        angle = m.angle(self.floor.transform.yaw_to_pixel_angle(r.yaw))
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(QColor("#FFFFFF")))
         p.drawPolygon(heading_polygon(wx, wy, radius, angle))

@@ -13,14 +13,13 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from gidabot_gui.core.flow import Mode, Notice, VisitorFlow
-from gidabot_gui.core.i18n import LANGUAGES
-from gidabot_gui.core.model import WAY_LIFT, WAY_STAIRS
 from gidabot_gui.core.places import nearest_place
 from gidabot_gui.core.plans import plan_request, tour_waits, tour_ways
 from gidabot_gui.errors import GuiError
 from gidabot_gui.qt.editor import SearchPanel
 from gidabot_gui.qt.overlay import Button, CardSpec
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.interface import LANGUAGES, WAY_LIFT, WAY_STAIRS
 
 if TYPE_CHECKING:
     from gidabot_gui.qt.window import MainWindow

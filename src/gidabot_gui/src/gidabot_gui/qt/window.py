@@ -39,7 +39,7 @@ from PyQt5.QtWidgets import (
 
 from gidabot_gui.core.admin import PasswordCheck
 from gidabot_gui.core.flow import Mode
-from gidabot_gui.core.i18n import LANGUAGE_NAMES, LANGUAGES, Translator
+from gidabot_gui.core.i18n import LANGUAGE_NAMES, Translator
 from gidabot_gui.core.inbox import Drained, Inbox
 from gidabot_gui.core.model import (
     EditResultData,
@@ -64,6 +64,7 @@ from gidabot_gui.qt.visitor import VisitorController
 from gidabot_gui.qt.widgets import FitLabel, WrapButton, equalize_fonts
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.interface import LANGUAGES
 
 STATE_COLORS = {"idle": "#2E7D32", "guiding": OTHER_ROBOT, "to_meeting": OTHER_ROBOT, "waiting": ACCENT,
                 "returning": OTHER_ROBOT, "error": DANGER}

@@ -20,9 +20,8 @@ import yaml
 from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
 from gidabot_navigation.building.occupancy import OccupancyMap, load_map
 from gidabot_navigation.errors import BuildingError, MapError, Problem
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, WAYS
 
-LANGUAGES = ("eu", "en", "es")
-CONNECTOR_KINDS = ("lift", "stairs")
 DRIVE_TYPES = ("differential", "synchro")
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
 FLOOR_TOLERANCE = 1e-3
@@ -43,6 +42,7 @@ class Floor:
     blueprint_file: Path
     transform: BlueprintTransform
     map: OccupancyMap = field(repr=False, compare=False)
+    blueprint_size: tuple[int, int] = (0, 0)   # pixels (width, height) of the blueprint image
 
     @property
     def label(self) -> str:
@@ -59,18 +59,19 @@ class Location:
     featured: bool = False
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)
 class Connector:
     id: str
-    kind: str                       # "lift" or "stairs"
+    kind: str                       # one of WAYS: "lift" or "stairs"
     names: dict[str, str]
     meeting: dict[float, Pose2D]    # floor id -> meeting pose on that floor
+    serves: tuple[float, ...]       # floor ids it serves (= the floors of its meeting poses)
 
     def name(self, language: str) -> str:
-        return self.names.get(language) or self.names["en"]
+        return self.names.get(language) or self.names[DEFAULT_LANGUAGE]
 
 
 @dataclass(frozen=True)
@@ -146,7 +147,7 @@ class Building:
         """Connectors of ``kind`` (any if None) that serve both floors."""
         fa, fb = self.floor(a).id, self.floor(b).id
         return [c for c in self.connectors
-                if fa in c.meeting and fb in c.meeting and (kind is None or c.kind == kind)]
+                if fa in c.serves and fb in c.serves and (kind is None or c.kind == kind)]
 
     def find_robot(self, name: str) -> Robot | None:
         return next((r for r in self.robots if r.name == name), None)
@@ -341,7 +342,31 @@ def load_building(path: str | Path) -> Building:
                     tuple(connectors), tuple(robots))
 
 
+def _image_size(chk: _Checker, path: Path, where: str) -> tuple[int, int] | None:
+    """(width, height) of the image at ``path`` once it decoded completely, else a problem."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        with Image.open(path) as img:
+            img.load()
+            return img.size
+    except (OSError, UnidentifiedImageError, ValueError) as err:
+        chk.problem(where, f"{path.name!r} is not a readable image (PNG, JPEG, PGM...): {err}")
+        return None
+
+
+def _on_blueprint(chk: _Checker, floor: Floor, pose: Pose2D, where: str) -> None:
+    """A problem if ``pose`` falls outside the floor's blueprint image (the GUI could not show it)."""
+    u, v = floor.transform.to_pixel(pose.x, pose.y)
+    w, h = floor.blueprint_size
+    if not (0 <= u < w and 0 <= v < h):
+        chk.problem(where, f"({pose.x:g}, {pose.y:g}) is at pixel ({u:.0f}, {v:.0f}) of the blueprint "
+                           f"{floor.blueprint_file.name}, outside its {w}x{h} pixels: check blueprint_transform "
+                           f"of floor {floor.label}")
+
+
 def _in_free_space(chk: _Checker, floor: Floor, pose: Pose2D, where: str, what: str) -> None:
+    _on_blueprint(chk, floor, pose, where)
     grid = floor.map
     if not grid.contains(pose.x, pose.y):
         w, h = grid.size_m
@@ -386,9 +411,11 @@ def _load_floors(chk: _Checker, value: object) -> list[Floor]:
                 grid = load_map(map_file)
             except MapError as err:
                 chk.problem(f"{where}.map", str(err))
-        if None in (fid, map_file, blueprint, transform, grid) or len(names) != len(LANGUAGES):
+        size = _image_size(chk, blueprint, f"{where}.blueprint") if blueprint is not None else None
+        if None in (fid, map_file, blueprint, transform, grid, size) or len(names) != len(LANGUAGES):
             continue
-        floors.append(Floor(fid, names, map_file, blueprint, transform, grid))  # type: ignore[arg-type]
+        floors.append(Floor(fid, names, map_file, blueprint, transform, grid,  # type: ignore[arg-type]
+                            blueprint_size=size))  # type: ignore[arg-type]
     if not floors and not chk.problems:
         chk.problem("floors", "a building needs at least one floor")
     return floors
@@ -455,8 +482,8 @@ def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
             chk.problem(f"{where}.id", f"duplicate id {cid!r} (connector ids must differ from every other id)")
             continue
         kind = doc["kind"]
-        if kind not in CONNECTOR_KINDS:
-            chk.problem(f"{where}.kind", f"{_show(kind)} is not one of {', '.join(CONNECTOR_KINDS)}")
+        if kind not in WAYS:
+            chk.problem(f"{where}.kind", f"{_show(kind)} is not one of {', '.join(WAYS)}")
         names = chk.names(doc["names"], f"{where}.names")
         meeting: dict[float, Pose2D] = {}
         for j, m in enumerate(chk.seq(doc["meeting"], f"{where}.meeting")):
@@ -473,21 +500,43 @@ def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
                 continue
             _in_free_space(chk, floor, pose, f"{mwhere}.pose", f"the meeting point of {cid}")
             meeting[floor.id] = pose
-        serves_raw = doc.get("serves")
-        serves = list(by_floor) if serves_raw is None else [
-            f.id for j, v in enumerate(chk.seq(serves_raw, f"{where}.serves"))
-            if (f := _floor_ref(chk, v, f"{where}.serves[{j}]", by_floor)) is not None]
-        for fid in serves:
-            if fid not in meeting:
-                chk.problem(f"{where}.meeting", f"connector {cid} serves floor {format_floor(fid)} "
-                                                "but has no meeting pose there")
-        if kind in CONNECTOR_KINDS and len(names) == len(LANGUAGES):
-            connectors.append(Connector(cid, str(kind), names, meeting))
+        serves = _serves(chk, doc.get("serves"), where, cid, meeting, by_floor)
+        if kind in WAYS and len(names) == len(LANGUAGES):
+            connectors.append(Connector(cid, str(kind), names, meeting, serves))
     if len(by_floor) > 1:
         for fid in by_floor:
-            if not any(fid in c.meeting for c in connectors):
+            if not any(fid in c.serves for c in connectors):
                 chk.problem("connectors", f"no lift or staircase reaches floor {format_floor(fid)}")
     return connectors
+
+
+def _serves(chk: _Checker, value: object, where: str, cid: str, meeting: dict[float, Pose2D],
+            by_floor: dict[float, Floor]) -> tuple[float, ...]:
+    """The floors a connector serves: ``serves`` (default every floor), which must be the floors of its
+    meeting poses exactly (a meeting pose elsewhere would offer the connector for trips it cannot make)."""
+    if value is None:
+        serves = list(by_floor)
+    else:
+        serves = []
+        for j, v in enumerate(chk.seq(value, f"{where}.serves")):
+            f = _floor_ref(chk, v, f"{where}.serves[{j}]", by_floor)
+            if f is not None and f.id in serves:
+                chk.problem(f"{where}.serves[{j}]", f"floor {f.label} is listed twice")
+            elif f is not None:
+                serves.append(f.id)
+        if isinstance(value, list) and len(value) < 2:
+            chk.problem(f"{where}.serves", f"{_show(value)}: a lift or staircase serves at least two floors")
+    for fid in serves:
+        if fid not in meeting:
+            chk.problem(f"{where}.meeting", f"connector {cid} serves floor {format_floor(fid)} "
+                                            "but has no meeting pose there")
+    for fid in meeting:
+        if fid not in serves:
+            chk.problem(f"{where}.meeting", f"connector {cid} has a meeting pose on floor {format_floor(fid)}, "
+                                            f"which it does not serve (serves: "
+                                            f"{', '.join(format_floor(f) for f in serves) or 'none'}); "
+                                            "remove the pose or add the floor to serves")
+    return tuple(sorted(serves))
 
 
 def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> list[Robot]:
@@ -536,22 +585,29 @@ def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> 
 
 
 def _master_uri(chk: _Checker, value: object, where: str) -> str | None:
+    """``http://<IPv4 address>:<port>/`` in canonical form, else a problem saying what is wrong."""
     text = chk.text(value, where)
     if text is None:
         return None
+    expected = "must be http://<IPv4 address>:<port>/ (IP addresses only: no host names, no multicast discovery)"
     parsed = urlparse(text)
     try:
         port = parsed.port
+        host = ipaddress.ip_address(parsed.hostname or "")
     except ValueError:
-        port = None
-    host = parsed.hostname or ""
-    try:
-        ipaddress.ip_address(host)
-        is_ip = True
-    except ValueError:
-        is_ip = False
-    if parsed.scheme != "http" or not is_ip or port is None or parsed.path not in ("", "/"):
-        chk.problem(where, f"{text!r} must be http://<IP address>:<port>/ "
-                           "(IP addresses only: no host names, no multicast discovery)")
+        chk.problem(where, f"{text!r} {expected}")
+        return None
+    if isinstance(host, ipaddress.IPv6Address):
+        chk.problem(where, f"{text!r}: IPv6 master URIs are not supported (the relays and the simulated "
+                           "building listen on IPv4, and ROS 1 needs ROS_IPV6=on on every node); use an IPv4 "
+                           "address")
+        return None
+    if parsed.scheme != "http" or port is None or parsed.path not in ("", "/") or parsed.query or \
+            parsed.fragment or parsed.username is not None:
+        chk.problem(where, f"{text!r} {expected}")
+        return None
+    if host.is_unspecified or host.is_multicast or host == ipaddress.IPv4Address("255.255.255.255") or port == 0:
+        chk.problem(where, f"{text!r}: {host}:{port} is not an address a node can connect to (unspecified, "
+                           "multicast, broadcast or port 0)")
         return None
     return f"http://{host}:{port}/"

@@ -390,27 +390,55 @@ class GridPlanner:
         best = int(np.argmin((rr - row) ** 2 + (cc - col) ** 2))
         return int(rr[best]), int(cc[best])
 
-    def plan(self, start_xy: tuple[float, float], goal_xy: tuple[float, float]) -> Path:
-        """Plan from ``start_xy`` to ``goal_xy`` (map metres); raises :class:`PlanningError` with the reason."""
+    def _start_labels(self, start: tuple[int, int]) -> tuple[set[int], np.ndarray]:
+        """Components the robot at ``start`` can enter, and the weights to search with: from inside the
+        inscribed zone it escapes through its own footprint (as move_base clears the robot's footprint)."""
+        weights = self._weights
+        labels = self._components()
+        if np.isfinite(weights[start]):
+            return {int(labels[start])}, weights
+        weights = weights.copy()
+        box, disc = self._disc(*start, self.robot_radius + self.grid.resolution)
+        escape = disc & ~self._lethal[box] & ~np.isfinite(weights[box])
+        weights[box][escape] = ESCAPE_WEIGHT
+        return {int(v) for v in np.unique(labels[box][disc])} - {0}, weights
+
+    def _endpoints(self, start_xy: tuple[float, float], goal_xy: tuple[float, float]
+                   ) -> tuple[tuple[int, int], tuple[int, int], np.ndarray]:
+        """Start cell, goal cell (moved out of the inscribed zone) and search weights; raises
+        :class:`PlanningError` when either is unusable or no path joins them."""
         sx, sy = start_xy
         gx, gy = goal_xy
         start = self._cell(sx, sy, "start")
-        goal_req = self._cell(gx, gy, "goal")
-        goal = self._goal_cell(*goal_req, gx, gy)
-        goal_xy_out = (float(gx), float(gy)) if goal == goal_req else self.grid.cell_to_world(*goal)
-        weights = self._weights
-        labels = self._components()
-        start_labels = {int(labels[start])} - {0}
-        if not np.isfinite(weights[start]):
-            # the robot is inside the inscribed zone: let it escape through its own footprint
-            weights = weights.copy()
-            box, disc = self._disc(*start, self.robot_radius + self.grid.resolution)
-            escape = disc & ~self._lethal[box] & ~np.isfinite(weights[box])
-            weights[box][escape] = ESCAPE_WEIGHT
-            start_labels = {int(v) for v in np.unique(labels[box][disc])} - {0}
-        if int(labels[goal]) not in start_labels:
+        goal = self.goal_cell(gx, gy)
+        start_labels, weights = self._start_labels(start)
+        if int(self._components()[goal]) not in start_labels:
             raise PlanningError(f"no path from ({sx:g}, {sy:g}) to ({gx:g}, {gy:g}): "
                                 "the goal is not reachable (walls or obstacles in the way)")
+        return start, goal, weights
+
+    def goal_cell(self, x: float, y: float) -> tuple[int, int]:
+        """The cell a goal at (x, y) is planned to: moved out of the inscribed zone up to the goal
+        tolerance; raises :class:`PlanningError` when it is off the map, in a wall or without such a cell."""
+        return self._goal_cell(*self._cell(x, y, "goal"), x, y)
+
+    def check_reachable(self, start_xy: tuple[float, float], goal_xy: tuple[float, float]) -> None:
+        """Raise :class:`PlanningError` exactly when :meth:`plan` would, without searching a path
+        (connected components of the costmap: cheap enough to check every place of a building)."""
+        self._endpoints(start_xy, goal_xy)
+
+    def reachable_mask(self, start_xy: tuple[float, float]) -> np.ndarray:
+        """Mask of the cells a robot at ``start_xy`` can reach (grid shape); raises :class:`PlanningError`."""
+        start_labels, _ = self._start_labels(self._cell(*start_xy, "start"))
+        return np.isin(self._components(), list(start_labels))
+
+    def plan(self, start_xy: tuple[float, float], goal_xy: tuple[float, float]) -> Path:
+        """Plan from ``start_xy`` to ``goal_xy`` (map metres); raises :class:`PlanningError` with the reason."""
+        start, goal, weights = self._endpoints(start_xy, goal_xy)
+        sx, sy = start_xy
+        gx, gy = goal_xy
+        goal_xy_out = (float(gx), float(gy)) if goal == self.grid.world_to_cell(gx, gy) \
+            else self.grid.cell_to_world(*goal)
         if start == goal:
             points = [(float(sx), float(sy)), goal_xy_out]
             return Path(points, polyline_length(points), goal_xy_out)

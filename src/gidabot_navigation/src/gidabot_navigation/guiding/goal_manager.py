@@ -28,32 +28,13 @@ from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
-from gidabot_navigation.errors import GoalRejected, GuidingError, NoRouteError
+from gidabot_navigation.building.model import Building, format_floor
+from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError, NoRouteError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
-    ACCEPTED,
-    CANCEL,
-    CANCELLED_HERE,
-    CONTINUE,
-    GOING_TO_MEETING,
     MAX_UID,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     PHASE_OF_REASON,
-    REASON_ADMIN,
-    REASON_VISITOR,
-    REJECTED,
-    RELEASE_PHASES,
-    REQUEST,
     START_ROBOT,
-    START_TOUR,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
-    WAY_STAIRS,
-    WAYS,
     Action,
     CancelData,
     CommandData,
@@ -73,7 +54,6 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.state import (
     REMEMBERED_UIDS,
-    GuidingStateError,
     dataclass_from_dict,
     number,
     str_list,
@@ -82,6 +62,29 @@ from gidabot_navigation.guiding.state import (
 )
 from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits
 from gidabot_navigation.guiding.trips import HeadProgress, TripPlanner, WaitModel, estimate_queue, role
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    CANCEL,
+    CANCELLED_HERE,
+    CONTINUE,
+    DEFAULT_LANGUAGE,
+    GOING_TO_MEETING,
+    LANGUAGES,
+    ON_THE_WAY,
+    PARTNER_OFFLINE,
+    REASON_ADMIN,
+    REASON_VISITOR,
+    REJECTED,
+    RELEASE_PHASES,
+    REQUEST,
+    START_TOUR,
+    TOUR_FINISHED,
+    TOUR_STEP_DONE,
+    UNREACHABLE,
+    WAITING_VISITOR,
+    WAY_STAIRS,
+    WAYS,
+)
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.tour_file import MAX_GOALS
 
@@ -95,7 +98,7 @@ class GoalManagerConfig:
 
     robot: str
     default_way: str = WAY_STAIRS
-    default_language: str = "en"
+    default_language: str = DEFAULT_LANGUAGE
     offline_after: float = 5.0
     max_queue: int = 50
     wait: WaitModel = field(default_factory=WaitModel)
@@ -172,15 +175,21 @@ class GoalManagerCore:
         """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
         stamp) is ignored."""
         key = cmd.key
-        if key and not self._commands_seen.add(key):
+        if key and key in self._commands_seen:
             self.stats.inc("duplicate_commands")
             return []
         try:
             cmd = validate_command(cmd)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("command", f"visitor command refused: {err}")
             return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+        actions = self._command(cmd, now_ros, now_wall)
+        if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in actions)):
+            self._commands_seen.add(key)      # a refused command is not remembered: it changes no state
+        return actions
+
+    def _command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         if cmd.command == REQUEST:
             if not cmd.goal_id:
                 return [self._event(REJECTED, None, now_ros, detail="request without a goal_id")]
@@ -199,17 +208,16 @@ class GoalManagerCore:
         if uid and uid in self._goals_seen:
             self.stats.inc("duplicates")
             return []
-        if uid:
-            self._goals_seen.add(uid)
         self.stats.inc("received")
         try:
             trip = validate_trip(self.building, trip)
-        except GoalRejected as err:
+        except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
             if trip.origin_robot == self.me:
                 return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
             return []
+        self._goals_seen.add(trip.uid)
         if trip.uid in self._cancelled:
             self.stats.inc("cancelled_before_arrival")
             self.log.info(f"goal {trip.uid} arrived after its cancel; not queued")
@@ -254,13 +262,15 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("event", f"nav event rejected: {err}")
             return []
+        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)):
+            return []        # nothing here depends on it: not even remembered, so it changes no state
         if not self._events_seen.add(ev.uid):
             return []
-        if ev.phase in RELEASE_PHASES and ev.goal_uid:
+        if ev.phase in RELEASE_PHASES:
             self._releases[ev.goal_uid] = now_ros
             while len(self._releases) > 1000:
                 self._releases.popitem(last=False)
-        if ev.robot != self.me or not ev.goal_uid:
+        if ev.robot != self.me:
             return []
         if from_relay:
             self.stats.inc("rejected_spoofed")
@@ -553,5 +563,6 @@ class GoalManagerCore:
                           tour_step=trip.tour_step if trip else -1, stamp=now_ros)
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
-        self._events_seen.add(ev.uid)
+        if ev.goal_uid and phase != REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
+            self._events_seen.add(ev.uid)
         return SendEvent(ev)

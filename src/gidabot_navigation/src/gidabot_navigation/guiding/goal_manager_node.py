@@ -22,11 +22,6 @@ from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.guiding_node import (
-    CANCELS_TOPIC,
-    EVENTS_TOPIC,
-    GOALS_TOPIC,
-    PENDING_TOPIC,
-    STATUS_TOPIC,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -36,17 +31,18 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     trip_from_msg,
     trip_to_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
+from gidabot_navigation.guiding.messages import REJECTED, Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -75,10 +71,10 @@ class Params:
                          continue_s=param_number("~continue_time", WaitModel.continue_s, strict=False),
                          leg_overhead_s=param_number("~leg_overhead", WaitModel.leg_overhead_s, strict=False),
                          pickup_distance=param_number("~pickup_distance", WaitModel.pickup_distance))
-        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", "stairs"),
-                                default_language=param_text("~default_language", "en"),
+        cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", WAY_STAIRS),
+                                default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
-                                max_queue=int(param_number("~max_queue", 50, minimum=1, strict=False)), wait=wait)
+                                max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait)
         state_dir = param_text("~state_dir", "") or default_state_dir(robot)
         return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
@@ -122,8 +118,8 @@ class GoalManagerNode:
       - ``~pending_rate`` (Hz wall, 1.0).
       - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``goal_manager.json`` there keeps
         the queue, the handled uids and the tour steps waiting across a restart of this node (written
-        atomically after every change, before what it produced is published); ``~state_max_age``
-        (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
+        atomically before what a change produced is published, other changes within 1 s: guiding/state.py);
+        ``~state_max_age`` (wall s, 600): an older state is not resumed. ``~replay_window`` (wall s, 60; 0 = none).
       - Wait estimate: ``~speed_factor`` (0.5 of max_linear), ``~stairs_s_per_floor`` (s, 20),
         ``~lift_wait`` (s, 25), ``~lift_s_per_floor`` (s, 5), ``~continue_time`` (s, 10),
         ``~leg_overhead`` (s, 5), ``~pickup_distance`` (m, 1.5).
@@ -134,8 +130,8 @@ class GoalManagerNode:
         building = load_building(params.building)
         self.core = GoalManagerCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
-        self.store = StateFile(Path(params.state_dir) / "goal_manager.json", "goal_manager", self.robot, RosLog(),
-                               max_age=params.state_max_age) if params.state_dir else None
+        self.store = StateFile(Path(params.state_dir) / f"{Node.GOAL_MANAGER}.json", Node.GOAL_MANAGER, self.robot,
+                               RosLog(), max_age=params.state_max_age) if params.state_dir else None
         outbox = self.store.resume(self.core.load_state) if self.store is not None else None
         if outbox is not None:
             rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
@@ -146,19 +142,20 @@ class GoalManagerNode:
         self._published_version = -1
         self._latest_pose: tuple[float, float, float] | None = None
         window = params.replay_window
-        self.goals_pub = ReplayPublisher(GOALS_TOPIC, Goal, queue_size=100, window=window)
-        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=window)
-        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=window)
-        self.pending_pub = rospy.Publisher(PENDING_TOPIC, PendingRequests, queue_size=10, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.goals_pub = ReplayPublisher(Topic.GOALS, Goal, queue_size=100, window=window)
+        self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=window)
+        self.events_pub = ReplayPublisher(Topic.NAV_EVENTS, NavEvent, queue_size=200, window=window)
+        self.pending_pub = rospy.Publisher(Topic.PENDING, PendingRequests, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [
-            rospy.Subscriber("visitor/command", VisitorCommand, self._enqueue, callback_args="command", queue_size=50),
-            rospy.Subscriber(GOALS_TOPIC, Goal, self._enqueue, callback_args="goal", queue_size=200),
-            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
-            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._enqueue, callback_args="command",
+                             queue_size=50),
+            rospy.Subscriber(Topic.GOALS, Goal, self._enqueue, callback_args="goal", queue_size=200),
+            rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
         self.execute(outbox or [])   # published before the crash or not: receivers ignore what they handled
 
@@ -177,10 +174,21 @@ class GoalManagerNode:
         self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
 
     # -- the loop that owns the core --------------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the state is saved and the
+        guard told the loop has stopped (only then does it close the topics)."""
+        guard.set_wake(lambda: self._enqueue(None, ""))
+        try:
+            self._loop(guard)
+        finally:
+            if self.store is not None:
+                self.store.flush(self.core.state, force=True)
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         period = self.params.pending_period
         next_pending = time.monotonic()
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             try:
                 kind, msg = self.inbox.get(timeout=max(0.01, min(LOOP_PERIOD, next_pending - time.monotonic())))
             except queue.Empty:
@@ -217,12 +225,13 @@ class GoalManagerNode:
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Save the state (with ``actions`` as the outbox) when it may have changed, then publish; once
-        published, save again without them (so a restart publishes them again only if it came in between)."""
-        if self.store is None or not (changed or actions):
+        """Publish ``actions``, saving the state with them as the outbox first (StateFile.commit: what
+        changes nothing writes nothing). A REJECTED answer is not kept: it changes no state."""
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, actions, self.execute)
+            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -259,7 +268,8 @@ class GoalManagerNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("goal_manager", argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.GOAL_MANAGER, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
+    rospy.init_node(Node.GOAL_MANAGER, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()
     try:
         node = GoalManagerNode(Params.read())
@@ -267,5 +277,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"goal_manager cannot start: {err}")
         return 1
     rospy.loginfo(f"goal_manager of {node.robot} (floor {node.core.robot.floor:g}) running")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

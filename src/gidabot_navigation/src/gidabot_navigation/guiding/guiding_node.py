@@ -1,6 +1,5 @@
 """Conversions between gidabot_msgs messages and the guiding cores' dataclasses, and shared
-adapter helpers (parameters, logger, diagnostics) of the goal_manager and
-multirobot_navigation nodes."""
+adapter helpers (diagnostics, master watch) of the goal_manager and multirobot_navigation nodes."""
 
 from __future__ import annotations
 
@@ -12,17 +11,9 @@ from geometry_msgs.msg import Point, Pose, Quaternion
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, TourCatalog, VisitorCommand
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
-from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import CancelData, CommandData, NavEventData, Trip
 from gidabot_navigation.guiding.tour_mode import CatalogEntry
-
-RELAY_PREFIX = "/gidabot_relay_"
-GOALS_TOPIC = "/gidabot/goals"
-CANCELS_TOPIC = "/gidabot/cancels"
-EVENTS_TOPIC = "/gidabot/nav_events"
-STATUS_TOPIC = "/gidabot/status"
-POSES_TOPIC = "/gidabot/poses"
-PENDING_TOPIC = "/gidabot/pending"
+from gidabot_navigation.interface import is_relay_end
 
 
 def sender(msg: object) -> str:
@@ -33,7 +24,7 @@ def sender(msg: object) -> str:
 
 def from_relay(msg: object) -> bool:
     """True when ``msg`` was published by a relay, i.e. it came from another robot."""
-    return sender(msg).startswith(RELAY_PREFIX)
+    return is_relay_end(sender(msg))
 
 
 def stamp_of(msg: object) -> float:
@@ -113,23 +104,6 @@ def command_from_msg(m: VisitorCommand) -> CommandData:
 
 def catalog_entries(m: TourCatalog) -> list[CatalogEntry]:
     return [CatalogEntry(t.file_name, t.tour_name, tuple(t.tour_goals_info)) for t in m.tours]
-
-
-def param_number(name: str, default: float, minimum: float = 0.0, strict: bool = True) -> float:
-    """A numeric ~param (> minimum when ``strict``, else >= minimum); GuidingError naming it otherwise."""
-    value = rospy.get_param(name, default)
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value) and \
-        (value > minimum if strict else value >= minimum)
-    if not ok:
-        raise GuidingError(f"{name} must be a number {'>' if strict else '>='} {minimum:g}, got {value!r}")
-    return float(value)
-
-
-def param_text(name: str, default: str = "", required: bool = False) -> str:
-    value = rospy.get_param(name, default)
-    if not isinstance(value, str) or (required and not value):
-        raise GuidingError(f"{name} must be a {'non-empty ' if required else ''}string, got {value!r}")
-    return value
 
 
 def diagnostics(name: str, robot: str, stats: dict, level_warn: bool, message: str) -> DiagnosticArray:

@@ -1,15 +1,15 @@
 """Plain-Python forms of the guiding messages and their validation (ROS-free).
 
-The guiding cores (:mod:`goal_manager_core`, :mod:`navigation_core`) never see a ROS
-message: the adapters convert ``gidabot_msgs`` messages into the dataclasses below
+The guiding cores (:mod:`~gidabot_navigation.guiding.goal_manager`,
+:mod:`~gidabot_navigation.guiding.navigation`) never see a ROS message: the adapters
+convert ``gidabot_msgs`` messages into the dataclasses below
 (:class:`Trip` = Goal, :class:`NavEventData` = NavEvent, :class:`CancelData` = Cancel,
 :class:`CommandData` = VisitorCommand) and back. Everything that comes from outside
 (another robot, the GUI) is untrusted and goes through :func:`validate_trip`,
 :func:`validate_cancel`, :func:`validate_event` or :func:`validate_command` first:
 they raise :class:`~gidabot_navigation.errors.GoalRejected` naming the bad value.
 
-The constants mirror the message definitions (``src/gidabot_msgs/msg``); a unit test
-checks they agree.
+The messages' constants (phases, commands, reasons, ways) are in :mod:`gidabot_navigation.interface`.
 """
 
 from __future__ import annotations
@@ -20,93 +20,32 @@ import time
 from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from enum import IntEnum
 
-from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
+from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, TourNameError
+from gidabot_navigation.interface import (
+    CANCELLED_ELSEWHERE,
+    COMMAND_NAMES,
+    DEFAULT_LANGUAGE,
+    FINAL_PHASES,
+    LANGUAGES,
+    PARTNER_OFFLINE,
+    PHASE_NAMES,
+    REASON_ADMIN,
+    REASON_OFFLINE,
+    REASON_TIMEOUT,
+    REASON_UNREACHABLE,
+    REASON_VISITOR,
+    REASONS,
+    TIMEOUT,
+    UNREACHABLE,
+    WAYS,
+)
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
-
-# -- gidabot_msgs/NavEvent phases ---------------------------------------------------
-class Phase(IntEnum):
-    """gidabot_msgs/NavEvent phases (same numbers); the module constants below are their ints."""
-
-    ACCEPTED = 0
-    ON_THE_WAY = 1
-    GOAL_REACHED = 2
-    GO_TO_FLOOR = 3
-    GOING_TO_MEETING = 4
-    WAITING_VISITOR = 5
-    UNREACHABLE = 6
-    NO_ROBOT_ON_FLOOR = 7
-    CANCELLED_HERE = 8
-    CANCELLED_ELSEWHERE = 9
-    TIMEOUT = 10
-    PARTNER_OFFLINE = 11
-    REJECTED = 12
-    TOUR_STEP_DONE = 13
-    TOUR_FINISHED = 14
-    PARTNER_LOST = 15
-    PARTNER_BACK = 16
-
-
-(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
- NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
- TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
-
-PHASE_NAMES = {
-    ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
-    GOING_TO_MEETING: "going to meeting point", WAITING_VISITOR: "waiting for the visitor",
-    UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
-    CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
-    REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
-    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back",
-}
-# phases after which the emitting robot is done with the trip (it left its queue)
-FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
-                          CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
-                          TOUR_FINISHED})
-# phases that hand the visitor over to another floor (the start robot released the visitor)
-RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
-
-# -- gidabot_msgs/VisitorCommand commands -------------------------------------------
-class Cmd(IntEnum):
-    """gidabot_msgs/VisitorCommand commands (same numbers); the module constants below are their ints."""
-
-    REQUEST = 0
-    CONTINUE = 1
-    CANCEL = 2
-    START_TOUR = 3
-    SKIP = 4
-
-
-REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = (int(c) for c in Cmd)
-COMMAND_NAMES = {REQUEST: "request", CONTINUE: "continue", CANCEL: "cancel", START_TOUR: "start tour",
-                 SKIP: "skip"}
-
-# -- gidabot_msgs/Cancel reasons ----------------------------------------------------
-REASON_VISITOR = "visitor"
-REASON_UNREACHABLE = "unreachable"
-REASON_TIMEOUT = "timeout"
-REASON_OFFLINE = "offline"
-REASON_ADMIN = "admin"
-REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN)
 # the phase a robot shows its visitor when another robot drops a trip for this reason
 PHASE_OF_REASON = {REASON_VISITOR: CANCELLED_ELSEWHERE, REASON_UNREACHABLE: UNREACHABLE,
                    REASON_TIMEOUT: TIMEOUT, REASON_OFFLINE: PARTNER_OFFLINE, REASON_ADMIN: CANCELLED_ELSEWHERE}
-
-# -- gidabot_msgs/RobotStatus states ------------------------------------------------
-STATE_IDLE = "idle"
-STATE_GUIDING = "guiding"
-STATE_TO_MEETING = "to_meeting"
-STATE_WAITING = "waiting"
-STATE_RETURNING = "returning"
-STATE_ERROR = "error"
-
-# -- gidabot_msgs/Goal ways ---------------------------------------------------------
-WAY_LIFT = "lift"
-WAY_STAIRS = "stairs"
-WAYS = (WAY_LIFT, WAY_STAIRS)
 
 # -- limits of untrusted text -------------------------------------------------------
 MAX_UID = 160
@@ -179,7 +118,7 @@ class NavEventData:
     floor: float
     goal_uid: str
     phase: int
-    language: str = "en"
+    language: str = DEFAULT_LANGUAGE
     way: str = ""
     connector: str = ""
     target_floor: float = 0.0
@@ -478,7 +417,7 @@ def validate_trip(building: Building, trip: Trip) -> Trip:
         if conn is None:
             raise GoalRejected("connector", f"connector {show(connector)} is not a lift or staircase of the "
                                             f"building ({', '.join(c.id for c in building.connectors)})")
-        if a not in conn.meeting or b not in conn.meeting:
+        if a not in conn.serves or b not in conn.serves:
             raise GoalRejected("connector", f"connector {connector} does not serve floors {format_floor(a)} "
                                             f"and {format_floor(b)}")
         if conn.kind != way:
@@ -522,7 +461,7 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
         raise GoalRejected("phase", f"event phase {show(event.phase)} is not a known NavEvent phase")
     tour_file, tour_step = _tour(event.tour_file, event.tour_step, "event")
     way = event.way if isinstance(event.way, str) and event.way in WAYS else ""
-    language = event.language if event.language in LANGUAGES else "en"
+    language = event.language if event.language in LANGUAGES else DEFAULT_LANGUAGE
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
                    way=way, language=language)
 
@@ -553,10 +492,6 @@ def validate_command(cmd: CommandData) -> CommandData:
         raise GoalRejected("type", f"tour_step {show(cmd.tour_step)} is not an integer")
     return replace(cmd, visitor_id=visitor, goal_id=goal_id, way=way, language=language, goal_uid=goal_uid,
                    tour_file=tour_file)
-
-
-def phase_name(phase: int) -> str:
-    return PHASE_NAMES.get(phase, f"phase {phase}")
 
 
 def uids(items: Iterable[Trip]) -> list[str]:

@@ -37,9 +37,27 @@ from typing import Any
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, format_floor
-from gidabot_navigation.errors import GoalRejected, GuidingError
+from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
+    Action,
+    CancelData,
+    Counters,
+    MoveTo,
+    NavEventData,
+    SeenSet,
+    SendCancel,
+    SendEvent,
+    StopMoving,
+    Trip,
+    UidMaker,
+    validate_cancel,
+    validate_event,
+)
+from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
+from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
+from gidabot_navigation.guiding.trips import Role, partner_of, role
+from gidabot_navigation.interface import (
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
@@ -62,30 +80,7 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
-    Action,
-    CancelData,
-    Counters,
-    MoveTo,
-    NavEventData,
-    SeenSet,
-    SendCancel,
-    SendEvent,
-    StopMoving,
-    Trip,
-    UidMaker,
-    validate_cancel,
-    validate_event,
 )
-from gidabot_navigation.guiding.state import (
-    REMEMBERED_UIDS,
-    GuidingStateError,
-    number,
-    str_list,
-    trip_from_dict,
-    trip_to_dict,
-)
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook
-from gidabot_navigation.guiding.trips import Role, partner_of, role
 from gidabot_navigation.logs import Logger, RateLimitedLog
 
 # move_base (actionlib) terminal states, as the adapter names them
@@ -304,15 +299,18 @@ class NavigationCore:
         return []
 
     def on_move_base_result(self, token: int, status: str, text: str, now_ros: float,
-                            now_wall: float) -> list[Action]:
-        """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...)."""
+                            now_wall: float, done_ros: float | None = None) -> list[Action]:
+        """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...). ``done_ros``: when move_base
+        ended it (its result's stamp; None: ``now_ros``): the events that end the guiding carry it, so the time the
+        result took to get here is not counted as guiding (Table 5)."""
         leg = self.leg
         if leg is None or token != leg.token or not leg.moving:
             self.stats.inc("stale_results")
             return []
         leg.moving = False
         if status == SUCCEEDED:
-            return self._arrived(leg, now_ros) + self._advance(now_ros, now_wall)
+            ended = now_ros if done_ros is None else min(done_ros, now_ros)
+            return self._arrived(leg, now_ros, ended) + self._advance(now_ros, now_wall)
         what = {Stage.PICKUP: "to the visitor", Stage.GUIDING: f"to {self._where(leg)}",
                 Stage.TO_MEETING: f"to the meeting point of {leg.trip.connector}"}.get(leg.stage, "")
         reason = f"move_base {status} on the way {what}" + (f": {text[:200]}" if text else "")
@@ -458,7 +456,8 @@ class NavigationCore:
         leg = self._new_leg(trip, r, Stage.GUIDING, target, partner_name, now_ros)
         return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
 
-    def _arrived(self, leg: Leg, now_ros: float) -> list[Action]:
+    def _arrived(self, leg: Leg, now_ros: float, ended: float) -> list[Action]:
+        """Leg ``leg`` reached its target at sim time ``ended`` (known at ``now_ros``)."""
         trip = leg.trip
         if leg.stage is Stage.PICKUP:
             target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if leg.role is Role.SAME else self._meeting(trip)
@@ -476,11 +475,11 @@ class NavigationCore:
         self._finish(trip)
         if leg.role is Role.START:
             if self.building.robot_on(trip.goal_floor) is None:
-                return [self._event(NO_ROBOT_ON_FLOOR, trip, now_ros,
+                return [self._event(NO_ROBOT_ON_FLOOR, trip, ended,
                                     detail=f"no robot serves floor {format_floor(trip.goal_floor)}: "
                                            f"go there by the {trip.way} and find {trip.goal_id} yourself")]
-            return [self._event(GO_TO_FLOOR, trip, now_ros)]
-        return [self._event(self._done_phase(trip), trip, now_ros)]
+            return [self._event(GO_TO_FLOOR, trip, ended)]
+        return [self._event(self._done_phase(trip), trip, ended)]
 
     def _go_on(self, leg: Leg, now_ros: float) -> list[Action]:
         """Goal floor: the visitor is here; guide to the goal."""

@@ -27,11 +27,6 @@ from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotSt
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.guiding_node import (
-    CANCELS_TOPIC,
-    EVENTS_TOPIC,
-    PENDING_TOPIC,
-    POSES_TOPIC,
-    STATUS_TOPIC,
     cancel_from_msg,
     cancel_to_msg,
     catalog_entries,
@@ -40,22 +35,12 @@ from gidabot_navigation.guiding.guiding_node import (
     event_to_msg,
     from_relay,
     keep_registered,
-    param_number,
-    param_text,
     quaternion,
     sender,
     trip_from_msg,
     yaw_of,
 )
-from gidabot_navigation.guiding.messages import (
-    CONTINUE,
-    Action,
-    MoveTo,
-    SendCancel,
-    SendEvent,
-    StopMoving,
-    command_key,
-)
+from gidabot_navigation.guiding.messages import Action, MoveTo, SendCancel, SendEvent, StopMoving, command_key
 from gidabot_navigation.guiding.navigation import (
     ABORTED,
     LOST,
@@ -67,8 +52,11 @@ from gidabot_navigation.guiding.navigation import (
     NavigationCore,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
+from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -105,9 +93,9 @@ class Params:
                                pickup_distance=param_number("~pickup_distance", 1.5),
                                nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
         return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
-                      param_number("~pose_rate", 5.0), param_text("~move_base", "move_base", required=True),
+                      param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
-                      param_text("~goal_manager", "/goal_manager", required=True),
+                      param_text("~goal_manager", global_name(Node.GOAL_MANAGER), required=True),
                       param_text("~state_dir", "") or default_state_dir(cfg.robot),
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
                       param_number("~replay_window", DEFAULT_WINDOW, strict=False))
@@ -165,8 +153,9 @@ class NavigationNode:
         building = load_building(params.building)
         self.core = NavigationCore(building, params.cfg, RosLog(), time.monotonic())
         self.robot = self.core.me
-        self.store = StateFile(Path(params.state_dir) / "multirobot_navigation.json", "multirobot_navigation",
-                               self.robot, RosLog(), max_age=params.state_max_age) if params.state_dir else None
+        name = Node.MULTIROBOT_NAVIGATION
+        self.store = StateFile(Path(params.state_dir) / f"{name}.json", name, self.robot, RosLog(),
+                               max_age=params.state_max_age) if params.state_dir else None
         outbox = self.store.resume(self.core.load_state) if self.store is not None else None
         if outbox is not None:
             leg = self.core.leg
@@ -185,21 +174,21 @@ class NavigationNode:
         self._latest_pose: tuple[float, float, float] | None = None
         self._latest_odom: tuple[float, float] | None = None
         self._latest_battery: float | None = None
-        self.events_pub = ReplayPublisher(EVENTS_TOPIC, NavEvent, queue_size=200, window=params.replay_window)
-        self.cancels_pub = ReplayPublisher(CANCELS_TOPIC, Cancel, queue_size=100, window=params.replay_window)
-        self.status_pub = rospy.Publisher(STATUS_TOPIC, RobotStatus, queue_size=10, latch=True)
-        self.poses_pub = rospy.Publisher(POSES_TOPIC, NavPose, queue_size=10, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.events_pub = ReplayPublisher(Topic.NAV_EVENTS, NavEvent, queue_size=200, window=params.replay_window)
+        self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=params.replay_window)
+        self.status_pub = rospy.Publisher(Topic.STATUS, RobotStatus, queue_size=10, latch=True)
+        self.poses_pub = rospy.Publisher(Topic.POSES, NavPose, queue_size=10, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [
-            rospy.Subscriber(PENDING_TOPIC, PendingRequests, self._on_pending, queue_size=20),
-            rospy.Subscriber(CANCELS_TOPIC, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
-            rospy.Subscriber(EVENTS_TOPIC, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(STATUS_TOPIC, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber("visitor/command", VisitorCommand, self._on_command, queue_size=50),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
-            rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=1),
-            rospy.Subscriber("battery", BatteryState, self._on_battery, queue_size=1),
-            rospy.Subscriber("tour_store/catalog", TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
+            rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
+            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._on_command, queue_size=50),
+            rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=1),
+            rospy.Subscriber(Topic.BATTERY, BatteryState, self._on_battery, queue_size=1),
+            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
                        rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
@@ -252,12 +241,28 @@ class NavigationNode:
             return
         state = gh.get_terminal_state()
         text = gh.get_goal_status_text() or f"goal status {STATE_NAMES.get(state, state)}"
-        self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
+        # when move_base ended the goal: its result's stamp (actionlib keeps the last result message)
+        result = getattr(getattr(gh, "comm_state_machine", None), "latest_result", None)
+        done = result.header.stamp.to_sec() if result is not None else 0.0
+        self._enqueue((token, sends, STATES.get(state, ABORTED), text, done if done > 0 else None), "result")
 
     # -- the loop that owns the core --------------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the running move_base goal
+        is cancelled, the state saved and the guard told the loop has stopped (it then closes the topics)."""
+        guard.set_wake(lambda: self._enqueue(None, ""))
+        try:
+            self._loop(guard)
+        finally:
+            if self._active is not None:
+                self._cancel(self._active[0])
+            if self.store is not None:
+                self.store.flush(self.core.state, force=True)
+            guard.loop_stopped()
+
+    def _loop(self, guard: ExitGuard) -> None:
         next_diag = time.monotonic() + 1.0
-        while not rospy.is_shutdown():
+        while not rospy.is_shutdown() and not guard.requested:
             if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
                 self.publish_status()      # liveness never depends on the (sim) clock running
             try:
@@ -275,8 +280,6 @@ class NavigationNode:
             if now_wall >= next_diag:
                 next_diag = now_wall + 1.0
                 self.publish_diagnostics()
-        if self._active is not None:
-            self._cancel(self._active[0])
 
     def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
         core = self.core
@@ -291,13 +294,13 @@ class NavigationNode:
             goal_uid, key = msg
             return core.on_continue(goal_uid, now_ros, now_wall, key=key)
         if kind == "result":
-            token, sends, status, text = msg
+            token, sends, status, text, done_ros = msg
             if self._handles.get(token, (None, -1))[1] != sends:
                 return []                   # a goal sent again, or stopped: its result is not the leg's
             del self._handles[token]
             if self._active is not None and self._active[0] == token:
                 self._active = None
-            return core.on_move_base_result(token, status, text, now_ros, now_wall)
+            return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
             core.on_status(msg, now_wall)
         elif kind == "catalog":
@@ -321,10 +324,10 @@ class NavigationNode:
         """Save the state (the durable actions as the outbox) when it may have changed, then carry the
         actions out; once published, save again without them."""
         durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
-        if self.store is None or not (changed or actions):
+        if self.store is None:
             self.execute(actions)
         else:
-            self.store.commit(self.core.state, actions, durable, self.execute)
+            self.store.commit(self.core.state, actions, durable, self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -420,7 +423,8 @@ class NavigationNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("multirobot_navigation", argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.MULTIROBOT_NAVIGATION, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM
+    rospy.init_node(Node.MULTIROBOT_NAVIGATION, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()
     try:
         node = NavigationNode(Params.read())
@@ -428,5 +432,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"multirobot_navigation cannot start: {err}")
         return 1
     rospy.loginfo(f"multirobot_navigation of {node.robot} (floor {node.core.floor:g}) running")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

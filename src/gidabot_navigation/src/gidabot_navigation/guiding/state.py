@@ -3,11 +3,23 @@
 goal_manager and multirobot_navigation are respawned by roslaunch when they die. A
 respawned node that started empty would forget the goals it had accepted (its queue),
 the uids it had handled (a replayed goal would be queued twice) and the leg it was
-driving. So each node writes, after every change and *before* it publishes what the
-change produced, one JSON file: the core's :meth:`state` and the *outbox* (the events,
-goals and cancels about to be published). At start it loads the file, restores the
-core and publishes the outbox again (same uids: receivers ignore what they already
-handled).
+driving. So each node keeps one JSON file: the core's :meth:`state` and the *outbox*
+(the events, goals and cancels about to be published). At start it loads the file,
+restores the core and publishes the outbox again (same uids: receivers ignore what they
+already handled).
+
+When it is written (:meth:`StateFile.commit`):
+
+- a change that publishes something is written *before* it is published, with the
+  outbox, at once: what the node told others is never lost;
+- any other change (uids remembered, a goal dropped after its final event, the outbox
+  published) is written at most every ``soft_interval`` wall seconds (1 s): a restart
+  loses at most that much of it, and the replays every node sends to a restarted
+  subscriber (``ros/replay.py``, 60 s) bring it back;
+- an input that changed nothing (a rejected or duplicate message) writes nothing: before
+  writing, the state is compared with the one last written (counters, ``stats``, are
+  written along with a change but are no change by themselves). So hostile traffic
+  costs no disk write, and at most one serialisation of the state per ``soft_interval``.
 
 Writes are atomic: a temporary file in the same directory, ``fsync``, ``rename``
 (and ``fsync`` of the directory), so a crash leaves either the old or the new state.
@@ -28,7 +40,7 @@ from dataclasses import asdict, fields
 from pathlib import Path
 from typing import Any
 
-from gidabot_navigation.errors import GuidingError
+from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -43,16 +55,14 @@ from gidabot_navigation.logs import Logger
 FORMAT = 1
 REMEMBERED_UIDS = 500        # most recent handled uids kept per set (replays cover the last minute)
 DEFAULT_MAX_AGE = 600.0      # wall s: an older state is not resumed
+SOFT_INTERVAL = 1.0          # wall s between writes of changes that publish nothing
+VOLATILE = ("stats",)        # state keys written along with a change, but not a change by themselves
 
 
 def default_state_dir(robot: str) -> str:
     """``$ROS_HOME/gidabot/<robot>/guiding`` (ROS_HOME defaults to ``~/.ros``)."""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     return os.path.join(home, "gidabot", robot, "guiding")
-
-
-class GuidingStateError(GuidingError):
-    """A guiding state file cannot be read or written."""
 
 
 def dataclass_from_dict(cls: type, data: object) -> Any:
@@ -141,7 +151,8 @@ class StateFile:
     """One node's state file: ``save`` (atomic) and ``load`` (None when absent, stale or unreadable)."""
 
     def __init__(self, path: Path, node: str, robot: str, log: Logger, max_age: float = DEFAULT_MAX_AGE,
-                 fsync: bool = True, clock: Any = time.time) -> None:
+                 fsync: bool = True, clock: Any = time.time, soft_interval: float = SOFT_INTERVAL,
+                 monotonic: Callable[[], float] = time.monotonic) -> None:
         self.path = Path(path)
         self.node = node
         self.robot = robot
@@ -149,8 +160,13 @@ class StateFile:
         self.max_age = max_age
         self.fsync = fsync
         self.clock = clock
+        self.soft_interval = soft_interval
+        self.monotonic = monotonic
         self.saves = 0
         self.failures = 0
+        self._written: bytes | None = None      # state and outbox of the file as last written
+        self._dirty = False                     # changed since: written at the next flush
+        self._last_save = -math.inf
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
         except OSError as err:
@@ -185,9 +201,16 @@ class StateFile:
             return None
 
     def save(self, state: dict[str, Any], outbox: list[Action]) -> bool:
-        """Replace the file atomically; False (logged, counted) if it cannot be written."""
+        """Replace the file atomically (unless it holds exactly this already); False (logged, counted)
+        if it cannot be written."""
+        records = actions_to_list(outbox)
+        kept = {k: v for k, v in state.items() if k not in VOLATILE}
+        content = json.dumps([kept, records], separators=(",", ":"), allow_nan=False).encode()
+        if content == self._written:
+            self._dirty = False
+            return True
         doc = {"format": FORMAT, "node": self.node, "robot": self.robot, "saved": self.clock(), "state": state,
-               "outbox": actions_to_list(outbox)}
+               "outbox": records}
         data = json.dumps(doc, separators=(",", ":"), allow_nan=False).encode()
         tmp = None
         try:
@@ -207,6 +230,7 @@ class StateFile:
                     os.close(dfd)
         except OSError as err:
             self.failures += 1
+            self._last_save = self.monotonic()     # retried at the next flush, not at every input
             self.log.error(f"{self.node}: cannot save its state to {self.path}: {err.strerror}")
             return False
         finally:
@@ -214,6 +238,8 @@ class StateFile:
                 with contextlib.suppress(OSError):
                     os.unlink(tmp)
         self.saves += 1
+        self._written, self._dirty = content, False
+        self._last_save = self.monotonic()
         return True
 
     def resume(self, load_state: Callable[[dict[str, Any]], None]) -> list[Action] | None:
@@ -230,10 +256,18 @@ class StateFile:
         return loaded[1]
 
     def commit(self, state: Callable[[], dict[str, Any]], actions: list[Action], durable: list[Action],
-               execute: Callable[[list[Action]], None]) -> None:
-        """Save ``state()`` with the ``durable`` actions as the outbox *before* carrying out ``actions``,
-        then save again without them: a restart in between publishes them again (same uids), never loses them."""
-        self.save(state(), durable)
-        execute(actions)
+               execute: Callable[[list[Action]], None], changed: bool = True) -> None:
+        """Carry out ``actions``; with ``durable`` ones, save ``state()`` with them as the outbox first (a
+        restart publishes them again, same uids: never lost). ``changed``: the input may have changed the
+        state; it is saved by :meth:`flush`, within ``soft_interval`` (and not at all if it did not change)."""
         if durable:
+            self.save(state(), durable)
+        execute(actions)
+        if durable or changed:
+            self._dirty = True
+        self.flush(state)
+
+    def flush(self, state: Callable[[], dict[str, Any]], force: bool = False) -> None:
+        """Save what changed since the last save, if ``soft_interval`` passed since it (or ``force``: at exit)."""
+        if self._dirty and (force or self.monotonic() - self._last_save >= self.soft_interval):
             self.save(state(), [])

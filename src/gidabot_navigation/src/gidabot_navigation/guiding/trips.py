@@ -22,14 +22,8 @@ from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, Connector, Robot, format_floor
 from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import NoRouteError, PlanningError
-from gidabot_navigation.guiding.messages import (
-    GOING_TO_MEETING,
-    ON_THE_WAY,
-    WAITING_VISITOR,
-    WAY_LIFT,
-    Trip,
-    same_floor,
-)
+from gidabot_navigation.guiding.messages import Trip, same_floor
+from gidabot_navigation.interface import GOING_TO_MEETING, ON_THE_WAY, WAITING_VISITOR, WAY_LIFT
 
 DEFAULT_RADIUS = 0.3     # m, footprint radius used on a floor without a robot (the visitor's way)
 

@@ -1,9 +1,10 @@
-"""The relay link core (ROS-free): one end of the authenticated link between two robots' masters.
+"""The core of a relay end (ROS-free): what one end of the relay between two robots' masters decides.
 
 A relay between robots A and B has two ends, each an ordinary node named
-``/gidabot_relay_A_B`` on its own robot's master; the ends talk over one TCP
-connection (end b listens, end a connects). This module is everything an end
-decides, with no sockets, threads or rospy: the adapter (:mod:`relay_node`) feeds
+``/gidabot_relay_A_B`` on its own robot's master; the ends talk over one authenticated
+TCP connection, the link (end b listens, end a connects). This module is everything an
+end decides, with no sockets, threads or rospy: the adapter
+(:mod:`gidabot_navigation.relay.end_node`) feeds
 it local messages, connection events, received bytes and the time, and carries out
 the :class:`Send` / :class:`Close` actions it returns and the deliveries it hands out.
 
@@ -37,14 +38,14 @@ from pathlib import Path
 
 import yaml
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import FrameRejected, JournalError, RelayConfigError
+from gidabot_navigation.interface import EVENT, STATE, TopicSpec, is_relay_end, relay_end_name
 from gidabot_navigation.logs import Logger, RateLimitedLog
-from gidabot_navigation.relay.journal import Journal, JournalError, JournalState, event_digest
+from gidabot_navigation.relay.journal import Journal, JournalState, event_digest
 from gidabot_navigation.relay.protocol import (
     FRAME_OVERHEAD,
     NONCE_LEN,
     FrameReader,
-    FrameRejected,
     FrameType,
     Hello,
     Message,
@@ -60,33 +61,14 @@ from gidabot_navigation.relay.protocol import (
     session_keys,
 )
 
-RELAY_PREFIX = "/gidabot_relay_"
-EVENT, STATE = "event", "state"
 REJECT_REASONS = ("auth", "oversize", "malformed", "type")
-
-
-class RelayConfigError(GidaBotError):
-    """The relay's configuration (shared topics, link parameters, secret) is invalid."""
-
-
-def is_relay(callerid: str) -> bool:
-    """True if ``callerid`` names a relay end (whose messages are never forwarded again)."""
-    return callerid.startswith(RELAY_PREFIX)
-
-
-def relay_node_name(robot_a: str, robot_b: str) -> str:
-    """Node name of both ends of the relay between ``robot_a`` (first in the building) and ``robot_b``."""
-    return f"{RELAY_PREFIX}{robot_a}_{robot_b}"
+# how an end process tells its supervisor (gidabot_navigation.relay.supervisor) why it stopped
+EXIT_CONFIG = 2                          # bad options: restarting will not help
+EXIT_PORT = 3                            # end b cannot bind the link port: the supervisor picks another
+PARENT_ENV = "GIDABOT_RELAY_PARENT"      # set by the supervisor: an end exits when its parent is gone
 
 
 # -- configuration --------------------------------------------------------------------------
-@dataclass(frozen=True)
-class TopicSpec:
-    name: str      # global topic name, e.g. /gidabot/goals
-    type: str      # ROS type, e.g. gidabot_msgs/Goal
-    kind: str      # "event" or "state"
-
-
 def load_shared_topics(path: str | Path) -> tuple[TopicSpec, ...]:
     """Read the whitelist (``config/shared_topics.yaml``): ``topics: [{name, type, class}]``."""
     try:
@@ -133,7 +115,7 @@ def read_secret(path: str | Path) -> bytes:
 
 
 @dataclass(frozen=True)
-class LinkConfig:
+class RelayEndConfig:
     """One end of the relay between ``robot_a`` and ``robot_b`` (times in wall seconds)."""
 
     robot_a: str
@@ -174,7 +156,7 @@ class LinkConfig:
             raise RelayConfigError(f"no md5 for topic(s) {', '.join(missing)}")
 
     @property
-    def link(self) -> str:
+    def pair(self) -> str:
         return f"{self.robot_a}_{self.robot_b}"
 
     @property
@@ -187,7 +169,7 @@ class LinkConfig:
 
     @property
     def node_name(self) -> str:
-        return relay_node_name(self.robot_a, self.robot_b)
+        return relay_end_name(self.robot_a, self.robot_b)
 
 
 # -- actions --------------------------------------------------------------------------------
@@ -214,7 +196,7 @@ class Delivery:
     msg: Message
 
 
-class Phase(Enum):
+class ConnState(Enum):
     WAIT_HELLO = "wait_hello"      # a: sent HELLO, waiting for b's; b: waiting for a's HELLO
     WAIT_READY = "wait_ready"      # b: answered HELLO, waiting for a's READY
     ACTIVE = "active"
@@ -227,7 +209,7 @@ class _Conn:
     reader: FrameReader
     opened: float
     last_rx: float
-    phase: Phase = Phase.WAIT_HELLO
+    state: ConnState = ConnState.WAIT_HELLO
     nonce: bytes = b""
     peer: Hello | None = None
     tx_key: bytes | None = None
@@ -253,14 +235,14 @@ class Stats:
     rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REJECT_REASONS, 0))
 
 
-class LinkCore:
+class RelayEndCore:
     """One end's decisions (see the module docstring). Not thread-safe: the adapter serialises calls.
 
     ``validate(topic, payload)`` returns None if the payload is a well-formed message of
     the topic's type, else a short description of what is wrong.
     """
 
-    def __init__(self, cfg: LinkConfig, journal: Journal, clock: Callable[[], float], log: Logger,
+    def __init__(self, cfg: RelayEndConfig, journal: Journal, clock: Callable[[], float], log: Logger,
                  validate: Callable[[str, bytes], str | None] | None = None) -> None:
         self.cfg = cfg
         self.journal = journal
@@ -273,10 +255,10 @@ class LinkCore:
         self.max_body = cfg.max_message_bytes + FRAME_OVERHEAD
         self.state: JournalState = journal.open()
         if journal.truncated_bytes:
-            log.warning(f"relay {cfg.link} ({cfg.robot}): cut a torn tail of {journal.truncated_bytes} bytes off "
+            log.warning(f"relay {cfg.pair} ({cfg.robot}): cut a torn tail of {journal.truncated_bytes} bytes off "
                         f"the journal (the process was killed while writing)")
         if self.state.outq or self.state.pending_in:
-            log.info(f"relay {cfg.link} ({cfg.robot}): journal holds {len(self.state.outq)} unacknowledged "
+            log.info(f"relay {cfg.pair} ({cfg.robot}): journal holds {len(self.state.outq)} unacknowledged "
                      f"and {len(self.state.pending_in)} unpublished event(s); they will be delivered")
         self.stats = Stats()
         self._out_bytes = sum(len(m.payload) for m in self.state.outq)
@@ -301,7 +283,7 @@ class LinkCore:
     # -- helpers --------------------------------------------------------------------------
     @property
     def name(self) -> str:
-        return f"relay {self.cfg.link} ({self.cfg.robot} end)"
+        return f"relay {self.cfg.pair} ({self.cfg.robot} end)"
 
     def _reject(self, reason: str, text: str) -> None:
         self.stats.rejected[reason] = self.stats.rejected.get(reason, 0) + 1
@@ -323,7 +305,7 @@ class LinkCore:
     # -- local messages (from this end's master) -------------------------------------------
     def local_message(self, topic: str, callerid: str, type_: str, md5: str, payload: bytes) -> list[Action]:
         """A message a local node published on a shared topic; returns frames to send now."""
-        if is_relay(callerid):
+        if is_relay_end(callerid):
             self.stats.ignored_relay += 1
             return []
         spec = self.topics.get(topic)
@@ -405,7 +387,7 @@ class LinkCore:
     def connection_opened(self, conn_id: int, initiator: bool) -> list[Action]:
         """A TCP connection exists (initiator: this end connected). Returns the first frames."""
         now = self.clock()
-        pending = [c for c in self.conns.values() if c.phase is not Phase.ACTIVE]
+        pending = [c for c in self.conns.values() if c.state is not ConnState.ACTIVE]
         if len(pending) >= self.cfg.max_pending_connections:
             self.rlog.warning("pending", f"{self.name}: too many unauthenticated connections; refusing one")
             return [Close(conn_id, "too many unauthenticated connections")]
@@ -413,7 +395,7 @@ class LinkCore:
         self.conns[conn_id] = conn
         if not initiator:
             return []
-        hello = Hello(self.cfg.link, self.cfg.side, conn.nonce, b"", self.state.out_epoch, self.state.in_epoch,
+        hello = Hello(self.cfg.pair, self.cfg.side, conn.nonce, b"", self.state.out_epoch, self.state.in_epoch,
                       self.state.in_last)
         return [Send(conn_id, encode_frame(FrameType.HELLO, hello.encode(), self.key_hello, 0))]
 
@@ -444,7 +426,7 @@ class LinkCore:
                 if frame is None:
                     break
                 conn.last_rx = self.clock()
-                if conn.phase is Phase.ACTIVE:
+                if conn.state is ConnState.ACTIVE:
                     check_mac(frame, conn.rx_key, conn.rx_count)
                     conn.rx_count += 1
                     ack_due = self._active_frame(conn, frame.type, frame.body, out) or ack_due
@@ -462,13 +444,13 @@ class LinkCore:
         return out
 
     def _handshake_frame(self, conn: _Conn, frame, out: list[Action]) -> None:
-        if conn.phase is Phase.WAIT_HELLO and frame.type is FrameType.HELLO:
+        if conn.state is ConnState.WAIT_HELLO and frame.type is FrameType.HELLO:
             check_mac(frame, self.key_hello, 0)
             hello = Hello.decode(frame.body)
             want_side = "b" if conn.initiator else "a"
-            if hello.link != self.cfg.link or hello.side != want_side:
-                raise FrameRejected("auth", f"HELLO for link {hello.link!r} side {hello.side!r}; this end is link "
-                                            f"{self.cfg.link!r} and expects side {want_side!r}")
+            if hello.pair != self.cfg.pair or hello.side != want_side:
+                raise FrameRejected("auth", f"HELLO for relay {hello.pair!r} side {hello.side!r}; this end is relay "
+                                            f"{self.cfg.pair!r} and expects side {want_side!r}")
             conn.peer = hello
             if conn.initiator:
                 if hello.echo != conn.nonce:
@@ -477,24 +459,24 @@ class LinkCore:
                 out.append(self._frame(conn, FrameType.READY, b""))
                 self._activate(conn, out)
             else:
-                reply = Hello(self.cfg.link, self.cfg.side, conn.nonce, hello.nonce, self.state.out_epoch,
+                reply = Hello(self.cfg.pair, self.cfg.side, conn.nonce, hello.nonce, self.state.out_epoch,
                               self.state.in_epoch, self.state.in_last)
                 out.append(Send(conn.id, encode_frame(FrameType.HELLO, reply.encode(), self.key_hello, 0)))
                 self._derive_keys(conn, hello.nonce, conn.nonce)
-                conn.phase = Phase.WAIT_READY
-        elif conn.phase is Phase.WAIT_READY and frame.type is FrameType.READY:
+                conn.state = ConnState.WAIT_READY
+        elif conn.state is ConnState.WAIT_READY and frame.type is FrameType.READY:
             check_mac(frame, conn.rx_key, conn.rx_count)
             conn.rx_count += 1
             if frame.body:
                 raise FrameRejected("malformed", "READY frame with a body")
             self._activate(conn, out)
         else:
-            raise FrameRejected("malformed", f"{frame.type.name} frame during the handshake ({conn.phase.value})")
+            raise FrameRejected("malformed", f"{frame.type.name} frame during the handshake ({conn.state.value})")
 
     def _derive_keys(self, conn: _Conn, nonce_a: bytes, nonce_b: bytes) -> None:
         if self.cfg.secret is None:
             return
-        k_ab, k_ba = session_keys(self.cfg.secret, self.cfg.link, nonce_a, nonce_b)
+        k_ab, k_ba = session_keys(self.cfg.secret, self.cfg.pair, nonce_a, nonce_b)
         conn.tx_key, conn.rx_key = (k_ab, k_ba) if self.cfg.side == "a" else (k_ba, k_ab)
 
     def _activate(self, conn: _Conn, out: list[Action]) -> None:
@@ -504,7 +486,7 @@ class LinkCore:
             out.append(Close(old.id, "replaced by a new authenticated connection"))
             self.conns.pop(old.id, None)
             self.active = None
-        conn.phase = Phase.ACTIVE
+        conn.state = ConnState.ACTIVE
         self.active = conn
         self.stats.connections += 1
         peer = conn.peer
@@ -678,7 +660,7 @@ class LinkCore:
         now = self.clock()
         out: list[Action] = []
         for conn in list(self.conns.values()):
-            if conn.phase is not Phase.ACTIVE and now - conn.opened > self.cfg.handshake_timeout:
+            if conn.state is not ConnState.ACTIVE and now - conn.opened > self.cfg.handshake_timeout:
                 out.append(Close(conn.id, "handshake timeout"))
                 self.rlog.warning("handshake", f"{self.name}: connection {conn.id} did not authenticate within "
                                                f"{self.cfg.handshake_timeout:g} s; closed")

@@ -1,10 +1,11 @@
-"""ROS adapter of one relay end: the ``relay_end`` node ``/gidabot_relay_<A>_<B>`` on one robot's master.
+"""ROS adapter of one relay end: the node ``/gidabot_relay_<A>_<B>`` on one robot's master.
 
-The decisions live in :mod:`relay_link` (ROS-free). This module reads the parameters
+The decisions live in :mod:`gidabot_navigation.relay.end` (ROS-free). This module reads the parameters
 once, subscribes the shared topics as raw bytes, publishes what the peer sends with
 the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
 only hand bytes to the core and try a non-blocking send) and the master watch.
-Normally started by the relay supervisor (:mod:`relay_supervisor`), never by hand.
+Started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`) as
+``python -m gidabot_navigation.relay.end_node``, never by hand.
 """
 
 from __future__ import annotations
@@ -29,33 +30,28 @@ import genpy
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import GidaBotError, RelayConfigError
+from gidabot_navigation.interface import EVENT, STATE, Topic, TopicSpec, is_relay_end, relay_end_name
 from gidabot_navigation.relay.end import (
-    EVENT,
-    STATE,
+    EXIT_CONFIG,
+    EXIT_PORT,
+    PARENT_ENV,
     Action,
     Close,
-    LinkConfig,
-    LinkCore,
-    RelayConfigError,
-    TopicSpec,
-    is_relay,
+    RelayEndConfig,
+    RelayEndCore,
     load_shared_topics,
     read_secret,
-    relay_node_name,
 )
 from gidabot_navigation.relay.journal import Journal
+from gidabot_navigation.resources import resource
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.master_watch import Event, MasterWatch, keep_registered, proxy
+from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 
-EXIT_CONFIG = 2          # bad parameters: restarting will not help
-EXIT_PORT = 3            # the link port cannot be bound: the supervisor picks another
-PARENT_ENV = "GIDABOT_RELAY_PARENT"   # set by the supervisor: exit when the parent is no longer this pid
 CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
 RETRY_INTERVAL = 0.25    # s between connect attempts
 RECV_BYTES = 1 << 18
-DEFAULT_TOPICS = Path(__file__).resolve().parents[3] / "config" / "shared_topics.yaml"
 
 
 @dataclass(frozen=True)
@@ -94,7 +90,7 @@ class Params:
         ap.add_argument("--link_host", required=True)
         ap.add_argument("--link_port", required=True, type=int)
         ap.add_argument("--bind_ip", default=os.environ.get("ROS_IP", ""))
-        ap.add_argument("--topics_file", default=str(DEFAULT_TOPICS))
+        ap.add_argument("--topics_file", default="")
         ap.add_argument("--secret_file", default="")
         ap.add_argument("--state_dir", required=True)
         ap.add_argument("--max_message_bytes", type=int, default=1 << 20)
@@ -238,7 +234,7 @@ class RelayEndNode:
       - ``--side`` (``a`` or ``b``, required): which robot's master this end is on.
       - ``--link_host`` (IPv4, required), ``--link_port`` (int, required): end b's address.
       - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
-      - ``--topics_file`` (path): the shared topics whitelist.
+      - ``--topics_file`` (path, default the package's ``config/shared_topics.yaml``): the shared topics whitelist.
       - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
       - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
       - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
@@ -258,25 +254,25 @@ class RelayEndNode:
     def __init__(self, params: Params, watch: MasterWatch | None) -> None:
         self.params = params
         name = rospy.get_name()
-        if name != relay_node_name(params.robot_a, params.robot_b):
+        if name != relay_end_name(params.robot_a, params.robot_b):
             raise RelayConfigError(f"this end is named {name} (remapped?); the relay between {params.robot_a} and "
-                                   f"{params.robot_b} must be named {relay_node_name(params.robot_a, params.robot_b)}")
-        specs = load_shared_topics(params.topics_file)
+                                   f"{params.robot_b} must be named {relay_end_name(params.robot_a, params.robot_b)}")
+        specs = load_shared_topics(params.topics_file or resource("config", "shared_topics.yaml"))
         self.specs = {s.name: s for s in specs}
         classes = {s.name: _message_class(s) for s in specs}
         secret = read_secret(params.secret_file) if params.secret_file else None
-        cfg = LinkConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
-                         md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
-                         max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
-                         max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
-                         heartbeat=params.heartbeat,
-                         link_timeout=params.link_timeout, state_rate=params.state_rate,
-                         header_topics=frozenset(s.name for s in specs
-                                                 if s.kind == EVENT and classes[s.name]._has_header))
+        cfg = RelayEndConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
+                             md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
+                             max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
+                             max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
+                             heartbeat=params.heartbeat,
+                             link_timeout=params.link_timeout, state_rate=params.state_rate,
+                             header_topics=frozenset(s.name for s in specs
+                                                     if s.kind == EVENT and classes[s.name]._has_header))
         self.cfg = cfg
-        journal = Journal(Path(params.state_dir) / f"{cfg.link}.{params.side}.journal")
+        journal = Journal(Path(params.state_dir) / f"{cfg.pair}.{params.side}.journal")
         self.lock = threading.Lock()
-        self.core = LinkCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes))
+        self.core = RelayEndCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes))
         self.raw = {n: raw_class(c) for n, c in classes.items()}
         self._last_latched: dict[str, str] = {}
         self.pruned = 0                      # subscriptions to relay publishers closed
@@ -290,7 +286,7 @@ class RelayEndNode:
             else:
                 self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=10000,
                                                     subscriber_listener=_EventReplay(self, s.name))
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
         self.subs = [rospy.Subscriber(s.name, rospy.AnyMsg, self._on_local, callback_args=s.name)
                      for s in specs]
         # delivery hold across restarts of this end's master
@@ -351,14 +347,14 @@ class RelayEndNode:
                 out.append(r)
         return out
 
-    def _on_master_event(self, event: Event, watch: MasterWatch) -> None:
+    def _on_master_event(self, event: MasterEvent, watch: MasterWatch) -> None:
         now = time.monotonic()
         with self.lock:
-            if event is Event.DOWN:
+            if event is MasterEvent.DOWN:
                 self.core.set_master_up(False)
                 self.core.set_delivery_open(False)
                 self.reopen_deadline = None
-            elif event is Event.REREGISTER:
+            elif event is MasterEvent.REREGISTER:
                 self.core.set_master_up(True)
                 self.core.set_delivery_open(False)
                 self.reopen_deadline = now + self.params.hold_grace
@@ -604,7 +600,7 @@ class RelayEndNode:
         "Every subscriber" = the non-relay subscribers connected before the hold, plus those
         the master lists now; delivery reopens when all of them are connected to this end's
         publishers, or when ``hold_grace`` is over (then it says who is missing)."""
-        current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay(c.endpoint_id or "")}
+        current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay_end(c.endpoint_id or "")}
                    for t in self.expected_subs}
         with self.lock:
             held, up, deadline = not self.core.delivery_open, self.core.master_up, self.reopen_deadline
@@ -615,7 +611,7 @@ class RelayEndNode:
         if deadline is None or not up:
             return
         registered = self._registered_subscribers()
-        want = {t: {n for n in self.expected_subs[t] | registered.get(t, set()) if not is_relay(n)}
+        want = {t: {n for n in self.expected_subs[t] | registered.get(t, set()) if not is_relay_end(n)}
                 for t in current}
         missing = {t: sorted(want[t] - current[t]) for t in current if want[t] - current[t]}
         if missing and now < deadline:
@@ -636,7 +632,7 @@ class RelayEndNode:
         for sub in self.subs:
             for c in list(sub.impl.connections):
                 header = getattr(c, "header", None) or {}
-                if is_relay(str(header.get("callerid", ""))):
+                if is_relay_end(str(header.get("callerid", ""))):
                     with contextlib.suppress(Exception):     # rospy transport internals: best effort
                         c.close()
                     self.pruned += 1
@@ -703,8 +699,12 @@ def main(argv: list[str] | None = None) -> int:
     except RelayConfigError as err:
         print(f"relay_end: {err}", file=sys.stderr)
         return EXIT_CONFIG
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+
     # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
-    rospy.init_node(relay_node_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True)
+    guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True,
+                    disable_signals=True)
     watch = keep_registered()
     try:
         node = RelayEndNode(params, watch)
@@ -722,4 +722,9 @@ def main(argv: list[str] | None = None) -> int:
                   f"{'HMAC-SHA256' if node.cfg.secret else 'NO authentication'}")
     rospy.on_shutdown(node.stop)
     node.run()
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0
+
+
+if __name__ == "__main__":      # the supervisor starts each end as ``python -m gidabot_navigation.relay.end_node``
+    sys.exit(main())

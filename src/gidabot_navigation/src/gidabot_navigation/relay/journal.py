@@ -34,8 +34,8 @@ from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.relay.protocol import FrameRejected, Message, Reader, Writer
+from gidabot_navigation.errors import FrameRejected, JournalError
+from gidabot_navigation.relay.protocol import Message, Reader, Writer
 
 REC = struct.Struct(">II")
 MAX_RECORD = 256 << 20
@@ -48,10 +48,6 @@ def event_digest(topic: str, payload: bytes, skip: int = 0) -> bytes:
     bytes (4 for a message starting with std_msgs/Header: rospy rewrites ``header.seq`` on every
     publish, so the same message published again differs there only)."""
     return hashlib.blake2b(topic.encode() + b"\0" + payload[skip:], digest_size=DIGEST_BYTES).digest()
-
-
-class JournalError(GidaBotError):
-    """The journal cannot be opened, locked or written."""
 
 
 @dataclass

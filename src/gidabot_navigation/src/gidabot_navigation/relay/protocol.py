@@ -10,9 +10,9 @@ secret itself. MAC = HMAC-SHA256(key, counter u64 | header | body) where
 
 - HELLO frames use ``hello_key = HMAC(secret, "gidabot-relay-v1 hello")`` and counter 0;
 - every later frame uses the session key of its direction, derived from the secret,
-  the link name and both HELLO nonces, and the number of frames sent before it in
+  the relay pair name (``<A>_<B>``) and both HELLO nonces, and the number of frames sent before it in
   that direction on this connection (so frames cannot be replayed, reordered,
-  reflected or moved to another connection or link).
+  reflected or moved to another connection or relay).
 
 Strings are u16 length + UTF-8, payloads u32 length + bytes. Every decoding error
 raises :class:`FrameRejected` with a ``reason`` (``auth``, ``oversize``,
@@ -28,7 +28,7 @@ import struct
 from dataclasses import dataclass
 from enum import IntEnum
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import FrameRejected
 
 MAGIC = b"GR"
 VERSION = 1
@@ -36,7 +36,7 @@ HEADER = struct.Struct(">2sBBBI")
 MAC_LEN = 32
 FLAG_MAC = 0x01
 NONCE_LEN = 16
-MAX_STRING = 4096           # topic names, caller ids, link names
+MAX_STRING = 4096           # topic names, caller ids, relay pair names
 FRAME_OVERHEAD = 1024       # room for the fixed fields of an EVENT/STATE frame around its payload
 
 
@@ -51,22 +51,14 @@ class FrameType(IntEnum):
     BYE = 21
 
 
-class FrameRejected(GidaBotError):
-    """A frame (or a message inside one) is refused; ``reason`` is auth, oversize, malformed or type."""
-
-    def __init__(self, reason: str, message: str) -> None:
-        self.reason = reason
-        super().__init__(message)
-
-
 # -- keys ----------------------------------------------------------------------------------
 def hello_key(secret: bytes) -> bytes:
     return hmac.new(secret, b"gidabot-relay-v1 hello", hashlib.sha256).digest()
 
 
-def session_keys(secret: bytes, link: str, nonce_a: bytes, nonce_b: bytes) -> tuple[bytes, bytes]:
-    """(key of frames a -> b, key of frames b -> a) for one connection of ``link``."""
-    base = b"gidabot-relay-v1 session|" + link.encode() + b"|" + nonce_a + nonce_b
+def session_keys(secret: bytes, pair: str, nonce_a: bytes, nonce_b: bytes) -> tuple[bytes, bytes]:
+    """(key of frames a -> b, key of frames b -> a) for one connection of the relay ``pair`` (``<A>_<B>``)."""
+    base = b"gidabot-relay-v1 session|" + pair.encode() + b"|" + nonce_a + nonce_b
     return (hmac.new(secret, base + b"|a>b", hashlib.sha256).digest(),
             hmac.new(secret, base + b"|b>a", hashlib.sha256).digest())
 
@@ -236,7 +228,7 @@ class Reader:
 
 @dataclass(frozen=True)
 class Hello:
-    link: str
+    pair: str
     side: str              # "a" or "b": the sender's side
     nonce: bytes
     echo: bytes            # b: the nonce of a's HELLO; a: empty
@@ -245,19 +237,19 @@ class Hello:
     in_last: int           # last sequence number of that stream the sender has stored
 
     def encode(self) -> bytes:
-        return (Writer().str(self.link).str(self.side).raw(self.nonce).u8(len(self.echo)).raw(self.echo)
+        return (Writer().str(self.pair).str(self.side).raw(self.nonce).u8(len(self.echo)).raw(self.echo)
                 .u64(self.out_epoch).u64(self.in_epoch).u64(self.in_last).bytes())
 
     @staticmethod
     def decode(body: bytes) -> Hello:
         r = Reader(body, "HELLO")
-        link, side, nonce = r.str(), r.str(), r.raw(NONCE_LEN)
+        pair, side, nonce = r.str(), r.str(), r.raw(NONCE_LEN)
         echo = r.raw(r.u8())
         out_epoch, in_epoch, in_last = r.u64(), r.u64(), r.u64()
         r.end()
         if side not in ("a", "b") or len(echo) not in (0, NONCE_LEN):
             raise FrameRejected("malformed", f"HELLO with side {side!r} and a {len(echo)}-byte echo")
-        return Hello(link, side, nonce, echo, out_epoch, in_epoch, in_last)
+        return Hello(pair, side, nonce, echo, out_epoch, in_epoch, in_last)
 
 
 @dataclass(frozen=True)

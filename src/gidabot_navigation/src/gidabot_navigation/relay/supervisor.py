@@ -27,12 +27,10 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.relay.end import relay_node_name
+from gidabot_navigation.interface import relay_end_name
+from gidabot_navigation.relay.end import EXIT_CONFIG, EXIT_PORT, PARENT_ENV
 
-EXIT_CONFIG = 2                          # = relay_node.EXIT_CONFIG (not imported: that module needs rospy)
-EXIT_PORT = 3                            # = relay_node.EXIT_PORT
-PARENT_ENV = "GIDABOT_RELAY_PARENT"      # = relay_node.PARENT_ENV: the ends exit when their parent is gone
-RELAY_END = Path(__file__).resolve().parents[3] / "nodes" / "relay_end"
+RELAY_END = "gidabot_navigation.relay.end_node"   # the end's module, run with ``python -m``: no file to find
 
 
 @dataclass(frozen=True)
@@ -49,16 +47,16 @@ class EndSpec:
     bind_ip: str         # end a's source address
 
     @property
-    def link(self) -> str:
+    def pair(self) -> str:
         return f"{self.robot_a}_{self.robot_b}"
 
     @property
     def key(self) -> str:
-        return f"{self.link}.{self.side}"
+        return f"{self.pair}.{self.side}"
 
     @property
     def node_name(self) -> str:
-        return relay_node_name(self.robot_a, self.robot_b)
+        return relay_end_name(self.robot_a, self.robot_b)
 
 
 def is_local_address(ip: str) -> bool:
@@ -128,7 +126,7 @@ class EndOptions:
 
 def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> list[str]:
     """Command line of one end (the secret travels as a file path, never as a value)."""
-    argv = [python, str(RELAY_END), "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
+    argv = [python, "-m", RELAY_END, "--robot_a", spec.robot_a, "--robot_b", spec.robot_b, "--side", spec.side,
             "--link_host", spec.link_host, "--link_port", str(spec.link_port), "--bind_ip", spec.bind_ip,
             "--state_dir", opts.state_dir, "--secret_file", opts.secret_file]
     if opts.topics_file:
@@ -237,7 +235,7 @@ def _pdeathsig() -> None:       # pragma: no cover - runs in the child between f
     ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)      # PR_SET_PDEATHSIG
 
 
-class Supervisor:
+class RelaySupervisor:
     """Keeps every planned end running (no rospy): call :meth:`step` periodically, :meth:`stop` at the end."""
 
     def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],
@@ -262,9 +260,9 @@ class Supervisor:
     def _move_link(self, end_b: ChildProcess, now: float) -> None:
         """End b could not bind its port: give the pair a new port and restart end a with it."""
         port = self.new_port(end_b.spec.link_host)
-        self.log("warning", f"link port {end_b.spec.link_port} of relay {end_b.spec.link} is taken; moving to {port}")
+        self.log("warning", f"link port {end_b.spec.link_port} of relay {end_b.spec.pair} is taken; moving to {port}")
         for child in self.children:
-            if child.spec.link == end_b.spec.link:
+            if child.spec.pair == end_b.spec.pair:
                 child.spec = replace(child.spec, link_port=port)
                 if child.spec.side == "a" and child.popen is not None:
                     child.stop()

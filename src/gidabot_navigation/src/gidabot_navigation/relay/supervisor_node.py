@@ -11,9 +11,9 @@ import time
 from pathlib import Path
 
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.relay.end import RelayConfigError
-from gidabot_navigation.relay.supervisor import EndOptions, Supervisor, free_port, plan_relays
+from gidabot_navigation.errors import GidaBotError, RelayConfigError
+from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.relay.supervisor import EndOptions, RelaySupervisor, free_port, plan_relays
 
 
 class RelaySupervisorNode:
@@ -71,11 +71,11 @@ class RelaySupervisorNode:
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         opts = EndOptions(state_dir=str(Path(state_dir).resolve()), secret_file=secret_file,
                           topics_file=topics_file, extra=tuple((str(k), str(v)) for k, v in extra.items()))
-        self.sup = Supervisor(ends, opts, self._log)
+        self.sup = RelaySupervisor(ends, opts, self._log)
         from diagnostic_msgs.msg import DiagnosticArray
 
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
-        pairs = sorted({e.link for e in ends})
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        pairs = sorted({e.pair for e in ends})
         rospy.loginfo(f"relay_supervisor of {self.robot}: {len(pairs)} relay(s) to start"
                       f"{': ' + ', '.join(pairs) if pairs else ' (last robot of the building)'}; "
                       f"{'HMAC-SHA256' if secret_file else 'NO authentication (no secret file)'}")
@@ -120,9 +120,14 @@ class RelaySupervisorNode:
 def main(argv: list[str] | None = None) -> int:
     import rospy
 
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy.init_node("relay_supervisor", argv=argv if argv is not None else sys.argv, disable_rostime=True)
+    # exit within 1.5 s of SIGINT/SIGTERM, master frozen or not (issue 19.5): the ends it stops exit within 1 s
+    # (their own guards), and any end still there then gets SIGTERM from the kernel (PR_SET_PDEATHSIG)
+    guard = rospy_exit_guard(Node.RELAY_SUPERVISOR, grace=1.5)
+    rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True,
+                    disable_signals=True)
     keep_registered()
     try:
         node = RelaySupervisorNode()
@@ -130,4 +135,5 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"relay_supervisor cannot start: {err}")
         return 1
     node.run()
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

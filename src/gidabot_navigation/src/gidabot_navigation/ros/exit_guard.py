@@ -35,8 +35,8 @@ import traceback
 from collections.abc import Callable, Sequence
 from types import FrameType
 
+from gidabot_navigation.errors import ExitGuardError
 from gidabot_navigation.logs import Logger
-from gidabot_sim.errors import SimConfigError
 
 DEFAULT_GRACE = 1.0          # wall s from the signal to a forced exit
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -87,7 +87,7 @@ class ExitGuard:
                  log: Logger | None = None, exit: Callable[[int], object] = os._exit,  # noqa: A002
                  name: str = "node") -> None:
         if not (isinstance(grace, (int, float)) and 0.0 < grace < 3600.0):
-            raise SimConfigError(f"exit grace: {grace!r} must be a number of wall seconds in (0, 3600)")
+            raise ExitGuardError(f"exit grace: {grace!r} must be a number of wall seconds in (0, 3600)")
         self.shutdown, self.grace, self.main_loop = shutdown, float(grace), main_loop
         self.log = log or StderrLog(name)
         self.exit, self.name = exit, name
@@ -131,7 +131,7 @@ class ExitGuard:
     def install(self, signals: Sequence[int] = SIGNALS) -> ExitGuard:
         """Take over ``signals`` (call from the main thread, after ``rospy.init_node``)."""
         if threading.current_thread() is not threading.main_thread():
-            raise SimConfigError("ExitGuard.install() must be called from the main thread")
+            raise ExitGuardError("ExitGuard.install() must be called from the main thread")
         read_fd, write_fd = os.pipe()
         os.set_blocking(write_fd, False)       # the interpreter's wake-up write must never block
         self._pipe = (read_fd, write_fd)
@@ -261,5 +261,9 @@ def rospy_shutdown(reason: str) -> None:
 
 
 def rospy_exit_guard(name: str, grace: float = DEFAULT_GRACE, main_loop: bool = False) -> ExitGuard:
-    """An installed guard whose shutdown is :func:`rospy_shutdown` (call right after ``rospy.init_node``)."""
+    """An installed guard whose shutdown is :func:`rospy_shutdown`. Best called *before*
+    ``rospy.init_node(..., disable_signals=True)``: a signal during ``init_node`` (which waits on the master)
+    then also ends the process in time; after an ``init_node`` with rospy's handlers, a signal in that
+    window runs rospy's handler, which can hang for good (a relay end restarted while its master was frozen
+    did, once its supervisor was gone)."""
     return ExitGuard(rospy_shutdown, grace=grace, main_loop=main_loop, name=name).install()

@@ -36,7 +36,7 @@ import xmlrpc.client
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.errors import MasterWatchError
 from gidabot_navigation.logs import Logger
 
 DEFAULT_PERIOD = 0.5     # s between polls
@@ -46,11 +46,7 @@ PARAM_REFRESH = 30.0     # s between merges of the node's parameters into the re
 RESTORED_KEYS = ("/use_sim_time",)   # global parameters every node restores besides its private ones
 
 
-class MasterWatchError(GidaBotError):
-    """Re-registration with the master failed (the master refused a registration or went away)."""
-
-
-class Event(enum.Enum):
+class MasterEvent(enum.Enum):
     """What a poll result means for the node."""
 
     NONE = "none"                  # nothing changed
@@ -64,7 +60,7 @@ class MasterWatchCore:
     """ROS-free state of one node's view of its master.
 
     Feed every poll result to :meth:`observe` (``pid`` None = no answer); it returns
-    the :class:`Event` to act on. After a REREGISTER, call :meth:`registered` (or
+    the :class:`MasterEvent` to act on. After a REREGISTER, call :meth:`registered` (or
     :meth:`registration_failed`, and the next answered poll asks again).
     """
 
@@ -79,7 +75,7 @@ class MasterWatchCore:
     down_since: float | None = None   # monotonic time the current outage was declared
     last_answer: float | None = None  # monotonic time of the last answered poll
 
-    def observe(self, pid: int | None, now: float) -> Event:
+    def observe(self, pid: int | None, now: float) -> MasterEvent:
         if pid is None:
             self.failures += 1
             if self.up and self.failures >= self.down_after:
@@ -87,8 +83,8 @@ class MasterWatchCore:
                 self.outages += 1
                 self.down_since = now
                 self.pending = True      # whatever comes back (same or new master), re-register
-                return Event.DOWN
-            return Event.NONE
+                return MasterEvent.DOWN
+            return MasterEvent.NONE
         first = self.pid is None
         if first and self.failures:
             self.pending = True          # unreachable since start: it may have restarted meanwhile
@@ -100,10 +96,10 @@ class MasterWatchCore:
         self.pid = pid
         if first and not self.pending:
             self.up = True
-            return Event.FIRST_CONTACT
+            return MasterEvent.FIRST_CONTACT
         self.up = True
         self.down_since = None
-        return Event.REREGISTER if self.pending else Event.NONE
+        return MasterEvent.REREGISTER if self.pending else MasterEvent.NONE
 
     def registered(self) -> None:
         self.pending = False
@@ -237,7 +233,7 @@ class ParamKeeper:
         return set_now
 
 
-Listener = Callable[[Event, "MasterWatch"], None]
+Listener = Callable[[MasterEvent, "MasterWatch"], None]
 
 
 @dataclass
@@ -292,7 +288,7 @@ class MasterWatch:
     def stop(self) -> None:
         self._stop.set()
 
-    def poll_once(self, now: float | None = None) -> Event:
+    def poll_once(self, now: float | None = None) -> MasterEvent:
         """One poll and what follows from it (the thread calls this every ``period``)."""
         if self._server is None:
             self._server = proxy(self.master_uri, self.timeout)
@@ -302,10 +298,10 @@ class MasterWatch:
         now = time.monotonic() if now is None else now
         with self._lock:
             event = self.core.observe(pid, now)
-        if event is Event.DOWN:
+        if event is MasterEvent.DOWN:
             self.log.warning(f"{self.caller_id}: master {self.master_uri} is not answering "
                              f"({self.core.down_after} polls in a row); will re-register when it is back")
-        elif event is Event.REREGISTER:
+        elif event is MasterEvent.REREGISTER:
             try:
                 self._restore_params()
                 count = register_all(self.master_uri, self.caller_id, self.node_uri, self.registrations(),
@@ -314,14 +310,14 @@ class MasterWatch:
                 with self._lock:
                     self.core.registration_failed()
                 self.log.warning(f"{self.caller_id}: {err}; retrying")
-                return Event.NONE
+                return MasterEvent.NONE
             with self._lock:
                 self.core.registered()
             self.log.info(f"{self.caller_id}: master {self.master_uri} is back (pid {pid}); "
                           f"re-registered {count} publication(s), subscription(s) and service(s)")
         elif pid is not None:
             self._refresh_params(now)
-        if event in (Event.DOWN, Event.REREGISTER):
+        if event in (MasterEvent.DOWN, MasterEvent.REREGISTER):
             with self._lock:
                 listeners = list(self._listeners)
             for listener in listeners:

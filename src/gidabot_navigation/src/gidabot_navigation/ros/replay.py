@@ -7,7 +7,7 @@ Event publishers keep what they published in the last ``window`` wall seconds (a
 most ``limit`` messages) and send it again, on that connection only, to every new
 subscriber. Receivers already ignore event uids they have handled
 (docs/interfaces.md), so a replay only fills the gap; a node that restarts keeps
-its handled uids across the restart (guiding state, :mod:`guiding_state`).
+its handled uids across the restart (:mod:`gidabot_navigation.guiding.state`).
 
 :class:`ReplayBuffer` is ROS-free; :class:`ReplayPublisher` wraps ``rospy.Publisher``.
 A node's events are replayed to relay ends too (a relay end that was down missed
@@ -23,8 +23,9 @@ from collections import deque
 from collections.abc import Callable
 from typing import Any
 
+from gidabot_navigation.interface import is_relay_end
+
 DEFAULT_WINDOW = 60.0     # wall s of events a late subscriber gets again
-RELAY_PREFIX = "/gidabot_relay_"
 
 
 class ReplayBuffer:
@@ -87,7 +88,7 @@ def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., 
     ``skip_relays`` (a relay's own publishers): no replay to a relay subscriber, which would never
     forward it. A node's events are replayed to a relay end too: one that (re)started missed them, and
     it forwards only those it has not forwarded before (digests in its journal)."""
-    if skip_relays and peer_of(peer_publish).startswith(RELAY_PREFIX):
+    if skip_relays and is_relay_end(peer_of(peer_publish)):
         return 0
     sent = 0
     for msg in buffer.recent():

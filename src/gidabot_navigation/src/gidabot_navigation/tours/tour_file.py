@@ -8,10 +8,16 @@ A tour file is UTF-8 text::
 
 The first line is the header ``Tour`` (optionally ``Tour: <display name>``);
 every other line is ``floor, room number, room description`` (the description
-may itself contain commas). Files end with a newline; blank lines, comments and
-a second header are errors. Spaces around columns and floors such as ``0.0``
-are accepted; :func:`format_tour` writes the canonical form (``", "`` between
-columns, ``0`` for floor 0.0), so canonical files round-trip byte for byte.
+may itself contain commas). What text editors and phones produce is accepted:
+``\n``, ``\r\n`` or ``\r`` line endings, a UTF-8 byte-order mark, no newline
+after the last line, trailing blank lines, spaces or tabs around the header's
+parts and around columns, floors written ``0.0``, text in any Unicode
+normalisation. Blank lines between goals, a second header, control characters
+and everything else malformed are errors naming the line. :func:`format_tour`
+writes the one canonical form (``", "`` between columns, ``0`` for floor 0.0,
+``\n`` endings, NFC, no name when it equals the one derived from the file
+name), so every variant of a tour gives the same canonical bytes and canonical
+files round-trip byte for byte.
 
 File names are checked by :func:`check_tour_file_name`: they come from other
 robots and must never escape the tours directory.
@@ -36,6 +42,7 @@ MAX_NAME = 80                    # characters of the display name
 MAX_FILE_NAME = 64               # bytes
 _FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$")
 _ROOM_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$")
+_HEADER_RE = re.compile(rf"^{HEADER}(?:\s*:(.*))?$")
 _RESERVED = {"con", "prn", "aux", "nul", "com1", "com2", "com3", "com4", "lpt1", "lpt2", "lpt3"}
 
 
@@ -110,6 +117,42 @@ def _parse_floor(text: str) -> float | None:
     return value if math.isfinite(value) else None
 
 
+def _control(text: str) -> str | None:
+    """The first control character of ``text`` other than a tab, as U+XXXX, or None."""
+    for ch in text:
+        if ch != "\t" and unicodedata.category(ch) == "Cc":
+            return f"U+{ord(ch):04X}"
+    return None
+
+
+def _decode(data: bytes | str, where_file: str) -> str:
+    """The text of a tour file: size and encoding checked, BOM removed, line endings made ``\n``."""
+    if isinstance(data, bytes):
+        if len(data) > MAX_TOUR_BYTES:
+            raise TourError([Problem(where_file, "file", f"{len(data)} bytes is more than the "
+                                                        f"{MAX_TOUR_BYTES} a tour may have")])
+        try:
+            text = data.decode("utf-8")
+        except UnicodeDecodeError as err:
+            line = data[: err.start].replace(b"\r\n", b"\n").replace(b"\r", b"\n").count(b"\n") + 1
+            raise TourError([Problem(where_file, f"line {line}", f"bad encoding at byte {err.start}: tour files "
+                                                                 f"must be UTF-8 ({err.reason})")]) from err
+    else:
+        text = data
+        try:
+            size = len(text.encode("utf-8"))
+        except UnicodeEncodeError as err:
+            line = text[: err.start].replace("\r\n", "\n").replace("\r", "\n").count("\n") + 1
+            raise TourError([Problem(where_file, f"line {line}", f"character {err.start} is not valid "
+                                                                 "UTF-8 text")]) from err
+        if size > MAX_TOUR_BYTES:
+            raise TourError([Problem(where_file, "file", f"more than the {MAX_TOUR_BYTES} bytes a tour may have")])
+    if "\x00" in text:
+        raise TourError([Problem(where_file, "file", "contains a NUL byte; tour files are plain text")])
+    text = text.removeprefix("\ufeff")
+    return unicodedata.normalize("NFC", text.replace("\r\n", "\n").replace("\r", "\n"))
+
+
 def parse_tour(data: bytes | str, file_name: str, building: Building | None = None,
                source: str | None = None) -> Tour:
     """Parse a tour file's content; with ``building`` also check floors and rooms exist.
@@ -123,60 +166,42 @@ def parse_tour(data: bytes | str, file_name: str, building: Building | None = No
     def bad(where: str, message: str) -> None:
         problems.append(Problem(where_file, where, message))
 
-    if isinstance(data, bytes):
-        if len(data) > MAX_TOUR_BYTES:
-            raise TourError([Problem(where_file, "file", f"{len(data)} bytes is more than the "
-                                                        f"{MAX_TOUR_BYTES} a tour may have")])
-        try:
-            text = data.decode("utf-8")
-        except UnicodeDecodeError as err:
-            line = data[: err.start].count(b"\n") + 1
-            raise TourError([Problem(where_file, f"line {line}", f"bad encoding at byte {err.start}: tour files "
-                                                                 f"must be UTF-8 ({err.reason})")]) from err
-    else:
-        text = data
-        if len(text.encode("utf-8")) > MAX_TOUR_BYTES:
-            raise TourError([Problem(where_file, "file", f"more than the {MAX_TOUR_BYTES} bytes a tour may have")])
-    if "\x00" in text:
-        raise TourError([Problem(where_file, "file", "contains a NUL byte; tour files are plain text")])
-    if text.startswith("\ufeff"):
-        bad("line 1", "starts with a byte-order mark; save the file as UTF-8 without BOM")
-        text = text[1:]
-    if not text.strip():
+    lines = _decode(data, where_file).split("\n")
+    while lines and not lines[-1].strip():
+        lines.pop()
+    if not lines:
         raise TourError([Problem(where_file, "file", "is empty; expected a 'Tour' header and at least one goal")])
-    if "\r" in text:
-        bad("file", "has Windows (CRLF) or CR line endings; expected '\\n'")
-        text = text.replace("\r\n", "\n").replace("\r", "\n")
-    if not text.endswith("\n"):
-        bad(f"line {text.count(chr(10)) + 1}", "the last line must end with a newline")
-        text += "\n"
-    lines = text[:-1].split("\n")
 
-    header = lines[0]
+    header = _HEADER_RE.match(lines[0].strip())
     name = ""
-    if header == HEADER:
-        pass
-    elif header.startswith(HEADER + ":") and header[len(HEADER) + 1:].strip():
-        name = header[len(HEADER) + 1:].strip()
-        if header != f"{HEADER}: {name}":
-            bad("line 1", f"header {header!r} must be written 'Tour: {name}'")
+    if header is None:
+        bad("line 1", f"expected the header 'Tour' (or 'Tour: <name>'), got {lines[0].strip()[:40]!r}")
+    else:
+        name = (header.group(1) or "").strip()
+        if (code := _control(name)) is not None:
+            bad("line 1", f"tour name holds the control character {code}")
         if len(name) > MAX_NAME:
             bad("line 1", f"tour name is {len(name)} characters; at most {MAX_NAME}")
-    else:
-        bad("line 1", f"expected the header 'Tour' (or 'Tour: <name>'), got {header[:40]!r}")
+        if name == _derived_name(file_name):
+            name = ""            # the same display name either way: one canonical form
 
     goals: list[TourGoal] = []
     for number, line in enumerate(lines[1:], start=2):
         where = f"line {number}"
-        if line == HEADER or line.startswith(HEADER + ":"):
+        if _HEADER_RE.match(line.strip()):
             bad(where, "duplicate 'Tour' header; a file holds one tour")
             continue
         if not line.strip():
-            bad(where, "blank line; every line after the header is 'floor, room number, room description'")
+            bad(where, "blank line between goals; every line after the header is "
+                       "'floor, room number, room description'")
+            continue
+        if (code := _control(line)) is not None:
+            bad(where, f"holds the control character {code}")
             continue
         parts = line.split(",", 2)
         if len(parts) != 3:
-            bad(where, f"{len(parts)} column(s) in {line[:60]!r}; expected 3: floor, room number, room description")
+            bad(where, f"{len(parts)} column(s) in {line.strip()[:60]!r}; expected 3: floor, room number, "
+                       "room description")
             continue
         floor_text, room, description = parts[0].strip(), parts[1].strip(), parts[2].strip()
         floor = _parse_floor(floor_text)
@@ -206,6 +231,7 @@ def parse_tour(data: bytes | str, file_name: str, building: Building | None = No
             if location.floor != bfloor.id:
                 bad(where, f"room {room} is on floor {format_floor(location.floor)}, not {floor_text}")
                 continue
+            goal = TourGoal(bfloor.id, room, description)
         goals.append(goal)
     if not goals and not problems:
         bad("file", "empty tour: no goals after the header")
@@ -223,9 +249,18 @@ def format_tour(tour: Tour) -> str:
 
 
 def tour_from_lines(file_name: str, name: str, goal_lines: list[str], building: Building | None = None) -> Tour:
-    """Build a tour from Tour.msg fields, validated exactly like a file."""
+    """Build a tour from Tour.msg fields, validated exactly like a file.
+
+    The fields are single lines: a line break in the name or in a goal line is an error
+    (it would add lines to the tour), not a tolerated variant.
+    """
     check_tour_file_name(file_name)
-    header = f"{HEADER}: {name}" if name and name != _derived_name(file_name) else HEADER
+    problems = [Problem(file_name, where, "holds a line break; each field is one line")
+                for where, text in [("tour name", name)] + [(f"goal {i}", g) for i, g in enumerate(goal_lines, 1)]
+                if "\n" in text or "\r" in text]
+    if problems:
+        raise TourError(problems)
+    header = f"{HEADER}: {name}" if name.strip() else HEADER
     return parse_tour("\n".join([header, *goal_lines]) + "\n", file_name, building)
 
 

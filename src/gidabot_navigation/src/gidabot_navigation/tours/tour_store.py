@@ -12,7 +12,7 @@ safety rules) is in ``docs/tours.md``; in short:
   name. Records are ordered by :attr:`TourRecord.key` ``(version, editor_robot,
   sha256, language)``; the larger record wins everywhere (last writer wins). A
   deletion is a *tombstone* record, so an older copy cannot resurrect a deleted
-  tour; tombstones are pruned after ``Limits.tombstone_ttl_ns`` (30 days).
+  tour; tombstones are pruned after ``StoreLimits.tombstone_ttl_ns`` (30 days).
 - **Metadata** (versions, editors, origins, tombstones, canonical content and
   its hash, and which file on disk the store owns) is one JSON file in the
   directory, ``.gidabot-tours.json``, always replaced atomically; it is the
@@ -48,8 +48,9 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from gidabot_navigation.building.model import LANGUAGES, Building, format_floor
+from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError, TourRejected, TourStoreError
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.safe_dir import Entry, SafeDir, sha256
 from gidabot_navigation.tours.tour_file import (
@@ -73,7 +74,7 @@ NS = 1_000_000_000
 
 
 @dataclass(frozen=True)
-class Limits:
+class StoreLimits:
     """Bounds on what the store accepts (all overridable by ~params of the node)."""
 
     max_message_bytes: int = 256 * 1024        # a Tour message body; a tour file is at most 64 KiB
@@ -214,7 +215,7 @@ class TourStore:
 
     def __init__(self, directory: str | os.PathLike[str], building: Building, robot: str, *,
                  wall_ns: Callable[[], int], log: Logger, seed_dir: str | os.PathLike[str] | None = None,
-                 default_language: str = "en", limits: Limits | None = None) -> None:
+                 default_language: str = DEFAULT_LANGUAGE, limits: StoreLimits | None = None) -> None:
         if building.find_robot(robot) is None:
             raise TourStoreError(f"robot {robot!r} is not in building {building.id} "
                                  f"({', '.join(r.name for r in building.robots)})")
@@ -228,7 +229,7 @@ class TourStore:
         self.log = log
         self.seed_dir = Path(seed_dir) if seed_dir else None
         self.default_language = default_language
-        self.limits = limits or Limits()
+        self.limits = limits or StoreLimits()
         self.counters: Counter[str] = Counter()
         self.records: dict[str, TourRecord] = {}
         self.last_rejection = ""
@@ -456,6 +457,13 @@ class TourStore:
             self.log.warning(f"ignoring tour file {name} ({why}), left untouched: {detail}")
             return False
         old = self.records.get(name)
+        if old is not None and not old.deleted and format_tour(tour) == old.content:
+            # the same tour written differently (line endings, spacing, BOM): no new version, the
+            # store's canonical file replaces it
+            self._apply(old, claim=entry.sha256)
+            self.log.info(f"tour file {name} ({why}) holds the stored tour in another form; rewritten in the "
+                          "canonical form")
+            return True
         version = max(self.wall_ns(), old.version + 1 if old else 0)
         origin = old.origin if old and not old.deleted else self.robot
         language = old.language if old and not old.deleted else self.default_language
@@ -549,9 +557,6 @@ class TourStore:
         for i, line in enumerate(goals, start=1):
             if not _encodable(line):
                 raise TourRejected("encoding", f"tour {name}: goal {i} {_short(line)} is not valid UTF-8 text")
-            if "\n" in line or "\r" in line:
-                raise TourRejected("content", f"tour {name}: goal {i} {_short(line)} holds a line break; "
-                                              "each goal is one line 'floor, room number, room description'")
         try:
             tour = tour_from_lines(name, title, list(goals), self.building)
         except TourError as err:
@@ -667,7 +672,7 @@ class TourStore:
         """Anti-entropy: records ``peer`` lacks or holds in an older version, to re-publish.
 
         ``now`` is a monotonic time in s; one record is re-sent to one peer at most every
-        ``Limits.resend_period`` s while the peer's index still shows it lacks it.
+        ``StoreLimits.resend_period`` s while the peer's index still shows it lacks it.
         """
         if peer == self.robot:
             return []

@@ -7,6 +7,7 @@ store: callbacks only check sizes and enqueue raw bytes.
 
 from __future__ import annotations
 
+import contextlib
 import io
 import os
 import queue
@@ -21,14 +22,15 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
-from gidabot_navigation.building.model import LANGUAGES, load_building
+from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
+from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
-from gidabot_navigation.tours.tour_store import NS, Limits, TourMessage, TourRecord, TourStore, index_entries
+from gidabot_navigation.ros.params import param_number
+from gidabot_navigation.tours.tour_store import NS, StoreLimits, TourMessage, TourRecord, TourStore, index_entries
 
-TOURS_TOPIC = "/gidabot/tours"
-INDEX_TOPIC = "/gidabot/tour_index"
 QUEUE_SIZE = 1000
 
 
@@ -40,7 +42,7 @@ class Params:
     seed_dir: str
     default_language: str
     index_rate: float
-    limits: Limits
+    limits: StoreLimits
 
     @staticmethod
     def read() -> Params:
@@ -52,23 +54,17 @@ class Params:
         ros_home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
         default_dir = os.path.join(ros_home, "gidabot", robot, "tours")
         tours_dir = str(rospy.get_param("~tours_dir", "") or default_dir)
-        language = str(rospy.get_param("~default_language", "en"))
+        language = str(rospy.get_param("~default_language", DEFAULT_LANGUAGE))
         if language not in LANGUAGES:
             raise TourStoreError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
 
-        def positive(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not value > 0:
-                raise TourStoreError(f"{name} must be a positive number, got {value!r}")
-            return float(value)
-
-        limits = Limits(max_message_bytes=int(positive("~max_message_bytes", Limits.max_message_bytes)),
-                        max_tours=int(positive("~max_tours", Limits.max_tours)),
-                        max_future_ns=int(positive("~max_clock_skew", Limits.max_future_ns / NS) * NS),
-                        tombstone_ttl_ns=int(positive("~tombstone_ttl", Limits.tombstone_ttl_ns / NS) * NS),
-                        resend_period=positive("~resend_period", Limits.resend_period))
+        limits = StoreLimits(max_message_bytes=int(param_number("~max_message_bytes", StoreLimits.max_message_bytes)),
+                        max_tours=int(param_number("~max_tours", StoreLimits.max_tours)),
+                        max_future_ns=int(param_number("~max_clock_skew", StoreLimits.max_future_ns / NS) * NS),
+                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", StoreLimits.tombstone_ttl_ns / NS) * NS),
+                        resend_period=param_number("~resend_period", StoreLimits.resend_period))
         return Params(building, robot, tours_dir, str(rospy.get_param("~seed_dir", "")), language,
-                      positive("~index_rate", 1.0), limits)
+                      param_number("~index_rate", 1.0), limits)
 
 
 def to_core(msg: Tour) -> TourMessage:
@@ -156,15 +152,15 @@ class TourStoreNode:
                                seed_dir=params.seed_dir or None, default_language=params.default_language,
                                limits=params.limits)
         self.store.open()
-        self.inbox: queue.Queue[tuple[str, bytes, str]] = queue.Queue(QUEUE_SIZE)
+        self.inbox: queue.Queue[tuple[str, bytes, str] | None] = queue.Queue(QUEUE_SIZE)   # None: wake up
         self.dropped = 0
-        self.tours_pub = rospy.Publisher(TOURS_TOPIC, Tour, queue_size=100)
-        self.index_pub = rospy.Publisher(INDEX_TOPIC, TourIndex, queue_size=10, latch=True)
-        self.catalog_pub = rospy.Publisher("tour_store/catalog", TourCatalog, queue_size=2, latch=True)
-        self.result_pub = rospy.Publisher("tour_store/edit_result", TourEditResult, queue_size=20)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=2)
+        self.tours_pub = rospy.Publisher(Topic.TOURS, Tour, queue_size=100)
+        self.index_pub = rospy.Publisher(Topic.TOUR_INDEX, TourIndex, queue_size=10, latch=True)
+        self.catalog_pub = rospy.Publisher(Topic.TOUR_CATALOG, TourCatalog, queue_size=2, latch=True)
+        self.result_pub = rospy.Publisher(Topic.TOUR_EDIT_RESULT, TourEditResult, queue_size=20)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [rospy.Subscriber(topic, rospy.AnyMsg, self._enqueue, callback_args=kind, queue_size=100)
-                     for topic, kind in ((TOURS_TOPIC, "tour"), (INDEX_TOPIC, "index"), ("tour_store/edit", "edit"))]
+                     for topic, kind in ((Topic.TOURS, "tour"), (Topic.TOUR_INDEX, "index"), (Topic.TOUR_EDIT, "edit"))]
         self._publish_state()
 
     # -- callbacks: size check, enqueue, return ---------------------------------------
@@ -179,12 +175,20 @@ class TourStoreNode:
         except queue.Full:
             self.dropped += 1
 
+    def _wake(self) -> None:
+        """End the loop's wait at once (from the exit guard's thread)."""
+        with contextlib.suppress(queue.Full):
+            self.inbox.put_nowait(None)
+
     # -- the loop that owns the store ---------------------------------------------------
-    def run(self) -> None:
+    def run(self, guard: ExitGuard) -> None:
+        """The loop, until shutdown or the guard's signal (which wakes it); then the store is closed and the
+        guard told the loop has stopped (it then closes the topics)."""
+        guard.set_wake(self._wake)
         period = 1.0 / self.params.index_rate
         next_tick = time.monotonic() + period
         try:
-            while not rospy.is_shutdown():
+            while not rospy.is_shutdown() and not guard.requested:
                 try:
                     item = self.inbox.get(timeout=max(0.0, min(0.2, next_tick - time.monotonic())))
                 except queue.Empty:
@@ -197,6 +201,7 @@ class TourStoreNode:
                     self.tick()
         finally:
             self.store.close()
+            guard.loop_stopped()
 
     def handle(self, kind: str, raw: bytes, sender: str) -> bool:
         """Handle one queued message; True if the store changed."""
@@ -301,7 +306,8 @@ class TourStoreNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    rospy.init_node("tour_store", argv=argv if argv is not None else sys.argv)
+    guard = rospy_exit_guard(Node.TOUR_STORE, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
+    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()    # found again after its master restarts (docs/interfaces.md)
     try:
         node = TourStoreNode(Params.read())
@@ -309,5 +315,6 @@ def main(argv: list[str] | None = None) -> int:
         rospy.logfatal(f"tour_store cannot start: {err}")
         return 1
     rospy.loginfo(f"tour_store of {node.robot}: {Path(node.params.tours_dir)}")
-    node.run()
+    node.run(guard)
+    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
     return 0

@@ -19,15 +19,16 @@ import numpy as np
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.building.planning import Shape
+from gidabot_navigation.logs import Logger
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore, PoseTracker
-from gidabot_sim.navstack.move_base import Logger, MoveBaseCore, NavConfig, State, StepResult
+from gidabot_sim.navstack.move_base import MoveBaseCore, NavConfig, State, StepResult
 from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec, RobotSpec, World
 
 
 @dataclass
-class Outcome:
+class LegResult:
     outcome: str | None       # "succeeded", "aborted", None (timed out / still running)
     text: str
     duration: float           # sim seconds
@@ -108,7 +109,7 @@ class FloorLoop:
         while self.world.time < end - 1e-9:
             self.tick()
 
-    def drive(self, goal: Pose2D, timeout: float = 600.0) -> Outcome:
+    def drive(self, goal: Pose2D, timeout: float = 600.0) -> LegResult:
         """Send ``goal`` and simulate until it ends or ``timeout`` sim seconds pass."""
         w = self.world
         start, stalls = w.time, w.robots[0].stalls
@@ -119,5 +120,5 @@ class FloorLoop:
             p = w.robots[0].pose
             min_clear = min(min_clear, w.clearance(p.x, p.y))
             if result is not None and result.outcome is not None:
-                return Outcome(result.outcome, result.text, w.time - start, min_clear, w.robots[0].stalls - stalls)
-        return Outcome(None, "timed out", w.time - start, min_clear, w.robots[0].stalls - stalls)
+                return LegResult(result.outcome, result.text, w.time - start, min_clear, w.robots[0].stalls - stalls)
+        return LegResult(None, "timed out", w.time - start, min_clear, w.robots[0].stalls - stalls)

@@ -5,7 +5,8 @@ the same ``--seed`` at each of ``--speeds`` (default 10, 20, 50 and max), one af
 per speed: the tour's wall time and achieved factor, each floor's achieved factor and wall time behind
 its ceiling, the controllers' and guiding loops' rates against nominal (the worst of each kind), whether
 the run is degraded, Table 3, the largest Table 5 difference against the first (slowest) run, and the CPU
-per simulated second. ``--json`` prints one object with a ``runs`` list.
+per simulated second. ``--json`` prints one object with a ``runs`` list, ``--markdown`` a table of the runs; both
+are also written to ``<out>/bench.json`` and ``<out>/bench.md``.
 
 Targets (exit status 1 when one is missed): every run completes the tour, is not degraded, has the first
 run's Table 3 and its Table 5 times and distances within 3 %; the 50x run takes at most 30 s of tour wall
@@ -24,9 +25,9 @@ from pathlib import Path
 from tempfile import mkdtemp
 
 from gidabot_navigation.building.model import load_building
-from gidabot_sim.runner.building_runner import REPO
+from gidabot_navigation.resources import resource
 
-GIDABOT = REPO / "bin" / "gidabot"
+DEMO = (sys.executable, "-m", "gidabot_sim.cli", "demo")
 TARGETS = {"table5_max_delta_pct": 3.0, "wall_s_at_50x": 30.0, "max_min_factor": 50.0}
 
 
@@ -40,7 +41,7 @@ def label(speed: float | str) -> str:
 
 def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path) -> dict:
     """One demo run; its report (``gidabot demo --json``) with its exit status and CPU."""
-    argv = [str(GIDABOT), "demo", "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
+    argv = [*DEMO, "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
             "--json", "--cpu"] + (["--net", str(net)] if net is not None else [])
     began = time.monotonic()
     with open(log, "w", encoding="utf-8") as err:
@@ -150,10 +151,32 @@ def print_run(run: dict, robots: list[str]) -> None:
         print(f"       degraded: {reason}")
 
 
+def format_markdown(result: dict) -> str:
+    """The runs as one Markdown table (what docs/demo.md shows), and the verdict."""
+    robots = result["robots"]
+    lines = [f"`gidabot bench demo --seed {result['seed']}`, tour {result['tour']} (Table 3: goals processed by "
+             f"{', '.join(robots)})", "",
+             "| speed | tour wall (s) | sim (s) | sim/wall | floors' sim/wall | behind (s, worst floor) | "
+             "lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | CPU ms per sim s |",
+             "|---|---:|---:|---:|---|---:|---:|---|---|---:|---:|"]
+    for run in result["runs"]:
+        floors = run["floors"]
+        factors = " / ".join(f"{floors[r]['achieved_factor']:.0f}" for r in robots if r in floors)
+        behind = max((floors[r]["behind_s"] for r in floors), default=0.0)
+        lines.append(f"| {label(run['speed'])} | {run['wall_s']:.1f} | {run['sim_s']:.0f} | {run['sim_to_wall']:.1f} | "
+                     f"{factors} | {behind:.2f} | {run['lowest_rate_pct']} | {'yes' if run['degraded'] else 'no'} | "
+                     f"{', '.join(str(n) for n in run['table3'])} | {run['table5_max_delta_pct']:.2f} % | "
+                     f"{run['cpu_ms_per_sim_s']} |")
+    lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="gidabot bench demo", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object")
-    ap.add_argument("--tour", type=Path, default=REPO / "tours" / "long_tour.tour", help="tour (default: Table 2)")
+    out_format = ap.add_mutually_exclusive_group()
+    out_format.add_argument("--json", action="store_true", help="print one JSON object")
+    out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
+    ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
     ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
     ap.add_argument("--net", type=int, default=None, help="gidabot demo --net")
@@ -162,22 +185,26 @@ def main(argv: list[str] | None = None) -> int:
     speeds = [parse_speed(s) for s in args.speeds.split(",") if s]
     out = args.out or Path(mkdtemp(prefix="gidabot-bench-demo-"))
     out.mkdir(parents=True, exist_ok=True)
-    robots = [r.name for r in load_building(REPO / "maps" / "faculty").robots]
+    robots = [r.name for r in load_building(resource("maps", "faculty")).robots]
     runs: list[dict] = []
     reports: list[dict] = []
     for speed in speeds:
-        if not args.json:
+        if not (args.json or args.markdown):
             print(f"running {args.tour.name} at {label(speed)} ...", flush=True)
         report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log")
         reports.append(report)
         runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None))
-        if not args.json:
+        if not (args.json or args.markdown):
             print_run(runs[-1], robots)
     missed = verdicts(runs)
     result = {"tour": args.tour.name, "seed": args.seed, "robots": robots, "targets": TARGETS, "runs": runs,
               "missed": missed, "pass": not missed, "out": str(out)}
+    (out / "bench.json").write_text(json.dumps(result, indent=2), encoding="utf-8")    # whatever is printed
+    (out / "bench.md").write_text(format_markdown(result) + "\n", encoding="utf-8")
     if args.json:
         print(json.dumps(result))
+    elif args.markdown:
+        print(format_markdown(result))
     else:
         for text in missed:
             print(f"missed: {text}")

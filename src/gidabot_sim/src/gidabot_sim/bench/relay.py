@@ -27,7 +27,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, Supervisor
+from gidabot_navigation.interface import Topic
+from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor
 from gidabot_sim.runner.procs import ProcessGroup, free_port, robot_address, ros_env, start_master
 
 SECRET = "bench-relay-secret-0123456789"
@@ -72,8 +73,8 @@ def worker(argv: Sequence[str]) -> int:
         recv.setdefault(origin, []).append((int(k), (now - msg.header.stamp.to_sec()) * 1000.0))
 
     if args.role in ("sub", "both"):
-        rospy.Subscriber("/gidabot/goals", Goal, on_goal, queue_size=None, tcp_nodelay=True)
-    pub = rospy.Publisher("/gidabot/goals", Goal, queue_size=1000) if args.role in ("pub", "both") else None
+        rospy.Subscriber(Topic.GOALS, Goal, on_goal, queue_size=None, tcp_nodelay=True)
+    pub = rospy.Publisher(Topic.GOALS, Goal, queue_size=1000) if args.role in ("pub", "both") else None
 
     def send(uid: str) -> None:
         g = Goal()
@@ -122,9 +123,11 @@ def worker(argv: Sequence[str]) -> int:
 
 # -- the orchestrator -------------------------------------------------------------------------------
 class Worker:
-    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str]) -> None:
+    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str],
+                 module: str = "gidabot_sim.bench.relay") -> None:
+        """``python -m <module> worker <args>`` (the benchmark modules' workers speak this line protocol)."""
         log = open(group.log_dir / f"{name}.log", "ab") if group.log_dir else subprocess.DEVNULL  # noqa: SIM115
-        self.proc = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.relay", "worker", *args],
+        self.proc = subprocess.Popen([sys.executable, "-m", module, "worker", *args],
                                      env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
                                      bufsize=1, start_new_session=True)
         if hasattr(log, "close"):
@@ -207,12 +210,12 @@ def mesh_ends(robots: Robots) -> list[EndSpec]:
     return ends
 
 
-def start_relays(ends: list[EndSpec], state_dir: Path, secret_file: Path, log_dir: Path) -> Supervisor:
+def start_relays(ends: list[EndSpec], state_dir: Path, secret_file: Path, log_dir: Path) -> RelaySupervisor:
     opts = EndOptions(state_dir=str(state_dir), secret_file=str(secret_file))
     env = dict(os.environ)
     env["ROS_LOG_DIR"] = env["ROS_HOME"] = str(log_dir)
     log_dir.mkdir(parents=True, exist_ok=True)
-    sup = Supervisor(ends, opts, lambda level, msg: None, base_env=env, output_dir=log_dir)
+    sup = RelaySupervisor(ends, opts, lambda level, msg: None, base_env=env, output_dir=log_dir)
     sup.step(time.monotonic())
     return sup
 

@@ -43,19 +43,18 @@ from tempfile import TemporaryDirectory
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
+from gidabot_navigation.resources import resource
 from gidabot_sim.bench.closed_loop import FloorLoop
+from gidabot_sim.errors import ProcessError
 from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec
 
-REPO = Path(__file__).resolve().parents[5]
-FACULTY = REPO / "maps" / "faculty"
-SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
 TARGETS = {"planner_median_ms": 50.0, "planner_max_ms": 200.0, "real_time_factor": 10.0, "stack_factor": 100.0,
            "stack_rate_pct": 80.0}
-GUIDING_LAUNCH = REPO / "launch" / "guiding.launch"
-STACK_NODES = ("/sim", "/move_base", "/amcl", "/goal_manager", "/multirobot_navigation")
+STACK_NODES = tuple(global_name(n) for n in (Node.SIM, Node.MOVE_BASE, Node.AMCL, *GUIDING_NODES))
 TOUR_FLOOR = 1.0
 PHASES = ("laser", "no_laser", "idle")
 IDLE_SIM_S = 60.0
@@ -144,12 +143,12 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
         uri = start_master(procs, "master", ip)
         path = relocate_building(building_dir, Path(tmp) / "building", {robot.name: uri})
         env = ros_env(uri, ip, log_dir=Path(tmp) / "ros")
-        procs.start("floor", ["roslaunch", "--skip-log-check", str(SIM_LAUNCH), f"building:={path}",
-                              f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
+        procs.start("floor", ["roslaunch", "--skip-log-check", str(resource("launch", "sim_floor.launch")),
+                              f"building:={path}", f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
         pids: dict[str, int] = {}
 
         def found() -> bool:
-            for node in ("/sim", "/move_base", "/amcl"):
+            for node in (global_name(Node.SIM), global_name(Node.MOVE_BASE), global_name(Node.AMCL)):
                 pid = pids.get(node) or _node_pid(uri, node)
                 if pid:
                     pids[node] = pid
@@ -221,11 +220,11 @@ def bench_stack(building_dir: Path, floor: float = TOUR_FLOOR, timeout: float = 
         launch = Path(tmp) / "stack.launch"
         launch.write_text(f"""<launch>
   <param name="/use_sim_time" value="true"/>
-  <include file="{SIM_LAUNCH}">
+  <include file="{resource("launch", "sim_floor.launch")}">
     <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="speed" value="max"/> <arg name="seed" value="1"/>
   </include>
-  <include file="{GUIDING_LAUNCH}">
+  <include file="{resource("launch", "guiding.launch")}">
     <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="status_rate" value="0.02"/> <arg name="pose_rate" value="0.05"/>
     <arg name="state_dir" value="{Path(tmp) / 'guiding'}"/>
@@ -282,11 +281,11 @@ def stack_driver(spec: dict) -> int:
     rospy.init_node("bench_visitor", disable_signals=True)
     events: list[NavEvent] = []
     diags: list[DiagSample] = []
-    rospy.Subscriber("/gidabot/nav_events", NavEvent, events.append, queue_size=100)
-    rospy.Subscriber("/diagnostics", DiagnosticArray, lambda m: diags.extend(
+    rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, events.append, queue_size=100)
+    rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, lambda m: diags.extend(
         DiagSample(m.header.stamp.to_sec(), st.name, tuple((kv.key, kv.value) for kv in st.values))
         for st in m.status), queue_size=100)
-    pub = rospy.Publisher("visitor/command", VisitorCommand, queue_size=10)
+    pub = rospy.Publisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=10)
     deadline = time.monotonic() + 60.0
     while (pub.get_num_connections() < 2 or rospy.get_time() <= 0.0) and time.monotonic() < deadline:
         time.sleep(0.05)       # goal_manager and multirobot_navigation subscribe; the clock runs
@@ -338,9 +337,9 @@ def ros_driver(goals: list[list[float]]) -> int:
 
     rospy.init_node("bench_driver", disable_signals=True)
     scans = [0]
-    scan_sub = rospy.Subscriber("base_scan", LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
+    scan_sub = rospy.Subscriber(Topic.BASE_SCAN, LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
                                 queue_size=50)
-    client = actionlib.SimpleActionClient("move_base", MoveBaseAction)
+    client = actionlib.SimpleActionClient(Topic.MOVE_BASE, MoveBaseAction)
     deadline = time.monotonic() + 60.0
     while not client.wait_for_server(rospy.Duration(0.5)):     # sim time: the clock may not run yet
         if time.monotonic() > deadline:
@@ -379,7 +378,8 @@ def ros_driver(goals: list[list[float]]) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="gidabot bench sim", description=__doc__.split("\n\n")[0])
     parser.add_argument("--json", action="store_true", help="print one JSON object")
-    parser.add_argument("--building", default=str(FACULTY), help="building directory (default: the faculty)")
+    parser.add_argument("--building", default=str(resource("maps", "faculty")),
+                        help="building directory (default: the faculty)")
     parser.add_argument("--speed", type=float, default=10.0, help="speed factor of the ROS run (default 10)")
     parser.add_argument("--no-ros", action="store_true", help="skip the run under ROS")
     parser.add_argument("--ros-driver", metavar="GOALS", help=argparse.SUPPRESS)

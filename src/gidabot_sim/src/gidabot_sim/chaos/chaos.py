@@ -44,24 +44,30 @@ from typing import Any, TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.interface import (
+    STATE_GUIDING,
+    STATE_TO_MEETING,
+    STATE_WAITING,
+    WAY_STAIRS,
+    WAYS,
+    Node,
+    Phase,
+    global_name,
+)
+from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse_tour
 from gidabot_sim.chaos import core as cc
-from gidabot_sim.chaos.faults import FaultError, LinkCuts
+from gidabot_sim.chaos.faults import LinkCuts
 from gidabot_sim.demo.demo import POSE_RATE, POSE_WALL_HZ, STATUS_RATE, STATUS_WALL_HZ, Signals, report
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding, process_tree
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import ChaosError, DemoError, FaultError, ProcessError, ReportError
+from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding, node_executable, process_tree
+from gidabot_sim.runner.procs import robot_address
 
-PROBE_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "chaos_probe"
 DEFAULT_SEED = 1
 SIM_S_PER_GOAL = 100.0        # a goal of the long tour takes about 100 s of sim time (docs/demo.md)
 RECOVERY_WAIT = 30.0          # wall s a fault gets to recover before it counts as not recovered
 CORRIDOR_WAIT = 60.0          # wall s to wait for a robot driving a long enough leg
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
-
-
-class ChaosError(DemoError):
-    """The chaos run cannot go on (a probe died, the building did not come up)."""
 
 
 # ---------------------------------------------------------------------------
@@ -77,8 +83,8 @@ class ChaosProbeClient:
         self.timeout = timeout
         out.parent.mkdir(parents=True, exist_ok=True)
         self._log = open(log, "ab")  # noqa: SIM115 - closed in close()
-        self.proc = subprocess.Popen([sys.executable, str(PROBE_NODE), "--robot", robot, "--out", str(out)],
-                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
+        argv = [sys.executable, node_executable("gidabot_sim", "chaos_probe"), "--robot", robot, "--out", str(out)]
+        self.proc = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
                                      start_new_session=True, text=True, bufsize=1)
         self._read(60.0, "start")
 
@@ -173,7 +179,7 @@ class TourWatch:
 
     def feed(self, recs: list[dict[str, Any]]) -> None:
         for r in recs:
-            if r.get("k") == "goal" and r.get("c") == "/goal_manager" and r.get("m") == r.get("origin") \
+            if r.get("k") == "goal" and r.get("c") == global_name(Node.GOAL_MANAGER) and r.get("m") == r.get("origin") \
                     and r.get("tour_file") == self.tour_file:
                 self.goals.add(str(r.get("uid")))
                 with contextlib.suppress(TypeError, ValueError):
@@ -182,13 +188,13 @@ class TourWatch:
                     or r.get("c") not in cc.GUIDING_CALLERS or r.get("tour_file") != self.tour_file:
                 continue
             phase = r.get("phase")
-            if phase in (gt.TOUR_STEP_DONE, gt.TOUR_FINISHED):
+            if phase in (Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED):
                 self.done.add(str(r.get("goal_uid")))
                 self.last_step_done = max(self.last_step_done, int(r.get("tour_step", -1)))
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
-            if phase == gt.TOUR_FINISHED and r.get("tour_step") == self.last_step:
+            if phase == Phase.TOUR_FINISHED and r.get("tour_step") == self.last_step:
                 self.finished = True
-            elif phase in (gt.UNREACHABLE, gt.TIMEOUT) or (phase == gt.PARTNER_OFFLINE and r.get("goal_uid")):
+            elif phase in (Phase.UNREACHABLE, Phase.TIMEOUT) or (phase == Phase.PARTNER_OFFLINE and r.get("goal_uid")):
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
 
@@ -246,7 +252,7 @@ class ChaosRun:
     def start(self) -> None:
         args = self.args
         seed = self.run_dir / "seed_tours"
-        shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+        shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
         shutil.copy(args.tour, seed / self.tour.file_name)
         launch_args = {"gui_fullscreen": "false",
                        "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
@@ -327,7 +333,7 @@ class ChaosRun:
         return found[0].pid
 
     def relay_end_pid(self, a: str, b: str, side: str) -> int | None:
-        for info in self.processes(a, "relay_end"):
+        for info in self.processes(a, "end_node"):      # python -m gidabot_navigation.relay.end_node
             argv = " ".join(info.argv)
             if f"--robot_a {a} " in argv and f"--robot_b {b} " in argv and f"--side {side} " in argv:
                 return info.pid
@@ -396,8 +402,8 @@ class ChaosRun:
         waiting up to ``wait`` s for one; None if none is."""
         deadline = time.monotonic() + wait
         while not self.over():
-            busy = [r for r in robots if self.probes[r].call("plan").get("state") in ("guiding", "to_meeting",
-                                                                                       "waiting")]
+            busy = [r for r in robots if self.probes[r].call("plan").get("state") in (STATE_GUIDING,
+                                                                                       STATE_TO_MEETING, STATE_WAITING)]
             if busy:
                 return self.rng.choice(busy)
             if time.monotonic() >= deadline:
@@ -479,7 +485,7 @@ class ChaosRun:
     def _kill_supervisor(self, f: cc.Fault, res: cc.FaultResult) -> None:
         pairs = [b.name for a, b in self.building.relay_pairs() if a.name == f.robot]
         old_ends = {(o, s): self.relay_end_pid(f.robot, o, s) for o in pairs for s in "ab"}
-        pid = self.node_pid(f.robot, "relay_supervisor")
+        pid = self.node_pid(f.robot, Node.RELAY_SUPERVISOR)
         res.injected = _now()
         self.killed.add(pid)
         self.killed.update(p for p in old_ends.values() if p)
@@ -493,7 +499,7 @@ class ChaosRun:
         else:
             raise ChaosError(f"the relay supervisor of {f.robot} did not start its ends again within 60 s")
         res.cleared = _now()
-        res.detail = (f"its relay ends of the links with {', '.join(pairs)} restarted "
+        res.detail = (f"its relay ends (relays with {', '.join(pairs)}) restarted "
                       f"{res.cleared - res.injected:.1f} s after the kill")
         times = [self.link_recovered(f.robot, o, res.cleared) for o in pairs]
         self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
@@ -509,7 +515,7 @@ class ChaosRun:
         self._recovery(res, self.master_recovered(f.robot, res.cleared))
 
     def _restart_node(self, f: cc.Fault, res: cc.FaultResult) -> None:
-        node = f"/{f.target}"
+        node = global_name(f.target)
         old_uri = self.lookup_node(f.robot, node)
         pid = self.node_pid(f.robot, f.target)
         res.injected = _now()
@@ -525,23 +531,23 @@ class ChaosRun:
             raise ChaosError(f"{node} of {f.robot} did not register again within 60 s")
         res.cleared = _now()
         res.detail = f"pid {pid}; back {res.cleared - res.injected:.1f} s after the kill"
-        topic = "pending" if f.target == "goal_manager" else "status"
+        topic = "pending" if f.target == Node.GOAL_MANAGER else "status"
         others = [r for r in self.probes if r != f.robot]
         self._recovery(res, self.first_everywhere(topic, f.robot, others, res.cleared))
 
     def _freeze(self, f: cc.Fault, res: cc.FaultResult) -> None:
         assert self.sim is not None
-        if f.target == "master":
+        if f.target == cc.MASTER:
             pgid = self.sim.procs.get(f"master_{f.robot}").popen.pid
         else:
             pgid = self.node_pid(f.robot, f.target)
         self._stop_for(pgid, f.duration, res)
         others = [r for r in self.probes if r != f.robot]
-        if f.target == "goal_manager":
+        if f.target == Node.GOAL_MANAGER:
             self._recovery(res, self.first_everywhere("pending", f.robot, others, res.cleared))
-        elif f.target == "multirobot_navigation":
+        elif f.target == Node.MULTIROBOT_NAVIGATION:
             self._recovery(res, self.first_everywhere("status", f.robot, others, res.cleared))
-        elif f.target == "master":
+        elif f.target == cc.MASTER:
             self._recovery(res, self.master_recovered(f.robot, res.cleared))
         else:
             res.detail = "no shared output: recovery not measured"
@@ -561,7 +567,7 @@ class ChaosRun:
 
     def _place_person(self, robot: str, f: cc.Fault, res: cc.FaultResult) -> bool:
         info = self.probes[robot].call("plan")
-        if info.get("state") not in ("guiding", "to_meeting") or not info.get("pose") or not info.get("plan"):
+        if info.get("state") not in (STATE_GUIDING, STATE_TO_MEETING) or not info.get("pose") or not info.get("plan"):
             return False
         r = self.building.robot(robot)
         spot = cc.choose_obstacle(self.building, r.floor, tuple(info["pose"][:2]),
@@ -712,16 +718,16 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="gidabot chaos", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--seed", type=int, default=DEFAULT_SEED, help=f"fault schedule seed (default {DEFAULT_SEED})")
-    p.add_argument("--tour", type=Path, default=REPO / "tours" / "long_tour.tour",
+    p.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"),
                    help="tour to run (default: tours/long_tour.tour, the paper's Table 2)")
     p.add_argument("--profile", choices=sorted(cc.PROFILES), default="full",
                    help="how many faults: full = the issue's (about 26), quick = one or two of each kind")
     p.add_argument("--speed", type=float, default=None,
                    help="sim seconds per wall second (default: slow enough for the tour to outlast the faults)")
-    p.add_argument("--way", choices=("stairs", "lift"), default="stairs")
+    p.add_argument("--way", choices=WAYS, default=WAY_STAIRS)
     p.add_argument("--start-floor", type=float, default=None, help="default: the tour's first floor")
-    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty")
-    p.add_argument("--out", type=Path, default=REPO / "runs",
+    p.add_argument("--building", type=Path, default=resource("maps", "faculty"))
+    p.add_argument("--out", type=Path, default=RUNS,
                    help="output folder; the run goes to OUT/<date>-<time>-chaos-<tour>-seed<N>/")
     p.add_argument("--timeout", type=float, default=None, help="wall seconds before giving up")
     p.add_argument("--net", type=int, default=None, metavar="N", help="masters on 127.N.0.11... (tests)")
@@ -804,7 +810,7 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
                             "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots]}
     (run.run_dir / "run.json").write_text(json.dumps(run_json, indent=2), encoding="utf-8")
     bags: dict[str, tuple[int, int]] = {}
-    with contextlib.suppress(report.ReportError):
+    with contextlib.suppress(ReportError):
         rep_run, rep_records = report.load_run(run.run_dir)
         rep = report.analyse(rep_records, rep_run)
         bags = {r["name"]: (r["received"], r["processed"]) for r in rep["robots"]}

@@ -42,12 +42,13 @@ from typing import Any
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import PlanningError
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     FINAL_PHASES,
     GOAL_REACHED,
+    GUIDING_NODES,
     NO_ROBOT_ON_FLOOR,
     PARTNER_BACK,
     PARTNER_LOST,
@@ -56,6 +57,10 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    Node,
+    Topic,
+    global_name,
+    is_relay_end,
 )
 from gidabot_navigation.tours.tour_file import Tour
 
@@ -71,14 +76,13 @@ HOSTILE = "hostile_message"                   # one hostile message on one maste
 KINDS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR, MASTER_RESTART, NODE_RESTART, FREEZE, CORRIDOR, HOSTILE)
 LINK_CUTS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR)
 
-GUIDING_NODES = ("goal_manager", "multirobot_navigation")
-FREEZE_TARGETS = ("goal_manager", "multirobot_navigation", "master", "sim", "move_base")
+MASTER = "master"                             # freeze target: the robot's ROS master
+FREEZE_TARGETS = (*GUIDING_NODES, MASTER, Node.SIM, Node.MOVE_BASE)
 
 # -- NavEvent phases (gidabot_msgs/NavEvent.msg) ----------------------------------------
 COMPLETIONS = frozenset({GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED})
 VISIBLE_FAILURES = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, CANCELLED_HERE, CANCELLED_ELSEWHERE})
-GUIDING_CALLERS = ("/goal_manager", "/multirobot_navigation")
-RELAY_PREFIX = "/gidabot_relay_"
+GUIDING_CALLERS = tuple(global_name(n) for n in GUIDING_NODES)
 
 RECOVERY_TARGET_S = 5.0
 
@@ -108,60 +112,60 @@ def _goal(**kw: Any) -> dict[str, Any]:
 
 
 HOSTILE_MESSAGES: tuple[Hostile, ...] = (
-    Hostile("goal_nan_pose", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_nan_pose", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="{robot}/chaos/nan.1", initial_pose={"x": "nan", "y": 12.0})),
-    Hostile("goal_inf_pose", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_inf_pose", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="{robot}/chaos/inf.1", goal_pose={"position": {"x": "inf", "y": "-inf"},
                                                         "orientation": {"w": "nan"}})),
-    Hostile("goal_unknown_floor", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_unknown_floor", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="{robot}/chaos/floor.1", goal_floor=7.5)),
-    Hostile("goal_unknown_room", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_unknown_room", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="{robot}/chaos/room.1", goal_id="999")),
-    Hostile("goal_huge_strings", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_huge_strings", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="{robot}/chaos/huge.1", goal_id=["__repeat__", "9", 300_000],
                   visitor_id=["__repeat__", "v", 200_000])),
-    Hostile("goal_ghost_robot", "/gidabot/goals", "gidabot_msgs/Goal",
+    Hostile("goal_ghost_robot", Topic.GOALS, "gidabot_msgs/Goal",
             _goal(uid="Ghost/chaos/ghost.1", origin_robot="Ghost")),
-    Hostile("cancel_unknown_goal", "/gidabot/cancels", "gidabot_msgs/Cancel",
+    Hostile("cancel_unknown_goal", Topic.CANCELS, "gidabot_msgs/Cancel",
             {"uid": "{robot}/cancel/chaos.1", "goal_uid": "{robot}/nobody/chaos.404", "origin_robot": "{robot}",
              "reason": "visitor"}),
-    Hostile("cancel_ghost_robot", "/gidabot/cancels", "gidabot_msgs/Cancel",
+    Hostile("cancel_ghost_robot", Topic.CANCELS, "gidabot_msgs/Cancel",
             {"uid": "Ghost/cancel/chaos.2", "goal_uid": "{other}/v/gm.x.1", "origin_robot": "Ghost",
              "reason": "because"}),
-    Hostile("tour_path_name", "/gidabot/tours", "gidabot_msgs/Tour",
+    Hostile("tour_path_name", Topic.TOURS, "gidabot_msgs/Tour",
             {"uid": "{robot}/tour/chaos.1", "origin_robot": "{robot}", "editor_robot": "{robot}",
              "version": 4_000_000_000_000_000_000, "language": "en", "floor": 0.0, "tour_name": "Escape",
              "file_name": "../../../etc/chaos.tour", "tour_goals_info": ["0, 001, Copy Shop"]}),
-    Hostile("tour_device_name", "/gidabot/tours", "gidabot_msgs/Tour",
+    Hostile("tour_device_name", Topic.TOURS, "gidabot_msgs/Tour",
             {"uid": "{robot}/tour/chaos.2", "origin_robot": "{robot}", "editor_robot": "{robot}",
              "version": 1_700_000_000_000_000_000, "language": "en", "floor": 0.0, "tour_name": "Dev",
              "file_name": "con.tour", "tour_goals_info": ["0, 001, Copy Shop"]}),
-    Hostile("tour_edit_hidden_name", "tour_store/edit", "gidabot_msgs/Tour",
+    Hostile("tour_edit_hidden_name", Topic.TOUR_EDIT, "gidabot_msgs/Tour",
             {"file_name": ".gidabot-tours.json", "tour_name": "Hidden", "language": "en", "floor": 0.0,
              "tour_goals_info": ["0, 001, Copy Shop\n9, 999, injected line"]}),
-    Hostile("event_unknown_phase", "/gidabot/nav_events", "gidabot_msgs/NavEvent",
+    Hostile("event_unknown_phase", Topic.NAV_EVENTS, "gidabot_msgs/NavEvent",
             {"uid": "Ghost/event/chaos.1", "robot": "Ghost", "floor": "nan", "goal_uid": "{robot}/v/x",
              "phase": 200, "tour_step": 9999}),
-    Hostile("status_nan_pose", "/gidabot/status", "gidabot_msgs/RobotStatus",
+    Hostile("status_nan_pose", Topic.STATUS, "gidabot_msgs/RobotStatus",
             {"robot": "Ghost", "floor": "inf", "nav_pose": {"position": {"x": "nan", "y": "nan"},
                                                             "orientation": {"w": "nan"}},
              "battery": "nan", "state": ["__repeat__", "s", 100_000]}),
-    Hostile("pose_inf", "/gidabot/poses", "gidabot_msgs/NavPose",
+    Hostile("pose_inf", Topic.POSES, "gidabot_msgs/NavPose",
             {"robot": "Ghost", "floor": 42.0, "nav_pose": {"position": {"x": "inf", "y": "-inf"}}}),
-    Hostile("pending_spoofed", "/gidabot/pending", "gidabot_msgs/PendingRequests",
+    Hostile("pending_spoofed", Topic.PENDING, "gidabot_msgs/PendingRequests",
             {"robot": "{robot}", "floor": "nan", "num": 3, "eta": ["nan", "inf"], "wait_new": "-inf"}),
-    Hostile("command_unknown_room", "visitor/command", "gidabot_msgs/VisitorCommand",
+    Hostile("command_unknown_room", Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand",
             {"uid": "{robot}/chaos/cmd/1", "visitor_id": "chaos", "command": 0, "goal_id": "no-such-room",
              "way": "stairs", "language": "en", "tour_step": -1}),
-    Hostile("command_hostile_tour", "visitor/command", "gidabot_msgs/VisitorCommand",
+    Hostile("command_hostile_tour", Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand",
             {"uid": "{robot}/chaos/cmd/2", "visitor_id": "chaos", "command": 3, "tour_file": "../../x\\y.tour",
              "language": "xx", "tour_step": -5}),
-    Hostile("command_unknown_kind", "visitor/command", "gidabot_msgs/VisitorCommand",
+    Hostile("command_unknown_kind", Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand",
             {"uid": ["__repeat__", "u", 5000], "visitor_id": "chaos", "command": 77, "goal_uid": "nope"}),
-    Hostile("initialpose_nan", "initialpose", "geometry_msgs/PoseWithCovarianceStamped",
+    Hostile("initialpose_nan", Topic.INITIALPOSE, "geometry_msgs/PoseWithCovarianceStamped",
             {"header": {"frame_id": "map"}, "pose": {"pose": {"position": {"x": "nan", "y": 3.0},
                                                               "orientation": {"w": 1.0}}}}),
-    Hostile("obstacle_nan", "/sim/obstacle", "gidabot_msgs/Obstacle",
+    Hostile("obstacle_nan", Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle",
             {"id": "chaos_nan", "action": 0, "shape": 0, "x": "nan", "y": "inf", "radius": -1.0}),
 )
 
@@ -389,7 +393,7 @@ class Bookkeeping:
             return False
         if rec.get("m") == robot:
             return caller in GUIDING_CALLERS
-        return caller.startswith(RELAY_PREFIX)
+        return is_relay_end(caller)
 
     # -- goals ----------------------------------------------------------------------------
     def accepted(self) -> dict[str, dict[str, Any]]:
@@ -397,7 +401,7 @@ class Bookkeeping:
         out: dict[str, dict[str, Any]] = {}
         for uid, recs in self.goal_records.items():
             for rec in recs:
-                if rec.get("c") == "/goal_manager" and rec.get("m") == rec.get("origin") in self.robots:
+                if rec.get("c") == global_name(Node.GOAL_MANAGER) and rec.get("m") == rec.get("origin") in self.robots:
                     out[uid] = rec
                     break
         accepted_events = {e.get("goal_uid") for e in self.events.values() if e.get("phase") == ACCEPTED}

@@ -13,13 +13,9 @@ import shutil
 import subprocess
 from dataclasses import dataclass, field
 
-from gidabot_navigation.errors import GidaBotError
+from gidabot_sim.errors import FaultError
 
 COMMENT = "gidabot-chaos"
-
-
-class FaultError(GidaBotError):
-    """A fault could not be injected or cleared."""
 
 
 def _iptables(*args: str) -> None:

@@ -44,7 +44,8 @@ import time
 from collections import defaultdict
 from typing import Any
 
-PROBE_NAME = "chaos_probe"
+from gidabot_navigation.interface import Node, Topic
+
 MAX_RECEIPTS = 20000         # per (topic, robot): far more than a run needs
 
 
@@ -104,24 +105,24 @@ class ChaosProbeNode:
         self.own_state = ("", "")          # this robot's latest RobotStatus: state, current goal uid
         self.pubs: dict[str, Any] = {}
         self.subs = [
-            rospy.Subscriber("/gidabot/goals", Goal, self._on_goal, queue_size=500),
-            rospy.Subscriber("/gidabot/cancels", Cancel, self._on_cancel, queue_size=500),
-            rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=1000),
-            rospy.Subscriber("/gidabot/tours", Tour, self._on_tour, queue_size=100),
-            rospy.Subscriber("/gidabot/pending", PendingRequests, self._on_state, callback_args="pending",
+            rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=500),
+            rospy.Subscriber(Topic.CANCELS, Cancel, self._on_cancel, queue_size=500),
+            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=1000),
+            rospy.Subscriber(Topic.TOURS, Tour, self._on_tour, queue_size=100),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_state, callback_args="pending",
                              queue_size=200),
-            rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1),
-            rospy.Subscriber("move_base/NavfnROS/plan", Path, self._on_plan, queue_size=1),
+            rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
+            rospy.Subscriber(Topic.MOVE_BASE_PLAN, Path, self._on_plan, queue_size=1),
         ]
         self.status_cls = RobotStatus
-        self.status_sub = rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=200)
+        self.status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=200)
         # publishers of every hostile message, made now: when one is sent, every subscriber (the relays
         # too, which carry it to the other robots) is connected already
         from gidabot_sim.chaos.core import HOSTILE_MESSAGES
 
         for h in HOSTILE_MESSAGES:
             self._publisher(h.topic, h.type)
-        self._publisher("/sim/obstacle", "gidabot_msgs/Obstacle")
+        self._publisher(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle")
 
     # -- recording --------------------------------------------------------------------------
     def _write(self, kind: str, msg: Any, **data: Any) -> None:
@@ -205,7 +206,7 @@ class ChaosProbeNode:
             self.status_sub.unregister()
             with self.lock:
                 self.fresh_first = {}
-            self.status_sub = self.rospy.Subscriber("/gidabot/status", self.status_cls, self._on_status,
+            self.status_sub = self.rospy.Subscriber(Topic.STATUS, self.status_cls, self._on_status,
                                                     queue_size=200)
             return {"ok": True}
         if op == "fresh_deliveries":
@@ -224,7 +225,7 @@ class ChaosProbeNode:
             msg = {"id": cmd["id"], "action": 0 if add else 1, "shape": 0, "x": cmd.get("x", 0.0),
                    "y": cmd.get("y", 0.0), "radius": cmd.get("radius", 0.3)}
             msg["header"] = {"frame_id": "map"}
-            self.publish("/sim/obstacle", "gidabot_msgs/Obstacle", msg, 3.0)
+            self.publish(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", msg, 3.0)
             return {"ok": True}
         if op == "diag":
             return {"ok": True, "status": self.diagnostics(float(cmd.get("wait", 2.5)))}
@@ -275,7 +276,7 @@ class ChaosProbeNode:
             for st in arr.status:
                 latest[st.name] = {kv.key: kv.value for kv in st.values}
 
-        sub = self.rospy.Subscriber("/diagnostics", DiagnosticArray, on_diag, queue_size=100)
+        sub = self.rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, on_diag, queue_size=100)
         time.sleep(wait)
         sub.unregister()
         return dict(latest)
@@ -291,7 +292,7 @@ def _num(v: Any) -> float | str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="chaos_probe")
+    ap = argparse.ArgumentParser(prog=Node.CHAOS_PROBE)
     ap.add_argument("--robot", required=True)
     ap.add_argument("--out", required=True)
     args = ap.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
@@ -300,9 +301,11 @@ def main(argv: list[str] | None = None) -> int:
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
     import rospy
 
+    from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy.init_node(PROBE_NAME, disable_signals=True, disable_rostime=True)
+    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(Node.CHAOS_PROBE, disable_signals=True, disable_rostime=True)
     keep_registered()
     node = ChaosProbeNode(args.robot, args.out)
     replies.write(json.dumps({"ok": True, "ready": True}) + "\n")

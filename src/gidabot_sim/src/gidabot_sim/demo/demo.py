@@ -31,12 +31,16 @@ from typing import TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
+from gidabot_navigation.interface import WAY_STAIRS, WAYS
+from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
-from gidabot_sim.demo.progress import Progress
+from gidabot_sim.demo.governor import SpeedGovernor
+from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.demo.timing import RunTiming
-from gidabot_sim.runner.building_runner import REPO, DemoError, SimulatedBuilding
-from gidabot_sim.runner.procs import ProcessError, robot_address
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
+from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
@@ -55,8 +59,8 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 def parse_args(argv: list[str]) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="gidabot demo", description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--building", type=Path, default=REPO / "maps" / "faculty", help="building directory")
-    p.add_argument("--tour", type=Path, default=REPO / "tours" / "real_world.tour",
+    p.add_argument("--building", type=Path, default=resource("maps", "faculty"), help="building directory")
+    p.add_argument("--tour", type=Path, default=resource("tours", "real_world.tour"),
                    help="tour file to run (default: tours/real_world.tour, the paper's Table 4)")
     p.add_argument("--goal", help="run one target (a location id, e.g. 305) instead of a tour")
     p.add_argument("--start-floor", type=float, default=None,
@@ -66,10 +70,10 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
     p.add_argument("--seed", type=int, default=None,
                    help="seed of the simulated sensor and localisation noise (robot i: SEED + i); default random")
-    p.add_argument("--way", choices=("stairs", "lift"), default="stairs", help="how the visitor changes floors")
+    p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
                    help="after tour step K (1-based) go to step M (may repeat)")
-    p.add_argument("--out", type=Path, default=REPO / "runs",
+    p.add_argument("--out", type=Path, default=RUNS,
                    help="output folder; the run goes to OUT/<date>-<time>-<tour>/ (default: runs/)")
     p.add_argument("--gui", action="store_true", help="open every robot's GUI (needs a display)")
     p.add_argument("--timeout", type=float, default=None,
@@ -185,7 +189,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
     seed = run_dir / "seed_tours"
-    shutil.copytree(REPO / "tours", seed, dirs_exist_ok=True)
+    shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
     if tour_name:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
@@ -202,8 +206,11 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
-    progress = Progress(total_goals=total, tour_mode=bool(tour_name), robots_total=len(building.robots))
-    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, seed=args.seed, gui=args.gui,
+    visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
+    progress = Progress(total_goals=total, visit=visit, robots_total=len(building.robots))
+    governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
+    sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
+                            seed=args.seed, gui=args.gui,
                             relay_secret=args.secret, seed_tours=seed, addresses=addresses, common_args=launch_args,
                             visitor=visitor)
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
@@ -211,7 +218,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:
         sim.start(cancelled=lambda: bool(stop))
-        failure = _follow(sim, progress, timing, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
+        failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
+                          tour_cpu if args.cpu else None)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
@@ -233,6 +241,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "completed": len(progress.completed), "outcome": outcome, "sim_s": progress.sim_seconds(),
         "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
+        "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
@@ -263,9 +272,11 @@ def clocks_line(timing: RunTiming) -> str:
     return f" | sim/wall {factors}, behind {behind:.1f} s, drift {timing.max_drift:.1f} s"
 
 
-def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args: argparse.Namespace,
-            wall_begin: float, out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
-    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
+def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, governor: SpeedGovernor | None,
+            args: argparse.Namespace, wall_begin: float, out: TextIO, stop: Signals,
+            tour_cpu: list[CpuSnapshot] | None = None) -> str:
+    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or "".
+    ``governor`` (``--speed max``): sets every floor's ceiling from the floors' clocks."""
     assert sim.monitor_file is not None
     shown = ""
     deadline = wall_begin + args.timeout
@@ -273,7 +284,11 @@ def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args:
     with open(sim.monitor_file, encoding="utf-8") as feed:
         while not progress.finished and not stop:
             if time.monotonic() >= next_look:
-                timing.look(sim.clocks(), time.time(), bool(progress.goals))
+                clocks, now = sim.clocks(), time.time()
+                timing.look(clocks, now, bool(progress.goals))
+                ceiling = governor.look(clocks, now, bool(progress.goals)) if governor else None
+                if ceiling is not None:
+                    sim.set_ceiling(ceiling)
                 next_look = time.monotonic() + LOOK_PERIOD
             line = feed.readline()
             if line:
@@ -284,7 +299,8 @@ def _follow(sim: SimulatedBuilding, progress: Progress, timing: RunTiming, args:
                         timing.look(sim.clocks(), time.time(), True)    # the tour's start and end, exactly
                     text = progress.line()
                     if text != shown:
-                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}", file=out,
+                        held = f", ceiling {governor.ceiling:g}x" if governor else ""
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}{held}", file=out,
                               flush=True)
                         shown = text
                 continue

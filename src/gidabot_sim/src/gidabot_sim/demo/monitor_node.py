@@ -2,9 +2,12 @@
 
 Runs on one robot's master (every shared event reaches every master through the
 relays) and appends one JSON object per line to ``~out``: every NavEvent, Goal
-and Cancel. ``gidabot demo`` reads this file to show progress; it is not part of
-a robot's stack. It does not subscribe to the state topics (status, poses): at
-10x and more they are the bulk of the traffic, and the rosbags record them.
+and Cancel, each with the node that published it on this master (``callerid``: a
+robot's own guiding nodes, or the relay end from another robot), so that
+:mod:`gidabot_sim.demo.progress` can tell the visit's messages from anyone else's.
+``gidabot demo`` reads this file to show progress; it is not part of a robot's stack.
+It does not subscribe to the state topics (status, poses): at 10x and more they are
+the bulk of the traffic, and the rosbags record them.
 """
 
 from __future__ import annotations
@@ -12,10 +15,14 @@ from __future__ import annotations
 import json
 import threading
 import time
+from dataclasses import asdict
 
 import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
+from gidabot_navigation.guiding.guiding_node import sender, trip_from_msg
+from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 
 
@@ -31,11 +38,11 @@ class MonitorNode:
     def __init__(self) -> None:
         self._file = open(rospy.get_param("~out"), "a", encoding="utf-8")  # noqa: SIM115 - closed on shutdown
         self._lock = threading.Lock()
-        rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=200)
-        rospy.Subscriber("/gidabot/goals", Goal, self._on_goal, queue_size=200)
-        rospy.Subscriber("/gidabot/cancels", Cancel, self._on_cancel, queue_size=200)
+        rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=200)
+        rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
+        rospy.Subscriber(Topic.CANCELS, Cancel, self._on_cancel, queue_size=200)
         self._waiting = {str(r) for r in rospy.get_param("~robots", [])}
-        self._status_sub = (rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=20)
+        self._status_sub = (rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=20)
                             if self._waiting else None)
         rospy.on_shutdown(self._file.close)
 
@@ -47,18 +54,18 @@ class MonitorNode:
                 self._file.flush()
 
     def _on_event(self, m: NavEvent) -> None:
-        self._write("event", uid=m.uid, robot=m.robot, floor=m.floor, goal_uid=m.goal_uid, phase=m.phase,
-                    way=m.way, connector=m.connector, target_floor=m.target_floor, location_id=m.location_id,
-                    tour_file=m.tour_file, tour_step=m.tour_step, detail=m.detail[:200],
-                    stamp=m.header.stamp.to_sec())
+        self._write("event", callerid=sender(m), uid=m.uid[:200], robot=m.robot[:64], floor=m.floor,
+                    goal_uid=m.goal_uid[:200], phase=m.phase, way=m.way[:16], connector=m.connector[:64],
+                    target_floor=m.target_floor, location_id=m.location_id[:64], tour_file=m.tour_file[:64],
+                    tour_step=m.tour_step, detail=m.detail[:200], stamp=m.header.stamp.to_sec())
 
     def _on_goal(self, m: Goal) -> None:
-        self._write("goal", uid=m.uid, origin=m.origin_robot, initial_floor=m.initial_floor,
-                    goal_floor=m.goal_floor, goal_id=m.goal_id, way=m.way, connector=m.connector,
-                    tour_file=m.tour_file, tour_step=m.tour_step)
+        trip = {k: v[:200] if isinstance(v, str) else v for k, v in asdict(trip_from_msg(m)).items()}
+        self._write("goal", callerid=sender(m), **trip)
 
     def _on_cancel(self, m: Cancel) -> None:
-        self._write("cancel", uid=m.uid, goal_uid=m.goal_uid, origin=m.origin_robot, reason=m.reason)
+        self._write("cancel", callerid=sender(m), uid=m.uid[:200], goal_uid=m.goal_uid[:200],
+                    origin=m.origin_robot[:64], reason=m.reason[:32])
 
     def _on_status(self, m: RobotStatus) -> None:
         with self._lock:
@@ -73,7 +80,8 @@ class MonitorNode:
 
 
 def main() -> None:
-    rospy.init_node("gidabot_monitor", anonymous=True)
+    guard = rospy_exit_guard(Node.MONITOR)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node(Node.MONITOR, anonymous=True, disable_signals=True)
     keep_registered()
     MonitorNode()
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)

@@ -1,14 +1,39 @@
-"""Progress of a run, from the monitor's JSON lines (ROS-free)."""
+"""Progress of a run, from the monitor's JSON lines (ROS-free).
+
+The visit ends only on events about *its own* trips from the robots those trips involve
+(docs/demo.md), never on whatever else is on the bus (another visitor, a hostile publisher):
+
+- a goal is one of the visit's trips if it is the visit's (its tour file; in single-target
+  mode its goal and no tour), valid (``guiding.messages.validate_trip`` against the
+  building, as every goal manager checks it) and published by its origin robot's goal
+  manager;
+- an event counts if it is about one of those trips, its robot is involved in the trip
+  (the trip starts or ends on the robot's floor) and it was published by that robot's
+  guiding nodes.
+
+"Published by" is the publisher's node (``callerid``, recorded by the monitor): on the
+monitor's master a robot's own goal manager or navigation, for any other robot the relay
+end of the monitor's robot and that robot (a relay carries a robot's events only from its
+master). Only a REJECTED answer to the visitor's own request (no trip yet: the start
+robot, about the visit's tour or goal) ends a visit without a trip.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import json
+import math
 from dataclasses import dataclass, field
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.state import trip_from_dict
+from gidabot_navigation.guiding.trips import involved
+from gidabot_navigation.interface import (
     ACCEPTED,
     GOAL_REACHED,
+    GUIDING_NODES,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REJECTED,
@@ -16,11 +41,59 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    global_name,
+    relay_end_name,
 )
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
 FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # what a robot's guiding nodes publish as
+
+
+@dataclass(frozen=True)
+class Visit:
+    """What the visit is and where the monitor listens: who may steer its progress."""
+
+    building: Building
+    monitor_robot: str            # the robot whose master the monitor runs on
+    tour_file: str = ""           # the visit's tour ("" = one target)
+    goal_id: str = ""             # the target of a single-target visit
+    start_floor: float = math.nan
+
+    def publisher_of(self, robot: str) -> str:
+        """The node that publishes ``robot``'s messages on the monitor's master ("" = one of its own guiding nodes)."""
+        if robot == self.monitor_robot:
+            return ""
+        names = [r.name for r in self.building.robots]
+        a, b = sorted((robot, self.monitor_robot), key=names.index)
+        return relay_end_name(a, b)
+
+    def sent_by(self, robot: str, callerid: object) -> bool:
+        """Whether a message published by ``callerid`` can be ``robot``'s."""
+        if self.building.find_robot(robot) is None:
+            return False
+        relay = self.publisher_of(robot)
+        return callerid in GUIDING_CALLERIDS if not relay else callerid == relay
+
+    def trip(self, rec: dict) -> Trip | None:
+        """The visit's trip a monitor goal record describes, or None (another visit's, invalid, forged)."""
+        fields = {k: v for k, v in rec.items() if k in Trip.__dataclass_fields__}
+        try:
+            trip = validate_trip(self.building, trip_from_dict(fields))
+        except (GidaBotError, TypeError, ValueError):
+            return None
+        ours = trip.tour_file == self.tour_file if self.tour_file else \
+            (trip.goal_id == self.goal_id and not trip.tour_file)
+        return trip if ours and self.sent_by(trip.origin_robot, rec.get("callerid")) else None
+
+    def answers_request(self, rec: dict) -> bool:
+        """A REJECTED answer to the visitor's own request (no trip yet) from the start floor's robot."""
+        robot = str(rec.get("robot", ""))
+        start = self.building.robot_on(self.start_floor)
+        about = rec.get("tour_file") == self.tour_file if self.tour_file else rec.get("location_id") == self.goal_id
+        return (start is not None and robot == start.name and about and not rec.get("goal_uid")
+                and self.sent_by(robot, rec.get("callerid")))
 
 
 @dataclass
@@ -28,7 +101,7 @@ class Progress:
     """What happened so far: goals issued and completed, the latest phase, the end."""
 
     total_goals: int
-    tour_mode: bool = True
+    visit: Visit
     robots_total: int = 0
     robots_up: list[str] = field(default_factory=list)          # robots heard once, in order
     goals: dict[str, dict] = field(default_factory=dict)        # goal uid -> monitor record
@@ -45,6 +118,12 @@ class Progress:
     latest_sim: float | None = None    # the newest record (an unfinished run is measured up to it)
     latest_wall: float | None = None
     states: dict[str, str] = field(default_factory=dict)
+    trips: dict[str, Trip] = field(default_factory=dict)          # goal uid -> the visit's trip
+    ignored: int = 0                   # goals and events that are not the visit's (other visits, hostile input)
+
+    @property
+    def tour_mode(self) -> bool:
+        return bool(self.visit.tour_file)
 
     def feed_line(self, line: str) -> bool:
         """Take one JSON line; return True when the visible progress changed."""
@@ -72,25 +151,36 @@ class Progress:
             uid = str(rec.get("uid"))
             if uid in self.goals:
                 return False
-            self.goals[uid] = rec
-            self.robot, self.phase = str(rec.get("origin", "")), "new goal"
+            trip = self.visit.trip(rec)
+            if trip is None:
+                self.ignored += 1
+                return False
+            self.goals[uid], self.trips[uid] = rec, trip
+            self.robot, self.phase = trip.origin_robot, "new goal"
             if self.first_sim is None:
                 self.first_sim, self.first_wall = float(rec.get("sim", 0.0)), float(rec.get("wall", 0.0))
             return True
         if kind != "event":
             return False
+        phase = rec.get("phase")
+        robot = str(rec.get("robot", ""))
+        trip = self.trips.get(str(rec.get("goal_uid", "")))
+        known = isinstance(phase, int) and not isinstance(phase, bool) and phase in PHASE_NAMES
+        ours = (known and trip is not None and self.visit.sent_by(robot, rec.get("callerid"))
+                and involved(trip, self.visit.building.robot(robot).floor))
+        if not ours and not (known and phase == REJECTED and self.visit.answers_request(rec)):
+            self.ignored += 1
+            return False
         self.events += 1
-        phase = int(rec.get("phase", -1))
         if phase != ACCEPTED:   # every robot involved accepts: not worth a line
-            self.robot, self.phase = str(rec.get("robot", "")), PHASE_NAMES.get(phase, f"phase {phase}")
-        uid = str(rec.get("goal_uid", ""))
-        if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and uid:
-            self.completed.add(uid)
+            self.robot, self.phase = robot, PHASE_NAMES.get(phase, f"phase {phase}")
+        if phase in (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED) and trip is not None:
+            self.completed.add(trip.uid)
         if not self.finished:
             if phase == TOUR_FINISHED or (phase == GOAL_REACHED and not self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
-                self._finish(f"{FAILURES[phase]} ({rec.get('robot')}: {rec.get('detail', '')})", rec)
+                self._finish(f"{FAILURES[phase]} ({robot}: {rec.get('detail', '')})", rec)
         return True
 
     def _finish(self, outcome: str, rec: dict) -> None:

@@ -7,11 +7,21 @@ of its master the recording goes on in further parts, ``run.json`` lists them as
 read with the ``rosbags`` library, which takes the message definitions from the
 bags themselves. Printed (``--json``: the same as one JSON object):
 
-* per robot, goal messages received and processed (paper Table 3): received =
-  distinct goals seen on ``/gidabot/goals`` on that robot's master; processed =
-  trips the robot accepted (its own ``NavEvent.ACCEPTED`` events). A message that is
-  not a well-formed goal (hostile input: a bad uid, NaN/inf numbers, an unknown floor,
-  robot or room, overlong text) is not counted (``rejected_goals``);
+* per robot, goal messages received and processed (paper Table 3), hostile input left
+  out (docs/demo.md, *The report*):
+
+  - *received*: the goals the robot validated and kept: distinct goals on
+    ``/gidabot/goals`` of its master that pass the goal manager's own check
+    (``guiding.messages.validate_trip`` against the run's building) and were published
+    by their origin robot's goal manager (the bag's connection header: ``callerid``
+    ``/goal_manager`` for the robot's own goals, the relay end from the origin robot
+    for the others'). Other messages are counted apart (``rejected_goals``);
+  - *processed*: the trips the robot ran: its goal manager accepted them (an
+    ``ACCEPTED`` event published by its own ``/goal_manager``) and its navigation
+    worked on them (an event of its own ``/multirobot_navigation``).
+
+  A robot's events (Table 5, completions) are the ones its own guiding nodes published
+  (bags without publisher information: every event naming the robot);
 * per robot, time, distance and mean velocity while guiding the visitor (paper
   Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
   distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
@@ -40,7 +50,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.building.geometry import quaternion_to_yaw
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
@@ -52,7 +65,12 @@ from gidabot_navigation.guiding.messages import (
     TOUR_FINISHED,
     TOUR_STEP_DONE,
     UNREACHABLE,
+    Topic,
+    global_name,
+    relay_end_name,
 )
+from gidabot_sim.demo.progress import GUIDING_CALLERIDS
+from gidabot_sim.errors import ReportError
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
@@ -62,12 +80,8 @@ MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour'
 MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
 
 
-class ReportError(Exception):
-    """A run folder cannot be reported on (missing files, unreadable bags)."""
-
-
 @dataclass(frozen=True)
-class Event:
+class EventSample:
     t: float            # s, header stamp (sim time)
     robot: str
     goal_uid: str
@@ -111,8 +125,10 @@ class RobotRecord:
 
     name: str
     floor: float
-    goal_uids: set[str] = field(default_factory=set)
-    events: list[Event] = field(default_factory=list)      # events emitted by this robot
+    goal_uids: set[str] = field(default_factory=set)      # goals it validated and kept (received)
+    events: list[EventSample] = field(default_factory=list)      # events emitted by this robot's guiding nodes
+    accepted: set[str] = field(default_factory=set)        # goals its goal manager accepted
+    navigated: set[str] = field(default_factory=set)       # goals its navigation worked on
     poses: list[PoseSample] = field(default_factory=list)  # this robot's /gidabot/poses, time-ordered
     local_poses: list[PoseSample] = field(default_factory=list)  # its /amcl_pose (local), time-ordered
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
@@ -137,7 +153,7 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[Event]) -> list[tuple[float, float]]:
+def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
     """[start, end] sim-time intervals while the robot was guiding the visitor."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
@@ -166,7 +182,7 @@ def robot_row(rec: RobotRecord) -> RobotRow:
     intervals = guiding_intervals(rec.events)
     time_s = sum(e - s for s, e in intervals)
     dist = path_length(rec.track, intervals)
-    processed = len({e.goal_uid for e in rec.events if e.phase == ACCEPTED})
+    processed = len(rec.accepted & rec.navigated)
     return RobotRow(rec.name, rec.floor, len(rec.goal_uids), processed, round(time_s, 1), round(dist, 1),
                     round(dist / time_s, 3) if time_s > 0 else 0.0)
 
@@ -308,7 +324,7 @@ def format_tables(report: dict) -> str:
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
     lines += format_timing(report.get("timing") or {})
     for robot, n in report.get("rejected_goals", {}).items():
-        lines.append(f"note: {robot}: {n} message(s) on /gidabot/goals were not goals (hostile input), not counted")
+        lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     return "\n".join(lines)
@@ -393,11 +409,18 @@ def _stamp(msg: object, fallback_ns: int) -> float:
 
 
 _UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
+GOAL_MANAGER, NAVIGATION = GUIDING_CALLERIDS
 
 
 def plausible_goal(msg: Any, building: Any | None) -> bool:
-    """A goal message as a robot could have sent it: a valid uid, finite numbers, short printable text, and
-    (with the building) its floors, origin robot and goal location known ("" allowed for the last two)."""
+    """A goal message as a robot could have sent it. With the building: exactly the goal manager's check
+    (``validate_trip``); without: a valid uid, finite numbers, short printable text."""
+    if building is not None:
+        try:
+            validate_trip(building, _trip(msg))
+        except (GidaBotError, AttributeError, TypeError, ValueError):
+            return False
+        return True
     try:
         texts = (msg.origin_robot, msg.visitor_id, msg.way, msg.connector, msg.start_id, msg.goal_id,
                  msg.language, msg.tour_file)
@@ -410,15 +433,36 @@ def plausible_goal(msg: Any, building: Any | None) -> bool:
         return False
     if not all(isinstance(t, str) and len(t) <= 64 and t.isprintable() for t in texts):
         return False
-    if not all(isinstance(v, (int, float)) and math.isfinite(v) for v in numbers):
-        return False
-    if building is None:
+    return all(isinstance(v, (int, float)) and math.isfinite(v) for v in numbers)
+
+
+def _trip(msg: Any) -> Trip:
+    """A Goal read from a bag (rosbags) as the goal manager sees it."""
+    q = msg.goal_pose.orientation
+    return Trip(uid=msg.uid, origin_robot=msg.origin_robot, visitor_id=msg.visitor_id,
+                initial_floor=msg.initial_floor, initial_x=msg.initial_pose.x, initial_y=msg.initial_pose.y,
+                goal_floor=msg.goal_floor, goal_x=msg.goal_pose.position.x, goal_y=msg.goal_pose.position.y,
+                goal_yaw=quaternion_to_yaw(q.x, q.y, q.z, q.w), way=msg.way, connector=msg.connector,
+                start_id=msg.start_id, goal_id=msg.goal_id, language=msg.language, tour_file=msg.tour_file,
+                tour_step=msg.tour_step)
+
+
+def _callerid(conn: Any) -> str | None:
+    """The node that published a bag connection's messages (None: the bag does not say)."""
+    return getattr(getattr(conn, "ext", None), "callerid", None) or None
+
+
+def _from_robot(callerid: str | None, robot: str, recorder: str, building: Any | None) -> bool:
+    """Whether a message published on ``recorder``'s master by ``callerid`` can come from ``robot``'s guiding
+    nodes: their own node names on its own master, the relay end of the pair on another."""
+    if callerid is None:
         return True
-    if any(building.find_floor(f) is None for f in numbers[:2]):
+    if robot == recorder:
+        return callerid in GUIDING_CALLERIDS
+    if building is None or building.find_robot(robot) is None or building.find_robot(recorder) is None:
         return False
-    if texts[0] and building.find_robot(texts[0]) is None:
-        return False
-    return not (texts[5] and building.find_location(texts[5]) is None)
+    names = [r.name for r in building.robots]
+    return callerid == relay_end_name(*sorted((robot, recorder), key=names.index))
 
 
 def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None = None,
@@ -430,32 +474,37 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in ("/gidabot/goals", "/gidabot/nav_events", "/gidabot/poses", "/amcl_pose",
-                                     "/diagnostics")]
+                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE),
+                                     Topic.DIAGNOSTICS)]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
                 except Exception:  # noqa: BLE001 - rosbags raises several types; one bad message is skipped
                     rec.bad[conn.topic] = rec.bad.get(conn.topic, 0) + 1
                     continue
-                if conn.topic == "/gidabot/goals":
-                    if not plausible_goal(msg, building):
+                caller = _callerid(conn)
+                if conn.topic == Topic.GOALS:
+                    if not (plausible_goal(msg, building) and _from_robot(caller, msg.origin_robot, name, building)):
                         rec.rejected_goals += 1
                         continue
                     rec.goal_uids.add(msg.uid)
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
-                elif conn.topic == "/diagnostics":
+                elif conn.topic == Topic.DIAGNOSTICS:
                     t = _stamp(msg, t_ns)
                     rec.diagnostics.extend(DiagSample(t, st.name, tuple((kv.key, kv.value) for kv in st.values))
                                            for st in msg.status if st.name.startswith(TIMING_STATUSES))
-                elif conn.topic == "/amcl_pose":
+                elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
-                elif conn.topic == "/gidabot/nav_events":
-                    if msg.robot == name:
-                        rec.events.append(Event(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                elif conn.topic == Topic.NAV_EVENTS:
+                    if msg.robot == name and _from_robot(caller, name, name, building):
+                        rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase)))
+                        if msg.phase == ACCEPTED and caller in (None, GOAL_MANAGER):
+                            rec.accepted.add(msg.goal_uid)
+                        elif caller in (None, NAVIGATION) and msg.goal_uid:
+                            rec.navigated.add(msg.goal_uid)
                 elif msg.robot == name:
                     p = msg.nav_pose.position
                     rec.poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))

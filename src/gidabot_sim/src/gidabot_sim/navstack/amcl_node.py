@@ -17,9 +17,10 @@ from tf2_msgs.msg import TFMessage
 
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
-from gidabot_sim.errors import SimConfigError
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
 from gidabot_sim.ros import convert as ru
 from gidabot_sim.ros.participant import StepAnswers, own_time
@@ -62,39 +63,33 @@ class AmclNode:
 
     def __init__(self) -> None:
         def num(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
-                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number")
-            return float(value)
+            return param_number(name, default, -math.inf, strict=False)
 
         config = AmclConfig(noise_xy=num("~noise_xy", 0.03), noise_yaw=num("~noise_yaw", 0.02),
                             noise_tau=num("~noise_tau", 3.0), update_min_d=num("~update_min_d", 0.1),
                             update_min_a=num("~update_min_a", 0.1))
         seed = int(rospy.get_param("~seed", -1))
         self.core = AmclCore(config, np.random.default_rng(None if seed < 0 else seed))
-        tf_rate = num("~tf_rate", 10.0)
-        if tf_rate <= 0:
-            raise SimConfigError(f"~tf_rate: {tf_rate!r} must be > 0 Hz")
-        self.tf_due = Periodic(tf_rate)
+        self.tf_due = Periodic(param_number("~tf_rate", 10.0))
         self.tolerance = num("~transform_tolerance", 0.1)
         self.global_frame = str(rospy.get_param("~global_frame_id", "map"))
         self.odom_frame = str(rospy.get_param("~odom_frame_id", "odom"))
         self.lock = threading.Lock()
         self.rejected = ru.CountingLog(rospy.logerr)
-        self.pose_pub = rospy.Publisher("amcl_pose", PoseWithCovarianceStamped, queue_size=5, latch=True)
-        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=10)
+        self.pose_pub = rospy.Publisher(Topic.AMCL_POSE, PoseWithCovarianceStamped, queue_size=5, latch=True)
+        self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
         self.set_time = own_time()
         self.answers = StepAnswers()
-        self.truth_topic = rospy.resolve_name("base_pose_ground_truth")
+        self.truth_topic = rospy.resolve_name(Topic.BASE_POSE_GROUND_TRUTH)
         self.answers.answer(0.0, idle=True, inputs=[self.truth_topic])     # known to the simulator from the start
-        rospy.Subscriber("base_pose_ground_truth", Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
+        rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
     def _follow_odom(self) -> None:
         """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
         wanted = self.tf_pub.get_num_connections() > 0
         if wanted and self.odom_sub is None:
-            self.odom_sub = rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10)
+            self.odom_sub = rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10)
         elif not wanted and self.odom_sub is not None:
             self.odom_sub.unregister()
             self.odom_sub = None
@@ -117,7 +112,7 @@ class AmclNode:
         """Process one ground truth: publish the estimate (when due) and tf."""
         truth = _pose2d(msg)
         if truth is None:
-            self.rejected.reject("base_pose_ground_truth", "amcl: ignoring a non-finite ground-truth pose")
+            self.rejected.reject(Topic.BASE_POSE_GROUND_TRUTH, "amcl: ignoring a non-finite ground-truth pose")
             return
         self._follow_odom()
         with self.lock:
@@ -137,8 +132,8 @@ class AmclNode:
 
 
 def main() -> None:
-    rospy.init_node("amcl")
-    guard = rospy_exit_guard("amcl")     # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    rospy.init_node(Node.AMCL)
+    guard = rospy_exit_guard(Node.AMCL)     # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         AmclNode()

@@ -65,7 +65,8 @@ from gidabot_navigation.building.planning import (
     sample_polyline,
 )
 from gidabot_navigation.errors import PlanningError
-from gidabot_sim.errors import GoalRejected, SimConfigError
+from gidabot_navigation.logs import Logger
+from gidabot_sim.errors import NavGoalRejected, SimConfigError
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D, clamp_velocity, integrate
 
 YIELD_CANDIDATES = 20000    # nearest cells considered for a yield spot
@@ -143,15 +144,12 @@ class StepResult:
     text: str = ""               # the result's status text (move_base's wording where it has one)
 
 
-class Logger:
-    """What the core logs through (rospy's logger in the node, a list in tests)."""
+class _Null:
+    """No log (the core without a logger)."""
 
     def info(self, msg: str) -> None: ...
     def warning(self, msg: str) -> None: ...
-
-
-class _Null(Logger):
-    pass
+    def error(self, msg: str) -> None: ...
 
 
 class FollowedPath:
@@ -245,11 +243,11 @@ class MoveBaseCore:
     def set_goal(self, goal: Pose2D, now: float) -> None:
         """Start driving to ``goal`` (map frame), replacing any current goal.
 
-        :class:`GoalRejected` when the goal is not finite (the node reports it ABORTED, as move_base does
+        :class:`NavGoalRejected` when the goal is not finite (the node reports it ABORTED, as move_base does
         for an invalid quaternion).
         """
         if not goal.is_finite():
-            raise GoalRejected(f"goal ({goal.x!r}, {goal.y!r}, {goal.yaw!r}) is not finite (m, m, rad)")
+            raise NavGoalRejected(f"goal ({goal.x!r}, {goal.y!r}, {goal.yaw!r}) is not finite (m, m, rad)")
         self.goal = Pose2D(goal.x, goal.y, wrap_angle(goal.yaw))
         self.path = None
         self.state = State.PLANNING

@@ -27,9 +27,11 @@ from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.planning import Path
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, SensedRobot, State
@@ -118,21 +120,14 @@ class MoveBaseNode:
         except (KeyError, TypeError, ValueError) as err:
             raise SimConfigError(f"~floor: {err}") from err
 
-        def num(name: str, default: float) -> float:
-            value = rospy.get_param(name, default)
-            if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value) \
-                    or value <= 0:
-                raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number > 0")
-            return float(value)
-
         defaults = NavConfig()
-        config = NavConfig(**{name: num(f"~{name}", value) for name, value in defaults.__dict__.items()})
+        config = NavConfig(**{name: param_number(f"~{name}", value) for name, value in defaults.__dict__.items()})
         self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
-                                           inflation_radius=num("~inflation_radius", robot.radius + 0.7),
-                                           cost_scaling=num("~cost_scaling_factor", 3.0),
-                                           goal_tolerance=num("~default_tolerance", 0.5), name=robot.name)
-        self.spacing = num("~plan_point_spacing", floor.map.resolution)
-        self.feedback_due = Periodic(num("~feedback_rate", 5.0))
+                                           inflation_radius=param_number("~inflation_radius", robot.radius + 0.7),
+                                           cost_scaling=param_number("~cost_scaling_factor", 3.0),
+                                           goal_tolerance=param_number("~default_tolerance", 0.5), name=robot.name)
+        self.spacing = param_number("~plan_point_spacing", floor.map.resolution)
+        self.feedback_due = Periodic(param_number("~feedback_rate", 5.0))
         self.control_due = Periodic(config.controller_frequency)
         self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
         self.robot = robot.name
@@ -145,27 +140,27 @@ class MoveBaseNode:
         self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
         self.set_time = own_time()
         self.answers = StepAnswers()
-        self.odom_topic = rospy.resolve_name("odom")
+        self.odom_topic = rospy.resolve_name(Topic.ODOM)
         self.turn = threading.Lock()       # a step (odometry thread) or a goal while idle (main loop): one at a time
         self.said = threading.Lock()       # self.active and the answers (a leaf lock: taken under actionlib's too)
         self.active = False                # answering every step (a goal runs)
         self.now = 0.0                     # sim s: the latest odometry's stamp
-        self.cmd_pub = synchronous_publisher("cmd_vel", Twist)       # to the simulator, before the answer
-        self.goal_pub = rospy.Publisher("move_base/current_goal", PoseStamped, queue_size=2)
-        self.plan_pub = rospy.Publisher("move_base/NavfnROS/plan", PathMsg, queue_size=2)
-        self.action_goal_pub = rospy.Publisher("move_base/goal", MoveBaseActionGoal, queue_size=2)
-        self.server = actionlib.SimpleActionServer("move_base", MoveBaseAction, auto_start=False)
+        self.cmd_pub = synchronous_publisher(Topic.CMD_VEL, Twist)       # to the simulator, before the answer
+        self.goal_pub = rospy.Publisher(Topic.MOVE_BASE_CURRENT_GOAL, PoseStamped, queue_size=2)
+        self.plan_pub = rospy.Publisher(Topic.MOVE_BASE_PLAN, PathMsg, queue_size=2)
+        self.action_goal_pub = rospy.Publisher(Topic.MOVE_BASE_GOAL, MoveBaseActionGoal, queue_size=2)
+        self.server = actionlib.SimpleActionServer(Topic.MOVE_BASE, MoveBaseAction, auto_start=False)
         self.server.register_goal_callback(self._on_goal)
         self.server.register_preempt_callback(lambda: self._event("preempt"))
-        rospy.Subscriber("odom", Odometry, self._on_odom, queue_size=10, tcp_nodelay=True)
-        rospy.Subscriber("amcl_pose", PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
-        rospy.Subscriber(str(rospy.get_param("~obstacles_topic", "/sim/obstacles")), ObstacleArray,
+        rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10, tcp_nodelay=True)
+        rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
+        rospy.Subscriber(str(rospy.get_param("~obstacles_topic", Topic.SIM_OBSTACLES)), ObstacleArray,
                          lambda msg: self._event("obstacles", msg), queue_size=10)
-        rospy.Subscriber(str(rospy.get_param("~robots_topic", "robots_seen")), ObstacleArray,
+        rospy.Subscriber(str(rospy.get_param("~robots_topic", Topic.ROBOTS_SEEN)), ObstacleArray,
                          lambda msg: self._event("robots", msg), queue_size=10)
-        rospy.Subscriber("move_base_simple/goal", PoseStamped, self._on_simple_goal, queue_size=2)
-        rospy.Service("move_base/make_plan", GetPlan, self._make_plan)
-        rospy.Service("move_base/clear_costmaps", Empty, self._clear_costmaps)
+        rospy.Subscriber(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, self._on_simple_goal, queue_size=2)
+        rospy.Service(Service.MAKE_PLAN, GetPlan, self._make_plan)
+        rospy.Service(Service.CLEAR_COSTMAPS, Empty, self._clear_costmaps)
         self.server.start()
 
     # -- callbacks: copy or enqueue ---------------------------------------------------
@@ -202,9 +197,9 @@ class MoveBaseNode:
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         try:
-            pose = ru.pose2d_of(msg.pose.pose, "amcl_pose")
+            pose = ru.pose2d_of(msg.pose.pose, Topic.AMCL_POSE)
         except GidaBotError as err:
-            self.rejected.reject("amcl_pose", f"move_base: ignoring amcl_pose: {err}")
+            self.rejected.reject(Topic.AMCL_POSE, f"move_base: ignoring amcl_pose: {err}")
             return
         with self.tracker_lock:
             self.tracker.on_estimate(msg.header.stamp.to_sec(), pose)
@@ -378,8 +373,8 @@ class MoveBaseNode:
 
 
 def main() -> None:
-    rospy.init_node("move_base")
-    guard = rospy_exit_guard("move_base", main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    rospy.init_node(Node.MOVE_BASE)
+    guard = rospy_exit_guard(Node.MOVE_BASE, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         node = MoveBaseNode()

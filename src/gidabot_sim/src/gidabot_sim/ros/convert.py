@@ -17,7 +17,8 @@ from gidabot_msgs.msg import Obstacle
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.occupancy import OccupancyMap
 from gidabot_navigation.building.planning import Circle, Rectangle, Shape
-from gidabot_sim.errors import GoalRejected, PoseRejected
+from gidabot_navigation.interface import Topic
+from gidabot_sim.errors import NavGoalRejected, PoseRejected
 from gidabot_sim.world.kinematics import Twist2D
 
 MAP_FRAMES = ("map", "/map", "")
@@ -69,13 +70,13 @@ def check_map_frame(frame_id: str, what: str, error: type[Exception] = PoseRejec
 
 
 def initialpose_to_pose2d(msg: PoseWithCovarianceStamped) -> Pose2D:
-    check_map_frame(msg.header.frame_id, "initialpose")
-    return pose2d_of(msg.pose.pose, "initialpose")
+    check_map_frame(msg.header.frame_id, Topic.INITIALPOSE)
+    return pose2d_of(msg.pose.pose, Topic.INITIALPOSE)
 
 
 def goal_to_pose2d(frame_id: str, pose: Pose) -> Pose2D:
-    check_map_frame(frame_id, "goal", GoalRejected)
-    return pose2d_of(pose, "goal", GoalRejected)
+    check_map_frame(frame_id, "goal", NavGoalRejected)
+    return pose2d_of(pose, "goal", NavGoalRejected)
 
 
 def twist_of(msg: Twist) -> tuple[float, float, float]:

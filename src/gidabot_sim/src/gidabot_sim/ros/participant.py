@@ -17,9 +17,8 @@ import rospy.impl.simtime
 import rospy.rostime
 
 from gidabot_msgs.msg import StepDone
+from gidabot_navigation.interface import Topic
 from gidabot_sim.ros.convert import stamp
-
-STEP_DONE_TOPIC = "/sim/step_done"
 
 
 def synchronous_publisher(topic: str, msg_type: type, latch: bool = False) -> rospy.Publisher:
@@ -51,7 +50,7 @@ class StepAnswers:
         self.session = random.SystemRandom().randrange(1, 2**32)
         self.commands = 0
         self.answers = 0
-        self.pub = synchronous_publisher(STEP_DONE_TOPIC, StepDone)
+        self.pub = synchronous_publisher(Topic.SIM_STEP_DONE, StepDone)
 
     def command_sent(self) -> None:
         self.commands += 1

@@ -33,29 +33,41 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import rospkg
+
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_sim.errors import SimError
-from gidabot_sim.runner.procs import ProcessError, ProcessGroup, ros_env, start_master
+from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
+from gidabot_navigation.resources import resource
+from gidabot_sim.errors import DemoError, ProcessError
+from gidabot_sim.runner.procs import ProcessGroup, ros_env, start_master
 from gidabot_sim.world.timeline import Clock, Timeline
 
-REPO = Path(__file__).resolve().parents[5]
-ROBOT_LAUNCH = REPO / "launch" / "robot.launch"
-MONITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "monitor"
-VISITOR_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "visitor"
+# where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
+# GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
+RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
 RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
 # and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
-RECORDED_TOPICS = ("/gidabot/goals", "/gidabot/cancels", "/gidabot/nav_events", "/gidabot/tours",
-                   "/gidabot/status", "/gidabot/poses", "/gidabot/pending", "/gidabot/tour_index",
-                   "/visitor/command", "/amcl_pose", "/diagnostics")
+RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
+                   Topic.DIAGNOSTICS)
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
 CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
 
 
-class DemoError(SimError):
-    """The simulated building cannot be started or run (a master, a launch or a recorder failed)."""
+def node_executable(package: str, name: str) -> str:
+    """Path of the executable ``name`` of ``package``, found as ``rosrun`` finds it (the devel or install
+    space's ``lib/<package>``, else the package directory)."""
+    import roslib.packages
+
+    try:
+        found = roslib.packages.find_node(package, name)
+    except rospkg.ResourceNotFound as err:
+        raise DemoError(f"package {package} not found: is the workspace built and sourced?") from err
+    if not found:
+        raise DemoError(f"{package}'s {name} program was not found (is the workspace built?)")
+    return str(found[0])
 
 
 def rosbag_record_binary() -> str:
@@ -65,12 +77,7 @@ def rosbag_record_binary() -> str:
     once and it closes the bag before exiting (the ``rosbag`` Python wrapper exits at
     once on SIGINT, and the group would be killed while the bag is being closed).
     """
-    import roslib.packages
-
-    found = roslib.packages.find_node("rosbag", "record")
-    if not found:
-        raise DemoError("rosbag's record program was not found (Debian package ros-core / rosbag)")
-    return str(found[0])
+    return node_executable("rosbag", "record")
 
 
 def write_secret(path: Path) -> Path:
@@ -176,7 +183,7 @@ class SimulatedBuilding:
     gui: bool = False
     record: bool = True
     relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
-    seed_tours: Path = REPO / "tours"
+    seed_tours: Path = field(default_factory=lambda: resource("tours"))
     addresses: list[str] | None = None
     robot_args: dict[str, dict[str, str]] = field(default_factory=dict)   # per robot extra launch args
     common_args: dict[str, str] = field(default_factory=dict)
@@ -253,8 +260,8 @@ class SimulatedBuilding:
         self.monitor_file.touch()
         first = self.building.robots[0]
         robots = "[" + ", ".join(r.name for r in self.building.robots) + "]"
-        self.procs.start("monitor", [sys.executable, str(MONITOR_NODE), f"_out:={self.monitor_file}",
-                                     f"_robots:={robots}"], self.env(first.name))
+        self.procs.start("monitor", [sys.executable, node_executable("gidabot_sim", "monitor"),
+                                     f"_out:={self.monitor_file}", f"_robots:={robots}"], self.env(first.name))
 
     def clocks(self) -> dict[str, Clock]:
         """Each robot's floor clock (sim time, heartbeat, timing counters), from the timeline; also kept (a
@@ -317,7 +324,7 @@ class SimulatedBuilding:
         launch: restarting the robot's nodes must not make the person forget where they are)."""
         assert self.building_file is not None and self.visitor is not None
         params = {"building": str(self.building_file), "robot": robot, **self.visitor}
-        argv = [sys.executable, str(VISITOR_NODE), "__name:=visitor",
+        argv = [sys.executable, node_executable("gidabot_sim", "visitor"), f"__name:={Node.VISITOR}",
                 *(f"_{k}:={json.dumps(v)}" for k, v in params.items())]   # JSON is YAML: types kept
         self.procs.start(f"visitor_{robot}", argv, self.env(robot))
 
@@ -364,7 +371,8 @@ class SimulatedBuilding:
         name = f"robot_{robot}"
         if self.procs.alive(name):
             self.procs.stop(name, grace=20.0)
-        self.procs.start(name, ["roslaunch", "--skip-log-check", str(ROBOT_LAUNCH), *self.launch_args(robot)],
+        self.procs.start(name, ["roslaunch", "--skip-log-check", str(resource("launch", "robot.launch")),
+                                *self.launch_args(robot)],
                          self.env(robot))
 
     def track(self) -> dict[int, ProcInfo]:

@@ -18,11 +18,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from gidabot_navigation.errors import GidaBotError
-
-
-class ProcessError(GidaBotError):
-    """A managed process could not be started or stopped, or a wait timed out."""
+from gidabot_sim.errors import ProcessError
 
 
 def wait_until(predicate: Callable[[], bool], timeout: float, what: str, interval: float = 0.05) -> float:

@@ -28,11 +28,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from gidabot_navigation.guiding.messages import (
+from gidabot_navigation.interface import (
     ACCEPTED,
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
     CONTINUE,
+    DEFAULT_LANGUAGE,
     GO_TO_FLOOR,
     GOAL_REACHED,
     PARTNER_OFFLINE,
@@ -45,6 +46,8 @@ from gidabot_navigation.guiding.messages import (
     TOUR_STEP_DONE,
     UNREACHABLE,
     WAITING_VISITOR,
+    WAY_LIFT,
+    WAY_STAIRS,
 )
 
 ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_FINISHED}
@@ -55,8 +58,8 @@ class VisitorConfig:
     robot: str                       # robot of this floor
     floor: float                     # this floor
     start_floor: float = 0.0         # where the visitor starts
-    way: str = "stairs"              # "stairs" or "lift" for every floor change
-    language: str = "en"
+    way: str = WAY_STAIRS            # WAY_STAIRS or WAY_LIFT for every floor change
+    language: str = DEFAULT_LANGUAGE
     stairs_s_per_floor: float = 20.0 # s of walking per floor by the stairs
     lift_wait_s: float = 25.0        # s waiting for the lift
     lift_s_per_floor: float = 5.0    # s of lift travel per floor
@@ -70,14 +73,15 @@ class VisitorConfig:
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
-        if self.way == "lift":
+        if self.way == WAY_LIFT:
             return self.lift_wait_s + self.lift_s_per_floor * floors
         return self.stairs_s_per_floor * floors
 
 
 @dataclass(frozen=True)
-class Command:
-    """A VisitorCommand to publish on this robot's ``visitor/command``."""
+class ButtonPress:
+    """A button the visitor presses: the VisitorCommand to publish on this robot's ``visitor/command``
+    (the node adds its uid, visitor id and stamp)."""
 
     command: int
     goal_id: str = ""
@@ -85,13 +89,13 @@ class Command:
     tour_file: str = ""
     tour_step: int = -1
     way: str = ""
-    language: str = "en"
+    language: str = DEFAULT_LANGUAGE
 
 
 @dataclass
 class _Due:
     at: float
-    command: Command
+    press: ButtonPress
 
 
 @dataclass
@@ -117,7 +121,7 @@ class VisitorCore:
         """This node plays the visitor's first floor (the only one that starts the visit)."""
         return math.isclose(self.cfg.floor, self.cfg.start_floor)
 
-    def start(self, now: float) -> list[Command]:
+    def start(self, now: float) -> list[ButtonPress]:
         """Begin the visit: only the start floor's node does something, and only once.
 
         (The visitor being *present* on a floor is not enough: it arrives on every floor of a
@@ -128,9 +132,9 @@ class VisitorCore:
         self.started = True
         c = self.cfg
         if c.tour_file:
-            cmd = Command(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
+            cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
         elif c.goal_id:
-            cmd = Command(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return []
         return [cmd]
@@ -177,10 +181,10 @@ class VisitorCore:
         elif phase == TOUR_STEP_DONE:
             self.present = True
             nxt = dict(self.cfg.skips).get(tour_step)
-            cmd = (Command(SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt, way=self.cfg.way,
-                           language=self.cfg.language) if nxt is not None else
-                   Command(CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
-                           language=self.cfg.language))
+            cmd = (ButtonPress(SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt, way=self.cfg.way,
+                               language=self.cfg.language) if nxt is not None else
+                   ButtonPress(CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
+                               language=self.cfg.language))
             self._due.append(_Due(now + self.cfg.think_s, cmd))
         elif phase == GOAL_REACHED and not self.cfg.tour_file:
             self.present, self.finished, self.outcome = True, True, "goal reached"
@@ -197,25 +201,25 @@ class VisitorCore:
             return
         c = self.cfg
         if c.tour_file:
-            cmd = (Command(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
-                   Command(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
+            cmd = (ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
+                   ButtonPress(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
         elif c.goal_id:
-            cmd = Command(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return
         self.retries += 1
         self._due.append(_Due(now + c.retry_s, cmd))
 
-    def step(self, now: float) -> list[Command]:
+    def step(self, now: float) -> list[ButtonPress]:
         """Commands due at ``now``."""
         for goal_uid in sorted(self.waiting):
             arrival = self.arrivals.get(goal_uid)
             if arrival is not None and now >= arrival:
                 self.waiting.discard(goal_uid)
                 self.present = True
-                self._due.append(_Due(now + self.cfg.think_s, Command(CONTINUE, goal_uid=goal_uid,
-                                                                      way=self.cfg.way,
-                                                                      language=self.cfg.language)))
+                self._due.append(_Due(now + self.cfg.think_s, ButtonPress(CONTINUE, goal_uid=goal_uid,
+                                                                          way=self.cfg.way,
+                                                                          language=self.cfg.language)))
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]
-        return [d.command for d in sorted(ready, key=lambda d: d.at)]
+        return [d.press for d in sorted(ready, key=lambda d: d.at)]

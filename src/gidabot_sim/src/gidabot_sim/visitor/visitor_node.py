@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import threading
 
 import rospy
@@ -10,17 +9,13 @@ import rospy
 from gidabot_msgs.msg import NavEvent, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, WAYS, Node, Topic
+from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.visitor.visitor import Command, VisitorConfig, VisitorCore
-
-
-def _float_param(name: str, default: float, low: float = 0.0) -> float:
-    value = rospy.get_param(name, default)
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < low:
-        raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a finite number >= {low:g}")
-    return float(value)
+from gidabot_sim.visitor.visitor import ButtonPress, VisitorConfig, VisitorCore
 
 
 def _skips_param(raw: object) -> tuple[tuple[int, int], ...]:
@@ -60,22 +55,21 @@ class VisitorNode:
         building = load_building(str(rospy.get_param("~building")))
         robot = building.robot(str(rospy.get_param("~robot")))
         self.cfg = VisitorConfig(
-            robot=robot.name, floor=robot.floor, start_floor=_float_param("~start_floor", 0.0, -1e6),
-            way=str(rospy.get_param("~way", "stairs")), language=str(rospy.get_param("~language", "en")),
-            stairs_s_per_floor=_float_param("~stairs_s_per_floor", 20.0),
-            lift_wait_s=_float_param("~lift_wait", 25.0),
-            lift_s_per_floor=_float_param("~lift_s_per_floor", 5.0),
-            think_s=_float_param("~think", 3.0),
+            robot=robot.name, floor=robot.floor, start_floor=param_number("~start_floor", 0.0, -1e6, strict=False),
+            way=str(rospy.get_param("~way", WAY_STAIRS)), language=str(rospy.get_param("~language", DEFAULT_LANGUAGE)),
+            stairs_s_per_floor=param_number("~stairs_s_per_floor", 20.0, strict=False),
+            lift_wait_s=param_number("~lift_wait", 25.0, strict=False),
+            lift_s_per_floor=param_number("~lift_s_per_floor", 5.0, strict=False),
+            think_s=param_number("~think", 3.0, strict=False),
             tour_file=str(rospy.get_param("~tour_file", "")), goal_id=str(rospy.get_param("~goal_id", "")),
             skips=_skips_param(rospy.get_param("~skips", [])),
-            retry_s=_float_param("~retry", 30.0), retry_for_s=_float_param("~retry_for", 1800.0))
-        if self.cfg.way not in ("stairs", "lift"):
-            raise SimConfigError(f"~way: {self.cfg.way!r} must be 'stairs' or 'lift'")
+            retry_s=param_number("~retry", 30.0, strict=False),
+            retry_for_s=param_number("~retry_for", 1800.0, strict=False))
+        if self.cfg.way not in WAYS:
+            raise SimConfigError(f"~way: {self.cfg.way!r} must be one of {', '.join(WAYS)}")
         self.robots = {r.name for r in building.robots}
-        self.start_delay = _float_param("~start_delay", 2.0)
-        rate = _float_param("~rate", 1.0)
-        if rate <= 0:
-            raise SimConfigError(f"~rate: {rate!r} must be > 0 Hz")
+        self.start_delay = param_number("~start_delay", 2.0, strict=False)
+        rate = param_number("~rate", 1.0)
         self.core = VisitorCore(self.cfg)
         self._lock = threading.Lock()
         self._seen: set[str] = set()
@@ -84,19 +78,23 @@ class VisitorNode:
         self._tour_ready = not (self.cfg.tour_file and self.core.on_start_floor)
         self._seq = 0
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
-        self.pub = ReplayPublisher("visitor/command", VisitorCommand, queue_size=50)
-        rospy.Subscriber("/gidabot/nav_events", NavEvent, self._on_event, queue_size=100)
-        self._status_sub = rospy.Subscriber("/gidabot/status", RobotStatus, self._on_status, queue_size=50)
+        self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
+        rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=100)
+        self._status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50)
         self._catalog_sub = None
         if not self._tour_ready:
-            self._catalog_sub = rospy.Subscriber("tour_store/catalog", TourCatalog, self._on_catalog, queue_size=2)
+            self._catalog_sub = rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._on_catalog, queue_size=2)
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
     def _on_event(self, msg: NavEvent) -> None:
+        # the visitor sees what a robot does when it happens (the event's stamp), not when its message got here:
+        # the messages' wall latency would otherwise add sim time, the more the faster the run (never later than
+        # now: another floor's clock may be a little ahead)
+        now, happened = rospy.get_time(), msg.header.stamp.to_sec()
+        seen = min(happened, now) if happened > 0 else now
         with self._lock:
-            self.core.on_event(rospy.get_time(), msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor,
-                               msg.target_floor, msg.tour_step, tour_file=msg.tour_file,
-                               location_id=msg.location_id)
+            self.core.on_event(seen, msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor, msg.target_floor,
+                               msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
         with self._lock:
@@ -127,7 +125,7 @@ class VisitorNode:
         for cmd in commands:
             self._publish(cmd)
 
-    def _publish(self, cmd: Command) -> None:
+    def _publish(self, cmd: ButtonPress) -> None:
         self._seq += 1
         msg = VisitorCommand(uid=f"{self.cfg.robot}/{self.cfg.visitor_id}/cmd/{self._seq}",
                              visitor_id=self.cfg.visitor_id, command=cmd.command, goal_id=cmd.goal_id,
@@ -139,11 +137,12 @@ class VisitorNode:
 
 
 def main() -> None:
-    rospy.init_node("visitor")
+    guard = rospy_exit_guard(Node.VISITOR)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy.init_node(Node.VISITOR, disable_signals=True)
     keep_registered()
     try:
         VisitorNode()
     except (GidaBotError, KeyError) as err:
         rospy.logfatal("visitor: %s", err)
         raise SystemExit(2) from err
-    rospy.spin()
+    guard.spin(rospy.is_shutdown)

@@ -33,11 +33,13 @@ from gidabot_navigation.building.geometry import Pose2D, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.planning import Circle
 from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.ros.participant import STEP_DONE_TOPIC, own_time, synchronous_publisher
+from gidabot_sim.ros.participant import own_time, synchronous_publisher
 from gidabot_sim.world.clock import MAX_SPEED, Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
@@ -57,15 +59,6 @@ MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands al
 HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
 IDLE_SLEEP = 0.01             # wall s an idle floor sleeps at least when ahead of its ceiling or of the other floors
 ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
-
-
-def _num(name: str, default: float, low: float = 0.0, high: float = math.inf, strict: bool = False) -> float:
-    value = rospy.get_param(name, default)
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if not ok or value < low or value > high or (strict and value <= low):
-        bound = f"> {low:g}" if strict else f">= {low:g}"
-        raise SimConfigError(f"{rospy.resolve_name(name)}: {value!r} must be a number {bound} and <= {high:g}")
-    return float(value)
 
 
 def _pose_param(name: str, value: Any) -> Pose2D | None:
@@ -124,36 +117,39 @@ class SimParams:
             poses = [_pose_param("~initial_poses", p) for p in raw]
         else:
             poses = [_pose_param("~initial_pose", rospy.get_param("~initial_pose", []))] + [None] * (len(robots) - 1)
-        laser = LaserSpec(beams=int(_num("~laser_beams", 360, 1, 10000)),
-                          fov=_num("~laser_fov", 1.5 * math.pi, 0.0, 2 * math.pi, strict=True),
-                          range_min=_num("~laser_range_min", 0.05), range_max=_num("~laser_range_max", 20.0),
-                          noise=_num("~laser_noise", 0.01), x=_num("~laser_x", 0.1, -5, 5),
-                          y=_num("~laser_y", 0.0, -5, 5))
-        battery = BatteryModel(start=_num("~battery_start", 1.0, 0.0, 1.0),
-                               idle_per_hour=_num("~battery_idle_per_hour", 0.05),
-                               per_km=_num("~battery_per_km", 0.25))
+        laser = LaserSpec(beams=int(param_number("~laser_beams", 360, 1, 10000, strict=False)),
+                          fov=param_number("~laser_fov", 1.5 * math.pi, 0.0, 2 * math.pi),
+                          range_min=param_number("~laser_range_min", 0.05, strict=False),
+                          range_max=param_number("~laser_range_max", 20.0, strict=False),
+                          noise=param_number("~laser_noise", 0.01, strict=False),
+                          x=param_number("~laser_x", 0.1, -5, 5, strict=False),
+                          y=param_number("~laser_y", 0.0, -5, 5, strict=False))
+        battery = BatteryModel(start=param_number("~battery_start", 1.0, 0.0, 1.0, strict=False),
+                               idle_per_hour=param_number("~battery_idle_per_hour", 0.05, strict=False),
+                               per_km=param_number("~battery_per_km", 0.25, strict=False))
         seed = int(rospy.get_param("~seed", -1))
         speed = rospy.get_param("~speed", 1.0)
-        drift = _num("~max_drift", 1.0)
+        drift = param_number("~max_drift", 1.0, strict=False)
         return SimParams(
             building=building, robots=tuple(robots), floor=float(rospy.get_param("~floor", math.nan)),
             poses=tuple(poses),
-            speed=None if speed == "max" else _num("~speed", 1.0, 0.0, MAX_SPEED, strict=True),
-            start_wall=_num("~start_wall", 0.0), dt=_num("~physics_dt", 0.02, 0.0, 0.2, strict=True),
-            step=_num("~step", 0.1, 0.0, 10.0, strict=True),
-            participant_timeout=_num("~participant_timeout", 2.0, 0.0, strict=True),
+            speed=None if speed == "max" else param_number("~speed", 1.0, 0.0, MAX_SPEED),
+            start_wall=param_number("~start_wall", 0.0, strict=False),
+            dt=param_number("~physics_dt", 0.02, 0.0, 0.2),
+            step=param_number("~step", 0.1, 0.0, 10.0),
+            participant_timeout=param_number("~participant_timeout", 2.0, 0.0),
             max_drift=drift or None, timeline=str(rospy.get_param("~timeline", "")),
-            timeline_slot=int(_num("~timeline_slot", 0.0, 0.0, 63.0)),
-            cmd_timeout=_num("~cmd_timeout", 0.2, 0.0, strict=True),
-            clock_rate_max=_num("~clock_rate_max", 100.0, 0.0, 1000.0, strict=True),
-            odom_rate=_num("~odom_rate", 10.0, 0.0, 1000.0, strict=True),
-            truth_rate=_num("~truth_rate", 5.0, 0.0, 1000.0, strict=True),
-            rest_rate=_num("~rest_rate", 1.0, 0.0, 1000.0, strict=True),
-            laser_rate=_num("~laser_rate", 10.0, 0.0, 1000.0, strict=True),
-            battery_rate=_num("~battery_rate", 1.0, 0.0, 100.0, strict=True),
-            laser=laser, laser_z=_num("~laser_z", 0.3, -5, 5), battery=battery,
-            seed=None if seed < 0 else seed, diagnostics_period=_num("~diagnostics_period", 1.0, 0.0, strict=True),
-            deadlock_time=_num("~deadlock_time", 30.0, 0.0, strict=True))
+            timeline_slot=int(param_number("~timeline_slot", 0.0, 0.0, 63.0, strict=False)),
+            cmd_timeout=param_number("~cmd_timeout", 0.2, 0.0),
+            clock_rate_max=param_number("~clock_rate_max", 100.0, 0.0, 1000.0),
+            odom_rate=param_number("~odom_rate", 10.0, 0.0, 1000.0),
+            truth_rate=param_number("~truth_rate", 5.0, 0.0, 1000.0),
+            rest_rate=param_number("~rest_rate", 1.0, 0.0, 1000.0),
+            laser_rate=param_number("~laser_rate", 10.0, 0.0, 1000.0),
+            battery_rate=param_number("~battery_rate", 1.0, 0.0, 100.0),
+            laser=laser, laser_z=param_number("~laser_z", 0.3, -5, 5, strict=False), battery=battery,
+            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0, 0.0),
+            deadlock_time=param_number("~deadlock_time", 30.0, 0.0))
 
 
 class _RobotIO:
@@ -162,22 +158,22 @@ class _RobotIO:
     def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
         self.index, self.prefix = index, prefix
         # the lockstep participants' inputs, by resolved name (as StepDone names them)
-        self.odom_topic = rospy.resolve_name(f"{prefix}odom")
-        self.truth_topic = rospy.resolve_name(f"{prefix}base_pose_ground_truth")
+        self.odom_topic = rospy.resolve_name(prefix + Topic.ODOM)
+        self.truth_topic = rospy.resolve_name(prefix + Topic.BASE_POSE_GROUND_TRUTH)
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
         self.odom_msg, self.truth_msg = Odometry(), Odometry()      # reused at every publication
         for msg, frame in ((self.odom_msg, self.frame["odom"]), (self.truth_msg, "map")):
             msg.header.frame_id, msg.child_frame_id = frame, self.frame["base_footprint"]
             msg.pose.covariance = msg.twist.covariance = ODOM_COVARIANCE
-        self.odom = rospy.Publisher(f"{prefix}odom", Odometry, queue_size=5)
-        self.truth = rospy.Publisher(f"{prefix}base_pose_ground_truth", Odometry, queue_size=5)
-        self.scan = rospy.Publisher(f"{prefix}base_scan", LaserScan, queue_size=2)
-        self.battery = rospy.Publisher(f"{prefix}battery", BatteryState, queue_size=2)
-        self.seen = rospy.Publisher(f"{prefix}robots_seen", ObstacleArray, queue_size=2) if prefix else None
-        rospy.Subscriber(f"{prefix}cmd_vel", Twist, node.enqueue, callback_args=("cmd_vel", index), queue_size=50,
-                         tcp_nodelay=True)
-        rospy.Subscriber(f"{prefix}initialpose", PoseWithCovarianceStamped, node.enqueue,
-                         callback_args=("initialpose", index), queue_size=5)
+        self.odom = rospy.Publisher(prefix + Topic.ODOM, Odometry, queue_size=5)
+        self.truth = rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry, queue_size=5)
+        self.scan = rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2)
+        self.battery = rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)
+        self.seen = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2) if prefix else None
+        rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.enqueue, callback_args=(Topic.CMD_VEL, index),
+                         queue_size=50, tcp_nodelay=True)
+        rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.enqueue,
+                         callback_args=(Topic.INITIALPOSE, index), queue_size=5)
 
 
 class SimNode:
@@ -211,8 +207,8 @@ class SimNode:
         is not idle, its inputs (a robot's ``odom``) are published at every step (docs/simulator.md, "Lockstep").
       ``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` (latched), service ``static_map``
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
-      ``~obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
-      ``~obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
+      ``/sim/obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
+      ``/sim/obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
         wall seconds: speed ceiling, sim time, achieved factor, wall time behind the ceiling and waiting
         (for controllers, for other floors, for the ceiling), each participant's stops owed / answered /
@@ -278,17 +274,17 @@ class SimNode:
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
         # /clock is written in this thread, at once (a tiny message)
-        self.clock_pub = synchronous_publisher("/clock", Clock)
-        self.tf_pub = rospy.Publisher("/tf", TFMessage, queue_size=20)
-        self.tf_static_pub = rospy.Publisher("/tf_static", TFMessage, queue_size=1, latch=True)
-        self.map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
-        self.meta_pub = rospy.Publisher("map_metadata", MapMetaData, queue_size=1, latch=True)
-        self.obstacles_pub = rospy.Publisher("~obstacles", ObstacleArray, queue_size=1, latch=True)
-        self.diag_pub = rospy.Publisher("/diagnostics", DiagnosticArray, queue_size=5)
-        rospy.Subscriber("~obstacle", Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
-        rospy.Subscriber(STEP_DONE_TOPIC, StepDone, self._on_step_done, queue_size=200, tcp_nodelay=True)
+        self.clock_pub = synchronous_publisher(Topic.CLOCK, Clock)
+        self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=20)
+        self.tf_static_pub = rospy.Publisher(Topic.TF_STATIC, TFMessage, queue_size=1, latch=True)
+        self.map_pub = rospy.Publisher(Topic.MAP, OccupancyGrid, queue_size=1, latch=True)
+        self.meta_pub = rospy.Publisher(Topic.MAP_METADATA, MapMetaData, queue_size=1, latch=True)
+        self.obstacles_pub = rospy.Publisher(Topic.SIM_OBSTACLES, ObstacleArray, queue_size=1, latch=True)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
+        rospy.Subscriber(Topic.SIM_OBSTACLE, Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
+        rospy.Subscriber(Topic.SIM_STEP_DONE, StepDone, self._on_step_done, queue_size=200, tcp_nodelay=True)
         self.map_msg = ru.occupancy_grid(self.floor.map, 0.0)
-        rospy.Service("static_map", GetMap, lambda _req: GetMapResponse(map=self.map_msg))
+        rospy.Service(Service.STATIC_MAP, GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.odom_due = Periodic(params.odom_rate)
         self.truth_due = Periodic(params.truth_rate)
         self.rest_due = Periodic(params.rest_rate)
@@ -321,8 +317,8 @@ class SimNode:
 
     # -- callbacks: enqueue only -------------------------------------------------
     def enqueue(self, msg: Any, args: tuple[str, int]) -> None:
-        if args[0] == "cmd_vel":
-            self.lock_events.put(("cmd_vel", args[1], msg, msg._connection_header.get("callerid", "")))
+        if args[0] == Topic.CMD_VEL:
+            self.lock_events.put((Topic.CMD_VEL, args[1], msg, msg._connection_header.get("callerid", "")))
         else:
             self.events.put((args[0], args[1], msg))
         self.wake.set()
@@ -340,7 +336,7 @@ class SimNode:
             except queue.Empty:
                 break
             try:
-                if kind == "cmd_vel":
+                if kind == Topic.CMD_VEL:
                     self.lockstep.command(caller)
                     self.world.set_command(index, *ru.twist_of(msg))
                 else:
@@ -354,7 +350,7 @@ class SimNode:
             except queue.Empty:
                 break
             try:
-                if kind == "initialpose":
+                if kind == Topic.INITIALPOSE:
                     self.world.rebuild()         # check the pose against the obstacles as they are now
                     self._relocate(index, msg)
                 elif kind == "obstacle":
@@ -566,7 +562,7 @@ class SimNode:
         }
         for node, stats in self.lockstep.stats().items():
             values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
-        for kind in ("cmd_vel", "initialpose", "obstacle", "step_done"):
+        for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle", "step_done"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
         for robot in self.world.robots:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
@@ -651,8 +647,8 @@ class SimNode:
 
 
 def main() -> None:
-    rospy.init_node("sim")
-    guard = rospy_exit_guard("sim", main_loop=True)    # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    rospy.init_node(Node.SIM)
+    guard = rospy_exit_guard(Node.SIM, main_loop=True)    # exit within 1 s of SIGINT/SIGTERM, whatever happens
     keep_registered()     # re-register with a restarted master
     try:
         node = SimNode()

@@ -1,0 +1,235 @@
+"""The interface vocabulary of GidaBot (ROS-free): every name that more than one module spells.
+
+Topic, service and node names, the relay ends' node names, the topics the relays share,
+and the constants of the gidabot_msgs messages (NavEvent phases, VisitorCommand commands,
+Cancel reasons, RobotStatus states, Goal ways) and the visitors' languages are defined
+here once and imported everywhere else. Unit tests (``test/test_interface.py``) fail on a
+``/gidabot/`` topic literal anywhere else in the repository, and check the constants
+against ``src/gidabot_msgs/msg`` and the relays' whitelist ``config/shared_topics.yaml``.
+What each topic carries: docs/interfaces.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import IntEnum
+
+# ---------------------------------------------------------------------------
+# Node names
+# ---------------------------------------------------------------------------
+
+class Node:
+    """Our node names (base names: every node of a robot runs in the root namespace of its master)."""
+
+    GOAL_MANAGER = "goal_manager"
+    MULTIROBOT_NAVIGATION = "multirobot_navigation"   # the paper's name of the node that drives move_base
+    TOUR_STORE = "tour_store"
+    RELAY_SUPERVISOR = "relay_supervisor"
+    GUI = "gui"
+    # the simulated floor, and the stand-ins of a robot's own navigation stack
+    SIM = "sim"
+    MOVE_BASE = "move_base"
+    AMCL = "amcl"
+    # what runs the simulated building, never on a robot
+    VISITOR = "visitor"                # the simulated visitor (one per floor)
+    MONITOR = "gidabot_monitor"        # the demo's progress monitor (anonymous: rospy appends a suffix)
+    CHAOS_PROBE = "chaos_probe"
+
+
+GUIDING_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION)
+
+
+def global_name(node: str) -> str:
+    """The global name of node ``node``: what subscribers see as the callerid of its messages."""
+    return "/" + node
+
+
+# -- relay ends ---------------------------------------------------------------------------------
+RELAY_PREFIX = "/gidabot_relay_"
+
+
+def relay_end_name(robot_a: str, robot_b: str) -> str:
+    """Node name of both ends of the relay between ``robot_a`` (first in the building) and ``robot_b``."""
+    return f"{RELAY_PREFIX}{robot_a}_{robot_b}"
+
+
+def is_relay_end(callerid: str) -> bool:
+    """True if ``callerid`` names a relay end: its messages came from another robot, and are never
+    forwarded again."""
+    return callerid.startswith(RELAY_PREFIX)
+
+
+# ---------------------------------------------------------------------------
+# Topic and service names
+# ---------------------------------------------------------------------------
+
+class Topic:
+    """Topic names. ``/gidabot/*`` are shared between the robots' masters by the relays
+    (:data:`SHARED_TOPICS`); relative names resolve in the node's namespace (the root)."""
+
+    # shared between robots (events: exactly once to every robot; states: the latest per publisher)
+    GOALS = "/gidabot/goals"
+    CANCELS = "/gidabot/cancels"
+    NAV_EVENTS = "/gidabot/nav_events"
+    TOURS = "/gidabot/tours"
+    STATUS = "/gidabot/status"
+    POSES = "/gidabot/poses"
+    PENDING = "/gidabot/pending"
+    TOUR_INDEX = "/gidabot/tour_index"
+    # one robot's own: the visitor's buttons, the tour store
+    VISITOR_COMMAND = "visitor/command"
+    TOUR_EDIT = "tour_store/edit"
+    TOUR_EDIT_RESULT = "tour_store/edit_result"
+    TOUR_CATALOG = "tour_store/catalog"
+    # the robot's navigation stack and base (standard names)
+    MOVE_BASE = "move_base"                               # the move_base action's namespace
+    MOVE_BASE_GOAL = "move_base/goal"
+    MOVE_BASE_RESULT = "move_base/result"
+    MOVE_BASE_FEEDBACK = "move_base/feedback"
+    MOVE_BASE_CURRENT_GOAL = "move_base/current_goal"
+    MOVE_BASE_PLAN = "move_base/NavfnROS/plan"
+    MOVE_BASE_SIMPLE_GOAL = "move_base_simple/goal"
+    AMCL_POSE = "amcl_pose"
+    INITIALPOSE = "initialpose"
+    ODOM = "odom"
+    CMD_VEL = "cmd_vel"
+    BATTERY = "battery"
+    BASE_SCAN = "base_scan"
+    BASE_POSE_GROUND_TRUTH = "base_pose_ground_truth"
+    MAP = "map"
+    MAP_METADATA = "map_metadata"
+    # the simulator's run-time obstacles (topics of the node /sim)
+    SIM_OBSTACLE = "/sim/obstacle"
+    SIM_OBSTACLES = "/sim/obstacles"
+    # several robots on a floor: the other robots a robot's laser sees (/sim publishes, its move_base marks them)
+    ROBOTS_SEEN = "robots_seen"
+    # the lockstep participants' answers to their floor's simulator (gidabot_msgs/StepDone; docs/simulator.md)
+    SIM_STEP_DONE = "/sim/step_done"
+    # ROS-wide
+    DIAGNOSTICS = "/diagnostics"
+    CLOCK = "/clock"
+    TF = "/tf"
+    TF_STATIC = "/tf_static"
+
+
+class Service:
+    """Service names (relative: the robot's own)."""
+
+    MAKE_PLAN = "move_base/make_plan"
+    CLEAR_COSTMAPS = "move_base/clear_costmaps"
+    STATIC_MAP = "static_map"
+
+
+EVENT, STATE = "event", "state"
+
+
+@dataclass(frozen=True)
+class TopicSpec:
+    """A topic the relays share: its global name, ROS type and class (:data:`EVENT` or :data:`STATE`)."""
+
+    name: str
+    type: str
+    kind: str
+
+
+SHARED_TOPICS = (
+    TopicSpec(Topic.GOALS, "gidabot_msgs/Goal", EVENT),
+    TopicSpec(Topic.CANCELS, "gidabot_msgs/Cancel", EVENT),
+    TopicSpec(Topic.NAV_EVENTS, "gidabot_msgs/NavEvent", EVENT),
+    TopicSpec(Topic.TOURS, "gidabot_msgs/Tour", EVENT),
+    TopicSpec(Topic.STATUS, "gidabot_msgs/RobotStatus", STATE),
+    TopicSpec(Topic.POSES, "gidabot_msgs/NavPose", STATE),
+    TopicSpec(Topic.PENDING, "gidabot_msgs/PendingRequests", STATE),
+    TopicSpec(Topic.TOUR_INDEX, "gidabot_msgs/TourIndex", STATE),
+)
+
+
+# ---------------------------------------------------------------------------
+# gidabot_msgs constants (a unit test checks them against src/gidabot_msgs/msg)
+# ---------------------------------------------------------------------------
+
+class Phase(IntEnum):
+    """gidabot_msgs/NavEvent phases (same numbers); the module constants below are their ints."""
+
+    ACCEPTED = 0
+    ON_THE_WAY = 1
+    GOAL_REACHED = 2
+    GO_TO_FLOOR = 3
+    GOING_TO_MEETING = 4
+    WAITING_VISITOR = 5
+    UNREACHABLE = 6
+    NO_ROBOT_ON_FLOOR = 7
+    CANCELLED_HERE = 8
+    CANCELLED_ELSEWHERE = 9
+    TIMEOUT = 10
+    PARTNER_OFFLINE = 11
+    REJECTED = 12
+    TOUR_STEP_DONE = 13
+    TOUR_FINISHED = 14
+    PARTNER_LOST = 15
+    PARTNER_BACK = 16
+
+
+(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
+ NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
+ TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK) = (int(p) for p in Phase)
+
+PHASE_NAMES = {
+    ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
+    GOING_TO_MEETING: "going to meeting point", WAITING_VISITOR: "waiting for the visitor",
+    UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
+    CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
+    REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
+    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back",
+}
+# phases after which the emitting robot is done with the trip (it left its queue)
+FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
+                          CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
+                          TOUR_FINISHED})
+# phases that hand the visitor over to another floor (the start robot released the visitor)
+RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
+
+
+def phase_name(phase: int) -> str:
+    return PHASE_NAMES.get(phase, f"phase {phase}")
+
+
+class Cmd(IntEnum):
+    """gidabot_msgs/VisitorCommand commands (same numbers); the module constants below are their ints."""
+
+    REQUEST = 0
+    CONTINUE = 1
+    CANCEL = 2
+    START_TOUR = 3
+    SKIP = 4
+
+
+REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = (int(c) for c in Cmd)
+COMMAND_NAMES = {REQUEST: "request", CONTINUE: "continue", CANCEL: "cancel", START_TOUR: "start tour",
+                 SKIP: "skip"}
+
+# -- gidabot_msgs/Cancel reasons -------------------------------------------------------------
+REASON_VISITOR = "visitor"
+REASON_UNREACHABLE = "unreachable"
+REASON_TIMEOUT = "timeout"
+REASON_OFFLINE = "offline"
+REASON_ADMIN = "admin"
+REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN)
+
+# -- gidabot_msgs/RobotStatus states ---------------------------------------------------------
+STATE_IDLE = "idle"
+STATE_GUIDING = "guiding"
+STATE_TO_MEETING = "to_meeting"
+STATE_WAITING = "waiting"
+STATE_RETURNING = "returning"
+STATE_ERROR = "error"
+ROBOT_STATES = (STATE_IDLE, STATE_GUIDING, STATE_TO_MEETING, STATE_WAITING, STATE_RETURNING, STATE_ERROR)
+
+# -- gidabot_msgs/Goal ways: how a visitor changes floors (also the kinds of a building's connectors)
+WAY_LIFT = "lift"
+WAY_STAIRS = "stairs"
+WAYS = (WAY_LIFT, WAY_STAIRS)
+
+# -- the visitors' languages (building names, tours, pop-ups, speech) -------------------------
+LANGUAGES = ("eu", "en", "es")
+DEFAULT_LANGUAGE = "en"

@@ -1,0 +1,119 @@
+"""Core purity, enforced: where ROS and Qt may be imported (the rule of docs/architecture.md).
+
+By location, in every package's Python package ``src/<pkg>/src/<pkg>/``:
+
+- **adapters** may import anything: modules named ``*_node.py`` and every module of a ``ros/``
+  subpackage;
+- **tooling** may import ROS: gidabot_sim's ``runner/`` and ``bench/`` (they start masters and
+  launches and talk to them; they never run on a robot);
+- **Qt part**: in gidabot_gui, every module outside ``core/`` (and not an adapter) may import Qt,
+  never ROS;
+- everything else is **ROS-free**: it imports no ROS client library or tool (``source_imports.ROS``), no
+  message package (``*_msgs``, ``*_srvs``), no Qt (``source_imports.QT``), and none of our adapters (which
+  would bring ROS in with them).
+
+Every import counts, also inside a function (tests/source_imports.py). rospkg is allowed anywhere: it
+reads package paths from the environment (gidabot_navigation.resources), it is not ROS at run time.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from source_imports import QT, Import, imports, module_files, packages
+
+REPO = Path(__file__).resolve().parents[2]
+TOOLING = {"gidabot_sim": ("runner", "bench")}
+QT_PACKAGES = {"gidabot_gui": "core"}    # package -> its Qt-free subpackage; the rest is the Qt part
+ROS_WHERE = "ROS: only in *_node.py, ros/, and gidabot_sim's runner/ and bench/"
+QT_WHERE = "Qt: only in gidabot_gui outside core/"
+
+
+def is_adapter(module: str) -> bool:
+    parts = module.split(".")[1:]
+    return "ros" in parts or any(p.endswith("_node") for p in parts)
+
+
+def kind(module: str) -> str:
+    """``adapter``, ``tooling``, ``qt`` or ``core`` (ROS-free) for a dotted module name of ours."""
+    package, *rest = module.split(".")
+    if is_adapter(module):
+        return "adapter"
+    if rest and rest[0] in TOOLING.get(package, ()):
+        return "tooling"
+    if package in QT_PACKAGES and not (rest and rest[0] == QT_PACKAGES[package]):
+        return "qt"
+    return "core"
+
+
+def wrong(imp: Import, where: str) -> str:
+    """Why ``imp`` is not allowed in a module of kind ``where`` ('' = allowed)."""
+    if where in ("adapter", "tooling"):
+        return ""
+    if imp.is_ros or is_adapter(imp.module) and imp.top.startswith("gidabot_"):
+        return ROS_WHERE
+    if imp.top in QT and where == "core":
+        return QT_WHERE
+    return ""
+
+
+def violations(root: Path) -> list[str]:
+    """``file:line: module (why)`` for every import that breaks the rule, in the repository at ``root``."""
+    found = []
+    for package in packages(root):
+        for module, path in module_files(package):
+            where = kind(module)
+            for imp in imports(path, module):
+                why = wrong(imp, where)
+                if why:
+                    found.append(f"{imp.where(root)}: {imp.module} ({why})")
+    return found
+
+
+def test_no_ros_free_module_imports_ros_or_qt() -> None:
+    found = violations(REPO)
+    assert not found, "imports that break the purity rule (docs/architecture.md):\n" + "\n".join(found)
+
+
+def test_the_rule_by_location() -> None:
+    assert kind("gidabot_navigation.guiding.goal_manager") == "core"
+    assert kind("gidabot_navigation.guiding.goal_manager_node") == "adapter"
+    assert kind("gidabot_navigation.ros.master_watch") == "adapter"
+    assert kind("gidabot_sim.runner.building_runner") == "tooling"
+    assert kind("gidabot_sim.chaos.core") == "core"
+    assert kind("gidabot_gui.core.model") == "core"
+    assert kind("gidabot_gui.window") == "qt"
+    assert kind("gidabot_gui.gui_node") == "adapter"
+
+
+def plant(root: Path, rel: str, text: str) -> Path:
+    path = root / rel
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    return path
+
+
+def test_the_check_fails_on_a_planted_import(tmp_path: Path) -> None:
+    pkg = "src/gidabot_navigation"
+    (tmp_path / pkg).mkdir(parents=True)
+    shutil.copy(REPO / pkg / "package.xml", tmp_path / pkg / "package.xml")
+    core = REPO / pkg / "src/gidabot_navigation/guiding/goal_manager.py"
+    copy = plant(tmp_path, f"{pkg}/src/gidabot_navigation/guiding/goal_manager.py", core.read_text())
+    assert violations(tmp_path) == []          # the copy as it is passes
+    late = "def late():\n    from gidabot_msgs.msg import Goal\n    from ..ros import log\n    return Goal, log\n"
+    copy.write_text("import rospy\n" + core.read_text() + late)
+    n = len(core.read_text().splitlines()) + 3      # the line of the first import in late()
+    rel = f"{pkg}/src/gidabot_navigation/guiding/goal_manager.py"
+    assert violations(tmp_path) == [f"{rel}:1: rospy ({ROS_WHERE})", f"{rel}:{n}: gidabot_msgs.msg.Goal ({ROS_WHERE})",
+                                    f"{rel}:{n + 1}: gidabot_navigation.ros.log ({ROS_WHERE})"]
+
+
+def test_the_check_knows_the_gui_parts(tmp_path: Path) -> None:
+    gui = "src/gidabot_gui"
+    plant(tmp_path, f"{gui}/package.xml", "<package/>")
+    plant(tmp_path, f"{gui}/src/gidabot_gui/core/model.py", "from PyQt5 import QtCore\n")
+    plant(tmp_path, f"{gui}/src/gidabot_gui/window.py", "from PyQt5 import QtWidgets\nimport rospy\n")
+    plant(tmp_path, f"{gui}/src/gidabot_gui/gui_node.py", "import rospy\nfrom PyQt5 import QtCore\n")
+    assert violations(tmp_path) == [f"{gui}/src/gidabot_gui/core/model.py:1: PyQt5.QtCore ({QT_WHERE})",
+                                    f"{gui}/src/gidabot_gui/window.py:2: rospy ({ROS_WHERE})"]
