@@ -116,6 +116,13 @@ def test_the_obstacle_layer_marks_the_robots_the_laser_sees_and_clears_them() ->
     assert a.set_robots([SensedRobot("A", 5.0, 2.5, RADIUS), SensedRobot("C", math.nan, 0.0, 0.3)])   # B gone
     assert not planner.lethal[planner.grid.world_to_cell(13.0, 2.55)]
     assert not planner.lethal[planner.grid.world_to_cell(5.0, 2.5)]             # itself and a NaN: ignored
+    a.set_pose(Pose2D(2.0, 2.5, 0.0), floor.world.robots[0].vel, 0.0)
+    assert a.set_robots([SensedRobot("B", 1.0, 2.5, RADIUS)])
+    assert not a.set_robots([])                          # B behind A, in the laser's blind sector: still marked
+    assert planner.lethal[planner.grid.world_to_cell(1.0, 2.5)]
+    a.set_pose(Pose2D(2.0, 2.5, math.pi), floor.world.robots[0].vel, 0.0)
+    assert a.set_robots([])                              # A looks there and B is not: cleared
+    assert not planner.lethal[planner.grid.world_to_cell(1.0, 2.5)]
 
 
 def test_a_robot_drives_around_another_standing_in_its_way() -> None:
