@@ -2,19 +2,23 @@
 
 Each robot gets its own loopback address (127.N.0.11, .12, ... with N per test session) and a free port,
 so concurrent test runs never collide; the building file is relocated to those
-master URIs in a temporary directory.
+master URIs in a temporary directory. ``faculty_machines``: each robot a separate machine instead
+(a network namespace of its own, gidabot_sim.runner.machines), with a firewall that admits from the
+other machines only its relay ports, and one more machine, ``intruder``, that is not a robot.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master
+from gidabot_sim.runner.machines import Machines
+from gidabot_sim.runner.procs import ProcessGroup, master_pid, robot_address, ros_env, start_master, wait_until
 
 REPO = Path(__file__).resolve().parents[1]
 FACULTY = REPO / "maps" / "faculty"
@@ -33,17 +37,24 @@ class SimBuilding:
     building: Building
     procs: ProcessGroup
     log_dir: Path
+    net: Machines | None = None   # separate machines (network namespaces), or every robot on loopback
 
     def env(self, robot: str, **extra: str) -> dict[str, str]:
         r = self.building.robot(robot)
         return ros_env(r.master_uri, r.ip, log_dir=self.log_dir / "ros" / robot, **extra)
 
+    def command(self, robot: str, argv: list[str]) -> list[str]:
+        """``argv`` run on ``robot``'s machine."""
+        return self.net.wrap(robot, argv) if self.net else list(argv)
+
+    def call(self, robot: str, fn: Callable[..., Any], *args: Any) -> Any:
+        """``fn(*args)`` from ``robot``'s machine (where its master can be reached)."""
+        return self.net.call(robot, fn, *args) if self.net else fn(*args)
+
     def restart_master(self, robot: str) -> None:
         self.procs.restart(f"master_{robot}")
-        from gidabot_sim.runner.procs import master_pid, wait_until
-
         uri = self.building.robot(robot).master_uri
-        wait_until(lambda: master_pid(uri) is not None, 15.0, f"master of {robot} back")
+        wait_until(lambda: self.call(robot, master_pid, uri) is not None, 15.0, f"master of {robot} back")
 
 
 @pytest.fixture
@@ -59,3 +70,25 @@ def faculty_masters(tmp_path: Path, procs: ProcessGroup) -> SimBuilding:
     uris = {r.name: start_master(procs, f"master_{r.name}", robot_ip(i)) for i, r in enumerate(base.robots)}
     path = relocate_building(FACULTY, tmp_path / "building", uris)
     return SimBuilding(path, load_building(path), procs, tmp_path / "logs")
+
+
+@pytest.fixture
+def faculty_machines(tmp_path: Path, procs: ProcessGroup) -> Iterator[SimBuilding]:
+    """The faculty, each robot a machine of its own with its master (port 11311) and its firewall; plus a
+    machine ``intruder`` on the same network. Everything is removed afterwards."""
+    base = load_building(FACULTY)
+    names = [r.name for r in base.robots]
+    with Machines(names, extra=["intruder"]) as net:
+        uris = {}
+        for r in names:
+            ip = net.address(r)
+            uri = uris[r] = f"http://{ip}:11311/"
+            procs.start(f"master_{r}", net.wrap(r, ["rosmaster", "--core", "-p", "11311", "-w", "3"]),
+                        ros_env(uri, ip, log_dir=tmp_path / "logs" / f"master_{r}"))
+            wait_until(lambda r=r, uri=uri: net.call(r, master_pid, uri) is not None, 15.0, f"master of {r}")
+        path = relocate_building(FACULTY, tmp_path / "building", uris)
+        sim = SimBuilding(path, load_building(path), procs, tmp_path / "logs", net)
+        for r in names:
+            net.firewall(r, sim.building.relay_ports(r))
+        yield sim
+        procs.close()

@@ -29,11 +29,13 @@ class ProbeError(RuntimeError):
 
 
 class Probe:
-    def __init__(self, env: Mapping[str, str], log_path: Path | None = None, timeout: float = 30.0) -> None:
+    def __init__(self, env: Mapping[str, str], log_path: Path | None = None, timeout: float = 30.0,
+                 command: Callable[[list[str]], list[str]] = list) -> None:
+        """``command``: how to run the probe's command line (e.g. in a robot's machine, conftest.SimBuilding)."""
         self.timeout = timeout
         self.log_path = log_path
         self._log = open(log_path, "ab") if log_path else subprocess.DEVNULL  # noqa: SIM115 - closed in close()
-        self.proc = subprocess.Popen([sys.executable, str(PROBE)], env=dict(env), stdin=subprocess.PIPE,
+        self.proc = subprocess.Popen(command([sys.executable, str(PROBE)]), env=dict(env), stdin=subprocess.PIPE,
                                      stdout=subprocess.PIPE, stderr=self._log, start_new_session=True,
                                      text=True, bufsize=1)
         self._seen: dict[str, int] = {}

@@ -50,7 +50,8 @@ class RelayMesh:
     # -- processes ------------------------------------------------------------------------
     def start(self, subscribe: list[tuple[str, str]] | None = None, timeout: float = 60.0) -> None:
         for r in self.robots:
-            self.probes[r] = Probe(self.sim.env(r), self.sim.log_dir / f"probe_{r}.log", timeout=30)
+            self.probes[r] = Probe(self.sim.env(r), self.sim.log_dir / f"probe_{r}.log", timeout=30,
+                                   command=lambda argv, r=r: self.sim.command(r, argv))
         for r in self.robots:
             self.sub(r, DIAG, DIAG_T)
             for topic, type_ in subscribe or []:
@@ -64,9 +65,9 @@ class RelayMesh:
         self.subscribed[robot].add(topic)
 
     def start_relays(self, robot: str) -> None:
-        self.sim.procs.start(f"relays_{robot}", ["roslaunch", str(RELAYS_LAUNCH), f"building:={self.sim.path}",
-                                                 f"robot:={robot}", f"secret:={self.secret_file}",
-                                                 f"state_dir:={self.state_dir}"], self.sim.env(robot))
+        self.sim.procs.start(f"relays_{robot}", self.sim.command(robot, [
+            "roslaunch", str(RELAYS_LAUNCH), f"building:={self.sim.path}", f"robot:={robot}",
+            f"secret:={self.secret_file}", f"state_dir:={self.state_dir}"]), self.sim.env(robot))
 
     def close(self) -> None:
         """Stop the relays of every robot at once (each takes ~2 s to stop its ends), then the probes."""
@@ -128,25 +129,34 @@ class RelayMesh:
                     self.wait_end(r, o, lambda d: d.get("connected") == "True" and d.get("delivery_open") == "True",
                                   timeout, "link up")
 
-    def end_pid(self, owner: str, link_key: str) -> int:
-        """Pid of relay end ``link_key`` (e.g. "Tartalo_Kbot.b") from the supervisor of ``owner``."""
+    def end_owner(self, link_key: str) -> str:
+        """The robot that runs relay end ``link_key`` (e.g. "Tartalo_Kbot.b": Kbot, the robot of side b)."""
+        link, side = link_key.rsplit(".", 1)
+        a, b = next((x, y) for x in self.robots for y in self.robots if f"{x}_{y}" == link)
+        return a if side == "a" else b
+
+    def _supervised(self, link_key: str) -> str | None:
+        owner = self.end_owner(link_key)
+        d = self.diag(owner, f"relay_supervisor: {owner}")
+        return d.get(link_key) if d else None
+
+    def end_pid(self, link_key: str) -> int:
+        """Pid of relay end ``link_key`` (e.g. "Tartalo_Kbot.b"), from the supervisor of the robot that runs it."""
         found: list[int] = []
 
         def current() -> bool:
-            d = self.diag(owner, f"relay_supervisor: {owner}")
-            if not d or link_key not in d:
-                return False
-            word = d[link_key].split(",")[0].split()[1]
+            text = self._supervised(link_key)
+            word = text.split(",")[0].split()[1] if text else ""
             if word.isdigit():
                 found.append(int(word))
             return bool(found)
         wait_until(current, 20, f"pid of relay end {link_key}")
         return found[-1]
 
-    def link_address(self, owner: str, link_key: str) -> tuple[str, int]:
-        d = self.diag(owner, f"relay_supervisor: {owner}")
-        assert d is not None
-        host, port = d[link_key].rsplit("link ", 1)[1].split(":")
+    def link_address(self, link_key: str) -> tuple[str, int]:
+        text = self._supervised(link_key)
+        assert text is not None
+        host, port = text.rsplit("link ", 1)[1].split(":")
         return host, int(port)
 
     # -- messages -------------------------------------------------------------------------
@@ -171,7 +181,7 @@ class RelayMesh:
     # -- master ---------------------------------------------------------------------------
     def relay_ends(self, robot: str) -> list[str]:
         uri = self.robot(robot).master_uri
-        _, _, state = xmlrpc.client.ServerProxy(uri).getSystemState("/test")
+        _, _, state = self.sim.call(robot, lambda: xmlrpc.client.ServerProxy(uri).getSystemState("/test"))
         nodes = {n for group in state for _, ns in group for n in ns}
         return sorted(n for n in nodes if is_relay_end(n))
 

@@ -54,8 +54,9 @@ PREEMPTED, SUCCEEDED = 2, 3
 class Recorder:
     """A probe on one master that records topics; fetched messages are cached here (incremental)."""
 
-    def __init__(self, env: dict[str, str], log_path: Path, timeout: float = 30.0) -> None:
-        self.probe = Probe(env, log_path, timeout=timeout)
+    def __init__(self, env: dict[str, str], log_path: Path, timeout: float = 30.0,
+                 command: Callable[[list[str]], list[str]] = list) -> None:
+        self.probe = Probe(env, log_path, timeout=timeout, command=command)
         self.cache: dict[str, list[dict]] = {}
 
     def close(self) -> None:
@@ -116,21 +117,24 @@ class SimStack:
     """The simulated building (default: the faculty, 4 robots) for system tests; see the module docstring.
 
     ``record`` maps a robot to the topics its recorder subscribes (default :data:`DEFAULT_TOPICS`).
+    ``machines``: every robot a separate machine (its own network namespace and firewall,
+    ``SimulatedBuilding(machines=True)``); the recorders run on their robot's machine.
     """
 
     DEFAULT_TOPICS = (EVENTS, GOALS, CANCELS, PENDING, MB_RESULT, AMCL)
 
     def __init__(self, tmp: Path, speed: float = 20.0, robot_args: dict[str, dict[str, str]] | None = None,
                  common_args: dict[str, str] | None = None, record: dict[str, tuple[str, ...]] | None = None,
-                 start_delay: float = 6.0, building: Path = FACULTY) -> None:
+                 start_delay: float = 6.0, building: Path = FACULTY, machines: bool = False) -> None:
         self.tmp = tmp
         self.speed = speed
         self.robots = tuple(r.name for r in load_building(building).robots)
         args = {"status_rate": f"{min(2.0, 2.0 / speed):.4g}", "pose_rate": f"{min(5.0, 5.0 / speed):.4g}"}
         args.update(common_args or {})
-        self.sim = SimulatedBuilding(building, tmp / "run", speed=speed, gui=False, record=False,
-                                     addresses=[robot_address(i) for i in range(len(self.robots))],
-                                     robot_args=robot_args or {}, common_args=args, start_delay=start_delay)
+        addresses = None if machines else [robot_address(i) for i in range(len(self.robots))]
+        self.sim = SimulatedBuilding(building, tmp / "run", speed=speed, gui=False, record=False, addresses=addresses,
+                                     robot_args=robot_args or {}, common_args=args, start_delay=start_delay,
+                                     machines=machines)
         self.topics = record or {}
         self.rec: dict[str, Recorder] = {}
         self.n = 0
@@ -140,7 +144,7 @@ class SimStack:
         try:
             self.sim.start()
             for r in self.robots:
-                rec = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log")
+                rec = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log", command=self.on_machine(r))
                 self.rec[r] = rec
                 for topic in self.topics.get(r, self.DEFAULT_TOPICS):
                     rec.sub(topic)
@@ -156,6 +160,10 @@ class SimStack:
         for rec in self.rec.values():
             rec.close()
         self.sim.stop()
+
+    def on_machine(self, robot: str) -> Callable[[list[str]], list[str]]:
+        """How to run a command line on ``robot``'s machine (this host, without separate machines)."""
+        return lambda argv: self.sim.command(robot, argv)
 
     @property
     def building(self) -> Building:
@@ -174,7 +182,7 @@ class SimStack:
                 wait_until(lambda rec=rec: {m["robot"] for m in rec.msgs(PENDING)} >= set(self.robots), max(left, 1.0),
                            f"every robot's pending list on {r}'s master", interval=0.2)
         for r in self.robots:   # statuses: one short-lived probe per master (2 Hz wall per robot)
-            with Probe(self.sim.env(r), self.tmp / f"probe_status_{r}.log") as p:
+            with Probe(self.sim.env(r), self.tmp / f"probe_status_{r}.log", command=self.on_machine(r)) as p:
                 p.sub(STATUS, TYPES[STATUS])
                 left = deadline - time.monotonic()
                 wait_until(lambda p=p: {m["robot"] for m in p.msgs(STATUS)} >= set(self.robots), max(left, 1.0),

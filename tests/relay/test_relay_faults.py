@@ -72,7 +72,7 @@ def test_goal_published_during_a_master_outage_arrives_once_within_2s_of_the_res
 def test_killed_relay_ends_lose_no_event_they_had_acknowledged(mesh) -> None:
     a, b = "Tartalo", "Kbot"
     # 1) sender side: end b frozen (link down), events queue in end a's journal, end a is SIGKILLed
-    pid_b = mesh.end_pid(a, f"{a}_{b}.b")
+    pid_b = mesh.end_pid(f"{a}_{b}.b")
     t0 = time.time()
     os.kill(pid_b, signal.SIGSTOP)
     try:
@@ -80,9 +80,9 @@ def test_killed_relay_ends_lose_no_event_they_had_acknowledged(mesh) -> None:
         for k in range(3):
             mesh.publish(a, GOALS, GOAL, {"uid": f"queued-{k}"})
         mesh.wait_end(a, b, lambda d: d["queue_depth"] == "3", 10, "3 events queued")
-        pid_a = mesh.end_pid(a, f"{a}_{b}.a")
+        pid_a = mesh.end_pid(f"{a}_{b}.a")
         os.kill(pid_a, signal.SIGKILL)
-        wait_until(lambda: mesh.end_pid(a, f"{a}_{b}.a") != pid_a, 15, "end a restarted by the supervisor")
+        wait_until(lambda: mesh.end_pid(f"{a}_{b}.a") != pid_a, 15, "end a restarted by the supervisor")
     finally:
         os.kill(pid_b, signal.SIGCONT)
     for k in range(3):
@@ -97,7 +97,7 @@ def test_killed_relay_ends_lose_no_event_they_had_acknowledged(mesh) -> None:
     t0 = time.time()
     mesh.wait_end(a, b, lambda d: d["queue_depth"] == "0" and d["forwarded_events"] == "3", 10,
                   "held events acknowledged by end b", after=t0)
-    pid_b = mesh.end_pid(a, f"{a}_{b}.b")
+    pid_b = mesh.end_pid(f"{a}_{b}.b")
     os.kill(pid_b, signal.SIGKILL)
     mesh.sim.restart_master(b)
     for k in range(3):
@@ -113,7 +113,7 @@ def test_link_cuts_are_detected_within_3s_and_delivery_resumes_within_2s(mesh) -
 
     a, b = "Tartalo", "Kbot"
     # 1) a relay end stops (frozen): the link is declared lost, the other robots are unaffected
-    pid_b = mesh.end_pid(a, f"{a}_{b}.b")
+    pid_b = mesh.end_pid(f"{a}_{b}.b")
     t0 = time.time()
     os.kill(pid_b, signal.SIGSTOP)
     try:

@@ -44,7 +44,7 @@ def _send(addr: tuple[str, int], data: bytes, src_ip: str) -> bool:
 
 def test_spoofed_unauthenticated_and_oversized_frames_are_rejected_and_counted(mesh) -> None:
     a, b = "Tartalo", "Kbot"
-    addr = mesh.link_address(a, f"{a}_{b}.b")
+    addr = mesh.link_address(f"{a}_{b}.b")
     attacker_ip = mesh.robot("Galtxagorri").ip                  # another machine of the building
     pair = f"{a}_{b}"
     hello = Hello(pair, "a", b"n" * 16, b"", 1, 0, 0).encode()

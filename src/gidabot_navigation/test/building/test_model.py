@@ -59,12 +59,22 @@ def test_lookups_and_copies(faculty) -> None:
     assert moved.robot("Kbot").ip == "127.0.0.12"
 
 
+def test_relay_links_listen_on_the_later_robot_one_port_per_earlier_robot(faculty) -> None:
+    assert [faculty.relay_ports(r.name) for r in faculty.robots] == [[], [11411], [11411, 11412],
+                                                                      [11411, 11412, 11413]]
+    assert faculty.relay_link_port("Kbot", "MariSorgin") == 11412
+    with pytest.raises(KeyError, match="must be listed before"):
+        faculty.relay_link_port("MariSorgin", "Kbot")
+
+
 def test_relocate_building(tmp_path: Path, faculty) -> None:
     from gidabot_navigation.building.model import relocate_building
 
-    out = relocate_building(Path(__file__).resolve().parents[4] / "maps" / "faculty", tmp_path / "copy", {"Tartalo": "http://127.0.0.11:45678/"})
+    out = relocate_building(Path(__file__).resolve().parents[4] / "maps" / "faculty", tmp_path / "copy",
+                            {"Tartalo": "http://127.0.0.11:45678/"}, {"Kbot": 30000})
     moved = load_building(out)
     assert moved.robot("Tartalo").port == 45678 and moved.robot("Kbot").port == 11311
+    assert moved.robot("Kbot").relay_port == 30000 and moved.robot("Tartalo").relay_port == 11411
     assert [loc.id for loc in moved.locations] == [loc.id for loc in faculty.locations]
 
 
@@ -132,6 +142,10 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
      "robots[2].name: duplicate robot name 'Kbot'"),
     ("unknown connector kind", lambda d: d["connectors"][0].update(kind="escalator"),
      "connectors[0].kind: 'escalator' is not one of lift, stairs"),
+    ("relay port out of range", lambda d: d["robots"][1].update(relay_port=70000),
+     "robots[1].relay_port: 70000 must be a whole TCP port number in 1024..65534"),
+    ("relay ports of two robots on one computer", lambda d: d["robots"][1].update(master_uri="http://127.0.0.13:11412/"),
+     "robots[2].relay_port: relay port 11411 of Galtxagorri on 127.0.0.13 is also used by a relay end of Kbot"),
     ("meeting pose on a floor the connector does not serve", lambda d: d["connectors"][0].update(serves=[1, 2, 3]),
      "connectors[0].meeting: connector stairs_west has a meeting pose on floor 0, which it does not serve "
      "(serves: 1, 2, 3)"),

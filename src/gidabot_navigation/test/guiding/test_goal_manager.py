@@ -144,6 +144,7 @@ def test_a_cancel_that_overtakes_its_goal_wins(faculty) -> None:
     trip = goals(request(tartalo, "301"))[0]
     c = CancelData(uid="Tartalo/cancel/gm.t.9", goal_uid=trip.uid, origin_robot="Tartalo", reason="visitor")
     assert mari.on_cancel(c, 10.0, 1.0, from_relay=True) == []
+    assert mari.stats["cancel_unknown"] == 1                       # a cancel of a goal never seen is counted
     assert mari.on_goal(trip, 10.0, 1.0) == [] and mari.queue == []
     assert mari.stats["cancelled_before_arrival"] == 1
     # a second copy of the same cancel changes nothing

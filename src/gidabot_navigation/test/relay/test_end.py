@@ -179,6 +179,7 @@ def test_lost_acks_cause_retransmission_that_is_suppressed(tmp_path) -> None:
     w.cut()
     w.connect()                                                       # b's HELLO says in_last = 2
     assert w.payloads("b") == [b"x1", b"x2"] and len(w.a.state.outq) == 0
+    assert w.a.snapshot()["acked_on_reconnect"] == 2 and w.a.stats.resent == 0
     # even without the HELLO shortcut, a retransmitted duplicate is suppressed
     from gidabot_navigation.relay.protocol import Message, encode_message
 

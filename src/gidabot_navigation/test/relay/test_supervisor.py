@@ -18,29 +18,29 @@ from gidabot_navigation.relay.supervisor import (
 )
 
 
-def test_plan_gives_n_n_minus_1_over_2_relays_two_ends_each(faculty) -> None:
+def test_every_robot_runs_one_end_per_other_robot_on_its_own_master(faculty) -> None:
     names = [r.name for r in faculty.robots]
-    ports = iter(range(40000, 40100))
-    plans = {r: plan_relays(faculty, r, lambda i, host: next(ports), is_local=lambda ip: True) for r in names}
-    assert [len(plans[r]) for r in names] == [6, 4, 2, 0]          # robot i starts the relays to i+1..n-1
+    plans = {r: plan_relays(faculty, r) for r in names}
+    assert [len(plans[r]) for r in names] == [3, 3, 3, 3]             # n - 1 ends per robot
+    for r in names:
+        me = faculty.robot(r)
+        assert all(e.master_uri == me.master_uri and e.ros_ip == me.ip for e in plans[r])   # only its own master
     pairs = {e.pair for ends in plans.values() for e in ends}
-    assert len(pairs) == len(names) * (len(names) - 1) // 2
-    t, k = faculty.robot("Tartalo"), faculty.robot("Kbot")
-    a, b = plans["Tartalo"][0], plans["Tartalo"][1]
-    assert (a.side, a.master_uri, a.ros_ip, a.bind_ip) == ("a", t.master_uri, t.ip, t.ip)
-    assert (b.side, b.master_uri, b.ros_ip, b.link_host) == ("b", k.master_uri, k.ip, k.ip)
-    assert a.link_port == b.link_port and a.node_name == b.node_name == relay_end_name("Tartalo", "Kbot")
+    assert len(pairs) == len(names) * (len(names) - 1) // 2        # n(n-1)/2 relays, one end on each robot
+    assert sorted(e.key for ends in plans.values() for e in ends) == sorted(f"{x}.{s}" for x in pairs for s in "ab")
 
 
-def test_plan_on_a_real_robot_keeps_the_link_on_this_machine(faculty) -> None:
-    ends = plan_relays(faculty, "Kbot", lambda i, host: 41000 + i, is_local=lambda ip: False)
-    kbot = faculty.robot("Kbot")
-    for e in ends:
-        assert e.link_host == kbot.ip and e.bind_ip == kbot.ip
-        assert e.ros_ip == kbot.ip                  # end b talks to the far master from this machine
-    pairs = faculty.relay_pairs()
-    index = next(i for i, (x, y) in enumerate(pairs) if (x.name, y.name) == ("Kbot", "Galtxagorri"))
-    assert ends[0].link_port == 41000 + index      # link_port_base + pair index: fixed ports
+def test_the_later_robot_listens_on_its_address_and_the_earlier_connects(faculty) -> None:
+    t, k, m = (faculty.robot(n) for n in ("Tartalo", "Kbot", "MariSorgin"))
+    a = next(e for e in plan_relays(faculty, "Kbot") if e.pair == "Kbot_MariSorgin")
+    b = next(e for e in plan_relays(faculty, "MariSorgin") if e.pair == "Kbot_MariSorgin")
+    assert (a.side, a.link_host, a.link_port, a.bind_ip) == ("a", m.ip, m.relay_port + 1, k.ip)
+    assert (b.side, b.link_host, b.link_port, b.ros_ip) == ("b", m.ip, m.relay_port + 1, m.ip)
+    assert a.node_name == b.node_name == relay_end_name("Kbot", "MariSorgin")
+    tk = next(e for e in plan_relays(faculty, "Kbot") if e.pair == "Tartalo_Kbot")
+    assert (tk.side, tk.link_host, tk.link_port) == ("b", k.ip, k.relay_port)       # Tartalo is robot 0
+    assert {e.side for e in plan_relays(faculty, "Tartalo")} == {"a"} and t.ip not in \
+        {e.link_host for e in plan_relays(faculty, "Tartalo")}
 
 
 def test_end_command_line_and_environment() -> None:
@@ -63,20 +63,17 @@ def test_backoff_doubles_to_a_ceiling_and_resets_after_a_stable_run() -> None:
 
 
 STAND_IN = ("import sys, time\n"
-            "side, port, code = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])\n"
-            "if side == 'b' and port == 1111: sys.exit(3)\n"
+            "code = int(sys.argv[1])\n"
             "if code: sys.exit(code)\n"
             "time.sleep(60)\n")
 
 
 def _supervisor(code: int = 0) -> tuple[RelaySupervisor, list[str]]:
     lines: list[str] = []
-    ends = [EndSpec("A", "B", side, "http://127.0.0.1:1/", "127.0.0.1", "127.0.0.1", 1111 if code == 0 else 5,
-                    "127.0.0.1") for side in "ab"]
+    ends = [EndSpec("A", "B", side, "http://127.0.0.1:1/", "127.0.0.1", "127.0.0.1", 1111, "127.0.0.1")
+            for side in "ab"]
     sup = RelaySupervisor(ends, EndOptions(state_dir="/tmp"), lambda level, msg: lines.append(f"{level}: {msg}"),
-                          new_port=lambda host: 2222,
-                          argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, spec.side, str(spec.link_port),
-                                                       str(code)])
+                          argv_for=lambda spec, opts: [sys.executable, "-c", STAND_IN, str(code)])
     return sup, lines
 
 
@@ -88,16 +85,13 @@ def _step_until(sup: RelaySupervisor, cond, timeout: float = 20.0) -> None:
         time.sleep(0.05)
 
 
-def test_taken_link_port_moves_the_pair_to_a_new_port() -> None:
-    sup, lines = _supervisor()
+def test_an_end_that_cannot_listen_is_restarted_on_the_same_port() -> None:
+    sup, lines = _supervisor(code=3)                          # EXIT_PORT: the building's port is taken
     try:
         sup.step(time.monotonic())
-        a, b = sup.children
-        first_a = a.pid
-        assert first_a is not None
-        _step_until(sup, lambda: b.spec.link_port == 2222 and b.pid is not None and a.pid not in (None, first_a))
-        assert a.spec.link_port == 2222
-        assert any("is taken; moving to 2222" in line for line in lines)
+        _step_until(sup, lambda: all(c.restarts >= 2 for c in sup.children))
+        assert all(c.spec.link_port == 1111 for c in sup.children)    # the other robot connects there: kept
+        assert any("cannot listen on 127.0.0.1:1111" in line for line in lines)
     finally:
         sup.stop()
     assert all(pid is None for _, pid, *_ in sup.status())

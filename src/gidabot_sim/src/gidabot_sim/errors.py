@@ -52,3 +52,7 @@ class FaultError(SimError):
 
 class ReportError(SimError):
     """A run folder cannot be reported on (missing files, unreadable bags)."""
+
+
+class MachinesError(SimError):
+    """The separate machines (network namespaces, links, firewalls, faults) cannot be set up or changed."""

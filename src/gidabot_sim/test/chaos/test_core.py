@@ -46,8 +46,39 @@ def test_full_schedule_has_every_kind_the_issue_asks_for(faculty) -> None:
 
 def test_quick_profile_has_every_kind(faculty) -> None:
     faults = cc.make_schedule(3, faculty, cc.PROFILES["quick"])
-    assert {f.kind for f in faults} == set(cc.KINDS)
+    assert {f.kind for f in faults} == set(cc.KINDS) - set(cc.MACHINES_ONLY) - {cc.PARTITION}
     assert all(f.duration <= 6.0 for f in faults)
+    machines = cc.make_schedule(3, faculty, cc.PROFILES["quick"], machines=True)
+    assert {f.kind for f in machines} == set(cc.KINDS) - {cc.CLOCK_OFFSET}      # offsets are set at start
+    assert all(f.duration <= 15.0 for f in machines)
+
+
+def test_full_profile_overlaps_faults_and_on_machines_adds_the_network_faults(faculty) -> None:
+    loop = cc.make_schedule(1, faculty, cc.PROFILES["full"])
+    kinds = [f.kind for f in loop]
+    assert kinds.count(cc.MASTERS_DOWN) == 1 and kinds.count(cc.CUT_MASTER_RESTART) == 1
+    [long] = [f for f in loop if f.kind == cc.PARTITION]
+    assert long.duration > 120.0 and long.active                  # longer than partner_timeout, at the trip
+    two = next(f for f in loop if f.kind == cc.MASTERS_DOWN)
+    assert two.robot != two.other
+    cut = next(f for f in loop if f.kind == cc.CUT_MASTER_RESTART)
+    assert cut.target in (cut.robot, cut.other)
+    assert not set(kinds) & set(cc.MACHINES_ONLY)
+    net = cc.make_schedule(1, faculty, cc.PROFILES["full"], machines=True)
+    kinds = [f.kind for f in net]
+    assert len(net) >= 20 and {cc.FLAPPING, cc.ONE_WAY, cc.LOSSY, cc.MACHINE_DOWN} <= set(kinds)
+    assert kinds.count(cc.PARTITION) == 3
+    down = next(f for f in net if f.kind == cc.MACHINE_DOWN)
+    assert down.duration >= 300.0 and down.robot == ""            # chosen when injected
+    one = next(f for f in net if f.kind == cc.ONE_WAY)
+    assert one.robot != one.other
+
+
+def test_clock_offsets_spread_over_five_minutes_either_way(faculty) -> None:
+    offsets = cc.clock_offsets(1, faculty, cc.PROFILES["full"])
+    assert sorted(offsets) == sorted(r.name for r in faculty.robots)
+    assert min(offsets.values()) == -300.0 and max(offsets.values()) == 300.0
+    assert offsets == cc.clock_offsets(1, faculty, cc.PROFILES["full"])
 
 
 def test_expected_table3_of_the_long_tour_is_the_papers(faculty) -> None:
@@ -108,6 +139,29 @@ def test_bookkeeping_follows_the_assignment_with_two_robots_on_a_floor() -> None
     fate = cc.Bookkeeping(six, recs).fates()["T/v/1"]
     assert fate.involved == ["Tartalo", "Lamia"] and fate.processed_by == ["Tartalo", "Lamia"]
     assert fate.completed and not fate.lost and fate.duplicated == []
+
+
+def test_a_robot_answers_each_proposal_and_ends_each_leg_once(faculty) -> None:
+    """An ACCEPTED answers the proposal of one attempt (a leg proposed again, e.g. after the answer was held by a
+    cut link, is answered again); a final event ends one leg (the start robot's GO_TO_FLOOR, then its give-up of
+    the goal leg as the origin). Twice the same answer, or two ends of one leg, is a duplicate."""
+    def ev(robot: str, goal: str, phase: int, uid: str, leg: str, attempt: int = 0) -> list[dict]:
+        return [dict(r, leg=leg, attempt=attempt) for r in _everywhere(_ev, robot, goal, phase, uid)]
+
+    recs = _everywhere(_goal, "T/v/5", "Tartalo", 0.0, 1.0) + _everywhere(_goal, "T/v/6", "Tartalo", 0.0, 1.0)
+    recs += ev("Tartalo", "T/v/5", Phase.ACCEPTED, "T/e/50", "start", 1)
+    recs += ev("Kbot", "T/v/5", Phase.ACCEPTED, "K/e/50", "goal", 1)
+    recs += ev("Kbot", "T/v/5", Phase.ACCEPTED, "K/e/51", "goal", 2)
+    recs += ev("Tartalo", "T/v/5", Phase.GO_TO_FLOOR, "T/e/51", "start")
+    recs += ev("Tartalo", "T/v/5", Phase.PARTNER_OFFLINE, "T/e/52", "goal")
+    recs += ev("Kbot", "T/v/6", Phase.ACCEPTED, "K/e/60", "goal", 1)
+    recs += ev("Kbot", "T/v/6", Phase.ACCEPTED, "K/e/61", "goal", 1)
+    recs += ev("Kbot", "T/v/6", Phase.TIMEOUT, "K/e/62", "goal")
+    recs += ev("Kbot", "T/v/6", Phase.GOAL_REACHED, "K/e/63", "goal")
+    fates = cc.Bookkeeping(faculty, recs).fates()
+    assert fates["T/v/5"].duplicated == []
+    assert fates["T/v/6"].duplicated == ["Kbot accepted it 2 times (its goal leg, attempt 1)",
+                                         "Kbot ended it 2 times (its goal leg)"]
 
 
 def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> None:
@@ -203,13 +257,15 @@ def test_a_person_in_the_corridor_leaves_a_way_around(faculty) -> None:
 def _result(faculty, **kw) -> cc.ChaosResult:
     f1 = cc.FaultResult(cc.Fault(cc.CUT_IPTABLES, "Tartalo", "Kbot", duration=5.0), injected=1.0, cleared=6.0,
                         recovery_s=0.4)
-    f2 = cc.FaultResult(cc.Fault(cc.HOSTILE, "Kbot", target="goal_nan_pose"), injected=7.0, cleared=7.0)
+    f2 = cc.FaultResult(cc.Fault(cc.HOSTILE, "Kbot", target="goal_nan_pose"), injected=7.0, cleared=7.0,
+                        accounted={"goal_manager: Kbot.rejected_pose": 1})
     table = {"Tartalo": (1, 1), "Kbot": (1, 0)}
     fate = cc.GoalFate("T/v/1", "Tartalo", 0.0, 0.0, "008", 0, ["Tartalo"], ["Tartalo"], completed=True)
     args = dict(seed=1, tour="t.tour", speed=5.0, faults=[f1, f2], fates={"T/v/1": fate}, duplicated_cancels={},
                 table3_expected=table, table3_measured=dict(table), table3_bags=dict(table), tours_intact=True,
                 tours_problems=[], crashes=[], tracebacks={}, hostile_rejected={"guiding.rejected": 3},
-                partner_lost=0, partner_answered=0, tour_completed=True, outcome="completed", run_folder="/tmp/x")
+                partner_lost=0, partner_answered=0, tour_completed=True, outcome="completed", run_folder="/tmp/x",
+                steps=[cc.StepFate(0, ["T/v/1"], completed_by="T/v/1")], table3_bags_expected=dict(table))
     args.update(kw)
     return cc.ChaosResult(**args)
 
@@ -217,11 +273,13 @@ def _result(faculty, **kw) -> cc.ChaosResult:
 def test_result_json_and_table(faculty) -> None:
     res = _result(faculty)
     doc = res.to_json()
-    for key in ("faults", "goals_accepted", "goals_completed", "goals_lost", "goals_duplicated", "max_recovery_s",
-                "node_crashes"):
+    for key in ("accepted", "completed", "lost", "duplicated", "max_recovery_s", "faults", "table3_bags",
+                "node_crashes", "requests"):
         assert key in doc
-    assert doc["faults"][cc.CUT_IPTABLES] == 1 and doc["faults"][cc.HOSTILE] == 1
-    assert doc["max_recovery_s"] == 0.4 and doc["passed"] and doc["goals_lost"] == 0
+    assert [f["kind"] for f in doc["faults"]] == [cc.CUT_IPTABLES, cc.HOSTILE]
+    assert doc["fault_counts"][cc.CUT_IPTABLES] == 1 and doc["fault_counts"][cc.HOSTILE] == 1
+    assert doc["max_recovery_s"] == 0.4 and doc["passed"] and doc["lost"] == 0 and doc["duplicated"] == 0
+    assert doc["table3_bags"] == {"Tartalo": [1, 1], "Kbot": [1, 0]}
     text = res.format()
     assert "link_cut_iptables" in text and "RESULT: PASSED" in text
     slow = _result(faculty, crashes=["Kbot/sim died (pid 1, exit code 1)"])
@@ -232,6 +290,50 @@ def test_result_json_and_table(faculty) -> None:
     unrec = _result(faculty)
     unrec.faults[0].recovered, unrec.faults[0].recovery_s = False, None
     assert unrec.to_json()["max_recovery_s"] == "not recovered" and not unrec.to_json()["passed"]
+
+
+def test_a_verdict_cannot_pass_a_dropped_trip_an_uncounted_hostile_message_or_unread_bags(faculty) -> None:
+    dropped = _result(faculty, steps=[cc.StepFate(0, ["T/v/1"], system_ends=["T/v/1: partner offline from Kbot"])])
+    assert any("neither completed nor ended by the visitor" in f and "partner offline from Kbot" in f
+               for f in dropped.failures())
+    retried = _result(faculty, steps=[cc.StepFate(0, ["T/v/1", "T/v/2"], completed_by="T/v/2",
+                                                  system_ends=["T/v/1: partner offline from Kbot"])])
+    assert retried.failures() == [] and retried.to_json()["ended_by_system"] == ["T/v/1: partner offline from Kbot"]
+    by_visitor = _result(faculty, steps=[cc.StepFate(0, ["T/v/1"], visitor_ends=["T/v/1: cancelled at Kbot"])])
+    assert by_visitor.failures() == []
+    silent = _result(faculty)
+    silent.faults[1].accounted = {}
+    assert any("hostile message(s) not rejected and counted" in f for f in silent.failures())
+    unread = _result(faculty, bags_error="Kbot.bag: cannot read bag: truncated", table3_bags={})
+    assert any("bags could not be read" in f for f in unread.failures())
+    off = _result(faculty, table3_bags={"Tartalo": (2, 1), "Kbot": (1, 0)})
+    assert any("Table 3 from the bags" in f for f in off.failures())
+
+
+def test_steps_of_the_visit_know_completions_retries_system_ends_and_refusals(faculty) -> None:
+    tour = {"tour_file": "t.tour"}
+    recs: list[dict] = []
+    # step 0: Tartalo -> Kbot, given up by Kbot (partner offline, cancel reason offline), asked again, completed
+    recs += [dict(r, **tour, tour_step=0, w=1.0) for r in _everywhere(_goal, "T/v/1", "Tartalo", 0.0, 1.0)]
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.ACCEPTED, "T/e/1")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.ACCEPTED, "K/e/1")
+    recs += _everywhere(_ev, "Kbot", "T/v/1", Phase.PARTNER_OFFLINE, "K/e/2", w=5.0)
+    recs += [{"k": "cancel", "m": m, "c": "/goal_manager", "uid": "K/c/1", "goal_uid": "T/v/1", "origin": "Kbot",
+              "reason": "offline"} for m in ROBOTS]
+    recs += [dict(r, **tour, tour_step=0, w=9.0) for r in _everywhere(_goal, "K/v/2", "Kbot", 1.0, 1.0)]
+    recs += _everywhere(_ev, "Kbot", "K/v/2", Phase.ACCEPTED, "K/e/3")
+    recs += _everywhere(_ev, "Kbot", "K/v/2", Phase.TOUR_STEP_DONE, "K/e/4")
+    # step 1: refused twice (no goal: the next robot offline), never completed
+    recs += [dict(r, **tour, tour_step=1) for r in _everywhere(_ev, "Kbot", "", Phase.PARTNER_OFFLINE, "K/e/5")]
+    recs += [dict(r, **tour, tour_step=1) for r in _everywhere(_ev, "Kbot", "", Phase.PARTNER_OFFLINE, "K/e/6")]
+    book = cc.Bookkeeping(faculty, recs)
+    fates = book.fates()
+    assert fates["T/v/1"].system_ended and not fates["T/v/1"].lost
+    steps = book.visit(fates, "t.tour", 2)
+    assert steps[0].passed and steps[0].goals == ["T/v/1", "K/v/2"] and steps[0].completed_by == "K/v/2"
+    assert steps[0].system_ends == ["T/v/1: partner offline from Kbot"]
+    assert not steps[1].passed and steps[1].refusals == 2 and "no goal was ever made" in steps[1].describe()
+    assert book.retried_goals(steps) == ["T/v/1"]
 
 
 def test_hostile_templates_fill_in_robots() -> None:

@@ -75,7 +75,7 @@ def test_tour_steps_continue_and_skip() -> None:
 
 
 def test_failures_end_the_visit() -> None:
-    for phase in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.CANCELLED_ELSEWHERE, Phase.PARTNER_OFFLINE):
+    for phase in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.CANCELLED_ELSEWHERE):
         core = v.VisitorCore(cfg("Kbot", 1))
         core.on_event(1.0, "x", "Tartalo", phase, "g", 0, 1)
         assert core.finished
@@ -130,10 +130,34 @@ def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None
     start = v.VisitorCore(cfg("Tartalo", 0, tour_file="t.tour", retry_s=5.0))
     start.on_event(1.0, "q", "Tartalo", Phase.PARTNER_OFFLINE, "", 0, 1, tour_step=0, tour_file="t.tour")
     assert [c.command for c in start.step(6.0)] == [Cmd.START_TOUR]
-    # a partner that gave a trip up (with a goal) ends the visit
-    gone = v.VisitorCore(cfg("Kbot", 1))
-    gone.on_event(1.0, "o", "Tartalo", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 0, 1)
-    assert gone.finished
+
+
+def test_a_trip_a_robot_gave_up_is_asked_for_again_where_the_person_is() -> None:
+    kw = dict(tour_file="t.tour", retry_s=30.0, think_s=0.0, stairs_s_per_floor=20.0)
+    # the start robot's floor still has the person (never released): it asks again for the same step
+    here = v.VisitorCore(cfg("Tartalo", 0, **kw))
+    here.on_event(1.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
+    assert not here.finished and here.step(30.0) == []
+    [cmd] = here.step(31.0)
+    assert (cmd.command, cmd.tour_step) == (Cmd.SKIP, 3) and here.retries == 1
+    # the goal floor: the person was sent there (GO_TO_FLOOR known), asks again after arriving
+    there = v.VisitorCore(cfg("Kbot", 1, **kw))
+    there.on_event(5.0, "g", "Tartalo", Phase.GO_TO_FLOOR, "Tartalo/v/1", 0, 1, tour_step=3)   # arrives at 25
+    there.on_event(6.0, "w", "Kbot", Phase.WAITING_VISITOR, "Tartalo/v/1", 1, 1, tour_step=3)
+    there.on_event(10.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
+    assert not there.finished and there.step(54.0) == []          # no Continue for the given-up trip
+    assert [(c.command, c.tour_step) for c in there.step(55.0)] == [(Cmd.SKIP, 3)]
+    # the person's release comes after the news (a partition held it): asked again after arriving then
+    late = v.VisitorCore(cfg("Kbot", 1, **kw))
+    late.on_event(10.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=0, tour_file="t.tour")
+    assert late.step(100.0) == [] and not late.present
+    late.on_event(100.0, "g", "Tartalo", Phase.GO_TO_FLOOR, "Tartalo/v/1", 0, 1, tour_step=0)   # arrives at 120
+    assert late.step(149.0) == []
+    assert [c.command for c in late.step(150.0)] == [Cmd.START_TOUR]
+    # a floor the person is not on, and is not sent to, does nothing
+    away = v.VisitorCore(cfg("Galtxagorri", 2, **kw))
+    away.on_event(1.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
+    assert away.step(1000.0) == [] and not away.finished
 
 
 def test_two_robots_on_the_start_floor_one_starts() -> None:

@@ -23,6 +23,7 @@ from gidabot_navigation.errors import BuildingError, MapError, Problem
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, WAYS
 
 DRIVE_TYPES = ("differential", "synchro")
+DEFAULT_RELAY_PORT = 11411       # a robot's first relay link port (building file key relay_port)
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
 FLOOR_TOLERANCE = 1e-3
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$")
@@ -86,6 +87,7 @@ class Robot:
     max_angular_accel: float   # rad/s^2
     radius: float              # m
     home: Pose2D
+    relay_port: int = DEFAULT_RELAY_PORT   # first TCP port of its listening relay ends (relay_ports)
 
     @property
     def ip(self) -> str:
@@ -171,8 +173,21 @@ class Building:
         return bool(self.robots_on(floor))
 
     def relay_pairs(self) -> list[tuple[Robot, Robot]]:
-        """Every pair (a, b) with a before b in the robot list: n(n-1)/2 relays, a starts each."""
+        """Every pair (a, b) with a before b in the robot list: n(n-1)/2 relays."""
         return [(a, b) for i, a in enumerate(self.robots) for b in self.robots[i + 1:]]
+
+    def relay_link_port(self, a: str, b: str) -> int:
+        """TCP port of the relay link of the pair (a, b), a listed before b: b's end listens on b's
+        address, port ``b.relay_port + <index of a>``; a's end connects there (docs/deploy.md)."""
+        names = [r.name for r in self.robots]
+        if names.index(a) >= names.index(b):
+            raise KeyError(f"relay pair ({a}, {b}): {a} must be listed before {b}")
+        return self.robot(b).relay_port + names.index(a)
+
+    def relay_ports(self, robot: str) -> list[int]:
+        """The TCP ports robot ``robot`` listens on for its relay links (one per robot listed before it)."""
+        names = [r.name for r in self.robots]
+        return [self.relay_link_port(a, robot) for a in names[:names.index(robot)]]
 
     def with_master_uris(self, uris: dict[str, str]) -> Building:
         """A copy whose robots use the given master URIs (tests and the simulated building)."""
@@ -181,8 +196,10 @@ class Building:
                         self.connectors, robots)
 
 
-def relocate_building(src: str | Path, dest_dir: str | Path, master_uris: dict[str, str]) -> Path:
-    """Write a copy of building ``src`` into ``dest_dir`` with other master URIs; return its path.
+def relocate_building(src: str | Path, dest_dir: str | Path, master_uris: dict[str, str],
+                      relay_ports: dict[str, int] | None = None) -> Path:
+    """Write a copy of building ``src`` into ``dest_dir`` with other master URIs (and relay ports);
+    return its path.
 
     Map and blueprint paths become absolute so the copy needs no other file. Used by
     tests, benchmarks and the demo to run a building on free loopback ports.
@@ -198,6 +215,8 @@ def relocate_building(src: str | Path, dest_dir: str | Path, master_uris: dict[s
     for robot in doc.get("robots", []):
         if robot.get("name") in master_uris:
             robot["master_uri"] = master_uris[robot["name"]]
+        if robot.get("name") in (relay_ports or {}):
+            robot["relay_port"] = relay_ports[robot["name"]]  # type: ignore[index]
     dest = Path(dest_dir)
     dest.mkdir(parents=True, exist_ok=True)
     out = dest / "building.yaml"
@@ -551,7 +570,7 @@ def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> 
         doc = chk.mapping(item, where)
         required = ("name", "floor", "master_uri", "drive", "max_linear", "max_angular",
                     "max_linear_accel", "max_angular_accel", "radius", "home")
-        if not chk.keys(doc, where, required):
+        if not chk.keys(doc, where, required, ("relay_port",)):
             continue
         name = doc["name"]
         if not isinstance(name, str) or not _ROBOT_RE.match(name):
@@ -574,6 +593,7 @@ def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> 
         nums = {k: chk.number(doc[k], f"{where}.{k}", positive=True)
                 for k in ("max_linear", "max_angular", "max_linear_accel", "max_angular_accel", "radius")}
         home = chk.pose(doc["home"], f"{where}.home")
+        relay_port = _relay_port(chk, doc.get("relay_port", DEFAULT_RELAY_PORT), f"{where}.relay_port", i)
         if floor is not None and home is not None:
             _in_free_space(chk, floor, home, f"{where}.home", f"the home pose of {name}")
             radius = nums["radius"] or 0.0
@@ -582,11 +602,34 @@ def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> 
                 if gap < 0:
                     chk.problem(f"{where}.home", f"the home of {name} overlaps the home of {other.name} on floor "
                                                  f"{floor.label} ({-gap:.2f} m); robots of one floor park apart")
-        if floor is None or uri is None or home is None or drive not in DRIVE_TYPES or None in nums.values():
+        if floor is None or uri is None or home is None or drive not in DRIVE_TYPES or None in nums.values() \
+                or relay_port is None:
             continue
         robots.append(Robot(name=name, floor=floor.id, master_uri=uri, drive=drive, home=home,
-                            **nums))  # type: ignore[arg-type]
+                            relay_port=relay_port, **nums))  # type: ignore[arg-type]
+    _shared_addresses(chk, robots)
     return robots
+
+
+def _shared_addresses(chk: _Checker, robots: list[Robot]) -> None:
+    """Robots on one address (one computer): their relay ports and master ports must not collide (a robot's
+    relay ports must not include its own master's port either)."""
+    taken: dict[tuple[str, int], str] = {(r.ip, r.port): f"the master of {r.name}" for r in robots}
+    for k, r in enumerate(robots):
+        for port in range(r.relay_port, r.relay_port + k):
+            other = taken.get((r.ip, port))
+            if other is not None:
+                chk.problem(f"robots[{k}].relay_port", f"relay port {port} of {r.name} on {r.ip} is also used by "
+                                                       f"{other}")
+            taken[(r.ip, port)] = f"a relay end of {r.name}"
+
+
+def _relay_port(chk: _Checker, value: object, where: str, index: int) -> int | None:
+    """Robot ``index`` listens on ``value`` .. ``value + index - 1``: whole TCP ports."""
+    if isinstance(value, bool) or not isinstance(value, int) or not 1024 <= value <= 65535 - max(index, 1):
+        chk.problem(where, f"{_show(value)} must be a whole TCP port number in 1024..{65535 - max(index, 1)}")
+        return None
+    return value
 
 
 def _master_uri(chk: _Checker, value: object, where: str) -> str | None:

@@ -464,7 +464,9 @@ class GoalManagerCore:
             self._phase[ev.goal_uid] = (ev.phase, now_ros)
         if ev.phase == NO_ROBOT_ON_FLOOR and trip is not None and trip.tour_file:
             actions += self._tour_goes_on(trip, now_ros, now_wall)
-        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and early.stamp >= ev.stamp > 0:
+        # both stamps are this robot's (its visitor's button, its navigation's event): robots' clocks may disagree
+        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and ev.robot == self.me \
+                and early.stamp >= ev.stamp > 0:
             self.stats.inc("early_continues")
             return actions + self._continue(early, now_ros, now_wall)
         return actions
@@ -723,6 +725,8 @@ class GoalManagerCore:
         trip = self._pop(cancel.goal_uid)
         self._phase.pop(cancel.goal_uid, None)
         if trip is None:
+            if cancel.goal_uid not in self._goals_seen:
+                self.stats.inc("cancel_unknown")     # kept (its goal may still come), and counted
             return []
         self.stats.inc("cancelled")
         leg = trip.leg_of(self.me)

@@ -64,7 +64,7 @@ from gidabot_navigation.relay.protocol import (
 REJECT_REASONS = ("auth", "oversize", "malformed", "type")
 # how an end process tells its supervisor (gidabot_navigation.relay.supervisor) why it stopped
 EXIT_CONFIG = 2                          # bad options: restarting will not help
-EXIT_PORT = 3                            # end b cannot bind the link port: the supervisor picks another
+EXIT_PORT = 3                            # end b cannot bind the building's link port (taken, or not its address)
 PARENT_ENV = "GIDABOT_RELAY_PARENT"      # set by the supervisor: an end exits when its parent is gone
 
 
@@ -230,6 +230,7 @@ class Stats:
     replays_ignored: int = 0        # local events already forwarded, published again (a replay, a restart)
     ignored_relay: int = 0          # local messages published by a relay (never forwarded again)
     resent: int = 0                 # events sent again on a new connection
+    acked_on_reconnect: int = 0     # unacknowledged events the peer's HELLO said it had stored (ACK lost)
     connections: int = 0            # authenticated connections so far
     link_losses: int = 0            # active connections lost
     rejected: dict[str, int] = field(default_factory=lambda: dict.fromkeys(REJECT_REASONS, 0))
@@ -494,9 +495,11 @@ class RelayEndCore:
         st = self.state
         down_for = "" if self.link_down_since is None else f" after {now - self.link_down_since:.1f} s"
         self.link_down_since = None
-        # what the peer already stored of our stream counts as acknowledged
+        # what the peer already stored of our stream counts as acknowledged (its ACK was lost with the link)
         if peer.in_epoch == st.out_epoch and st.outq and st.outq[0].seq <= peer.in_last:
+            queued = len(st.outq)
             self._acked(peer.in_last)
+            self.stats.acked_on_reconnect += queued - len(st.outq)
         if peer.out_epoch != st.in_epoch:
             if st.in_epoch:
                 self.log.warning(f"{self.name}: {self.cfg.peer_robot}'s event stream changed epoch "
@@ -732,6 +735,7 @@ class RelayEndCore:
             "dropped": s.dropped,
             "duplicates_suppressed": s.duplicates_suppressed,
             "resent": s.resent,
+            "acked_on_reconnect": s.acked_on_reconnect,
             "ignored_relay": s.ignored_relay,
             "replays_ignored": s.replays_ignored,
             "connections": s.connections,

@@ -46,7 +46,7 @@ from gidabot_navigation.relay.end import (
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.resources import resource
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, keep_registered, proxy
+from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, bound_master_calls, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 
 CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
@@ -701,8 +701,9 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_CONFIG
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 
-    # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
+    bound_master_calls()     # init_node's own calls to a master that does not answer are bounded too
     guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
     rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True,
                     disable_signals=True)
     watch = keep_registered()

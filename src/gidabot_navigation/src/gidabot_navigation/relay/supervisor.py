@@ -1,12 +1,13 @@
-"""The relay supervisor: starts this robot's relays (both ends of each) as child processes.
+"""The relay supervisor: starts this robot's relay ends as child processes.
 
-Robot i of the building's robot list starts the relays to robots i+1..n-1, so the
-building has exactly n(n-1)/2 relays, derived from the building file. For the pair
-(i, j) the supervisor starts end ``a`` against robot i's master (ROS_IP = i's address)
-and end ``b`` against robot j's master (ROS_IP = j's address if this machine has that
-address, as in the simulated building; otherwise this robot's own address), each in
-its own process group, killed if the supervisor dies (parent-death signal, and the
-ends also watch their parent), restarted with exponential backoff if they die.
+A building of n robots has n(n-1)/2 relays, one per pair, derived from the building
+file; each relay has one end on each of its two robots. Robot i runs the n-1 ends of
+its own relays, all against its own master (ROS_IP = its address): for a pair (a, b)
+with a listed first, end ``a`` (on robot a) connects to end ``b`` (on robot b), which
+listens on b's address, port ``building.relay_link_port(a, b)`` (docs/deploy.md). The
+only traffic between two robots' machines is that link. Each end runs in its own
+process group, killed if the supervisor dies (parent-death signal, and the ends also
+watch their parent), restarted with exponential backoff if it dies.
 
 :func:`plan_relays` and :class:`Backoff` are ROS-free; :class:`ChildProcess` is plain
 process handling; the ROS adapter is :mod:`gidabot_navigation.relay.supervisor_node`.
@@ -18,12 +19,11 @@ import contextlib
 import os
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building
@@ -39,12 +39,12 @@ class EndSpec:
 
     robot_a: str
     robot_b: str
-    side: str            # "a" or "b"
+    side: str            # "a" (connects) or "b" (listens)
     master_uri: str      # master of the robot of this side
-    ros_ip: str          # ROS_IP of this end
-    link_host: str       # end b's listening address
+    ros_ip: str          # ROS_IP of this end: the address of the robot of this side
+    link_host: str       # end b's listening address (robot b's)
     link_port: int
-    bind_ip: str         # end a's source address
+    bind_ip: str         # end a's source address (robot a's)
 
     @property
     def pair(self) -> str:
@@ -59,38 +59,16 @@ class EndSpec:
         return relay_end_name(self.robot_a, self.robot_b)
 
 
-def is_local_address(ip: str) -> bool:
-    """True if this machine can bind ``ip`` (the simulated building: every robot's address is local)."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        try:
-            s.bind((ip, 0))
-        except OSError:
-            return False
-    return True
-
-
-def free_port(ip: str) -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind((ip, 0))
-        return int(s.getsockname()[1])
-
-
-def plan_relays(building: Building, robot: str, port_for: Callable[[int, str], int],
-                is_local: Callable[[str], bool] = is_local_address) -> list[EndSpec]:
-    """The ends this robot's supervisor starts: two per pair (robot, later robot).
-
-    ``port_for(pair_index, host)`` gives the link port of the pair with that index in
-    ``building.relay_pairs()`` (end b listens on ``host``).
-    """
+def plan_relays(building: Building, robot: str) -> list[EndSpec]:
+    """The ends robot ``robot`` runs: one per other robot, in building order, each on this robot's master."""
     me = building.robot(robot)
     ends: list[EndSpec] = []
-    for index, (a, b) in enumerate(building.relay_pairs()):
-        if a.name != me.name:
+    for a, b in building.relay_pairs():
+        if me.name not in (a.name, b.name):
             continue
-        b_ip = b.ip if is_local(b.ip) else a.ip
-        port = port_for(index, b_ip)
-        ends.append(EndSpec(a.name, b.name, "a", a.master_uri, a.ip, b_ip, port, a.ip))
-        ends.append(EndSpec(a.name, b.name, "b", b.master_uri, b_ip, b_ip, port, a.ip))
+        port = building.relay_link_port(a.name, b.name)
+        side = "a" if a.name == me.name else "b"
+        ends.append(EndSpec(a.name, b.name, side, me.master_uri, me.ip, b.ip, port, a.ip))
     return ends
 
 
@@ -205,8 +183,10 @@ class ChildProcess:
         delay = self.backoff.next_delay(now - self.started_at)
         if code == EXIT_CONFIG:
             delay = max(delay, self.backoff.maximum)
+        why = (f" (cannot listen on {self.spec.link_host}:{self.spec.link_port}: is the port taken, or is this "
+               f"not {self.spec.robot_b}'s address?)" if code == EXIT_PORT else "")
         self.next_start = now + delay
-        self.log("warning", f"relay end {self.spec.key} exited with {code}; restarting in {delay:.1f} s")
+        self.log("warning", f"relay end {self.spec.key} exited with {code}{why}; restarting in {delay:.1f} s")
         return code
 
     def due(self, now: float) -> bool:
@@ -239,35 +219,20 @@ class RelaySupervisor:
     """Keeps every planned end running (no rospy): call :meth:`step` periodically, :meth:`stop` at the end."""
 
     def __init__(self, ends: list[EndSpec], opts: EndOptions, log: Callable[[str, str], None],
-                 new_port: Callable[[str], int] = free_port, base_env: Mapping[str, str] | None = None,
-                 output_dir: Path | None = None,
+                 base_env: Mapping[str, str] | None = None, output_dir: Path | None = None,
                  argv_for: Callable[[EndSpec, EndOptions], list[str]] = end_argv) -> None:
         """``output_dir``: where each end's stdout/stderr goes (``<key>.log``); None = inherited.
-        ``argv_for``: the command of an end (tests replace the relay end by a stand-in)."""
+        ``argv_for``: the command of an end (tests replace the relay end by a stand-in; the relay
+        benchmark runs each end inside its robot's network namespace)."""
         self.children = [ChildProcess(s, opts, log, base_env, output_dir, argv_for) for s in ends]
         self.log = log
-        self.new_port = new_port
 
     def step(self, now: float) -> None:
         for child in self.children:
-            code = child.poll(now)
-            if code == EXIT_PORT and child.spec.side == "b":
-                self._move_link(child, now)
+            child.poll(now)
         for child in self.children:
             if child.due(now):
                 child.start(now)
-
-    def _move_link(self, end_b: ChildProcess, now: float) -> None:
-        """End b could not bind its port: give the pair a new port and restart end a with it."""
-        port = self.new_port(end_b.spec.link_host)
-        self.log("warning", f"link port {end_b.spec.link_port} of relay {end_b.spec.pair} is taken; moving to {port}")
-        for child in self.children:
-            if child.spec.pair == end_b.spec.pair:
-                child.spec = replace(child.spec, link_port=port)
-                if child.spec.side == "a" and child.popen is not None:
-                    child.stop()
-                    child.next_start = now
-        end_b.next_start = now
 
     def stop(self, grace: float = 3.0) -> None:
         """Stop every end at once: SIGINT, then SIGTERM, then SIGKILL to each process group."""

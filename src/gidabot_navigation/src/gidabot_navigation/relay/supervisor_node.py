@@ -13,14 +13,16 @@ from pathlib import Path
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, RelayConfigError
 from gidabot_navigation.interface import Node, Topic
-from gidabot_navigation.relay.supervisor import EndOptions, RelaySupervisor, free_port, plan_relays
+from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, plan_relays
 
 
 class RelaySupervisorNode:
-    """Starts and keeps running the relays this robot owns (node ``/relay_supervisor``).
+    """Starts and keeps running this robot's relay ends (node ``/relay_supervisor``).
 
-    For every robot after this one in the building's robot list, both ends of the relay
-    ``/gidabot_relay_<this>_<other>`` (see :class:`gidabot_navigation.relay.end_node.RelayEndNode`).
+    For every other robot of the building, this robot's end of their relay ``/gidabot_relay_<A>_<B>``
+    (A listed first; see :class:`gidabot_navigation.relay.end_node.RelayEndNode`), on this robot's
+    master: it connects to the other robot's end (listed after this one) or listens for it (listed
+    before), on the ports of the building file (docs/deploy.md).
 
     Published topics:
       - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, wall-time stamps: no ``/clock``), 1 Hz:
@@ -33,8 +35,6 @@ class RelaySupervisorNode:
       - ``~state_dir`` (str, required): directory of the ends' journals.
       - ``~secret_file`` (str, default ''): file holding the shared secret (HMAC-SHA256); '' = none.
       - ``~topics_file`` (str, default the package's ``config/shared_topics.yaml``).
-      - ``~link_port_base`` (int, default 0): link port of pair k (k-th of the building's
-        relay pairs) is base + k; 0 = a free port chosen at start.
       - ``~end_params`` (dict, default {}): further options for every end
         (e.g. ``{max_queue: 10000, heartbeat: 0.5}``; see RelayEndNode).
     """
@@ -55,19 +55,12 @@ class RelaySupervisorNode:
             read_secret(secret_file)                  # fail here, clearly, rather than in every end
             secret_file = str(Path(secret_file).resolve())
         topics_file = str(rospy.get_param("~topics_file", "") or "")
-        base = rospy.get_param("~link_port_base", 0)
-        if not isinstance(base, int) or isinstance(base, bool) or not 0 <= base < 65000:
-            raise RelayConfigError(f"~link_port_base must be a port number or 0, got {base!r}")
         extra = rospy.get_param("~end_params", {}) or {}
         if not isinstance(extra, dict):
             raise RelayConfigError(f"~end_params must be a mapping, got {extra!r}")
         building = load_building(building_path)
         building.robot(self.robot)                    # KeyError with the known names
-
-        def port_for(index: int, host: str) -> int:
-            return base + index if base else free_port(host)
-
-        ends = plan_relays(building, self.robot, port_for)
+        ends = plan_relays(building, self.robot)
         Path(state_dir).mkdir(parents=True, exist_ok=True)
         opts = EndOptions(state_dir=str(Path(state_dir).resolve()), secret_file=secret_file,
                           topics_file=topics_file, extra=tuple((str(k), str(v)) for k, v in extra.items()))
@@ -75,9 +68,8 @@ class RelaySupervisorNode:
         from diagnostic_msgs.msg import DiagnosticArray
 
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
-        pairs = sorted({e.pair for e in ends})
-        rospy.loginfo(f"relay_supervisor of {self.robot}: {len(pairs)} relay(s) to start"
-                      f"{': ' + ', '.join(pairs) if pairs else ' (last robot of the building)'}; "
+        rospy.loginfo(f"relay_supervisor of {self.robot}: {len(ends)} relay end(s)"
+                      f"{': ' + ', '.join(_describe(e) for e in ends) if ends else ' (the only robot)'}; "
                       f"{'HMAC-SHA256' if secret_file else 'NO authentication (no secret file)'}")
 
     def _log(self, level: str, msg: str) -> None:
@@ -117,14 +109,21 @@ class RelaySupervisorNode:
             self.diag_pub.publish(arr)
 
 
+def _describe(end: EndSpec) -> str:
+    if end.side == "a":
+        return f"{end.pair} (connects to {end.robot_b} at {end.link_host}:{end.link_port})"
+    return f"{end.pair} (listens for {end.robot_a} on {end.link_host}:{end.link_port})"
+
+
 def main(argv: list[str] | None = None) -> int:
     import rospy
 
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
-    from gidabot_navigation.ros.master_watch import keep_registered
+    from gidabot_navigation.ros.master_watch import bound_master_calls, keep_registered
 
     # exit within 1.5 s of SIGINT/SIGTERM, master frozen or not (issue 19.5): the ends it stops exit within 1 s
     # (their own guards), and any end still there then gets SIGTERM from the kernel (PR_SET_PDEATHSIG)
+    bound_master_calls()     # init_node's own calls to a master that does not answer are bounded too
     guard = rospy_exit_guard(Node.RELAY_SUPERVISOR, grace=1.5)
     rospy.init_node(Node.RELAY_SUPERVISOR, argv=argv if argv is not None else sys.argv, disable_rostime=True,
                     disable_signals=True)

@@ -24,6 +24,12 @@ every remembered parameter the master does not have (never overwriting one it ha
 The decision logic is :class:`MasterWatchCore` (ROS-free, driven by explicit poll
 results so it is unit-tested without a master); :class:`MasterWatch` is the thread
 and the XML-RPC calls. Liveness is measured in monotonic wall time, never ROS time.
+
+No call of the node waits for an unreachable or frozen master without a bound: the watch's
+own calls have ``timeout``; :func:`bound_master_calls` gives rospy's own proxy of the master
+(registrations, parameters, lookups: one proxy and one lock for the whole process) a socket
+timeout, and :func:`gidabot_navigation.ros.log.never_block_on_rosout` keeps rospy's logging
+from calling the master at all. :func:`keep_registered` does both.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ from gidabot_navigation.logs import Logger
 
 DEFAULT_PERIOD = 0.5     # s between polls
 DEFAULT_TIMEOUT = 0.3    # s, socket timeout of one XML-RPC call
+RPC_TIMEOUT = 5.0        # s, socket timeout of every call rospy itself makes to the master
 DOWN_AFTER = 2           # consecutive failed polls before the master is declared down
 PARAM_REFRESH = 30.0     # s between merges of the node's parameters into the remembered set
 RESTORED_KEYS = ("/use_sim_time",)   # global parameters every node restores besides its private ones
@@ -126,6 +133,29 @@ class _TimeoutTransport(xmlrpc.client.Transport):
 def proxy(uri: str, timeout: float) -> xmlrpc.client.ServerProxy:
     """An XML-RPC proxy whose every call is bounded by ``timeout`` seconds."""
     return xmlrpc.client.ServerProxy(uri, transport=_TimeoutTransport(timeout), allow_none=True)
+
+
+def bound_master_calls(timeout: float = RPC_TIMEOUT) -> str:
+    """Every XML-RPC call rospy makes to this process's master (``rospy.core.xmlrpcapi``: registrations,
+    parameters, lookups) gets a socket timeout of ``timeout`` s; returns the master's URI.
+
+    rospy keeps one proxy per URI for the whole process and serialises its calls with a lock, without
+    a timeout: one call to a frozen master (or one behind a cut network) held every other thread's
+    calls. Callable before ``rospy.init_node`` (then ``init_node``'s own calls are bounded too) and
+    after (the existing proxy gets the bounded transport); rospy retries a registration that failed.
+    """
+    import rosgraph
+    import rospy.core
+
+    if not timeout > 0:
+        raise MasterWatchError(f"timeout must be positive seconds, got {timeout!r}")
+    uri = rosgraph.get_master_uri()
+    server = rospy.core.xmlrpcapi(uri)
+    if server is None:
+        raise MasterWatchError(f"ROS_MASTER_URI {uri!r} is not a usable URI")
+    # ServerProxy keeps its transport in a name-mangled attribute; the transport holds the HTTP connection
+    server._ServerProxy__transport = _TimeoutTransport(timeout)  # type: ignore[attr-defined]
+    return uri
 
 
 def get_master_pid(master_uri: str, caller_id: str, timeout: float,
@@ -384,13 +414,15 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
     Returns the :class:`MasterWatch`: ``up`` tells whether the master answers,
     ``add_listener`` gets DOWN / REREGISTER events. Parameters in seconds (wall time).
     The node's private parameters and ``restore_keys`` are remembered now and set again
-    on a restarted master that lost them (:class:`ParamKeeper`).
+    on a restarted master that lost them (:class:`ParamKeeper`). rospy's own calls to the
+    master are bounded (:func:`bound_master_calls`) and its logging never calls the master
+    (:func:`gidabot_navigation.ros.log.never_block_on_rosout`).
     """
     import rosgraph
     import rospy
     import rospy.core
 
-    from gidabot_navigation.ros.log import RosLog
+    from gidabot_navigation.ros.log import ROSOUT_TOPICS_PARAM, RosLog, never_block_on_rosout
 
     if not rospy.core.is_initialized():
         raise MasterWatchError("keep_registered() must be called after rospy.init_node()")
@@ -399,6 +431,12 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
     node_uri = rospy.core.get_node_uri()
     if not node_uri:
         raise MasterWatchError("this node has no slave API URI yet; call keep_registered() after rospy.init_node()")
+    bound_master_calls()
+    try:   # what the master says, if it answers at once; rospy's default otherwise
+        code, _, value = proxy(rosgraph.get_master_uri(), timeout).getParam(rospy.get_caller_id(), ROSOUT_TOPICS_PARAM)
+    except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError):
+        code, value = 0, False
+    never_block_on_rosout(bool(value) if code == 1 else None)
     watch = MasterWatch(master_uri=rosgraph.get_master_uri(), caller_id=rospy.get_caller_id(), node_uri=node_uri,
                         registrations=rospy_registrations, log=log or RosLog(), period=period,
                         timeout=timeout, params=ParamKeeper(rospy.get_name(), tuple(restore_keys)))

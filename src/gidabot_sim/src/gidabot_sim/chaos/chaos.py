@@ -6,18 +6,24 @@ master, waits for the tour to start, then injects the faults of a seeded schedul
 after the other (:func:`gidabot_sim.chaos.core.make_schedule`): link cuts between two
 robots (iptables between their addresses, a relay end stopped, a relay supervisor
 killed), a restart of every robot's master, node restarts, process freezes, people
-standing in corridors and hostile messages on any master. It measures every recovery,
-waits for the tour to end, stops everything, and prints a table: faults by kind,
-recovery times, goals accepted / completed / lost / duplicated, the paper's Table 3
-(expected, from the probes, from the bags), crashed nodes, the tour directories.
-Definitions and measured runs: docs/chaos.md.
+standing in corridors, hostile messages on any master, and overlapping faults (two
+masters down at once, a link cut during a master restart, a partition longer than
+``partner_timeout``). With ``--machines`` every robot is a separate machine (a network
+namespace of its own, :mod:`gidabot_sim.runner.machines`) whose clock is off by up to 5
+minutes, and the faults of a real network are added: a robot partitioned, every link
+flapping, one-way loss, a lossy link, a robot's machine gone for 5 minutes. It measures
+every recovery, waits for the tour to end, stops everything, and prints a table: faults by
+kind, recovery times, what became of every request of the visitor, goals accepted /
+completed / lost / duplicated, the paper's Table 3 (expected, from the probes, from the
+bags), every hostile message and the node that counted it, crashed nodes, the tour
+directories. Definitions and measured runs: docs/chaos.md.
 
-    bin/gidabot chaos                          # Table 2 tour, seed 1, every kind of fault (~26)
-    bin/gidabot chaos --seed 7 --json          # another schedule; one JSON object on stdout
+    bin/gidabot chaos                          # Table 2 tour, seed 1, every kind of fault (~29)
+    bin/gidabot chaos --machines --seed 7 --json   # separate machines; one JSON object on stdout
     bin/gidabot chaos --profile quick --tour tours/real_world.tour
 
-Needs root (iptables) for link cuts by address. Exit status: 0 every target met, 1 a
-target missed, 2 bad arguments, 130 interrupted.
+Needs root (iptables, network namespaces). Exit status: 0 every target met, 1 a target
+missed, 2 bad arguments, 130 interrupted.
 """
 
 from __future__ import annotations
@@ -60,14 +66,16 @@ from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse
 from gidabot_sim.chaos import core as cc
 from gidabot_sim.chaos.faults import LinkCuts
 from gidabot_sim.demo.demo import POSE_RATE, POSE_WALL_HZ, STATUS_RATE, STATUS_WALL_HZ, Signals, report
-from gidabot_sim.errors import ChaosError, DemoError, FaultError, ProcessError, ReportError
+from gidabot_sim.errors import ChaosError, DemoError, FaultError, MachinesError, ProcessError, ReportError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding, node_executable, process_tree
+from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.procs import robot_address
 
 DEFAULT_SEED = 1
 SIM_S_PER_GOAL = 100.0        # a goal of the long tour takes about 100 s of sim time (docs/demo.md)
 RECOVERY_WAIT = 30.0          # wall s a fault gets to recover before it counts as not recovered
 CORRIDOR_WAIT = 60.0          # wall s to wait for a robot driving a long enough leg
+HOSTILE_WAIT = 8.0            # wall s for the nodes to count a hostile message (they publish counters at 1 Hz)
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
@@ -76,15 +84,18 @@ EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 # ---------------------------------------------------------------------------
 
 class ChaosProbeClient:
-    """The chaos probe process on one master (``gidabot_sim.chaos.probe_node``), driven by JSON lines."""
+    """The chaos probe process on one master (``gidabot_sim.chaos.probe_node``), driven by JSON lines;
+    ``command`` runs its command line where that master is (a robot's machine)."""
 
-    def __init__(self, robot: str, env: dict[str, str], out: Path, log: Path, timeout: float = 30.0) -> None:
+    def __init__(self, robot: str, env: dict[str, str], out: Path, log: Path, timeout: float = 30.0,
+                 command: Callable[[list[str]], list[str]] = list) -> None:
         self.robot = robot
         self.out = out
         self.timeout = timeout
         out.parent.mkdir(parents=True, exist_ok=True)
         self._log = open(log, "ab")  # noqa: SIM115 - closed in close()
-        argv = [sys.executable, node_executable("gidabot_sim", "chaos_probe"), "--robot", robot, "--out", str(out)]
+        argv = command([sys.executable, node_executable("gidabot_sim", "chaos_probe"), "--robot", robot,
+                        "--out", str(out)])
         self.proc = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
                                      start_new_session=True, text=True, bufsize=1)
         self._read(60.0, "start")
@@ -195,7 +206,7 @@ class TourWatch:
                 self.latest = f"step {int(r.get('tour_step', -1)) + 1} done at {r.get('robot')}"
             if phase == Phase.TOUR_FINISHED and (r.get("tour_step") == self.last_step or r.get("leg") == LEG_START):
                 self.finished = True            # (the start leg's: the tour ends on floors without robot)
-            elif phase in (Phase.UNREACHABLE, Phase.TIMEOUT) or (phase == Phase.PARTNER_OFFLINE and r.get("goal_uid")):
+            elif phase in (Phase.UNREACHABLE, Phase.TIMEOUT):   # the visit ends (PARTNER_OFFLINE: asked again)
                 self.failure = f"{r.get('robot')}: phase {phase} ({r.get('detail', '')})"
 
 
@@ -224,11 +235,12 @@ class ChaosRun:
         self.out = out
         self.stopped = stop
         self.profile = cc.PROFILES[args.profile]
-        self.schedule = cc.make_schedule(args.seed, building, self.profile)
+        self.schedule = cc.make_schedule(args.seed, building, self.profile, machines=args.machines)
+        self.clock_offsets = cc.clock_offsets(args.seed, building, self.profile) if args.machines else {}
         self.trips = cc.tour_trips(tour, args.start_floor, building)
         sched_s = cc.schedule_seconds(self.schedule)
         if args.speed is None:   # the tour must outlast the faults: ~100 s of sim time per goal
-            args.speed = round(min(20.0, max(2.0, SIM_S_PER_GOAL * len(tour.goals) / (1.3 * sched_s))), 1)
+            args.speed = round(min(20.0, max(1.5, SIM_S_PER_GOAL * len(tour.goals) / (1.3 * sched_s))), 1)
         if args.timeout is None:
             args.timeout = 240.0 + sched_s + 3.0 * SIM_S_PER_GOAL * len(tour.goals) / args.speed
         stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
@@ -236,7 +248,7 @@ class ChaosRun:
         self.results: list[cc.FaultResult] = []
         self.probes: dict[str, ChaosProbeClient] = {}
         self.killed: set[int] = set()           # pids this run killed on purpose (expected deaths)
-        self.cuts = LinkCuts()
+        self.cuts = LinkCuts()                  # robots on one host: link cuts by address in this host's iptables
         self.begin = _now()
         self.log_sizes: dict[Path, int] = {}
         self.tours_before: dict[str, dict[str, str]] = {}
@@ -264,13 +276,20 @@ class ChaosRun:
                      else None)
         self.sim = SimulatedBuilding(args.building, self.run_dir, speed=args.speed, relay_secret=None,
                                      seed_tours=seed, addresses=addresses, common_args=launch_args,
-                                     robot_args=robot_args, visitor=visitor, monitor=False)
+                                     robot_args=robot_args, visitor=visitor, monitor=False, machines=args.machines,
+                                     clock_offsets=self.clock_offsets)
         self.sim.start(cancelled=self.stopped)
         assert self.sim.building is not None
         for r in self.sim.building.robots:
-            self.probes[r.name] = ChaosProbeClient(r.name, self.sim.env(r.name), self.run_dir / "chaos" /
-                                                   f"{r.name}.jsonl", self.run_dir / "logs" / f"probe_{r.name}.log")
+            self.probes[r.name] = ChaosProbeClient(
+                r.name, self.sim.env(r.name), self.run_dir / "chaos" / f"{r.name}.jsonl",
+                self.run_dir / "logs" / f"probe_{r.name}.log",
+                command=lambda argv, robot=r.name: self.sim.command(robot, argv))  # type: ignore[union-attr]
         self.tail = Tail([p.out for p in self.probes.values()])
+        for robot, offset in self.clock_offsets.items():      # a setting of the whole run, listed with the faults
+            self.results.append(cc.FaultResult(cc.Fault(cc.CLOCK_OFFSET, robot, target=f"{offset:+g} s"),
+                                               injected=self.begin, detail=f"wall clock {offset:+g} s, sim clock "
+                                               f"{self.sim.ros_offsets[robot]:+g} s ahead of the earliest"))
 
     @property
     def building(self) -> Building:
@@ -334,7 +353,9 @@ class ChaosRun:
         return found[0].pid
 
     def relay_end_pid(self, a: str, b: str, side: str) -> int | None:
-        for info in self.processes(a, "end_node"):      # python -m gidabot_navigation.relay.end_node
+        """The end of the relay (a, b) on ``side``'s robot (a's end connects, b's listens); an end runs as
+        ``python -m gidabot_navigation.relay.end_node``."""
+        for info in self.processes(a if side == "a" else b, "end_node"):
             argv = " ".join(info.argv)
             if f"--robot_a {a} " in argv and f"--robot_b {b} " in argv and f"--side {side} " in argv:
                 return info.pid
@@ -344,11 +365,8 @@ class ChaosRun:
         return self.building.robot(robot).master_uri
 
     def lookup_node(self, robot: str, node: str) -> str:
-        try:
-            code, _, uri = xmlrpc.client.ServerProxy(self.master_uri(robot)).lookupNode("/chaos", node)
-        except (OSError, xmlrpc.client.Error):
-            return ""
-        return str(uri) if code == 1 else ""
+        assert self.sim is not None
+        return self.sim.call(robot, _lookup_node, self.master_uri(robot), node)
 
     # -- recovery ---------------------------------------------------------------------------
     def first_everywhere(self, topic: str, source: str, masters: list[str], since: float,
@@ -356,7 +374,8 @@ class ChaosRun:
         """Wall time by which ``source``'s ``topic`` (status / pending) reached every master in ``masters``
         after ``since`` (the latest of the first deliveries), None if not within ``timeout``."""
         deadline = time.monotonic() + timeout
-        stamped = self.sim_time(since) - 0.1       # the clock is published every 0.05 s of sim time
+        assert self.sim is not None
+        stamped = self.sim.sim_time(since, source) - 0.1   # source's clock (published every 0.05 s of sim time)
         while time.monotonic() < deadline and not self.stopped():
             firsts = [self.probes[m].first(topic, since, stamped).get(source) for m in masters]
             if all(t is not None for t in firsts):
@@ -364,11 +383,6 @@ class ChaosRun:
             self.follow()
             time.sleep(0.1)
         return None
-
-    def sim_time(self, wall: float) -> float:
-        """The sim time every floor's clock showed at wall time ``wall`` (docs/simulator.md)."""
-        assert self.sim is not None
-        return (wall - self.sim.start_wall) * float(self.args.speed)
 
     def link_recovered(self, a: str, b: str, since: float) -> float | None:
         ta = self.first_everywhere("status", a, [b], since)
@@ -421,6 +435,9 @@ class ChaosRun:
             order = [r.name for r in self.building.robots]
             a, b = sorted(robots, key=order.index)
             return cc.Fault(fault.kind, a, b, fault.target, fault.duration, fault.gap, fault.crash, fault.active)
+        if fault.kind == cc.PARTITION and robots:           # a robot of the trip: the other may give the trip up
+            return cc.Fault(fault.kind, self.rng.choice(robots), duration=fault.duration, gap=fault.gap,
+                            active=fault.active)
         if fault.kind in (cc.NODE_RESTART, cc.FREEZE) and robots:
             busy = self.busy_robot(robots)       # a robot driving or waiting for this trip, if one is soon
             robot = busy or self.rng.choice(robots)
@@ -434,10 +451,13 @@ class ChaosRun:
         handler = {cc.CUT_IPTABLES: self._cut_iptables, cc.CUT_RELAY_END: self._cut_relay_end,
                    cc.CUT_SUPERVISOR: self._kill_supervisor, cc.MASTER_RESTART: self._restart_master,
                    cc.NODE_RESTART: self._restart_node, cc.FREEZE: self._freeze, cc.CORRIDOR: self._corridor,
-                   cc.HOSTILE: self._hostile}[fault.kind]
+                   cc.HOSTILE: self._hostile, cc.MASTERS_DOWN: self._masters_down,
+                   cc.CUT_MASTER_RESTART: self._cut_master_restart, cc.PARTITION: self._partition,
+                   cc.FLAPPING: self._flapping, cc.ONE_WAY: self._one_way, cc.LOSSY: self._lossy,
+                   cc.MACHINE_DOWN: self._machine_down}[fault.kind]
         try:
             handler(fault, res)
-        except (ChaosError, FaultError, ProcessError, OSError) as err:
+        except (ChaosError, FaultError, MachinesError, ProcessError, OSError) as err:
             res.skipped = res.skipped or f"{type(err).__name__}: {err}"
             if res.injected is not None and res.cleared is None:
                 res.recovered = False
@@ -451,14 +471,40 @@ class ChaosRun:
         else:
             res.recovery_s = round(max(0.0, recovered_at - res.cleared), 3)
 
+    # -- the network between two robots: their machines' iptables, or this host's by address
+    def cut(self, a: str, b: str) -> None:
+        assert self.sim is not None
+        if self.sim.net is not None:
+            self.sim.net.cut(a, b)
+        else:
+            self.cuts.cut(self.building.robot(a).ip, self.building.robot(b).ip)
+
+    def restore(self, a: str, b: str) -> None:
+        assert self.sim is not None
+        if self.sim.net is not None:
+            self.sim.net.uncut(a, b)
+        else:
+            self.cuts.restore(self.building.robot(a).ip, self.building.robot(b).ip)
+
+    def clear_network_faults(self) -> None:
+        self.cuts.clear_all()
+        if self.sim is not None and self.sim.net is not None:
+            for robot in self.sim.net.machines:
+                if robot not in self.sim.off:
+                    self.sim.net.clear_faults(robot)
+
+    def all_links_recovered(self, robots: list[str], since: float) -> float | None:
+        """When every link between two of ``robots`` delivered both ways after ``since`` (None: one did not)."""
+        times = [self.link_recovered(a, b, since) for i, a in enumerate(robots) for b in robots[i + 1:]]
+        return None if any(t is None for t in times) else max(times)  # type: ignore[type-var]
+
     def _cut_iptables(self, f: cc.Fault, res: cc.FaultResult) -> None:
-        a, b = self.building.robot(f.robot).ip, self.building.robot(f.other).ip
         res.injected = _now()
-        self.cuts.cut(a, b)
+        self.cut(f.robot, f.other)
         try:
             self.pause(f.duration)
         finally:
-            self.cuts.restore(a, b)
+            self.restore(f.robot, f.other)
         res.cleared = _now()
         self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
 
@@ -483,8 +529,10 @@ class ChaosRun:
         self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
 
     def _kill_supervisor(self, f: cc.Fault, res: cc.FaultResult) -> None:
-        pairs = [b.name for a, b in self.building.relay_pairs() if a.name == f.robot]
-        old_ends = {(o, s): self.relay_end_pid(f.robot, o, s) for o in pairs for s in "ab"}
+        ends = [(a.name, b.name, "a" if a.name == f.robot else "b") for a, b in self.building.relay_pairs()
+                if f.robot in (a.name, b.name)]                      # this robot's end of each of its relays
+        pairs = [b if a == f.robot else a for a, b, _ in ends]
+        old_ends = {e: self.relay_end_pid(*e) for e in ends}
         pid = self.node_pid(f.robot, Node.RELAY_SUPERVISOR)
         res.injected = _now()
         self.killed.add(pid)
@@ -492,7 +540,7 @@ class ChaosRun:
         os.killpg(pid, signal.SIGKILL)
         deadline = time.monotonic() + 60.0
         while time.monotonic() < deadline and not self.stopped():   # roslaunch respawns it; it starts new ends
-            now = {k: self.relay_end_pid(f.robot, k[0], k[1]) for k in old_ends}
+            now = {k: self.relay_end_pid(*k) for k in old_ends}
             if all(p is not None and p != old_ends[k] for k, p in now.items()):
                 break
             self.pause(0.2)
@@ -588,13 +636,173 @@ class ChaosRun:
         return True
 
     def _hostile(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """One hostile message on one master, accounted for: which node of that master rejected and counted
+        it (a ``rejected*`` counter of its /diagnostics that grew; one hostile message at a time)."""
         h = cc.hostile_by_name(f.target)
         other = next(r.name for r in self.building.robots if r.name != f.robot)
         msg = cc.fill_placeholders(h.msg, f.robot, other)
+        probe = self.probes[f.robot]
+        before = probe.call("counters")["status"]
         res.injected = _now()
-        self.probes[f.robot].call("pub", topic=h.topic, type=h.type, msg=msg, wait=3.0)
+        probe.call("pub", topic=h.topic, type=h.type, msg=msg, wait=3.0)
         res.cleared = res.injected
         res.detail = f"{h.topic} ({h.type})"
+        deadline = time.monotonic() + HOSTILE_WAIT
+        grew: dict[str, int] = {}
+        while time.monotonic() < deadline and not self.stopped():
+            after = probe.call("counters")
+            grew = {f"{name}.{key}": value - before.get(name, {}).get(key, 0)
+                    for name, values in after["status"].items() for key, value in values.items()
+                    if key.startswith(cc.HOSTILE_COUNTERS) and value > before.get(name, {}).get(key, 0)}
+            # every node that reports counters spoke after the message: what grew is all there is to see
+            if grew and all(t > res.injected + 1.0 for t in after["heard"].values()):
+                break
+            self.pause(0.3)
+        res.accounted = grew
+
+    # -- overlapping faults -------------------------------------------------------------------
+    def _masters_down(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        assert self.sim is not None
+        robots = [f.robot, f.other]
+        res.injected = _now()
+        for r in robots:
+            self.sim.stop_master(r, crash=f.crash)
+        self.pause(f.duration)
+        for r in robots:
+            self.sim.start_master_again(r)
+        res.cleared = _now()
+        res.detail = f"both at once ({'SIGKILL' if f.crash else 'SIGINT'})"
+        times = [self.master_recovered(r, res.cleared) for r in robots]
+        self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
+
+    def _cut_master_restart(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """The link (robot, other) is cut; meanwhile the master of ``target`` stops and starts again; then the
+        link comes back. Recovered when the master serves again and the link delivers both ways."""
+        assert self.sim is not None
+        res.injected = _now()
+        self.cut(f.robot, f.other)
+        try:
+            self.pause(1.0)
+            self.sim.stop_master(f.target, crash=True)
+            self.pause(f.duration)
+            self.sim.start_master_again(f.target)
+            self.pause(2.0)
+        finally:
+            self.restore(f.robot, f.other)
+        res.cleared = _now()
+        res.detail = f"master of {f.target} restarted during the cut"
+        times = [self.master_recovered(f.target, res.cleared), self.link_recovered(f.robot, f.other, res.cleared)]
+        self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
+
+    def _partition(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """``robot`` (for a fault aimed at the trip under way: the robot that guides the visitor now) loses the
+        network; longer than ``partner_timeout``, the goal floor's robot may give the trip up (the visitor
+        then asks again)."""
+        assert self.sim is not None
+        robot = f.robot
+        others = [r.name for r in self.building.robots if r.name != robot]
+        res.injected = _now()
+        if self.sim.net is not None:
+            self.sim.net.partition(robot)
+        else:
+            for o in others:
+                self.cut(robot, o)
+        try:
+            self.pause(f.duration)
+        finally:
+            if self.sim.net is not None:
+                self.sim.net.clear_faults(robot)
+            else:
+                for o in others:
+                    self.restore(robot, o)
+        res.cleared = _now()
+        times = [self.link_recovered(robot, o, res.cleared) for o in others]
+        self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
+
+    # -- faults of a real network between separate machines ---------------------------------
+    def _network(self) -> Machines:
+        assert self.sim is not None
+        if self.sim.net is None:
+            raise ChaosError("this fault needs separate machines (--machines)")
+        return self.sim.net
+
+    def _flapping(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """Every link goes down and up for ``duration`` s, each at its own random times."""
+        net = self._network()
+        pairs = [(a.name, b.name) for a, b in self.building.relay_pairs()]
+        down: set[tuple[str, str]] = set()
+        toggles = 0
+        due = {p: time.monotonic() + self.rng.uniform(0.0, self.profile.flap_period_s[1]) for p in pairs}
+        res.injected = _now()
+        end = time.monotonic() + f.duration
+        try:
+            while time.monotonic() < end and not self.stopped():
+                for p, at in due.items():
+                    if time.monotonic() >= at:
+                        (net.uncut if p in down else net.cut)(*p)
+                        down ^= {p}
+                        toggles += 1
+                        due[p] = time.monotonic() + self.rng.uniform(*self.profile.flap_period_s)
+                self.pause(0.1)
+        finally:
+            for p in list(down):
+                net.uncut(*p)
+        res.cleared = _now()
+        res.detail = f"{toggles} link changes on {len(pairs)} links"
+        self._recovery(res, self.all_links_recovered([r.name for r in self.building.robots], res.cleared))
+
+    def _one_way(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """Packets from ``robot`` to ``other`` dropped, the other way delivered."""
+        net = self._network()
+        res.injected = _now()
+        net.drop(f.robot, f.other)
+        try:
+            self.pause(f.duration)
+        finally:
+            net.undrop(f.robot, f.other)
+        res.cleared = _now()
+        res.detail = f"{f.robot} -> {f.other} dropped, {f.other} -> {f.robot} delivered"
+        self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
+
+    def _lossy(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """A share ``target`` of the packets between ``robot`` and ``other`` dropped, each way, at random."""
+        net = self._network()
+        p = float(f.target)
+        res.injected = _now()
+        net.drop(f.robot, f.other, p)
+        net.drop(f.other, f.robot, p)
+        try:
+            self.pause(f.duration)
+        finally:
+            net.undrop(f.robot, f.other, p)
+            net.undrop(f.other, f.robot, p)
+        res.cleared = _now()
+        res.detail = f"{100 * p:.0f} % of the packets dropped each way"
+        self._recovery(res, self.link_recovered(f.robot, f.other, res.cleared))
+
+    def _machine_down(self, f: cc.Fault, res: cc.FaultResult) -> None:
+        """A robot's machine is gone for ``duration`` s (its processes killed, off the network), then starts
+        again from its disk: a robot the trip under way does not use. Recovered when, once its status is
+        published again, every link of it delivers both ways (the time its stack takes to start is
+        reported apart)."""
+        assert self.sim is not None
+        self._network()
+        busy = set(self.active_robots())
+        robot = self.rng.choice([r.name for r in self.building.robots if r.name not in busy])
+        res.fault = cc.Fault(f.kind, robot, duration=f.duration, gap=f.gap)
+        res.injected = _now()
+        self.killed.update(self.sim.machine_off(robot))
+        try:
+            self.pause(f.duration)
+        finally:
+            self.sim.machine_on(robot)
+        booted = _now()
+        others = [r.name for r in self.building.robots if r.name != robot]
+        up = self.first_everywhere("status", robot, [robot], booted, timeout=120.0)
+        res.cleared = up if up is not None else _now()
+        res.detail = f"back on the network; its stack published its status {res.cleared - booted:.1f} s later"
+        times = [self.link_recovered(robot, o, res.cleared) for o in others]
+        self._recovery(res, None if any(t is None for t in times) else max(times))  # type: ignore[type-var]
 
     # -- the whole run ----------------------------------------------------------------------
     def run_faults(self) -> None:
@@ -691,19 +899,37 @@ class ChaosRun:
         return crashes, tbs
 
     def hostile_counters(self) -> dict[str, int]:
-        """Sum of every ``rejected*`` / ``duplicate*`` counter on every master's /diagnostics."""
+        """Sum of every ``rejected_*`` counter on every master's /diagnostics, by kind of node."""
         total: dict[str, int] = {}
         for p in self.probes.values():
             with contextlib.suppress(ChaosError):
-                for name, values in p.call("diag", wait=2.5)["status"].items():
+                for name, values in p.call("counters")["status"].items():
                     who = name.split(":")[0]
                     for k, v in values.items():
-                        if k == "rejected" or k.startswith("rejected_"):
-                            with contextlib.suppress(ValueError):
-                                if int(v):
-                                    key = f"{who}.{k}"
-                                    total[key] = total.get(key, 0) + int(v)
+                        if k.startswith("rejected_") and v:
+                            total[f"{who}.{k}"] = total.get(f"{who}.{k}", 0) + v
         return total
+
+    def relay_counters(self) -> dict[str, int]:
+        """What the relay ends of every robot did, summed: link losses, events resent, acknowledged on
+        reconnection, duplicates suppressed (the journal and acknowledgements at work)."""
+        total: dict[str, int] = {}
+        for p in self.probes.values():
+            with contextlib.suppress(ChaosError):
+                for name, values in p.call("counters")["status"].items():
+                    if name.startswith("relay "):
+                        for k, v in values.items():
+                            if k in cc.RELAY_COUNTERS:
+                                total[k] = total.get(k, 0) + v
+        return total
+
+
+def _lookup_node(master_uri: str, node: str) -> str:
+    try:
+        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/chaos", node)
+    except (OSError, xmlrpc.client.Error):
+        return ""
+    return str(uri) if code == 1 else ""
 
 
 def _load_tour(path: Path, building: Building) -> Tour:
@@ -731,6 +957,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="output folder; the run goes to OUT/<date>-<time>-chaos-<tour>-seed<N>/")
     p.add_argument("--timeout", type=float, default=None, help="wall seconds before giving up")
     p.add_argument("--net", type=int, default=None, metavar="N", help="masters on 127.N.0.11... (tests)")
+    p.add_argument("--machines", action="store_true",
+                   help="every robot a separate machine (network namespace, firewall, clock off by up to 5 "
+                        "minutes) and the faults of a real network between them")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object (progress on stderr)")
     return p.parse_args(argv)
 
@@ -746,13 +975,16 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         raise ChaosError(f"--speed {args.speed:g}: expected a factor in (0, 50]")
     if args.net is not None and not 1 <= args.net <= 254:
         raise ChaosError(f"--net {args.net}: expected 1..254")
+    if args.net is not None and args.machines:
+        raise ChaosError("--net and --machines exclude each other (separate machines have addresses of their own)")
     if shutil.which("iptables") is None:
         raise ChaosError("iptables is not installed (make setup installs it): link cuts need it")
     run = ChaosRun(args, building, tour, out, lambda: bool(stop))
     counts = {k: sum(1 for f in run.schedule if f.kind == k) for k in cc.KINDS}
     print(f"GidaBot chaos: seed {args.seed}, tour {tour.file_name} ({len(tour.goals)} goals), speed {args.speed:g}x, "
-          f"{len(run.schedule)} faults ({', '.join(f'{k} {v}' for k, v in counts.items() if v)})\n"
-          f"run folder: {run.run_dir}", file=out, flush=True)
+          f"{len(run.schedule)} faults ({', '.join(f'{k} {v}' for k, v in counts.items() if v)})"
+          + (f"; separate machines, clocks {', '.join(f'{r} {o:+g} s' for r, o in run.clock_offsets.items())}"
+             if args.machines else "") + f"\nrun folder: {run.run_dir}", file=out, flush=True)
     error = ""
     try:
         run.start()
@@ -772,8 +1004,9 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         error = str(err)
         print(f"gidabot chaos: {err}", file=sys.stderr)
     finally:
-        run.cuts.clear_all()
+        run.clear_network_faults()
         hostile = run.hostile_counters() if run.probes and not error else {}
+        relays = run.relay_counters() if run.probes and not error else {}
         run.mark_logs()
         began = time.monotonic()
         for p in run.probes.values():
@@ -784,10 +1017,10 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                     + (f"; ignored SIGINT: {', '.join(run.sim.forced)}" if run.sim.forced else ""))
     if run.sim is None or run.sim.building is None:
         return EXIT_FAILED
-    return finish(run, hostile, error, out)
+    return finish(run, hostile, relays, error, out)
 
 
-def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> int:
+def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error: str, out: TextIO) -> int:
     args = run.args
     assert run.sim is not None and run.sim.building is not None
     records = [rec for p in run.probes.values() for rec in p.records()]
@@ -798,11 +1031,12 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
         crashes += [f"ignored SIGINT at shutdown: {n}" for n in run.sim.forced]
     lost, answered, _ = book.partner_notices()
     outcome = error or run.outcome()
-    events = [r for r in records if r.get("k") == "event" and isinstance(r.get("s"), float) and r.get("s", 0) > 0
-              and r.get("tour_file") == run.tour.file_name and r.get("m") == r.get("robot")]
-    sim_s = max(e["s"] for e in events) - min(e["s"] for e in events) if events else 0.0
+    # the tour's length on one clock (the host's, as the probes saw it): the robots' clocks may disagree
+    events = [r for r in records if r.get("k") == "event" and r.get("tour_file") == run.tour.file_name
+              and r.get("m") == r.get("robot")]
     walls = [float(e.get("w", 0.0)) for e in events]
     wall_s = max(walls) - min(walls) if walls else 0.0
+    sim_s = wall_s * float(args.speed)
     run_json = {"building": "building/building.yaml", "tour": run.tour.file_name, "goals": len(run.tour.goals),
                 "completed": run.watch.last_step_done + 1, "outcome": outcome, "speed": args.speed, "seed": args.seed,
                 "sim_s": round(sim_s, 1), "wall_s": round(wall_s, 1),
@@ -810,19 +1044,29 @@ def finish(run: ChaosRun, hostile: dict[str, int], error: str, out: TextIO) -> i
                             "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots]}
     (run.run_dir / "run.json").write_text(json.dumps(run_json, indent=2), encoding="utf-8")
     bags: dict[str, tuple[int, int]] = {}
-    with contextlib.suppress(ReportError):
+    bags_error = ""
+    try:
         rep_run, rep_records = report.load_run(run.run_dir)
         rep = report.analyse(rep_records, rep_run)
         bags = {r["name"]: (r["received"], r["processed"]) for r in rep["robots"]}
+        bad = {f"{r.name} {topic}": n for r in rep_records for topic, n in r.bad.items() if n}
+        if bad:
+            bags_error = "unreadable messages: " + ", ".join(f"{k} {v}" for k, v in bad.items())
         (run.run_dir / "report.json").write_text(json.dumps(rep, indent=2), encoding="utf-8")
+    except ReportError as err:
+        bags_error = str(err)
+    steps = book.visit(fates, run.tour.file_name, len(run.tour.goals))
+    expected = cc.expected_table3(run.building, run.trips)
     result = cc.ChaosResult(
         seed=args.seed, tour=run.tour.file_name, speed=args.speed, faults=run.results, fates=fates,
-        duplicated_cancels=book.duplicated_cancels(), table3_expected=cc.expected_table3(run.building, run.trips),
+        duplicated_cancels=book.duplicated_cancels(), table3_expected=expected,
         table3_measured=cc.fold_table3(run.building, book.table3(fates)),
         table3_bags=cc.fold_table3(run.building, bags) if bags else {}, tours_intact=False, tours_problems=[],
         crashes=crashes, tracebacks=tbs, hostile_rejected=hostile, partner_lost=lost, partner_answered=answered,
         tour_completed=book.tour_finished(run.tour.file_name, len(run.tour.goals) - 1), outcome=outcome,
-        run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s)
+        run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s, steps=steps,
+        table3_bags_expected=book.table3_with(expected, fates, book.retried_goals(steps)), bags_error=bags_error,
+        machines=bool(args.machines), relay_counters=relays)
     problems = run.tours_problems() if run.tours_before else ["the tour directories were never read"]
     result.tours_intact, result.tours_problems = not problems, problems
     doc = result.to_json()

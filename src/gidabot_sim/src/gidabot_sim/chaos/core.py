@@ -55,6 +55,8 @@ from gidabot_navigation.interface import (
     PARTNER_LOST,
     PARTNER_OFFLINE,
     PHASE_NAMES,
+    REASON_VISITOR,
+    REJECTED,
     TIMEOUT,
     TOUR_FINISHED,
     TOUR_STEP_DONE,
@@ -63,6 +65,7 @@ from gidabot_navigation.interface import (
     Topic,
     global_name,
     is_relay_end,
+    phase_name,
 )
 from gidabot_navigation.tours.tour_file import Tour
 
@@ -75,8 +78,22 @@ NODE_RESTART = "node_restart"                 # goal_manager / multirobot_naviga
 FREEZE = "process_freeze"                     # SIGSTOP, then SIGCONT
 CORRIDOR = "corridor_blocked"                 # a person stands in a robot's way (sim obstacle), then leaves
 HOSTILE = "hostile_message"                   # one hostile message on one master
-KINDS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR, MASTER_RESTART, NODE_RESTART, FREEZE, CORRIDOR, HOSTILE)
+# faults that overlap (full profile)
+MASTERS_DOWN = "masters_down"                 # two robots' masters down at once, then started again
+CUT_MASTER_RESTART = "link_cut_master_restart"  # a link cut while the master of one of its robots restarts
+PARTITION = "partition"                       # a robot loses the network (every packet in or out dropped)
+# the faults of a real network between separate machines (gidabot chaos --machines)
+FLAPPING = "links_flapping"                   # every link goes down and up, each at its own random times
+ONE_WAY = "one_way_loss"                      # packets from one robot to another dropped, the way back delivered
+LOSSY = "lossy_link"                          # a share of the packets between two robots dropped at random
+MACHINE_DOWN = "machine_down"                 # a robot's machine gone (its processes stopped, off the network)
+CLOCK_OFFSET = "clock_offset"                 # a robot's clock off by up to 5 minutes, for the whole run
+KINDS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR, MASTER_RESTART, NODE_RESTART, FREEZE, CORRIDOR, HOSTILE,
+         MASTERS_DOWN, CUT_MASTER_RESTART, PARTITION, FLAPPING, ONE_WAY, LOSSY, MACHINE_DOWN, CLOCK_OFFSET)
 LINK_CUTS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR)
+MACHINES_ONLY = (FLAPPING, ONE_WAY, LOSSY, MACHINE_DOWN, CLOCK_OFFSET)
+# phases and cancel reasons by which the system itself ends a trip (the visitor did not choose it)
+SYSTEM_ENDS = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE})
 
 MASTER = "master"                             # freeze target: the robot's ROS master
 FREEZE_TARGETS = (*GUIDING_NODES, MASTER, Node.SIM, Node.MOVE_BASE)
@@ -87,6 +104,11 @@ VISIBLE_FAILURES = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, CANCELLED_H
 GUIDING_CALLERS = tuple(global_name(n) for n in GUIDING_NODES)
 
 RECOVERY_TARGET_S = 5.0
+# counters by which a node says it refused (or, for a cancel of a goal never seen, kept aside) a message
+HOSTILE_COUNTERS = ("rejected_", "cancel_unknown")
+# what the relay ends did (their /diagnostics): links lost, events sent again on a new connection, events the
+# peer said at reconnection it had stored (their acknowledgement was lost), duplicates the receiver dropped
+RELAY_COUNTERS = ("link_losses", "connections", "resent", "acked_on_reconnect", "duplicates_suppressed", "dropped")
 
 
 # ---------------------------------------------------------------------------
@@ -212,14 +234,46 @@ class Profile:
     freeze_s: tuple[float, float] = (1.0, 8.0)
     corridor_s: tuple[float, float] = (5.0, 20.0)
     gap_s: tuple[float, float] = (3.0, 7.0)
+    # overlapping faults
+    masters_down: int = 1                  # two masters down at once
+    cut_master_restarts: int = 1           # a link cut during a master restart
+    long_partitions: int = 1               # at the trip under way, longer than partner_timeout
+    long_partition_s: float = 150.0        # > partner_timeout (120 s): the trip may be given up, then asked again
+    # separate machines only
+    partitions: int = 2
+    partition_s: tuple[float, float] = (5.0, 40.0)
+    flaps: int = 1
+    flap_s: tuple[float, float] = (20.0, 40.0)       # how long every link flaps
+    flap_period_s: tuple[float, float] = (0.5, 4.0)  # each link stays up, or down, this long
+    one_way: int = 2
+    one_way_s: tuple[float, float] = (5.0, 30.0)
+    lossy: int = 1
+    lossy_s: tuple[float, float] = (10.0, 30.0)
+    loss: float = 0.3                      # share of the packets a lossy link drops (each way)
+    machine_downs: int = 1
+    machine_down_s: float = 300.0          # > every partner timeout
+    clock_offset_s: float = 300.0          # the robots' clocks spread over +-this (s)
 
 
 PROFILES = {
     "full": Profile(),
     "quick": Profile(iptables_cuts=1, relay_end_cuts=1, supervisor_kills=1, master_restarts=1, node_restarts=2,
                      freezes=1, corridors=1, hostile=6, cut_min_s=2.0, cut_max_s=6.0, master_down_s=(1.0, 2.0),
-                     freeze_s=(2.0, 3.0), corridor_s=(4.0, 6.0), gap_s=(2.0, 3.0)),
+                     freeze_s=(2.0, 3.0), corridor_s=(4.0, 6.0), gap_s=(2.0, 3.0), masters_down=1,
+                     cut_master_restarts=1, long_partitions=0, partitions=1, partition_s=(3.0, 6.0), flaps=1,
+                     flap_s=(6.0, 8.0), one_way=1, one_way_s=(3.0, 5.0), lossy=1, lossy_s=(4.0, 6.0),
+                     machine_downs=1, machine_down_s=15.0),
 }
+
+
+def clock_offsets(seed: int, building: Building, profile: Profile) -> dict[str, float]:
+    """The robots' wall-clock offsets of a run on separate machines: spread evenly over +-``clock_offset_s``
+    (the first and last of the spread at the extremes), in an order drawn from the seed."""
+    names = [r.name for r in building.robots]
+    rng = random.Random(seed * 7919 + 1)
+    rng.shuffle(names)
+    n, span = len(names), profile.clock_offset_s
+    return {name: round(-span + 2 * span * k / (n - 1), 1) if n > 1 else 0.0 for k, name in enumerate(names)}
 
 
 @dataclass(frozen=True)
@@ -249,12 +303,12 @@ def _log_uniform(rng: random.Random, low: float, high: float) -> float:
     return math.exp(rng.uniform(math.log(low), math.log(high)))
 
 
-def make_schedule(seed: int, building: Building, profile: Profile) -> list[Fault]:
-    """The faults of one run, in order (deterministic for a seed and a building)."""
+def make_schedule(seed: int, building: Building, profile: Profile, machines: bool = False) -> list[Fault]:
+    """The faults of one run, in order (deterministic for a seed, a building and ``machines``: the faults
+    of a real network between separate machines are added only then)."""
     rng = random.Random(seed)
     robots = [r.name for r in building.robots]
     pairs = [(a.name, b.name) for a, b in building.relay_pairs()]
-    owners = sorted({a for a, _ in pairs}, key=robots.index)
     p = profile
     cuts = p.iptables_cuts + p.relay_end_cuts
     durations = [_log_uniform(rng, p.cut_min_s, p.cut_max_s) for _ in range(cuts)]
@@ -271,7 +325,7 @@ def make_schedule(seed: int, building: Building, profile: Profile) -> list[Fault
         length = round(durations[p.iptables_cuts + i], 1)
         faults.append(Fault(CUT_RELAY_END, a, b, target=rng.choice("ab"), duration=length))
     for _ in range(p.supervisor_kills):
-        faults.append(Fault(CUT_SUPERVISOR, rng.choice(owners)))
+        faults.append(Fault(CUT_SUPERVISOR, rng.choice(robots)))
     masters = robots if p.master_restarts < 0 else rng.sample(robots, min(p.master_restarts, len(robots)))
     for r in masters:
         faults.append(Fault(MASTER_RESTART, r, duration=round(rng.uniform(*p.master_down_s), 1),
@@ -283,6 +337,29 @@ def make_schedule(seed: int, building: Building, profile: Profile) -> list[Fault
                             duration=round(rng.uniform(*p.freeze_s), 1)))
     for _ in range(p.corridors):
         faults.append(Fault(CORRIDOR, "", duration=round(rng.uniform(*p.corridor_s), 1)))
+    for _ in range(p.masters_down):
+        a, b = rng.sample(robots, 2)
+        faults.append(Fault(MASTERS_DOWN, a, b, duration=round(rng.uniform(*p.master_down_s), 1),
+                            crash=rng.random() < 0.5))
+    for _ in range(p.cut_master_restarts):
+        a, b = rng.choice(pairs)
+        faults.append(Fault(CUT_MASTER_RESTART, a, b, target=rng.choice((a, b)),
+                            duration=round(rng.uniform(*p.master_down_s), 1)))
+    for _ in range(p.long_partitions):
+        faults.append(Fault(PARTITION, rng.choice(robots), duration=p.long_partition_s, active=True))
+    if machines:
+        for _ in range(p.partitions):
+            faults.append(Fault(PARTITION, rng.choice(robots), duration=round(rng.uniform(*p.partition_s), 1)))
+        for _ in range(p.flaps):
+            faults.append(Fault(FLAPPING, "", duration=round(rng.uniform(*p.flap_s), 1)))
+        for _ in range(p.one_way):
+            a, b = rng.sample(robots, 2)
+            faults.append(Fault(ONE_WAY, a, b, duration=round(rng.uniform(*p.one_way_s), 1)))
+        for _ in range(p.lossy):
+            a, b = rng.choice(pairs)
+            faults.append(Fault(LOSSY, a, b, target=f"{p.loss:g}", duration=round(rng.uniform(*p.lossy_s), 1)))
+        for _ in range(p.machine_downs):   # the robot is chosen when injected: one the trip under way does not use
+            faults.append(Fault(MACHINE_DOWN, "", duration=p.machine_down_s))
     rng.shuffle(faults)
     names = [h.name for h in HOSTILE_MESSAGES]
     rng.shuffle(names)
@@ -292,7 +369,7 @@ def make_schedule(seed: int, building: Building, profile: Profile) -> list[Fault
     # half the link cuts, every node restart and freeze of a guiding node hit the trip under way
     out, cut = [], 0
     for f in faults:
-        active = f.kind == NODE_RESTART or (f.kind == FREEZE and f.target in GUIDING_NODES)
+        active = f.kind == NODE_RESTART or (f.kind == FREEZE and f.target in GUIDING_NODES) or f.active
         if f.kind in (CUT_IPTABLES, CUT_RELAY_END):
             active, cut = cut % 2 == 0, cut + 1
         out.append(Fault(f.kind, f.robot, f.other, f.target, f.duration,
@@ -305,7 +382,7 @@ def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_
     total = 0.0
     for f in faults:
         total += f.gap + f.duration
-        if f.kind in (CUT_SUPERVISOR, NODE_RESTART):
+        if f.kind in (CUT_SUPERVISOR, NODE_RESTART, MACHINE_DOWN):
             total += 6.0
         if f.kind == CORRIDOR:
             total += corridor_wait_s
@@ -379,10 +456,42 @@ class GoalFate:
     cancel_reasons: list[str] = field(default_factory=list)
     visible_failures: list[str] = field(default_factory=list)
     duplicated: list[str] = field(default_factory=list)
+    system_ended: bool = False        # a robot ended it (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE): see StepFate
 
     @property
     def lost(self) -> bool:
-        return not self.cancelled and (not self.completed or not set(self.involved) <= set(self.processed_by))
+        """Neither ended by anyone nor completed (by every robot it involves): dropped without a word."""
+        return not self.cancelled and not self.system_ended and \
+            (not self.completed or not set(self.involved) <= set(self.processed_by))
+
+
+@dataclass
+class StepFate:
+    """What became of one thing the visitor asked for: a tour step (or the single target, step -1)."""
+
+    step: int
+    goals: list[str] = field(default_factory=list)          # the goals made for it, in order
+    completed_by: str = ""                                  # the goal that completed it
+    system_ends: list[str] = field(default_factory=list)    # goals the system ended: "uid: why"
+    visitor_ends: list[str] = field(default_factory=list)   # goals the visitor cancelled
+    refusals: int = 0                                       # requests refused with nothing queued (asked again)
+
+    @property
+    def passed(self) -> bool:
+        """Completed (perhaps by a retry after the system ended a trip), or ended because the visitor chose so."""
+        return bool(self.completed_by) or bool(self.visitor_ends)
+
+    def describe(self) -> str:
+        label = f"step {self.step + 1}" if self.step >= 0 else "the target"
+        if self.completed_by:
+            how = f"completed by {self.completed_by}"
+        elif self.visitor_ends:
+            how = f"ended by the visitor ({'; '.join(self.visitor_ends)})"
+        else:
+            how = "NOT completed" + ("" if self.goals else " (no goal was ever made for it)")
+        ends = f"; ended by the system: {'; '.join(self.system_ends)}" if self.system_ends else ""
+        refused = f"; {self.refusals} request(s) refused and asked again" if self.refusals else ""
+        return f"{label}: {how}{ends}{refused}"
 
 
 class Bookkeeping:
@@ -456,13 +565,17 @@ class Bookkeeping:
                             involved)
             completes = goal_robot or (start_robot if math.isclose(a, b) else "")
             accepted_by: dict[str, set[str]] = defaultdict(set)
-            finals: dict[str, set[str]] = defaultdict(set)
+            # a robot answers each proposal of a leg (attempt) and ends each leg it served once
+            answers: dict[tuple[str, str, int], set[str]] = defaultdict(set)
+            finals: dict[tuple[str, str], set[str]] = defaultdict(set)
             for ev in by_goal.get(uid, []):
                 robot, phase = str(ev.get("robot")), int(ev.get("phase", -1))
+                leg = str(ev.get("leg", ""))
                 if phase == ACCEPTED:
                     accepted_by[robot].add(str(ev.get("uid")))
+                    answers[(robot, leg, int(ev.get("attempt", 0)))].add(str(ev.get("uid")))
                 if phase in FINAL_PHASES:
-                    finals[robot].add(str(ev.get("uid")))
+                    finals[(robot, leg)].add(str(ev.get("uid")))
                 if phase in COMPLETIONS and completes and robot == completes:
                     fate.completed = True
                 if phase in (NO_ROBOT_ON_FLOOR, TOUR_FINISHED) and not goal_robot and start_robot \
@@ -470,21 +583,85 @@ class Bookkeeping:
                     fate.completed = True           # sent to a floor without robot: found alone
                 if phase in VISIBLE_FAILURES:
                     fate.visible_failures.append(f"{robot}: phase {phase}")
+                if phase in SYSTEM_ENDS:
+                    fate.system_ended = True
             fate.processed_by = sorted(set(accepted_by) & set(involved), key=lambda r: list(self.robots).index(r))
             fate.cancel_reasons = cancels.get(uid, [])
             fate.cancelled = bool(fate.cancel_reasons)
-            for robot, uids in accepted_by.items():
+            for (robot, leg, attempt), uids in answers.items():
                 if len(uids) > 1:
-                    fate.duplicated.append(f"{robot} accepted it {len(uids)} times")
-            for robot, uids in finals.items():
+                    fate.duplicated.append(f"{robot} accepted it {len(uids)} times"
+                                           + (f" (its {leg} leg, attempt {attempt})" if leg else ""))
+            for (robot, leg), uids in finals.items():
                 if len(uids) > 1:
-                    fate.duplicated.append(f"{robot} ended it {len(uids)} times")
+                    fate.duplicated.append(f"{robot} ended it {len(uids)} times" + (f" (its {leg} leg)" if leg else ""))
             per_master = Counter((str(r.get("m")), r.get("attempt", 0)) for r in self.goal_records[uid])
             for (master, attempt), n in per_master.items():
                 if n > 1:
                     fate.duplicated.append(f"attempt {attempt} delivered {n} times on {master}'s master")
             fates[uid] = fate
         return fates
+
+    def visit(self, fates: dict[str, GoalFate], tour_file: str, steps: int) -> list[StepFate]:
+        """What became of each of the ``steps`` steps of tour ``tour_file`` (``tour_file`` "": one target) the
+        visitor asked for: the goals made for it, which one completed it, the trips the system ended (a
+        final phase UNREACHABLE, TIMEOUT or PARTNER_OFFLINE, or a cancel for another reason than the
+        visitor's), and the requests refused with nothing queued."""
+        out = {k: StepFate(k) for k in (range(steps) if tour_file else [-1])}
+        goals = self.accepted()
+        by_goal: dict[str, list[dict[str, Any]]] = defaultdict(list)
+        for ev in self.events.values():
+            by_goal[str(ev.get("goal_uid", ""))].append(ev)
+        reasons: dict[str, list[tuple[str, str]]] = defaultdict(list)     # goal uid -> (cancel origin, reason)
+        for recs in self.cancel_records.values():
+            rec = recs[0]
+            if rec.get("origin") in self.robots:
+                reasons[str(rec.get("goal_uid"))].append((str(rec.get("origin")), str(rec.get("reason"))))
+        order = sorted(goals, key=lambda u: min(float(r.get("w", 0.0)) for r in self.goal_records[u]))
+        for uid in order:
+            g = goals[uid]
+            if str(g.get("tour_file", "")) != tour_file:
+                continue
+            step = out.get(int(g.get("tour_step", -1)) if tour_file else -1)
+            if step is None:
+                continue
+            step.goals.append(uid)
+            if fates.get(uid) is not None and fates[uid].completed and not step.completed_by:
+                step.completed_by = uid
+            for ev in sorted(by_goal.get(uid, []), key=lambda e: float(e.get("w", 0.0))):
+                if int(ev.get("phase", -1)) in SYSTEM_ENDS:
+                    step.system_ends.append(f"{uid}: {phase_name(int(ev['phase']))} from {ev.get('robot')}"
+                                            f"{' (' + str(ev.get('detail'))[:80] + ')' if ev.get('detail') else ''}")
+                    break
+            for origin, reason in reasons.get(uid, []):
+                if reason == REASON_VISITOR:
+                    step.visitor_ends.append(f"{uid}: cancelled at {origin}")
+                elif not any(e.startswith(f"{uid}:") for e in step.system_ends):
+                    step.system_ends.append(f"{uid}: cancelled by {origin} ({reason})")
+        for ev in self.events.values():          # refusals answer a request: no goal was made
+            if int(ev.get("phase", -1)) in (PARTNER_OFFLINE, REJECTED) and not ev.get("goal_uid") \
+                    and str(ev.get("tour_file", "")) == tour_file:
+                step = out.get(int(ev.get("tour_step", -1)) if tour_file else -1)
+                if step is not None:
+                    step.refusals += 1
+        return list(out.values())
+
+    def retried_goals(self, steps: list[StepFate]) -> list[str]:
+        """Goals of completed steps that the system ended before a retry completed the step (each is one
+        more goal in Table 3 than a run without faults has)."""
+        return [uid for st in steps if st.completed_by for uid in st.goals if uid != st.completed_by]
+
+    def table3_with(self, expected: dict[str, tuple[int, int]], fates: dict[str, GoalFate],
+                    extra: list[str]) -> dict[str, tuple[int, int]]:
+        """``expected`` (the rows of :func:`table3_rows`) plus the goals ``extra`` (trips the system ended and a
+        retry replaced): one more received on every master that got each, one more processed by every robot
+        that accepted each; a row of several robots counts as :func:`fold_table3` does."""
+        more = {name: (sum(any(r.get("m") == name for r in self.goal_records.get(uid, [])) for uid in extra),
+                       sum(uid in fates and name in fates[uid].processed_by for uid in extra))
+                for name in self.robots}
+        added = fold_table3(self.building, more)
+        return {row: (rec + added.get(row, (0, 0))[0], proc + added.get(row, (0, 0))[1])
+                for row, (rec, proc) in expected.items()}
 
     def duplicated_cancels(self) -> dict[str, list[str]]:
         """Cancel uids (of accepted goals) delivered more than once on one master."""
@@ -669,11 +846,14 @@ class FaultResult:
     recovered: bool = True
     skipped: str = ""                  # why it was not injected
     detail: str = ""
+    accounted: dict[str, int] | None = None   # hostile messages: rejection counters that grew (node.counter: +n)
 
     def row(self) -> dict[str, Any]:
         d = asdict(self.fault)
         d.update(injected=self.injected, cleared=self.cleared, recovery_s=self.recovery_s, recovered=self.recovered,
                  skipped=self.skipped, detail=self.detail)
+        if self.accounted is not None:
+            d["accounted"] = self.accounted
         return d
 
 
@@ -700,6 +880,11 @@ class ChaosResult:
     run_folder: str
     wall_s: float = 0.0
     sim_s: float = 0.0
+    steps: list[StepFate] = field(default_factory=list)            # what the visitor asked for, and its fate
+    table3_bags_expected: dict[str, tuple[int, int]] = field(default_factory=dict)   # expected + retried trips
+    bags_error: str = ""                                           # the bags could not be read
+    machines: bool = False
+    relay_counters: dict[str, int] = field(default_factory=dict)   # RELAY_COUNTERS summed over every relay end
 
     # -- derived --------------------------------------------------------------------------
     def injected(self) -> list[FaultResult]:
@@ -734,6 +919,13 @@ class ChaosResult:
     def node_crashes(self) -> int:
         return len(self.crashes) + sum(self.tracebacks.values())
 
+    def unaccounted_hostile(self) -> list[str]:
+        """Hostile messages injected that no node of the master they were sent to rejected and counted."""
+        return [f.fault.label() for f in self.injected() if f.fault.kind == HOSTILE and not f.accounted]
+
+    def unfinished_steps(self) -> list[StepFate]:
+        return [st for st in self.steps if not st.passed]
+
     def failures(self) -> list[str]:
         """Every target missed (empty: the run passed)."""
         out = []
@@ -747,8 +939,18 @@ class ChaosResult:
         mr = self.max_recovery()
         if mr is not None and mr > RECOVERY_TARGET_S:
             out.append(f"a recovery took {'too long (not recovered)' if math.isinf(mr) else f'{mr:.1f} s'}")
+        if self.unfinished_steps():
+            out.append(f"{len(self.unfinished_steps())} request(s) of the visitor neither completed nor ended by the "
+                       "visitor: " + "; ".join(st.describe() for st in self.unfinished_steps()))
         if self.table3_measured != self.table3_expected:
             out.append("Table 3 counts differ from the fault-free tour")
+        if self.bags_error:
+            out.append(f"the bags could not be read: {self.bags_error}")
+        elif self.table3_bags != self.table3_bags_expected:
+            out.append("Table 3 from the bags differs from the tour's (with the retried trips)")
+        if self.unaccounted_hostile():
+            out.append(f"{len(self.unaccounted_hostile())} hostile message(s) not rejected and counted by any node: "
+                       + "; ".join(self.unaccounted_hostile()))
         if not self.tours_intact:
             out.append("a tour directory changed")
         if self.partner_answered < self.partner_lost:
@@ -764,30 +966,40 @@ class ChaosResult:
         rec = {k: {"n": len(v), "max_s": round(max(v), 2), "median_s": round(statistics.median(v), 2)}
                for k, v in self.recoveries().items()}
         mr = self.max_recovery()
+        table = {k: list(v) for k, v in self.table3_bags.items()}
         return {
-            "seed": self.seed, "tour": self.tour, "speed": self.speed, "faults": self.counts(),
+            "seed": self.seed, "tour": self.tour, "speed": self.speed, "machines": self.machines,
+            "faults": [f.row() for f in self.faults], "fault_counts": self.counts(),
             "faults_injected": len(self.injected()), "faults_planned": len(self.faults),
-            "goals_accepted": len(self.fates),
-            "goals_completed": sum(1 for f in self.fates.values() if f.completed),
-            "goals_cancelled": sum(1 for f in self.fates.values() if f.cancelled),
-            "goals_lost": len(self.lost()), "goals_duplicated": len(self.duplicated()),
+            "accepted": len(self.fates),
+            "completed": sum(1 for f in self.fates.values() if f.completed),
+            "cancelled": sum(1 for f in self.fates.values() if f.cancelled),
+            "lost": len(self.lost()), "duplicated": len(self.duplicated()),
             "cancels_duplicated": len(self.duplicated_cancels),
             "max_recovery_s": None if mr is None else (round(mr, 2) if math.isfinite(mr) else "not recovered"),
             "recovery": rec,
+            "requests": [{"step": st.step, "passed": st.passed, "goals": st.goals, "completed_by": st.completed_by,
+                          "system_ends": st.system_ends, "visitor_ends": st.visitor_ends, "refusals": st.refusals}
+                         for st in self.steps],
+            "ended_by_system": [e for st in self.steps for e in st.system_ends],
             "node_crashes": self.node_crashes(), "crashes": self.crashes, "tracebacks": self.tracebacks,
+            "table3_bags": table,
             "table3": {"expected": {k: list(v) for k, v in self.table3_expected.items()},
                        "measured": {k: list(v) for k, v in self.table3_measured.items()},
-                       "bags": {k: list(v) for k, v in self.table3_bags.items()},
+                       "bags": table, "bags_expected": {k: list(v) for k, v in self.table3_bags_expected.items()},
+                       "bags_error": self.bags_error,
                        "unchanged": self.table3_measured == self.table3_expected},
             "tours_intact": self.tours_intact, "tours_problems": self.tours_problems,
             "hostile_rejected": self.hostile_rejected,
+            "hostile_unaccounted": self.unaccounted_hostile(),
+            "relay_counters": self.relay_counters,
             "partner_lost": self.partner_lost, "partner_lost_answered": self.partner_answered,
             "tour_completed": self.tour_completed, "outcome": self.outcome,
-            "lost": self.lost(), "duplicated": {u: self.fates[u].duplicated for u in self.duplicated()},
+            "lost_goals": self.lost(), "duplicated_goals": {u: self.fates[u].duplicated for u in self.duplicated()},
             "visible_failures": {u: f.visible_failures for u, f in self.fates.items() if f.visible_failures},
             "wall_s": round(self.wall_s, 1), "sim_s": round(self.sim_s, 1),
             "passed": not self.failures(), "failures": self.failures(),
-            "fault_log": [f.row() for f in self.faults], "run_folder": self.run_folder,
+            "run_folder": self.run_folder,
         }
 
     def format(self) -> str:
@@ -819,16 +1031,31 @@ class ChaosResult:
                   f"{self.partner_answered}",
                   "Hostile messages rejected (counters): "
                   + (", ".join(f"{k} {v}" for k, v in sorted(self.hostile_rejected.items())) or "-"),
+                  "Hostile messages, each rejected and counted on the master it was sent to: "
+                  + (", ".join(f"{f.fault.target}@{f.fault.robot} -> "
+                               + (",".join(f"{k} +{v}" for k, v in sorted((f.accounted or {}).items())) or "NOTHING")
+                               for f in self.injected() if f.fault.kind == HOSTILE) or "-"),
+                  "Relay ends (all links, summed): "
+                  + (", ".join(f"{k} {self.relay_counters.get(k, 0)}" for k in RELAY_COUNTERS)
+                     if self.relay_counters else "-"),
+                  "What the visitor asked for: "
+                  + (f"{sum(st.passed for st in self.steps)} of {len(self.steps)} completed or ended by the visitor"
+                     if self.steps else "-"),
+                  *[f"  {st.describe()}" for st in self.steps if st.system_ends or st.refusals or not st.passed],
                   f"Node crashes: {self.node_crashes()}{crashes}{tbs}",
                   f"Tour directories intact: {tours}",
-                  "", f"{'Table 3':<14} {'expected':>12} {'measured':>12} {'bags':>12}"]
+                  "", f"{'Table 3':<14} {'expected':>12} {'probes':>12} {'bags':>12} {'bags expected':>14}"]
         for name, exp in self.table3_expected.items():
             m = self.table3_measured.get(name, (0, 0))
             b = self.table3_bags.get(name)
+            be = self.table3_bags_expected.get(name, exp)
             lines.append(f"{name:<14} {exp[0]:>5} / {exp[1]:<4} {m[0]:>5} / {m[1]:<4} "
-                         + (f"{b[0]:>5} / {b[1]:<4}" if b else f"{'-':>12}"))
+                         + (f"{b[0]:>5} / {b[1]:<4}" if b else f"{'-':>12}") + f" {be[0]:>6} / {be[1]:<5}")
+        if self.bags_error:
+            lines.append(f"(bags: {self.bags_error})")
         lines += ["", f"Tour: {self.outcome}"]
         failures = self.failures()
-        lines.append("RESULT: " + ("PASSED (0 lost, 0 duplicated, recoveries within 5 s, Table 3 unchanged, "
-                                   "no crash, tours intact)" if not failures else "FAILED: " + "; ".join(failures)))
+        lines.append("RESULT: " + ("PASSED (every request completed, 0 lost, 0 duplicated, recoveries within 5 s, "
+                                   "Table 3 as expected from probes and bags, every hostile message counted, no "
+                                   "crash, tours intact)" if not failures else "FAILED: " + "; ".join(failures)))
         return "\n".join(lines)

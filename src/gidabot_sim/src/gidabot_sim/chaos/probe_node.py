@@ -13,7 +13,9 @@ It watches what its master delivers and acts on it when the chaos runner asks:
 * measures discovery on a restarted master with a *fresh* ``/gidabot/status``
   subscription (registered after the restart: it is found only through the restarted
   master);
-* reads the ``/diagnostics`` counters of its master's nodes (rejected input).
+* reads the ``/diagnostics`` counters of its master's nodes (rejected input, the relays' link
+  losses and resent events): it keeps the latest values of every status it hears (a subscription
+  made at start), so the runner can tell which node counted a hostile message it just sent.
 
 Driven by JSON lines on stdin, one JSON reply per line on stdout (``ChaosProbeClient``
 in :mod:`gidabot_sim.chaos.chaos`). The probe keeps itself registered across master restarts
@@ -28,7 +30,8 @@ messages apart).
     {"op": "plan"}                                          -> {"pose": [x, y, yaw], "plan": [[x, y], ...], "age"}
     {"op": "pub", "topic": T, "type": "pkg/Type", "msg": {...}, "wait": 3.0}
     {"op": "obstacle", "action": "add"|"remove", "id": I, "x": X, "y": Y, "radius": R}
-    {"op": "diag", "wait": 2.5}                             -> {"status": {name: {key: value}}}
+    {"op": "counters"}                                      -> {"status": {name: {key: int}} (whole numbers),
+                                                                "heard": {name: wall time of its latest status}}
     {"op": "quit"}
 """
 
@@ -81,7 +84,7 @@ def _fill(msg: Any, data: dict[str, Any]) -> None:
 class ChaosProbeNode:
     """See the module docstring. Topics: subscribes ``/gidabot/goals``, ``/gidabot/cancels``,
     ``/gidabot/nav_events``, ``/gidabot/tours``, ``/gidabot/status``, ``/gidabot/pending``, ``amcl_pose``,
-    ``move_base/NavfnROS/plan`` (and ``/diagnostics`` on request); publishes hostile messages on any topic
+    ``move_base/NavfnROS/plan``, ``/diagnostics``; publishes hostile messages on any topic
     it is asked to and ``/sim/obstacle``."""
 
     def __init__(self, robot: str, out_path: str) -> None:
@@ -116,6 +119,11 @@ class ChaosProbeNode:
         ]
         self.status_cls = RobotStatus
         self.status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=200)
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self.counters: dict[str, dict[str, int]] = {}     # status name -> its counters (whole numbers)
+        self.heard: dict[str, float] = {}                  # status name -> wall time of its latest status
+        self.diag_sub = rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, self._on_diag, queue_size=100)
         # publishers of every hostile message, made now: when one is sent, every subscriber (the relays
         # too, which carry it to the other robots) is connected already
         from gidabot_sim.chaos.core import HOSTILE_MESSAGES
@@ -153,7 +161,8 @@ class ChaosProbeNode:
     def _on_event(self, m: Any) -> None:
         self._write("event", m, uid=self._clip(m.uid), robot=self._clip(m.robot, 64), goal_uid=self._clip(m.goal_uid),
                     phase=int(m.phase), s=_num(m.header.stamp.to_sec()), tour_file=self._clip(m.tour_file, 64),
-                    tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), assignee=self._clip(m.assignee, 64),
+                    tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), attempt=int(m.attempt),
+                    assignee=self._clip(m.assignee, 64),
                     location_id=self._clip(m.location_id, 64), detail=self._clip(m.detail, 200))
 
     def _on_tour(self, m: Any) -> None:
@@ -177,6 +186,17 @@ class ChaosProbeNode:
             self.fresh_first.setdefault(self._clip(m.robot, 64), now)
             if m.robot == self.robot:
                 self.own_state = (self._clip(m.state, 32), self._clip(m.current_goal_uid))
+
+    def _on_diag(self, arr: Any) -> None:
+        now = time.time()
+        for st in arr.status:
+            values = {}
+            for kv in st.values:
+                if kv.value.isdigit():
+                    values[kv.key] = int(kv.value)
+            with self.lock:
+                self.counters[st.name] = values
+                self.heard[st.name] = now
 
     def _on_pose(self, m: Any) -> None:
         from gidabot_navigation.building.geometry import quaternion_to_yaw
@@ -229,8 +249,10 @@ class ChaosProbeNode:
             msg["header"] = {"frame_id": "map"}
             self.publish(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", msg, 3.0)
             return {"ok": True}
-        if op == "diag":
-            return {"ok": True, "status": self.diagnostics(float(cmd.get("wait", 2.5)))}
+        if op == "counters":
+            with self.lock:
+                return {"ok": True, "status": {k: dict(v) for k, v in self.counters.items()},
+                        "heard": dict(self.heard)}
         raise ValueError(f"unknown op {op!r}")
 
     def _publisher(self, topic: str, type_: str) -> tuple[Any, type]:
@@ -268,20 +290,6 @@ class ChaosProbeNode:
             if isinstance(header, dict):
                 msg.header.frame_id = str(header.get("frame_id", ""))
         pub.publish(msg)
-
-    def diagnostics(self, wait: float) -> dict[str, dict[str, str]]:
-        from diagnostic_msgs.msg import DiagnosticArray
-
-        latest: dict[str, dict[str, str]] = {}
-
-        def on_diag(arr: Any) -> None:
-            for st in arr.status:
-                latest[st.name] = {kv.key: kv.value for kv in st.values}
-
-        sub = self.rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, on_diag, queue_size=100)
-        time.sleep(wait)
-        sub.unregister()
-        return dict(latest)
 
     def close(self) -> None:
         with self.lock:

@@ -94,6 +94,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="print the CPU seconds each process of the run used (also written to cpu.json)")
     p.add_argument("--net", type=int, default=None, metavar="N",
                    help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
+    p.add_argument("--machines", action="store_true",
+                   help="every robot a separate machine: its own network namespace, address, master and firewall "
+                        "(needs root; docs/deploy.md)")
     return p.parse_args(argv)
 
 
@@ -171,6 +174,8 @@ def _validate(args: argparse.Namespace, building: Building, start_floor: float) 
         raise DemoError(f"--secret {args.secret}: not a file")
     if args.net is not None and not 1 <= args.net <= 254:
         raise DemoError(f"--net {args.net}: expected 1..254")
+    if args.net is not None and args.machines:
+        raise DemoError("--net and --machines exclude each other (separate machines have addresses of their own)")
     if args.gui and not os.environ.get("DISPLAY") and os.environ.get("QT_QPA_PLATFORM") != "offscreen":
         raise DemoError("--gui needs a display (DISPLAY is not set)")
 
@@ -226,7 +231,9 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
           f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, speed {args.speed:g}x"
-          f"{', GUIs' if args.gui else ', headless'}\nrun folder: {run_dir}", file=out, flush=True)
+          f"{', GUIs' if args.gui else ', headless'}"
+          f"{', one machine (network namespace) per robot' if args.machines else ''}\nrun folder: {run_dir}",
+          file=out, flush=True)
 
     addresses = ([robot_address(i, args.net) for i in range(len(building.robots))] if args.net is not None
                  else None)
@@ -234,7 +241,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     progress: Progress | Crowd = Crowd(plans) if plans else \
         Progress(total_goals=total, visit=visit, robots_total=len(building.robots), alone=alone)
     sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
-                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor)
+                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor,
+                            machines=args.machines)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:

@@ -1,7 +1,9 @@
 """Run the whole simulated building on this one machine (a thin layer over the per-robot launches).
 
 Starts one master per robot on the robot's own loopback address (free ports, so
-runs never collide), sets ``/use_sim_time`` on every master, then per robot a
+runs never collide) -- or, with ``machines``, each robot as a separate machine: its own
+network namespace, address, loopback and firewall on a bridge of the run, its own clock
+offset if asked (:mod:`gidabot_sim.runner.machines`) -- sets ``/use_sim_time`` on every master, then per robot a
 ``rosbag record`` of the shared topics and ``launch/robot.launch sim:=true``
 against its master, the simulated visitor (one node per floor, started apart from
 the robots' launches: it plays a person, whom restarting a robot's nodes must not
@@ -15,6 +17,13 @@ A master can be stopped and started again (:meth:`stop_master`,
 with a restarted master, so it would miss publishers that (re)start afterwards;
 that robot's recording then goes on in a new bag part (``<robot>.<n>.bag``; the
 old recorder is stopped a little later), and :attr:`bags` lists every part.
+
+With ``machines``, a robot's master and launch run in its namespace with its clock; the
+tools of the simulated world (the visitor, the recorder, the monitor, the chaos probes) run in
+the namespace of the robot whose master they use, on the host's clock (they are the world, not
+the robot); this process reaches a master through a thread inside its namespace
+(:meth:`SimulatedBuilding.call`). A robot's firewall admits from the other machines only its relay
+ports.
 """
 
 from __future__ import annotations
@@ -32,15 +41,18 @@ import xmlrpc.client
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypeVar
 
 import rospkg
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
 from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
 from gidabot_navigation.resources import resource
-from gidabot_sim.errors import DemoError, ProcessError
-from gidabot_sim.runner.procs import ProcessGroup, ros_env, start_master
+from gidabot_sim.errors import DemoError, MachinesError, ProcessError
+from gidabot_sim.runner.machines import Machines
+from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
 
+T = TypeVar("T")
 # where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
 # GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
 RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
@@ -50,6 +62,7 @@ RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_C
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
+MACHINE_MASTER_PORT = 11311   # every robot's master on a machine of its own: the standard port
 
 
 def node_executable(package: str, name: str) -> str:
@@ -175,6 +188,8 @@ class SimulatedBuilding:
     start_delay: float = 8.0                  # wall s from launching the robots to sim time 0
     visitor: dict[str, object] | None = None  # the simulated visitor's ~params (tour_file, goal_id, way, ...)
     monitor: bool = True                      # the progress monitor (monitor.jsonl)
+    machines: bool = False                    # every robot a machine of its own (network namespaces)
+    clock_offsets: dict[str, float] = field(default_factory=dict)   # machines: robot -> wall clock offset (s)
     building: Building | None = None
     building_file: Path | None = None
     monitor_file: Path | None = None
@@ -190,6 +205,9 @@ class SimulatedBuilding:
         self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
         self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
         self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
+        self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
+        self.off: set[str] = set()               # robots whose machine is off (machine_off)
+        self.ros_offsets: dict[str, float] = {}   # robot -> how far its sim clock is ahead (clock offsets)
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -211,18 +229,38 @@ class SimulatedBuilding:
         base = load_building(self.building_dir)
         if self.addresses is not None and len(self.addresses) != len(base.robots):
             raise DemoError(f"{len(self.addresses)} addresses for {len(base.robots)} robots")
+        names = [r.name for r in base.robots]
+        if self.clock_offsets and not self.machines:
+            raise DemoError("clock offsets need separate machines (machines=True)")
+        if self.machines:
+            try:
+                self.net = Machines(names, clock_offsets=self.clock_offsets).create()
+            except MachinesError as err:
+                raise DemoError(f"cannot make the robots' machines: {err}") from err
+        # sim time: every floor's clock runs from the same start; a robot whose wall clock is off runs its
+        # sim clock ahead by (its offset - the smallest offset): ROS times disagree as its wall clock does
+        low = min([0.0, *self.clock_offsets.values()])
+        self.ros_offsets = {n: float(self.clock_offsets.get(n, 0.0)) - low for n in names}
         uris: dict[str, str] = {}
+        relay_ports: dict[str, int] = {}
         try:
             for i, r in enumerate(base.robots):
-                ip = self.addresses[i] if self.addresses is not None else r.ip
+                ip = self.net.address(r.name) if self.net else self.addresses[i] if self.addresses else r.ip
                 check()
-                uris[r.name] = start_master(self.procs, f"master_{r.name}", ip)
+                uris[r.name] = self._start_master(r.name, ip)
+                if not self.net:       # robots on one host: ports free on their loopback addresses
+                    relay_ports[r.name] = free_port_run(ip, max(i, 1))
         except ProcessError as err:
             raise DemoError(f"cannot start the masters: {err}") from err
-        self.building_file = relocate_building(self.building_dir, self.run_dir / "building", uris)
+        self.building_file = relocate_building(self.building_dir, self.run_dir / "building", uris, relay_ports)
         self.building = load_building(self.building_file)
-        for uri in uris.values():   # before any node starts: every node (and rosbag) runs on sim time
-            set_param(uri, "/use_sim_time", True)
+        for r in self.building.robots:   # before any node starts: every node (and rosbag) runs on sim time
+            self.call(r.name, set_param, r.master_uri, "/use_sim_time", True)
+            if self.net:
+                try:
+                    self.net.firewall(r.name, self.building.relay_ports(r.name))
+                except MachinesError as err:
+                    raise DemoError(f"cannot put up the firewall of {r.name}: {err}") from err
         if self.relay_secret is None:
             self.relay_secret = write_secret(self.run_dir / "relay.secret")
         self.start_wall = time.time() + self.start_delay
@@ -241,20 +279,50 @@ class SimulatedBuilding:
         self.monitor_file.touch()
         first = self.building.robots[0]
         robots = "[" + ", ".join(r.name for r in self.building.robots) + "]"
-        self.procs.start("monitor", [sys.executable, node_executable("gidabot_sim", "monitor"),
-                                     f"_out:={self.monitor_file}", f"_robots:={robots}"], self.env(first.name))
+        self.procs.start("monitor", self.command(first.name, [sys.executable, node_executable("gidabot_sim", "monitor"),
+                                                              f"_out:={self.monitor_file}", f"_robots:={robots}"]),
+                         self.env(first.name))
 
-    def env(self, robot: str) -> dict[str, str]:
+    def env(self, robot: str, clock: bool = False) -> dict[str, str]:
+        """Environment of a process using ``robot``'s master; ``clock``: a process of the robot itself (with
+        separate machines, it gets the robot's clock offset; the world's tools keep the host's clock)."""
         if self.building is None:
             raise DemoError("the building is not started")
         r = self.building.robot(robot)
-        return ros_env(r.master_uri, r.ip, log_dir=self.run_dir / "ros" / robot)
+        env = ros_env(r.master_uri, r.ip, log_dir=self.run_dir / "ros" / robot)
+        return self.net.env(robot, env) if self.net and clock else env
+
+    def command(self, robot: str, argv: list[str]) -> list[str]:
+        """``argv`` run where ``robot``'s processes run (its machine's namespace, with separate machines)."""
+        return self.net.wrap(robot, argv) if self.net else list(argv)
+
+    def call(self, robot: str, fn: Callable[..., T], *args: object) -> T:
+        """``fn(*args)`` where ``robot``'s master can be reached (a thread inside its machine's namespace)."""
+        return self.net.call(robot, fn, *args) if self.net else fn(*args)
+
+    def _start_master(self, robot: str, ip: str, timeout: float = 15.0) -> str:
+        port = MACHINE_MASTER_PORT if self.net else free_port(ip)
+        uri = f"http://{ip}:{port}/"
+        env = ros_env(uri, ip, log_dir=self.run_dir / "logs" / f"master_{robot}")
+        if self.net:
+            env = self.net.env(robot, env)
+        self.procs.start(f"master_{robot}", self.command(robot, ["rosmaster", "--core", "-p", str(port), "-w", "3"]),
+                         env)
+        wait_until(lambda: self.call(robot, master_pid, uri) is not None, timeout, f"master {robot} at {uri}")
+        return uri
+
+    def sim_time(self, wall: float, robot: str) -> float:
+        """The sim time ``robot``'s clock showed at (host) wall time ``wall`` (docs/simulator.md)."""
+        return (wall - self.start_wall) * self.speed + self.ros_offsets.get(robot, 0.0)
 
     def launch_args(self, robot: str) -> list[str]:
         tours_dir = self.run_dir / "tours" / robot
+        # a robot's wall clock is off by its clock offset; its sim clock is ahead by its ros offset
+        start_wall = (self.start_wall + self.clock_offsets.get(robot, 0.0)
+                      - self.ros_offsets.get(robot, 0.0) / self.speed)
         args = {
             "building": str(self.building_file), "robot": robot, "sim": "true", "speed": f"{self.speed:g}",
-            "start_wall": f"{self.start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
+            "start_wall": f"{start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),
         }
@@ -268,8 +336,8 @@ class SimulatedBuilding:
         n = len(parts)
         bag = self.run_dir / (f"{robot}.bag" if n == 0 else f"{robot}.{n}.bag")
         name = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
-        self.procs.start(name, [rosbag_record_binary(), "--quiet", "--min-space", "100M", "-O", str(bag),
-                                *RECORDED_TOPICS], self.env(robot))
+        self.procs.start(name, self.command(robot, [rosbag_record_binary(), "--quiet", "--min-space", "100M", "-O",
+                                                    str(bag), *RECORDED_TOPICS]), self.env(robot))
         parts.append(bag)
         return bag
 
@@ -280,7 +348,7 @@ class SimulatedBuilding:
         params = {"building": str(self.building_file), "robot": robot, **self.visitor}
         argv = [sys.executable, node_executable("gidabot_sim", "visitor"), f"__name:={Node.VISITOR}",
                 *(f"_{k}:={json.dumps(v)}" for k, v in params.items())]   # JSON is YAML: types kept
-        self.procs.start(f"visitor_{robot}", argv, self.env(robot))
+        self.procs.start(f"visitor_{robot}", self.command(robot, argv), self.env(robot))
 
     def stop_master(self, robot: str, crash: bool = False) -> None:
         """Stop ``robot``'s master (``crash``: SIGKILL, else SIGINT); its nodes keep running."""
@@ -295,19 +363,45 @@ class SimulatedBuilding:
     def start_master_again(self, robot: str, timeout: float = 15.0) -> float:
         """Start ``robot``'s master again (same address and port) and wait until it answers; then its
         recording goes on in a new bag part. Returns the monotonic time the master answered."""
-        from gidabot_sim.runner.procs import master_pid, wait_until
-
         name = f"master_{robot}"
         old = self.procs.get(name)
         self.procs.start(name, old.argv, old.env, old.cwd)
         uri = self.building.robot(robot).master_uri if self.building else ""
-        wait_until(lambda: master_pid(uri) is not None, timeout, f"master of {robot} back", interval=0.02)
+        wait_until(lambda: self.call(robot, master_pid, uri) is not None, timeout, f"master of {robot} back",
+                   interval=0.02)
         up = time.monotonic()
-        set_param(uri, "/use_sim_time", True)
+        self.call(robot, set_param, uri, "/use_sim_time", True)
         if self.record and self.bags.get(robot):
             old_rec = f"record_{robot}" if len(self.bags[robot]) == 1 else f"record_{robot}.{len(self.bags[robot]) - 1}"
             self.start_recorder(robot)
             self.retired[old_rec] = up + RECORDER_OVERLAP
+        return up
+
+    def machine_off(self, robot: str) -> list[int]:
+        """``robot``'s computer goes off: every process of its launch and its master killed (SIGKILL), and, with
+        separate machines, it is off the network. The world's tools on its floor (the visitor, the recorder)
+        stay. Returns the pids killed."""
+        if self.net is not None:
+            self.net.partition(robot)
+        self.off.add(robot)
+        tree = process_tree({self.procs.get(f"robot_{robot}").popen.pid, self.procs.get(f"master_{robot}").popen.pid})
+        self._seen.update(tree)
+        for info in tree.values():
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(info.pgid, signal.SIGKILL)
+        for name in (f"robot_{robot}", f"master_{robot}"):
+            with contextlib.suppress(subprocess.TimeoutExpired):
+                self.procs.get(name).popen.wait(timeout=10.0)
+        return sorted(tree)
+
+    def machine_on(self, robot: str) -> float:
+        """``robot``'s computer is back: on the network, its master (recording in a new bag part) and its launch
+        started again, from what it kept on disk. Returns the monotonic time its master answered."""
+        if self.net is not None:
+            self.net.clear_faults(robot)
+        up = self.start_master_again(robot)
+        self.launch_robot(robot)
+        self.off.discard(robot)
         return up
 
     def housekeeping(self) -> None:
@@ -323,9 +417,9 @@ class SimulatedBuilding:
         name = f"robot_{robot}"
         if self.procs.alive(name):
             self.procs.stop(name, grace=20.0)
-        self.procs.start(name, ["roslaunch", "--skip-log-check", str(resource("launch", "robot.launch")),
-                                *self.launch_args(robot)],
-                         self.env(robot))
+        launch = str(resource("launch", "robot.launch"))
+        self.procs.start(name, self.command(robot, ["roslaunch", "--skip-log-check", launch, *self.launch_args(robot)]),
+                         self.env(robot, clock=True))
 
     def track(self) -> dict[int, ProcInfo]:
         """Scan every process of the run (called now and then, and before :meth:`stop`): what is seen
@@ -388,8 +482,10 @@ class SimulatedBuilding:
         return left
 
     def dead(self) -> list[str]:
-        """Names of processes that should be running and are not (a failed launch, a dead master)."""
-        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired]
+        """Names of processes that should be running and are not (a failed launch, a dead master; not those of a
+        machine that is off)."""
+        off = {f"{kind}_{r}" for r in self.off for kind in ("robot", "master")}
+        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired and n not in off]
 
     def process_groups(self) -> dict[str, int]:
         """name -> process group id of every process started (each is its group's leader)."""
@@ -420,6 +516,8 @@ class SimulatedBuilding:
                 else:
                     os.kill(info.pid, signal.SIGKILL)
             self.killed_leftovers.append(f"{info.label} (pid {info.pid})")
+        if self.net is not None:    # whatever is left inside the machines, then the namespaces and their links
+            self.killed_leftovers += [f"pid {pid} (in a machine's namespace)" for pid in self.net.destroy()]
         for active in self.run_dir.glob("*.bag.active"):   # a recorder that had to be killed
             subprocess.run(["rosbag", "reindex", str(active)], capture_output=True, timeout=120, check=False)
             shutil.move(str(active), str(active.with_suffix("")))

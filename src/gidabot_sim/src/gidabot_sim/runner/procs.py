@@ -40,6 +40,23 @@ def free_port(host: str = "127.0.0.1") -> int:
         return int(sock.getsockname()[1])
 
 
+def free_port_run(host: str, count: int, start: int = 11411, end: int = 32768) -> int:
+    """The first port p >= ``start`` such that p .. p + count - 1 are all free on ``host`` right now (below
+    the kernel's ephemeral ports, so an outgoing connection does not take one before it is bound)."""
+    def free(port: int) -> bool:
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+            try:
+                sock.bind((host, port))
+            except OSError:
+                return False
+        return True
+
+    for p in range(start, end - count):
+        if all(free(p + k) for k in range(count)):
+            return p
+    raise ProcessError(f"no {count} consecutive free TCP ports in {start}..{end} on {host}")
+
+
 NET_LOCK_DIR = Path(os.environ.get("GIDABOT_NET_LOCK_DIR", "/tmp/gidabot-test-net"))
 _net_lock: tuple[int, int] | None = None          # (N, fd of its lock file), held until this process exits
 

@@ -22,7 +22,11 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
   visit (its tour, its goal), not the answer to somebody else's command at a screen;
 * ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
   robot of the next floor is offline right now): like a person told so, the visitor
-  asks again after ``retry_s``, for at most ``retry_for_s``, then gives up.
+  asks again after ``retry_s``, for at most ``retry_for_s``, then gives up;
+* ``PARTNER_OFFLINE`` about a trip of this visit (a robot gave it up: its partner was
+  offline longer than ``partner_timeout``): the person asks again for the same tour step
+  (or target) ``retry_s`` after being on a floor with a robot: the node of the floor the
+  person is on, or arrives at (when the ``GO_TO_FLOOR`` of that trip comes), asks.
 
 One visitor of a population (``gidabot demo --visitors K``; each node then runs one core per
 visitor, fed only the events of that visitor's trips) may also choose to cancel: at its start
@@ -130,6 +134,7 @@ class VisitorCore:
     _due: list[_Due] = field(default_factory=list)
     _handled: set[str] = field(default_factory=set)            # event uids already seen
     retries: int = 0                                           # requests asked again after a refusal
+    given_up: dict[str, int] = field(default_factory=dict)     # trips a robot gave up -> their tour step
     _refused_since: float | None = None                        # first refusal of the current request
     tour_floors: tuple[float, ...] = ()                        # the floor of each step of the tour
     step_arrivals: dict[int, float] = field(default_factory=dict)  # tour step -> arrival on its floor after
@@ -190,13 +195,21 @@ class VisitorCore:
         if phase == PARTNER_OFFLINE and mine and not goal_uid and not self.finished:
             self._refused(now, tour_step)
             return
+        if phase == PARTNER_OFFLINE and goal_uid and ours and not self.finished:
+            self._trip_given_up(now, goal_uid, tour_step)
+            return
         if phase == ACCEPTED and ours:
             self._refused_since = None
         if phase == GO_TO_FLOOR:
             if mine:
                 self.present = False
             elif math.isclose(target_floor, self.cfg.floor) and math.isfinite(floor):
-                self.arrivals[goal_uid] = now + self.cfg.walk_time(floor, self.cfg.floor)
+                arrival = now + self.cfg.walk_time(floor, self.cfg.floor)
+                if goal_uid in self.given_up:        # sent here for a trip that was given up meanwhile
+                    self.present = True
+                    self._refused(arrival, self.given_up.pop(goal_uid))
+                else:
+                    self.arrivals[goal_uid] = arrival
             return
         if phase == NO_ROBOT_ON_FLOOR and ours:
             if mine:
@@ -229,6 +242,19 @@ class VisitorCore:
         elif phase in ENDS:
             self.finished = True
             self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+
+    def _trip_given_up(self, now: float, goal_uid: str, step: int) -> None:
+        """A robot gave up a trip of this visit: whoever has the person (here now, or arriving here for that
+        trip) asks again for the same step; other nodes remember it in case the person is sent here later."""
+        self.waiting.discard(goal_uid)
+        arrival = self.arrivals.pop(goal_uid, None)
+        if self.present:
+            self._refused(now, step)
+        elif arrival is not None:
+            self.present = True
+            self._refused(max(now, arrival), step)
+        else:
+            self.given_up[goal_uid] = step
 
     def on_goal(self, goal_uid: str) -> None:
         """A trip made for this visitor (its Goal names the visitor)."""
