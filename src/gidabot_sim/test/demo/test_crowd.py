@@ -92,3 +92,20 @@ def test_legs_busy_fraction_and_queue_length_per_robot() -> None:
 def test_percentile_is_the_nearest_rank() -> None:
     assert percentile([5.0, 1.0, 3.0], 95) == 5.0 and percentile([2.0], 50) == 2.0
     assert percentile(list(range(1, 101)), 95) == 95 and math.isnan(percentile([], 95))
+
+
+def test_a_request_refused_before_any_goal_ends_that_visitors_visit() -> None:
+    """MariSorgin refuses a request for 115 (its queue is too long): the visitor who asked it for 115 and has no
+    trip yet is refused, not lost; another visitor's request elsewhere is not touched."""
+    c = Crowd([plan("a", robot="MariSorgin", goal_id="115"), plan("b", robot="MariSorgin", goal_id="001"),
+               plan("c", robot="Kbot", goal_id="115")])
+    assert c.feed({"kind": "event", "uid": "M/event/1", "robot": "MariSorgin", "phase": Phase.REJECTED,
+                   "goal_uid": "", "location_id": "115", "sim": 50.0, "detail": "could be there in 990 s only"})
+    assert not c.feed({"kind": "event", "uid": "M/event/2", "robot": "MariSorgin", "phase": Phase.REJECTED,
+                       "goal_uid": "", "location_id": "999", "sim": 51.0})
+    s = c.summary(["MariSorgin"])
+    rows = {v["visitor"]: v for v in s["per_visitor"]}
+    assert rows["a"]["outcome"] == "refused" and not rows["a"]["as_chosen"] and s["refused"] == 1
+    assert rows["b"]["outcome"] == rows["c"]["outcome"] == UNFINISHED
+    assert s["problems"][0].startswith("a (complete, 115 from MariSorgin): refused")
+    assert not any(p.startswith("a:") for p in s["problems"])        # refused, not lost

@@ -9,7 +9,8 @@ again for every new assignment attempt: the newest attempt counts). Measured:
   ``ON_THE_WAY`` or ``GOING_TO_MEETING`` of its trips), *trip* = sim s from its first goal to the
   end of its visit, and how the visit ended: ``completed`` (``GOAL_REACHED``; a target on a floor
   without robot: ``NO_ROBOT_ON_FLOOR``; a tour: ``TOUR_FINISHED``), ``cancelled``, ``timed out``,
-  ``failed`` (unreachable, a partner offline, rejected) or ``unfinished``;
+  ``failed`` (unreachable, a partner offline, rejected), ``refused`` (the request made no goal: a
+  ``REJECTED`` or ``UNREACHABLE`` answer from the robot it asked, about its target) or ``unfinished``;
 * per robot: legs served (the legs its trips' newest assignment committed to it), busy fraction
   (the share of the run during which it had a committed leg not yet ended) and queue length over
   time (committed legs not yet ended: max and time-weighted mean);
@@ -48,8 +49,10 @@ from gidabot_navigation.interface import (
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
+REFUSED = "refused"              # the request made no goal: the robot refused it (REJECTED, UNREACHABLE)
 MOVING = (ON_THE_WAY, GOING_TO_MEETING)
 FAILURE_PHASES = (UNREACHABLE, PARTNER_OFFLINE, REJECTED)
+REFUSALS = (REJECTED, UNREACHABLE)   # answers to a request that end the visit without a goal
 
 
 @dataclass
@@ -114,6 +117,8 @@ class Crowd:
             return self._goal(rec, self._clock(rec))
         if rec.get("kind") == "event":
             uid, goal_uid = str(rec.get("uid", "")), str(rec.get("goal_uid", ""))
+            if not goal_uid and rec.get("phase") in REFUSALS:
+                return self._refusal(rec)
             if goal_uid not in self.goals or not uid or uid in self.events:
                 return False
             t = self._clock(rec)
@@ -124,6 +129,20 @@ class Crowd:
                 self._ends[visitor] = (end, t)
             self.latest = f"{rec.get('robot')}: {PHASE_NAMES.get(phase, phase)} ({self.goals[goal_uid].visitor})"
             return True
+        return False
+
+    def _refusal(self, rec: dict) -> bool:
+        """A request refused before any goal (``REJECTED``: e.g. no robot could be there within its max wait;
+        ``UNREACHABLE``): it ends the visit of the first visitor still without a trip who asked that robot for
+        that place or tour."""
+        robot, place, tour = str(rec.get("robot", "")), str(rec.get("location_id", "")), str(rec.get("tour_file", ""))
+        asked = {g.visitor for g in self.goals.values()}
+        for p in sorted(self.plans.values(), key=lambda p: p.arrive_s):
+            if (p.robot == robot and p.visitor_id not in asked and p.visitor_id not in self._ends
+                    and ((p.tour_file and p.tour_file == tour) or (p.goal_id and p.goal_id == place))):
+                self._ends[p.visitor_id] = (REFUSED, self._clock(rec))
+                self.latest = f"{robot}: {PHASE_NAMES.get(rec.get('phase'), '')} ({p.visitor_id}: {rec.get('detail')})"
+                return True
         return False
 
     def _clock(self, rec: dict) -> float:
@@ -173,8 +192,8 @@ class Crowd:
         ends = [self.visit_end(v)[0] for v in self.plans]
         asked = len({g.visitor for g in self.goals.values()})
         return (f"visitors: {asked} of {len(self.plans)} with a trip, {ends.count(COMPLETED)} completed, "
-                f"{ends.count(CANCELLED)} cancelled, {ends.count(TIMED_OUT)} timed out, {ends.count(FAILED)} failed"
-                f" | {self.latest or '-'}")
+                f"{ends.count(CANCELLED)} cancelled, {ends.count(TIMED_OUT)} timed out, {ends.count(FAILED)} failed, "
+                f"{ends.count(REFUSED)} refused | {self.latest or '-'}")
 
     def sim_seconds(self) -> float:
         return (self.last_s - self.first_s) if self.first_s is not None and self.last_s is not None else 0.0
@@ -233,7 +252,7 @@ class Crowd:
         visitors = self.visitor_rows()
         waits = [v["wait_s"] for v in visitors if v["wait_s"] is not None]
         count = {k: sum(v["outcome"] == k for v in visitors) for k in (COMPLETED, CANCELLED, TIMED_OUT, FAILED,
-                                                                      UNFINISHED)}
+                                                                      REFUSED, UNFINISHED)}
         problems = [f"{v['visitor']} ({v['intent']}, {v['target']} from {v['robot']}): {v['outcome']}"
                     for v in visitors if not v["as_chosen"]]
         problems += [f"{v['visitor']}: its request made no goal (lost)" for v in visitors
@@ -241,7 +260,8 @@ class Crowd:
         problems += [f"{v['visitor']}: {v['duplicated']} duplicated goal(s)" for v in visitors if v["duplicated"]]
         return {
             "visitors": len(visitors), "completed": count[COMPLETED], "cancelled": count[CANCELLED],
-            "timed_out": count[TIMED_OUT], "failed": count[FAILED], "unfinished": count[UNFINISHED],
+            "timed_out": count[TIMED_OUT], "failed": count[FAILED], "refused": count[REFUSED],
+            "unfinished": count[UNFINISHED],
             "intents": {k: sum(v["intent"] == k for v in visitors)
                         for k in (INTENT_COMPLETE, INTENT_CANCEL, INTENT_NO_SHOW)},
             "wait_mean_s": round(sum(waits) / len(waits), 1) if waits else None,

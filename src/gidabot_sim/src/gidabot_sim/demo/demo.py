@@ -296,7 +296,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     done = sum(progress.visit_end(v)[0] != UNFINISHED for v in progress.plans) if isinstance(progress, Crowd) \
         else progress.done
     run = {
-        "building": "building/building.yaml", "tour": what_ran, "goals": total,
+        "building": "building/building.yaml", "tour": what_ran, "goals": len(progress.goals) if plans else total,
         "completed": done, "stops_alone": sorted(alone) if tour_name else None, "outcome": outcome,
         "sim_s": progress.sim_seconds(), "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),

@@ -388,7 +388,8 @@ def crowd_report(folder: Path, run: dict, report: dict) -> dict:
     if run.get("outcome") not in (None, "completed"):
         problems.append(f"the run did not finish: {run.get('outcome')}")
     return {"visitors": summary["visitors"], "completed": summary["completed"], "cancelled": summary["cancelled"],
-            "timed_out": summary["timed_out"], "failed": summary["failed"], "unfinished": summary["unfinished"],
+            "timed_out": summary["timed_out"], "failed": summary["failed"], "refused": summary["refused"],
+            "unfinished": summary["unfinished"],
             "collisions": None, "collisions_note": COLLISIONS_NOT_MEASURED,
             "legs_double_served": len(legs["double_served"]), "legs_unserved": len(legs["unserved"]),
             "wait_mean_s": summary["wait_mean_s"], "wait_p95_s": summary["wait_p95_s"], "seed": run.get("seed"),
@@ -399,10 +400,10 @@ def crowd_report(folder: Path, run: dict, report: dict) -> dict:
 def format_crowd(report: dict) -> list[str]:
     """The many-visitors tables: per robot, per visitor, overall, the verdict."""
     pop = report["population"]
+    chosen = ", ".join(f"{k} {n}" for k, n in pop["intents"].items())
     lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
                  f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report['failed']} failed, "
-                 f"{report['unfinished']} unfinished; chosen: " + ", ".join(f"{k} {n}" for k, n in
-                                                                             pop["intents"].items())]
+                 f"{report['refused']} refused, {report['unfinished']} unfinished; chosen: {chosen}"]
     wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
     p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
     lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")
