@@ -1,10 +1,15 @@
-"""System tests of the simulated floor (masters on loopback): launch file, shared sim time across floors,
-run-time obstacles seen by the laser, hostile input, the laser only when subscribed, several robots."""
+"""System tests of the simulated floor (masters on loopback): launch file, the floors' clocks on one timeline
+(ceiling, drift bound), lockstep with a frozen move_base, run-time obstacles seen by the laser, hostile input,
+the laser only when subscribed, several robots."""
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import signal
 import time
+import xmlrpc.client
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -12,8 +17,9 @@ import pytest
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building, relocate_building
-from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.world.timeline import Timeline
 
 pytestmark = pytest.mark.system
 REPO = Path(__file__).resolve().parents[2]
@@ -53,31 +59,87 @@ def sim_diag(probe: Probe) -> dict[str, str]:
     return {}
 
 
-def test_two_floors_started_together_share_one_timeline(procs: ProcessGroup, tmp_path: Path) -> None:
+def test_floors_on_one_timeline_keep_under_the_ceiling_and_within_the_drift_bound(procs: ProcessGroup,
+                                                                                  tmp_path: Path) -> None:
     speed, start_wall = 10.0, time.time() + 4.0
+    robots = ("Kbot", "Galtxagorri")
+    timeline = Timeline.create(tmp_path / "timeline", 2, ceiling=speed, max_drift=1.0, peer_timeout=5.0,
+                               start_wall=start_wall)
     probes = []
-    for robot in ("Kbot", "Galtxagorri"):
-        building, env = floor_master(procs, tmp_path, robot)
-        launch_floor(procs, env, building, robot, speed=f"{speed:g}", start_wall=f"{start_wall:.3f}")
-        probe = Probe(env, tmp_path / f"probe_{robot}.log")
-        probe.sub(Topic.CLOCK, "rosgraph_msgs/Clock")
-        probes.append(probe)
     try:
+        for slot, robot in enumerate(robots):
+            building, env = floor_master(procs, tmp_path, robot)
+            launch_floor(procs, env, building, robot, speed=f"{speed:g}", start_wall=f"{start_wall:.3f}",
+                         timeline=str(timeline.path), timeline_slot=str(slot))
+            probe = Probe(env, tmp_path / f"probe_{robot}.log")
+            probe.sub(Topic.CLOCK, "rosgraph_msgs/Clock")
+            probes.append(probe)
         assert all(not p.msgs(Topic.CLOCK) for p in probes) or time.time() >= start_wall   # nothing before the start
         for p in probes:
             p.wait(Topic.CLOCK, lambda m: m["clock"] > 5.0, 30, "sim time past 5 s")
-        for _ in range(5):
+        for _ in range(20):
             wall = time.time()
-            clocks = [p.msgs(Topic.CLOCK)[-1]["clock"] for p in probes]
-            expected = (wall - start_wall) * speed
-            # each floor follows the formula (0.1 s sim per tick, plus the probes' delay)
-            for clock in clocks:
-                assert expected - 1.5 < clock <= expected + 0.2, (clocks, expected)
-            assert abs(clocks[0] - clocks[1]) < 1.5
-            time.sleep(0.2)
+            clocks = [c.sim for c in timeline.clocks()]
+            for clock in clocks:                   # a ceiling: never ahead of it (the pacer's slack: 50 ms)
+                assert clock <= (wall - start_wall + 0.05) * speed + 0.1, (clocks, wall - start_wall)
+            assert abs(clocks[0] - clocks[1]) <= 1.0 + 1e-6
+            time.sleep(0.1)
+        # idle floors keep up with the ceiling on this machine; a frozen floor holds the other within the bound
+        assert min(c.sim for c in timeline.clocks()) > (time.time() - start_wall) * speed * 0.5
+        pid = int(timeline.read(0).pid)
+        os.kill(pid, signal.SIGSTOP)               # Kbot's simulator
+        try:
+            time.sleep(2.0)
+            frozen, other = (c.sim for c in timeline.clocks())
+            assert 0.0 < other - frozen <= 1.0 + 1e-6
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        wait_until(lambda: timeline.clocks()[0].sim > frozen + 5.0, 10, "the floor to go on")
+        assert timeline.clocks()[0].behind >= 1.9                  # it has been behind its ceiling that long
     finally:
         for p in probes:
             p.close()
+        timeline.close()
+
+
+def test_lockstep_waits_for_move_base_and_goes_on_without_it_when_it_is_frozen(procs: ProcessGroup,
+                                                                              tmp_path: Path) -> None:
+    building, env = floor_master(procs, tmp_path, "Kbot")
+    launch_floor(procs, env, building, "Kbot", speed="max", initial_pose="[20.0, 12.0, 0.0]", seed="3")
+    with Probe(env, tmp_path / "probe.log") as probe:
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
+        probe.sub(Topic.MOVE_BASE_RESULT, "move_base_msgs/MoveBaseActionResult")
+        probe.sub(Topic.AMCL_POSE, "geometry_msgs/PoseWithCovarianceStamped")
+        probe.wait(Topic.AMCL_POSE, lambda m: True, 60, Topic.AMCL_POSE)
+        goal = {"header": {"frame_id": "map"}, "pose": {"position": {"x": 60.0, "y": 12.0}, "orientation": {"w": 1}}}
+        probe.pub(Topic.MOVE_BASE_SIMPLE_GOAL, "geometry_msgs/PoseStamped", goal)
+        wait_until(lambda: "participant /move_base" in sim_diag(probe)
+                   and json.loads(sim_diag(probe)["participant /move_base"])["answered"] > 20, 30, "move_base in step")
+        before = sim_diag(probe)
+        pid = node_pid(env, global_name(Node.MOVE_BASE))
+        os.kill(pid, signal.SIGSTOP)               # move_base, while it drives
+        try:
+            time.sleep(3.5)
+            stopped = sim_diag(probe)
+        finally:
+            os.kill(pid, signal.SIGCONT)
+        mb = json.loads(stopped["participant /move_base"])
+        assert mb["timeouts"] == 1 and mb["absent"] == 1 and mb["missed"] > 0, mb
+        # the world waited 2 s for it, then went on (no ceiling: much faster than the wall clock)
+        assert float(stopped["wait_controllers_s"]) - float(before["wait_controllers_s"]) >= 1.9
+        assert float(stopped["sim_time"]) - float(before["sim_time"]) > 10.0
+        result = probe.wait(Topic.MOVE_BASE_RESULT, lambda m: True, 60, "the goal's end")
+        assert result["status"]["status"] == 3, result        # back in step, it got there
+        mb = json.loads(sim_diag(probe)["participant /move_base"])
+        assert mb["absent"] == 0 and mb["sessions"] == 1
+        assert json.loads(sim_diag(probe)["participant /amcl"])["timeouts"] == 0
+
+
+def node_pid(env: dict[str, str], node: str) -> int:
+    master = xmlrpc.client.ServerProxy(env["ROS_MASTER_URI"])
+    _code, _msg, uri = master.lookupNode("/test", node)
+    _code, _msg, pid = xmlrpc.client.ServerProxy(uri).getPid("/test")
+    return int(pid)
 
 
 def test_obstacles_laser_battery_and_hostile_input(procs: ProcessGroup, tmp_path: Path) -> None:

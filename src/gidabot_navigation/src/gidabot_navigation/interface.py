@@ -101,6 +101,8 @@ class Topic:
     # the simulator's run-time obstacles (topics of the node /sim)
     SIM_OBSTACLE = "/sim/obstacle"
     SIM_OBSTACLES = "/sim/obstacles"
+    # the lockstep participants' answers to their floor's simulator (gidabot_msgs/StepDone; docs/simulator.md)
+    SIM_STEP_DONE = "/sim/step_done"
     # ROS-wide
     DIAGNOSTICS = "/diagnostics"
     CLOCK = "/clock"

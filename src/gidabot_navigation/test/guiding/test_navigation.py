@@ -115,8 +115,9 @@ def test_same_floor_guides_to_the_goal(faculty) -> None:
     assert evs(acts)[0].location_id == "104"
     assert n.status(1.0).state == STATE_GUIDING and n.status(1.0).current_goal_uid == t.uid
     assert n.status(11.0).busy_for == pytest.approx(20.0)
-    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 20.0, 0.0)
+    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 20.5, 0.0, done_ros=20.0)
     assert phases(acts) == [GOAL_REACHED] and n.leg is None
+    assert evs(acts)[0].stamp == 20.0          # when move_base got there, not when its result arrived
     assert n.status(20.0).state == STATE_IDLE
     # the pending list still holds it until the goal manager drops it: not run twice
     assert n.on_pending([t], 0.0, 21.0, 0.0) == []
@@ -129,8 +130,9 @@ def test_a_far_robot_first_picks_the_visitor_up(faculty) -> None:
     [move] = moves(acts)
     assert (move.x, move.y) == (10.0, 12.0) and phases(acts) == [GOING_TO_MEETING]
     assert n.status(1.0).state == STATE_TO_MEETING
-    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 5.0, 0.0)
+    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 5.0, 0.0, done_ros=4.5)
     assert phases(acts) == [ON_THE_WAY] and moves(acts)[0].x == t.goal_x
+    assert evs(acts)[0].stamp == 5.0           # guiding starts when the next goal is sent
 
 
 def test_start_floor_guides_to_the_connector_then_sends_the_visitor_up(faculty) -> None:

@@ -34,6 +34,10 @@ class NavGoalRejected(SimError):
     """A navigation goal (of the move_base stand-in) is invalid (not finite, invalid quaternion, wrong frame)."""
 
 
+class StepDoneRejected(SimError):
+    """A lockstep participant's answer (gidabot_msgs/StepDone) is malformed, or one participant too many."""
+
+
 class ProcessError(SimError):
     """A managed process could not be started or stopped, or a wait timed out."""
 

@@ -1,4 +1,4 @@
-"""Sim time: one formula on every floor, the /clock tick rate, aligned sim-time schedules."""
+"""The speed ceiling of a floor's clock (no catch-up, behind time counted) and aligned sim-time schedules."""
 
 from __future__ import annotations
 
@@ -7,34 +7,41 @@ import math
 import pytest
 
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.world.clock import Periodic, SimClock, next_cycle, tick_period
+from gidabot_sim.world.clock import Pacer, Periodic, check_speed
 
 
-def test_floors_with_the_same_start_and_speed_agree() -> None:
-    a = SimClock.create(10.0, 1000.0, wall_now=1003.0)
-    b = SimClock.create(10.0, 1000.0, wall_now=1500.0)     # started much later: same timeline
-    for wall in (1000.0, 1001.25, 2000.0):
-        assert a.sim_time(wall) == b.sim_time(wall) == pytest.approx((wall - 1000.0) * 10.0)
-    assert a.sim_time(999.0) < 0                             # before start_wall: not started
-    assert a.wall_time(50.0) == pytest.approx(1005.0)
-    now = SimClock.create(4.0, 0.0, wall_now=123.5)          # start_wall 0 = now
-    assert now.start_wall == 123.5 and now.sim_time(124.0) == pytest.approx(2.0)
+def test_the_ceiling_schedules_every_stop_from_its_anchor() -> None:
+    pacer = Pacer(10.0, start_wall=1000.0)
+    assert pacer.due(0.0) == 1000.0 and pacer.due(5.0) == pytest.approx(1000.5)
+    pacer.reached(5.0, 1000.4)                                 # early: nothing to count
+    assert pacer.behind == 0.0 and pacer.behind_at(5.0, 1000.4) == 0.0
+    assert Pacer(None, 1000.0).due(1e9) == -math.inf           # no ceiling: always due
 
 
-@pytest.mark.parametrize("speed, start", [(0.0, 1.0), (-1.0, 1.0), (math.nan, 1.0), (5000.0, 1.0),
-                                          (1.0, -5.0), (1.0, math.inf)])
-def test_bad_speed_or_start(speed, start) -> None:
-    with pytest.raises(SimConfigError):
-        SimClock(speed, start)
+def test_a_late_stop_is_never_caught_up_by_running_faster_than_the_ceiling() -> None:
+    pacer = Pacer(10.0, start_wall=1000.0, slack=0.05)
+    pacer.reached(1.0, 1000.13)            # 30 ms late: within the slack, made up by the next steps
+    assert pacer.behind == 0.0 and pacer.due(2.0) == pytest.approx(1000.2)
+    pacer.reached(2.0, 1002.2)             # 2 s late (a stopped process): counted, schedule re-anchored there
+    assert pacer.behind == pytest.approx(2.0)
+    assert pacer.due(3.0) == pytest.approx(1002.3)          # the next step waits a full step: no burst
+    assert pacer.behind_at(3.0, 1002.5) == pytest.approx(2.2)
 
 
-def test_tick_period_gives_control_loops_resolution_without_flooding() -> None:
-    assert tick_period(1.0) == pytest.approx(0.05)           # 20 Hz wall, 0.05 s sim per tick
-    assert tick_period(10.0) == pytest.approx(0.01)          # 100 Hz wall, 0.1 s sim per tick
-    assert tick_period(50.0) == pytest.approx(0.01)          # capped at 100 messages per wall second
-    assert tick_period(2.0) == pytest.approx(0.025)
-    with pytest.raises(SimConfigError):
-        tick_period(10.0, clock_step=0.0)
+def test_a_new_ceiling_counts_the_lateness_so_far_and_starts_from_there() -> None:
+    pacer = Pacer(10.0, start_wall=0.0)
+    pacer.set_speed(50.0, t=10.0, wall=1.5)                  # 0.5 s late at 10x when it changed
+    assert pacer.behind == pytest.approx(0.5) and pacer.due(60.0) == pytest.approx(2.5)
+    pacer.set_speed(None, t=60.0, wall=2.5)
+    assert pacer.due(1e6) == -math.inf and pacer.behind_at(1e6, 3.0) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("speed", [0.0, -1.0, math.nan, math.inf, 1001.0, True, "10"])
+def test_bad_speeds_are_refused_with_the_value(speed: object) -> None:
+    with pytest.raises(SimConfigError, match="speed"):
+        check_speed(speed)  # type: ignore[arg-type]
+    with pytest.raises(SimConfigError, match="slack"):
+        Pacer(10.0, 0.0, slack=-1.0)
 
 
 def test_periodic_fires_on_period_boundaries_and_skips_missed_ones() -> None:
@@ -46,10 +53,3 @@ def test_periodic_fires_on_period_boundaries_and_skips_missed_ones() -> None:
     assert p.due(5.12)
     with pytest.raises(SimConfigError):
         Periodic(0.0)
-
-
-def test_next_cycle_keeps_the_period_and_skips_what_a_stall_missed() -> None:
-    assert next_cycle(10.0, 0.1, 10.03) == pytest.approx(10.1)       # on time: one period later
-    assert next_cycle(10.0, 0.1, 10.15) == pytest.approx(10.1)       # a little late: catch up at once
-    assert next_cycle(10.0, 0.1, 12.0) == pytest.approx(12.1)        # stalled: missed cycles skipped
-    assert next_cycle(10.0, 0.1, 3.0) == pytest.approx(3.1)          # time jumped back: re-anchored

@@ -182,7 +182,7 @@ def test_laser_noise_limits_and_geometry() -> None:
 
 def test_battery_drains_with_time_and_distance() -> None:
     model = BatteryModel(start=0.9, idle_per_hour=0.1, per_km=0.5)
-    world = World(hall(30.0, 6.0), dt=0.05, max_catchup=1e6)
+    world = World(hall(30.0, 6.0), dt=0.05)
     world.add_robot(spec(battery=model), Pose2D(2.0, 3.0, 0.0))
     world.advance_to(3600.0 / 10)                      # 6 minutes at rest
     robot = world.robots[0]
@@ -196,17 +196,19 @@ def test_battery_drains_with_time_and_distance() -> None:
         BatteryModel(start=1.5)
 
 
-def test_time_catch_up_and_skips() -> None:
-    world = World(hall(), dt=0.02, max_catchup=10.0)
+def test_time_advances_only_by_steps_without_rounding_drift() -> None:
+    world = World(hall(), dt=0.02)
     world.add_robot(spec(), Pose2D(2.0, 3.0, 0.0))
     world.start_at(100.0)
     assert world.advance_to(101.0) == 50 and world.time == pytest.approx(101.0)
-    world.set_command(0, 0.5, 0.0, 0.0)
-    assert world.advance_to(1000.0) == 500                # 899 s behind: 889 s skipped, 10 s simulated
-    assert world.skipped == pytest.approx(889.0) and world.time == pytest.approx(1000.0)
-    assert world.robots[0].pose.x == pytest.approx(2.0)   # the command did not survive the gap
+    for _ in range(100_000):
+        world.step()
+    assert world.time == 101.0 + 100_000 * 0.02               # exact multiple: no accumulated rounding
+    assert world.advance_to(world.time + 0.5) == 25            # a far target is stepped through, never skipped
     with pytest.raises(ValueError):
         world.advance_to(math.nan)
+    with pytest.raises(ValueError):
+        world.start_at(math.inf)
 
 
 def test_the_faculty_robots_fit_at_home_and_the_synchro_robot_turns_while_sliding() -> None:

@@ -40,12 +40,14 @@ from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, S
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Phase, Topic
+from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
+LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
 DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
 
 
@@ -151,6 +153,7 @@ class GoalManagerNode:
             rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
                           f"{len(outbox)} message(s) not yet published from {self.params.state_dir}")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self.dropped = 0
         self._published_version = -1
         self._latest_pose: tuple[float, float, float] | None = None
@@ -209,9 +212,10 @@ class GoalManagerNode:
         next_pending = time.monotonic()
         while not rospy.is_shutdown() and not guard.requested:
             try:
-                kind, msg = self.inbox.get(timeout=max(0.01, min(0.5, next_pending - time.monotonic())))
+                kind, msg = self.inbox.get(timeout=max(0.01, min(LOOP_PERIOD, next_pending - time.monotonic())))
             except queue.Empty:
                 kind, msg = "", None
+            self.loop.tick(rospy.get_time(), time.monotonic())
             pose = self._latest_pose          # never reset: no race with the callback
             if pose is not None:
                 self.core.on_pose(*pose)
@@ -279,6 +283,7 @@ class GoalManagerNode:
 
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
+        stats.update(self.loop.values())
         stats.update(queue_dropped=self.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
                      plans=self.core.planner.plans,
                      state_saves=self.store.saves if self.store else 0,

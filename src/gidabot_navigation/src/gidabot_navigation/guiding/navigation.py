@@ -314,15 +314,18 @@ class NavigationCore:
         return []
 
     def on_move_base_result(self, token: int, status: str, text: str, now_ros: float,
-                            now_wall: float) -> list[Action]:
-        """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...)."""
+                            now_wall: float, done_ros: float | None = None) -> list[Action]:
+        """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...). ``done_ros``: when move_base
+        ended it (its result's stamp; None: ``now_ros``): the events that end the guiding carry it, so the time the
+        result took to get here is not counted as guiding (Table 5)."""
         leg = self.leg
         if leg is None or token != leg.token or not leg.moving:
             self.stats.inc("stale_results")
             return []
         leg.moving = False
         if status == SUCCEEDED:
-            return self._arrived(leg, now_ros) + self._advance(now_ros, now_wall)
+            ended = now_ros if done_ros is None else min(done_ros, now_ros)
+            return self._arrived(leg, now_ros, ended) + self._advance(now_ros, now_wall)
         what = {Stage.PICKUP: "to the visitor", Stage.GUIDING: f"to {self._where(leg)}",
                 Stage.TO_MEETING: f"to the meeting point of {leg.trip.connector}"}.get(leg.stage, "")
         reason = f"move_base {status} on the way {what}" + (f": {text[:200]}" if text else "")
@@ -473,7 +476,8 @@ class NavigationCore:
         leg = self._new_leg(trip, r, Stage.GUIDING, target, partner_name, now_ros)
         return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
 
-    def _arrived(self, leg: Leg, now_ros: float) -> list[Action]:
+    def _arrived(self, leg: Leg, now_ros: float, ended: float) -> list[Action]:
+        """Leg ``leg`` reached its target at sim time ``ended`` (known at ``now_ros``)."""
         trip = leg.trip
         if leg.stage is Stage.PICKUP:
             target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if leg.role is Role.SAME else self._meeting(trip)
@@ -490,9 +494,9 @@ class NavigationCore:
         # GUIDING: this robot's part is done
         if leg.role is Role.START:
             leg.stage = Stage.HANDOVER
-            return self._hand_over(leg, now_ros)
+            return self._hand_over(leg, ended)
         self._finish(trip)
-        return [self._event(self._done_phase(trip), trip, now_ros)]
+        return [self._event(self._done_phase(trip), trip, ended)]
 
     def _hand_over(self, leg: Leg, now_ros: float) -> list[Action]:
         """Start floor, at the connector with the visitor: send the visitor on to the robot serving the goal leg

@@ -53,6 +53,7 @@ from gidabot_navigation.guiding.navigation import (
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
+from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.params import param_number, param_text
@@ -63,6 +64,7 @@ DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may ch
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
 MAX_HANDLES = 16
+LOOP_PERIOD = 0.2          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
 STATUS_WALL_PERIOD = 1.0   # wall s: a status at least this often, even when the sim clock is slow or stopped
 STATES = {GoalStatus.SUCCEEDED: SUCCEEDED, GoalStatus.ABORTED: ABORTED, GoalStatus.REJECTED: REJECTED_BY_SERVER,
           GoalStatus.PREEMPTED: PREEMPTED, GoalStatus.RECALLED: RECALLED, GoalStatus.LOST: LOST}
@@ -161,6 +163,7 @@ class NavigationNode:
                           + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
                           + f"; {len(outbox)} message(s) not yet published")
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self.dropped = 0
         self.ignored_pending = 0
         self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
@@ -238,7 +241,10 @@ class NavigationNode:
             return
         state = gh.get_terminal_state()
         text = gh.get_goal_status_text() or f"goal status {STATE_NAMES.get(state, state)}"
-        self._enqueue((token, sends, STATES.get(state, ABORTED), text), "result")
+        # when move_base ended the goal: its result's stamp (actionlib keeps the last result message)
+        result = getattr(getattr(gh, "comm_state_machine", None), "latest_result", None)
+        done = result.header.stamp.to_sec() if result is not None else 0.0
+        self._enqueue((token, sends, STATES.get(state, ABORTED), text, done if done > 0 else None), "result")
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
@@ -260,10 +266,11 @@ class NavigationNode:
             if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
                 self.publish_status()      # liveness never depends on the (sim) clock running
             try:
-                kind, msg = self.inbox.get(timeout=0.2)
+                kind, msg = self.inbox.get(timeout=LOOP_PERIOD)
             except queue.Empty:
                 kind, msg = "", None
             now_ros, now_wall = rospy.get_time(), time.monotonic()
+            self.loop.tick(now_ros, now_wall)
             self._apply_latest()
             self.core.on_move_base_available(self._server_up(), now_ros)
             if kind:
@@ -287,13 +294,13 @@ class NavigationNode:
             goal_uid, key = msg
             return core.on_continue(goal_uid, now_ros, now_wall, key=key)
         if kind == "result":
-            token, sends, status, text = msg
+            token, sends, status, text, done_ros = msg
             if self._handles.get(token, (None, -1))[1] != sends:
                 return []                   # a goal sent again, or stopped: its result is not the leg's
             del self._handles[token]
             if self._active is not None and self._active[0] == token:
                 self._active = None
-            return core.on_move_base_result(token, status, text, now_ros, now_wall)
+            return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
             core.on_status(msg, now_wall)
         elif kind == "catalog":
@@ -407,6 +414,7 @@ class NavigationNode:
         stats.update(state_saves=self.store.saves if self.store else 0,
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
+        stats.update(self.loop.values())
         stats.update(queue_dropped=self.dropped, ignored_pending=self.ignored_pending,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,

@@ -288,8 +288,8 @@ class ChaosRun:
         self.tail = Tail([p.out for p in self.probes.values()])
         for robot, offset in self.clock_offsets.items():      # a setting of the whole run, listed with the faults
             self.results.append(cc.FaultResult(cc.Fault(cc.CLOCK_OFFSET, robot, target=f"{offset:+g} s"),
-                                               injected=self.begin, detail=f"wall clock {offset:+g} s, sim clock "
-                                               f"{self.sim.ros_offsets[robot]:+g} s ahead of the earliest"))
+                                               injected=self.begin,
+                                               detail=f"wall clock {offset:+g} s (the world keeps the host's)"))
 
     @property
     def building(self) -> Building:
@@ -374,8 +374,7 @@ class ChaosRun:
         """Wall time by which ``source``'s ``topic`` (status / pending) reached every master in ``masters``
         after ``since`` (the latest of the first deliveries), None if not within ``timeout``."""
         deadline = time.monotonic() + timeout
-        assert self.sim is not None
-        stamped = self.sim.sim_time(since, source) - 0.1   # source's clock (published every 0.05 s of sim time)
+        stamped = self.sim_time(since) - 0.1       # (a stamp is the floor's latest step)
         while time.monotonic() < deadline and not self.stopped():
             firsts = [self.probes[m].first(topic, since, stamped).get(source) for m in masters]
             if all(t is not None for t in firsts):
@@ -383,6 +382,11 @@ class ChaosRun:
             self.follow()
             time.sleep(0.1)
         return None
+
+    def sim_time(self, wall: float) -> float:
+        """The slowest floor's sim time at wall time ``wall`` (docs/simulator.md: each floor has its own clock)."""
+        assert self.sim is not None
+        return self.sim.sim_time_at(wall)
 
     def link_recovered(self, a: str, b: str, since: float) -> float | None:
         ta = self.first_everywhere("status", a, [b], since)

@@ -38,7 +38,9 @@ from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import check_tour_file_name, parse_tour
 from gidabot_sim.demo import report
 from gidabot_sim.demo.crowd import UNFINISHED, Crowd
+from gidabot_sim.demo.governor import SpeedGovernor
 from gidabot_sim.demo.progress import Progress, Visit
+from gidabot_sim.demo.timing import RunTiming
 from gidabot_sim.errors import DemoError, ProcessError, SimConfigError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
@@ -53,6 +55,8 @@ DEFAULT_SPEED = 20.0
 STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
 START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
 STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
+LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 MAX_TOUR_STOPS = 8        # --visitors: the longest tour a visitor may take
 TOUR_STOPS_GUESS = 8      # --visitors: goals a tour visitor counts for in the default --timeout
@@ -69,13 +73,16 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="K visitors instead of one: random arrival times, robots, targets or tours, stairs or lift, "
                         "some cancelling, some never turning up (deterministic from --seed); --tour, --goal, "
                         "--start-floor, --way and --skip are then not used")
-    p.add_argument("--seed", type=int, default=1, help="with --visitors: the population's seed (default 1)")
+    p.add_argument("--seed", type=int, default=1,
+                   help="seed of the simulated sensor and localisation noise (robot i: SEED + i) and, with --visitors, "
+                        "of the population (default 1)")
     p.add_argument("--mean-gap", type=float, default=30.0, metavar="S",
                    help="with --visitors: mean sim seconds between two arrivals (default 30)")
     p.add_argument("--start-floor", type=float, default=None,
                    help="floor where the visitor starts (default: the tour's first floor, else 0)")
-    p.add_argument("--speed", type=float, default=DEFAULT_SPEED,
-                   help=f"sim seconds per wall second (default {DEFAULT_SPEED:g})")
+    p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
+                   help=f"ceiling of sim seconds per wall second, the same on every floor (default "
+                        f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
@@ -98,6 +105,20 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="every robot a separate machine: its own network namespace, address, master and firewall "
                         "(needs root; docs/deploy.md)")
     return p.parse_args(argv)
+
+
+def _speed(text: str) -> float | None:
+    """``--speed``: a factor, or ``max`` (None: no fixed ceiling)."""
+    if text == "max":
+        return None
+    try:
+        return float(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a factor (sim s per wall s) or 'max'") from err
+
+
+def speed_label(speed: float | None) -> str:
+    return "max" if speed is None else f"{speed:g}x"
 
 
 def _skips(values: list[str], goals: int) -> list[list[int]]:
@@ -161,8 +182,8 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 
 
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
-    if not (math.isfinite(args.speed) and 0 < args.speed <= 200):
-        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200]")
+    if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
+        raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
     if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
         raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
@@ -207,10 +228,11 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         label, total, tour_name, start_floor, alone = _visit(args, building)
     _validate(args, building, start_floor)
     skips = _skips(args.skip, total) if not plans else []
+    speed = args.speed or MAX_SPEED_GUESS   # what the wall-time rates and the timeout assume
     if args.timeout is None:   # a goal takes 60-150 s of sim time: three times that, plus start and stop
         stops = sum(TOUR_STOPS_GUESS if p.tour_file else 1 for p in plans) or total
         last_arrival = max((p.arrive_s for p in plans), default=0.0)
-        args.timeout = START_STOP_S + (last_arrival + SIM_S_PER_GOAL * stops) / args.speed
+        args.timeout = START_STOP_S + (last_arrival + SIM_S_PER_GOAL * stops) / min(speed, DEFAULT_SPEED)
 
     wall_begin = time.time()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
@@ -219,8 +241,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     if tour_name:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
-                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / args.speed):.4g}",
-                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / args.speed):.4g}"}
+                   "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor, "visit_time": args.visit_time}
     if plans:
@@ -230,7 +252,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         what = f"{len(plans)} visitors (seed {args.seed}, one every {args.mean_gap:g} s on average)"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
-          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, speed {args.speed:g}x"
+          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, "
+          f"speed {speed_label(args.speed)}{'' if args.seed is None else f', seed {args.seed}'}"
           f"{', GUIs' if args.gui else ', headless'}"
           f"{', one machine (network namespace) per robot' if args.machines else ''}\nrun folder: {run_dir}",
           file=out, flush=True)
@@ -240,14 +263,17 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     visit = Visit(building, building.robots[0].name, tour_name, args.goal or "", start_floor)   # monitor: robot 0
     progress: Progress | Crowd = Crowd(plans) if plans else \
         Progress(total_goals=total, visit=visit, robots_total=len(building.robots), alone=alone)
-    sim = SimulatedBuilding(args.building, run_dir, speed=args.speed, gui=args.gui, relay_secret=args.secret,
-                            seed_tours=seed, addresses=addresses, common_args=launch_args, visitor=visitor,
-                            machines=args.machines)
+    governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
+    sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
+                            seed=args.seed, gui=args.gui, relay_secret=args.secret, seed_tours=seed,
+                            addresses=addresses, common_args=launch_args, visitor=visitor, machines=args.machines)
+    timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
     try:
         sim.start(cancelled=lambda: bool(stop))
-        failure = _follow(sim, progress, args, wall_begin, out, stop, tour_cpu if args.cpu else None)
+        failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
+                          tour_cpu if args.cpu else None)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
@@ -273,11 +299,14 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "building": "building/building.yaml", "tour": what_ran, "goals": total,
         "completed": done, "stops_alone": sorted(alone) if tour_name else None, "outcome": outcome,
         "sim_s": progress.sim_seconds(), "wall_s": progress.wall_seconds(), "total_wall_s": round(total_wall, 1),
-        "speed": args.speed, "way": args.way, "start_floor": start_floor, "skips": skips,
+        "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
+        "governor": governor.summary() if governor else None,
+        "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
+        "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
     if plans:
-        run.update(seed=args.seed, visitors=len(plans), population=[p.to_dict() for p in plans])
+        run.update(visitors=len(plans), population=[p.to_dict() for p in plans])
     (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
     ratio = run["sim_s"] / run["wall_s"] if run["wall_s"] > 0 else 0.0
     counted = "visits ended; visitors:" if plans else "goals done; tour:"
@@ -295,23 +324,46 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
 
 
-def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, args: argparse.Namespace, wall_begin: float,
-            out: TextIO, stop: Signals, tour_cpu: list[CpuSnapshot] | None = None) -> str:
-    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or ""."""
+def clocks_line(timing: RunTiming) -> str:
+    """The floors' achieved factors since the tour started, and their time behind the ceiling."""
+    summary = timing.summary()["floors"]
+    if not summary:
+        return ""
+    factors = " ".join(f"{f['achieved_factor']:.0f}" for f in summary.values())
+    behind = max(f["behind_s"] for f in summary.values())
+    return f" | sim/wall {factors}, behind {behind:.1f} s, drift {timing.max_drift:.1f} s"
+
+
+def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTiming, governor: SpeedGovernor | None,
+            args: argparse.Namespace, wall_begin: float, out: TextIO, stop: Signals,
+            tour_cpu: list[CpuSnapshot] | None = None) -> str:
+    """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or "".
+    ``governor`` (``--speed max``): sets every floor's ceiling from the floors' clocks."""
     assert sim.monitor_file is not None
     shown = ""
     deadline = wall_begin + args.timeout
-    next_track = 0.0
+    next_track = next_look = 0.0
     with open(sim.monitor_file, encoding="utf-8") as feed:
         while not progress.finished and not stop:
+            if time.monotonic() >= next_look:
+                clocks, now = sim.clocks(), time.time()
+                timing.look(clocks, now, bool(progress.goals))
+                ceiling = governor.look(clocks, now, bool(progress.goals)) if governor else None
+                if ceiling is not None:
+                    sim.set_ceiling(ceiling)
+                next_look = time.monotonic() + LOOK_PERIOD
             line = feed.readline()
             if line:
                 if progress.feed_line(line):
                     if tour_cpu is not None and not tour_cpu and progress.goals:
                         tour_cpu.append(CpuSnapshot(time.time(), sim.cpu_usage()))
+                    if progress.goals and not timing.first or progress.finished:
+                        timing.look(sim.clocks(), time.time(), True)    # the tour's start and end, exactly
                     text = progress.line()
                     if text != shown:
-                        print(f"[{time.time() - wall_begin:6.1f} s] {text}", file=out, flush=True)
+                        held = f", ceiling {governor.ceiling:g}x" if governor else ""
+                        print(f"[{time.time() - wall_begin:6.1f} s] {text}{clocks_line(timing)}{held}", file=out,
+                              flush=True)
                         shown = text
                 continue
             if time.monotonic() >= next_track:   # know every node, so that stop() finds them all

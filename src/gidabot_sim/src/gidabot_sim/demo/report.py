@@ -34,7 +34,13 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   its visitor chose, a lost or duplicated goal, a leg served by two robots or by none;
 * one PNG per floor with the path each robot followed over the blueprint (Fig. 7):
   thick while guiding the visitor, thin dashed while driving alone (to a meeting
-  point, back to the visitor), the tour's goals numbered by step.
+  point, back to the visitor), the tour's goals numbered by step;
+* the run's timing (:func:`timing_report`): per floor over the tour, the achieved factor and
+  the wall time its clock was behind its speed ceiling (``run.json``, from the floors' timeline),
+  each lockstep controller's answers against the steps it owed (move_base, amcl: its rate in
+  sim time against nominal) and each guiding node's loop rate against nominal (the floor's
+  ``/diagnostics`` in its bag), the largest drift between floors; the run is *degraded* when a
+  floor was behind for more than 1 % of the tour or a rate fell below 80 % of nominal.
 """
 
 from __future__ import annotations
@@ -83,6 +89,9 @@ from gidabot_sim.visitor.population import VisitorPlan, plans_from_list
 
 LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
+TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
+MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
+MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
 
 
 @dataclass(frozen=True)
@@ -115,6 +124,18 @@ class GoalInfo:
     yaw: float = 0.0    # rad: the robot stops facing the door, so the room is that way
 
 
+@dataclass(frozen=True)
+class DiagSample:
+    """One status of the floor's ``/diagnostics`` (the simulator's, a guiding node's)."""
+
+    t: float                 # s, header stamp (the floor's sim time)
+    name: str
+    values: tuple[tuple[str, str], ...]
+
+    def get(self, key: str, default: str = "") -> str:
+        return dict(self.values).get(key, default)
+
+
 @dataclass
 class RobotRecord:
     """What one robot's bag says."""
@@ -130,6 +151,7 @@ class RobotRecord:
     goals: dict[str, GoalInfo] = field(default_factory=dict)     # goal uid -> where it ends
     bad: dict[str, int] = field(default_factory=dict)            # topic -> messages that cannot be read
     rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
+    diagnostics: list[DiagSample] = field(default_factory=list)  # its floor's timing statuses, time-ordered
     assignments: set[tuple[str, str, str, int]] = field(default_factory=set)  # (goal uid, leg, robot, state)
 
     @property
@@ -208,8 +230,104 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     }
     unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
+    timing = timing_report(records, run)
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected, "legs": leg_audit(records)}
+            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"]}
+
+
+# ---------------------------------------------------------------------------
+# Timing: can the run's sim time be trusted?
+# ---------------------------------------------------------------------------
+
+def _bracket(samples: list[DiagSample], start: float, end: float) -> tuple[DiagSample, DiagSample] | None:
+    """The samples around [start, end] (sim time): the last at or before ``start`` (else the first), the first at
+    or after ``end`` (else the last)."""
+    if len(samples) < 2:
+        return None
+    a = next((d for d in reversed(samples) if d.t <= start), samples[0])
+    b = next((d for d in samples if d.t >= end), samples[-1])
+    return (a, b) if b.t > a.t else None
+
+
+def _number(sample: DiagSample, key: str) -> float:
+    try:
+        value = float(sample.get(key, "nan"))
+    except ValueError:
+        return math.nan
+    return value
+
+
+def controller_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
+    """Each lockstep participant of the floor's simulator over [start, end]: the steps it owed and answered in time
+    (its achieved rate against its nominal one), the times the world stopped waiting for it."""
+    pair = _bracket([d for d in samples if d.name.startswith("sim: floor ")], start, end)
+    if pair is None:
+        return {}
+    out = {}
+    for key, text in pair[1].values:
+        if not key.startswith("participant "):
+            continue
+        try:
+            after, before = json.loads(text), json.loads(pair[0].get(key, "{}"))
+        except json.JSONDecodeError:
+            continue
+        delta = {k: after.get(k, 0) - before.get(k, 0) for k in ("owed", "answered", "timeouts", "waited_s")}
+        owed = delta["owed"]
+        out[key[len("participant "):]] = {"owed": owed, "answered": delta["answered"],
+                                          "rate_pct": round(100.0 * delta["answered"] / owed, 1) if owed else 100.0,
+                                          "timeouts": delta["timeouts"], "waited_s": round(delta["waited_s"], 3)}
+    return out
+
+
+def loop_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
+    """Each guiding node's main loop over [start, end]: iterations per sim second, against its nominal rate (it
+    wakes at least ``loop_nominal_hz`` times per wall second: at the floor's achieved factor, that many per sim
+    second divided by it), and the longest wall gap between two iterations so far."""
+    names = sorted({d.name for d in samples if d.name.startswith("guiding: ")})
+    out = {}
+    for name in names:
+        pair = _bracket([d for d in samples if d.name == name], start, end)
+        if pair is None:
+            continue
+        a, b = pair
+        count = _number(b, "loop_count") - _number(a, "loop_count")
+        ros = _number(b, "loop_ros") - _number(a, "loop_ros")
+        wall = _number(b, "loop_wall") - _number(a, "loop_wall")
+        nominal = _number(b, "loop_nominal_hz")
+        if not all(math.isfinite(v) for v in (count, ros, wall, nominal)) or ros <= 0 or wall <= 0:
+            continue
+        out[name[len("guiding: "):]] = {
+            "loops": int(count), "hz_sim": round(count / ros, 3), "nominal_hz_sim": round(nominal * wall / ros, 3),
+            "rate_pct": round(100.0 * count / (nominal * wall), 1),
+            "max_gap_wall_s": round(_number(b, "loop_max_gap_wall_s"), 3)}
+    return out
+
+
+def timing_report(records: list[RobotRecord], run: dict) -> dict:
+    """Per floor over the tour (``run.json``'s ``timing``, from the timeline): achieved factor, wall time behind
+    the speed ceiling and waiting; from the bags: its controllers' and guiding loops' rates. ``degraded``: a floor
+    behind for more than ``MAX_BEHIND_PCT`` % of the tour, or a rate below ``MIN_RATE_PCT`` % of nominal (None:
+    the run has no timing)."""
+    timing = run.get("timing") or {}
+    floors: dict[str, dict] = {}
+    reasons = []
+    for rec in records:
+        floor = dict((timing.get("floors") or {}).get(rec.name) or {})
+        if not floor:
+            continue
+        start, end = float(floor.get("sim_start", 0.0)), float(floor.get("sim_end", math.inf))
+        floor["controllers"] = controller_rates(rec.diagnostics, start, end)
+        floor["guiding"] = loop_rates(rec.diagnostics, start, end)
+        floors[rec.name] = floor
+        if floor.get("behind_pct", 0.0) > MAX_BEHIND_PCT:
+            reasons.append(f"{rec.name}'s clock was behind its speed ceiling for {floor['behind_s']:.1f} s "
+                           f"({floor['behind_pct']:.1f} % of the tour)")
+        for kind in ("controllers", "guiding"):
+            for node, rate in floor[kind].items():
+                if rate["rate_pct"] < MIN_RATE_PCT:
+                    reasons.append(f"{rec.name}'s {node} ran at {rate['rate_pct']:.0f} % of its nominal rate")
+    return {"floors": floors, "max_drift_s": timing.get("max_drift_s"), "degraded": bool(reasons) if floors else None,
+            "reasons": reasons}
 
 
 def leg_audit(records: list[RobotRecord]) -> dict:
@@ -321,6 +439,7 @@ def format_tables(report: dict) -> str:
     lines += ["", f"Goals completed: {t['completed']} of {t['goals']}"
                   f"   sim time {t['sim_s']:.0f} s, wall time {t['wall_s']:.0f} s "
                   f"(sim/wall {t['sim_to_wall']:.1f}x)"]
+    lines += format_timing(report.get("timing") or {})
     legs = report.get("legs")
     if legs:
         verdict = "each served by exactly one robot" if not legs["double_served"] and not legs["unserved"] else \
@@ -335,6 +454,71 @@ def format_tables(report: dict) -> str:
         lines.append(f"warning: {where}: {n} message(s) in the bag could not be deserialised (skipped)")
     if "population" in report:
         lines += format_crowd(report)
+    return "\n".join(lines)
+
+
+def format_timing(timing: dict) -> list[str]:
+    floors = timing.get("floors") or {}
+    if not floors:
+        return []
+    def short(name: str) -> str:
+        return name.rsplit("/", 1)[-1].split(" ")[0]
+
+    nodes = sorted({short(n) for f in floors.values() for n in (*f["controllers"], *f["guiding"])})
+    lines = ["", "Timing over the tour, per floor (docs/simulator.md): achieved sim/wall factor, wall time behind the "
+                 "speed ceiling, rates against nominal (%)", ""]
+    head = f"{'Robot':<12} {'sim/wall':>8} {'behind (s)':>10} {'behind %':>8} " + " ".join(
+        f"{n[:12]:>12}" for n in nodes)
+    lines += [head, "-" * len(head)]
+    for robot, f in floors.items():
+        rates = {short(n): r["rate_pct"] for kind in ("controllers", "guiding") for n, r in f[kind].items()}
+        lines.append(f"{robot:<12} {f['achieved_factor']:>8.1f} {f['behind_s']:>10.2f} {f['behind_pct']:>8.2f} "
+                     + " ".join(f"{rates[n]:>12.0f}" if n in rates else f"{'-':>12}" for n in nodes))
+    drift = timing.get("max_drift_s")
+    lines.append("")
+    lines.append(("largest drift between floors: " + (f"{drift:.1f} s sim" if drift is not None else "not measured"))
+                 + ("; DEGRADED: " + "; ".join(timing["reasons"]) if timing.get("degraded") else "; not degraded"))
+    return lines
+
+
+def format_markdown(report: dict, run: dict, folder: Path) -> str:
+    """Tables 3 and 5, the timing per floor and (with ``cpu.json``) the CPU per kind of process, in Markdown."""
+    t = report["tour"]
+    speed = run.get("speed")
+    lines = [f"`gidabot demo --tour {t['file']} --speed {speed}"
+             + (f" --seed {run['seed']}`" if run.get("seed") is not None else "`")
+             + f": {t['completed']} of {t['goals']} goals, tour sim {t['sim_s']:.0f} s, wall {t['wall_s']:.1f} s "
+             f"(sim/wall {t['sim_to_wall']:.1f}x)", "",
+             "| Robot | Floor | Received | Processed | Time (s) | Dist. (m) | Mean vel. (m/s) |",
+             "|---|---:|---:|---:|---:|---:|---:|"]
+    for r in report["robots"]:
+        lines.append(f"| {r['name']} | {r['floor']:g} | {r['received']} | {r['processed']} | {r['time_s']:.1f} | "
+                     f"{r['distance_m']:.1f} | {r['mean_velocity_mps']:.2f} |")
+    lines.append(f"| Tour | | | | {t['time_s']:.1f} | {t['distance_m']:.1f} | {t['mean_velocity_mps']:.2f} |")
+    timing = report.get("timing") or {}
+    floors = timing.get("floors") or {}
+    if floors:
+        lines += ["", "| Floor's robot | sim/wall | behind (s) | waiting for controllers (s) | for floors (s) | "
+                      "controllers (% of nominal) | guiding loops (% of nominal) |",
+                  "|---|---:|---:|---:|---:|---|---|"]
+        for robot, f in floors.items():
+            ctl = ", ".join(f"{n.rsplit('/', 1)[-1]} {v['rate_pct']:.0f}" for n, v in f["controllers"].items())
+            gui = ", ".join(f"{n.split(' ')[0]} {v['rate_pct']:.0f}" for n, v in f["guiding"].items())
+            lines.append(f"| {robot} | {f['achieved_factor']:.1f} | {f['behind_s']:.2f} | "
+                         f"{f['wait_controllers_s']:.2f} | {f['wait_floors_s']:.2f} | {ctl} | {gui} |")
+        lines += ["", f"Largest drift between floors: {timing.get('max_drift_s')} s of sim time; "
+                      + ("**degraded**: " + "; ".join(timing["reasons"]) if timing.get("degraded") else "not degraded")
+                      + "."]
+    cpu_file = folder / "cpu.json"
+    if cpu_file.exists():
+        cpu = json.loads(cpu_file.read_text(encoding="utf-8")).get("tour") or {}
+        sim_s = float(t.get("sim_s") or 0.0)
+        if cpu and sim_s > 0:
+            lines += ["", f"CPU during the tour: {cpu['cpu_s']:.0f} s in {cpu['wall_s']:.0f} s of wall time "
+                          f"({cpu['cores']:.2f} cores), {1000.0 * cpu['cpu_s'] / sim_s:.1f} ms per simulated second:",
+                      "", "| process (all robots) | CPU s | ms per sim s | cores |", "|---|---:|---:|---:|"]
+            for kind, sec in cpu["per_kind_cpu_s"].items():
+                lines.append(f"| {kind} | {sec:.1f} | {1000.0 * sec / sim_s:.2f} | {sec / cpu['wall_s']:.3f} |")
     return "\n".join(lines)
 
 
@@ -418,7 +602,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     try:
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
-                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE))]
+                      if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE),
+                                     Topic.DIAGNOSTICS)]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
@@ -436,6 +621,10 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     gp, q = msg.goal_pose.position, msg.goal_pose.orientation
                     rec.goals[msg.uid] = GoalInfo(msg.goal_id, float(msg.goal_floor), gp.x, gp.y,
                                                   int(msg.tour_step), 2.0 * math.atan2(q.z, q.w))
+                elif conn.topic == Topic.DIAGNOSTICS:
+                    t = _stamp(msg, t_ns)
+                    rec.diagnostics.extend(DiagSample(t, st.name, tuple((kv.key, kv.value) for kv in st.values))
+                                           for st in msg.status if st.name.startswith(TIMING_STATUSES))
                 elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
@@ -456,6 +645,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     rec.events = sorted(dict.fromkeys(rec.events), key=lambda e: e.t)
     rec.poses = sorted(set(rec.poses), key=lambda p: p.t)
     rec.local_poses = sorted(set(rec.local_poses), key=lambda p: p.t)
+    rec.diagnostics = sorted(set(rec.diagnostics), key=lambda d: d.t)
     return rec
 
 
@@ -585,6 +775,8 @@ def main(argv: list[str]) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run", type=Path, help="run folder written by gidabot demo / chaos")
     parser.add_argument("--json", action="store_true", help="print the tables as one JSON object")
+    parser.add_argument("--markdown", action="store_true",
+                        help="print the tables (and the run's timing and CPU) as Markdown, as the docs show them")
     parser.add_argument("--no-plots", action="store_true", help="do not write the per-floor path PNGs")
     args = parser.parse_args(argv)
     try:
@@ -601,6 +793,8 @@ def main(argv: list[str]) -> int:
     (args.run / "report.json").write_text(json.dumps(report, indent=2), encoding="utf-8")
     if args.json:
         print(json.dumps(report))
+    elif args.markdown:
+        print(format_markdown(report, run, args.run))
     else:
         print(format_tables(report))
         for p in report.get("plots", []):

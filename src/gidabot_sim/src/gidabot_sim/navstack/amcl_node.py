@@ -1,4 +1,8 @@
-"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`)."""
+"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`).
+
+A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): it answers every
+ground-truth message, so the world does not step on before the estimate for it is out.
+"""
 
 from __future__ import annotations
 
@@ -19,6 +23,7 @@ from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
 from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros.participant import StepAnswers, own_time
 from gidabot_sim.world.clock import Periodic
 
 
@@ -50,6 +55,9 @@ class AmclNode:
       ``~noise_tau`` (s, 3): its correlation time; ``~update_min_d`` (m, 0.1), ``~update_min_a`` (rad, 0.1);
       ``~tf_rate`` (Hz sim, 10), ``~transform_tolerance`` (s, 0.1); ``~global_frame_id`` (map),
       ``~odom_frame_id`` (odom); ``~seed`` (int, -1 = random).
+    Lockstep (docs/simulator.md): ROS time is the stamp of the latest ground truth (no ``/clock``); every
+      ground-truth message is answered on ``/sim/step_done`` (gidabot_msgs/StepDone) once its estimate (if
+      any) is published.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -71,7 +79,11 @@ class AmclNode:
         self.pose_pub = rospy.Publisher(Topic.AMCL_POSE, PoseWithCovarianceStamped, queue_size=5, latch=True)
         self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
-        rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, self._on_truth, queue_size=10)
+        self.set_time = own_time()
+        self.answers = StepAnswers()
+        self.truth_topic = rospy.resolve_name(Topic.BASE_POSE_GROUND_TRUTH)
+        self.answers.answer(0.0, idle=True, inputs=[self.truth_topic])     # known to the simulator from the start
+        rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
     def _follow_odom(self) -> None:
         """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
@@ -91,11 +103,17 @@ class AmclNode:
                 self.core.on_odom(msg.header.stamp.to_sec(), pose)
 
     def _on_truth(self, msg: Odometry) -> None:
+        t = msg.header.stamp.to_sec()
+        self.set_time(t)
+        self._estimate(msg, t)
+        self.answers.answer(t, idle=True, inputs=[self.truth_topic])
+
+    def _estimate(self, msg: Odometry, t: float) -> None:
+        """Process one ground truth: publish the estimate (when due) and tf."""
         truth = _pose2d(msg)
         if truth is None:
             self.rejected.reject(Topic.BASE_POSE_GROUND_TRUTH, "amcl: ignoring a non-finite ground-truth pose")
             return
-        t = msg.header.stamp.to_sec()
         self._follow_odom()
         with self.lock:
             estimate = self.core.on_truth(t, truth)

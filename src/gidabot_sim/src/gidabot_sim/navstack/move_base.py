@@ -78,7 +78,6 @@ class NavConfig:
     pose_timeout: float = 5.0            # s without a pose estimate -> abort
     heading_gain: float = 2.0            # 1/s, turning-on-the-spot and final-heading gain
     footprint_padding: float = 0.05      # m added to the robot's radius for planning (costmap_2d's padding)
-    stall_threshold: float = 1.0         # s between two control cycles beyond which the stand-in itself stalled
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -169,8 +168,6 @@ class MoveBaseCore:
         self.plans = 0                       # plans made (for tests and diagnostics)
         self.replans = 0
         self._obstacles: dict[str, Shape] = {}
-        self._last_step: float | None = None
-        self.late_cycles = 0                 # control cycles that came late (process starved or frozen)
         self._reset_goal_state(0.0)
 
     # -- inputs ----------------------------------------------------------------
@@ -289,29 +286,8 @@ class MoveBaseCore:
         return None
 
     # -- control -----------------------------------------------------------------
-    def _excuse_stall(self, now: float) -> None:
-        """Time in which this stand-in did not run at all (its process starved of CPU or frozen while
-        the simulated world went on) is not held against the robot: every patience timer is moved
-        forward by the stall, as if the stand-in had been paused with the world."""
-        last, self._last_step = self._last_step, now
-        if last is None:
-            return
-        stall = (now - last) - self.config.stall_threshold
-        if stall <= 0.0:
-            return
-        self.late_cycles += 1
-        self._goal_time += stall
-        self._progress_time += stall
-        if self._plan_fail_since is not None:
-            self._plan_fail_since += stall
-        if self._blocked_since is not None:
-            self._blocked_since += stall
-        if self.pose_time is not None:
-            self.pose_time = min(now, self.pose_time + stall)
-
     def step(self, now: float) -> StepResult:
         """One control cycle at sim time ``now``."""
-        self._excuse_stall(now)
         if self.state is State.IDLE:
             return StepResult(None)
         if self.pose is None or self.pose_time is None or now - self.pose_time > self.config.pose_timeout:

@@ -1,4 +1,9 @@
-"""ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`)."""
+"""ROS adapter of the move_base stand-in: the ``/move_base`` node (core: :mod:`gidabot_sim.navstack.move_base`).
+
+A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): while a goal runs, its
+control cycles run on the odometry of each of the simulator's steps, and the world does not step on before
+it has answered.
+"""
 
 from __future__ import annotations
 
@@ -10,7 +15,6 @@ from typing import Any
 
 import actionlib
 import rospy
-import rospy.rostime
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped, Twist
 from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedback, MoveBaseResult
 from nav_msgs.msg import Odometry
@@ -32,7 +36,8 @@ from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
 from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.world.clock import Periodic, next_cycle
+from gidabot_sim.ros.participant import StepAnswers, own_time, synchronous_publisher
+from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D
 from gidabot_sim.world.world import obstacle_shape
 
@@ -88,10 +93,12 @@ class MoveBaseNode:
       ``~footprint_padding`` (m, 0.05: added to the radius for planning),
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
-      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
-      ``~stall_threshold`` (s, 1: a longer gap between two control cycles means this process was starved
-      or frozen; that time is not held against the goal's patience timers).
+      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false).
       All times are sim time.
+    Lockstep (docs/simulator.md): ROS time is the stamp of the latest odometry (no ``/clock``). While a goal
+      runs, the simulator sends the odometry of every step, a control cycle runs on it (at most
+      ``~controller_frequency``) with the latest localisation, and is answered on ``/sim/step_done``
+      (gidabot_msgs/StepDone) after its cmd_vel; idle, it answers nothing and the world does not wait for it.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM (:mod:`gidabot_navigation.ros.exit_guard`).
     """
 
@@ -111,7 +118,7 @@ class MoveBaseNode:
                                            goal_tolerance=param_number("~default_tolerance", 0.5))
         self.spacing = param_number("~plan_point_spacing", floor.map.resolution)
         self.feedback_due = Periodic(param_number("~feedback_rate", 5.0))
-        self.rate_hz = config.controller_frequency
+        self.control_due = Periodic(config.controller_frequency)
         self.plan_while_active = bool(rospy.get_param("~make_plan_while_active", False))
         self.robot = robot.name
         self.tracker = PoseTracker()
@@ -121,14 +128,21 @@ class MoveBaseNode:
         self.wake = threading.Event()
         self.plans_published = 0
         self.rejected = ru.CountingLog(rospy.logerr)       # invalid goals, amcl_pose and odom messages
-        self.cmd_pub = rospy.Publisher(Topic.CMD_VEL, Twist, queue_size=5)
+        self.set_time = own_time()
+        self.answers = StepAnswers()
+        self.odom_topic = rospy.resolve_name(Topic.ODOM)
+        self.turn = threading.Lock()       # a step (odometry thread) or a goal while idle (main loop): one at a time
+        self.said = threading.Lock()       # self.active and the answers (a leaf lock: taken under actionlib's too)
+        self.active = False                # answering every step (a goal runs)
+        self.now = 0.0                     # sim s: the latest odometry's stamp
+        self.cmd_pub = synchronous_publisher(Topic.CMD_VEL, Twist)       # to the simulator, before the answer
         self.goal_pub = rospy.Publisher(Topic.MOVE_BASE_CURRENT_GOAL, PoseStamped, queue_size=2)
         self.plan_pub = rospy.Publisher(Topic.MOVE_BASE_PLAN, PathMsg, queue_size=2)
         self.action_goal_pub = rospy.Publisher(Topic.MOVE_BASE_GOAL, MoveBaseActionGoal, queue_size=2)
         self.server = actionlib.SimpleActionServer(Topic.MOVE_BASE, MoveBaseAction, auto_start=False)
-        self.server.register_goal_callback(lambda: self._event("goal"))
+        self.server.register_goal_callback(self._on_goal)
         self.server.register_preempt_callback(lambda: self._event("preempt"))
-        rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10)
+        rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10, tcp_nodelay=True)
         rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
         rospy.Subscriber(str(rospy.get_param("~obstacles_topic", Topic.SIM_OBSTACLES)), ObstacleArray,
                          lambda msg: self._event("obstacles", msg), queue_size=10)
@@ -142,15 +156,32 @@ class MoveBaseNode:
         self.events.put((kind, msg))
         self.wake.set()
 
+    def _on_goal(self) -> None:
+        """A new goal: the world must wait for this node from now on. Said at once, before the goal is planned
+        (tens of milliseconds of wall time the world would otherwise run through while the robot has not started);
+        the cycle that accepts and plans it runs at the step the simulator then sends."""
+        self._event("goal")
+        self._answer(self.now, busy=True, only_if_idle=True)
+
+    def _answer(self, t: float, busy: bool, only_if_idle: bool = False) -> None:
+        """Tell the simulator: done through ``t``; ``busy``: a goal runs (every step owed, odometry at every step)."""
+        with self.said:
+            if only_if_idle and self.active:
+                return
+            self.answers.answer(t, idle=not busy, inputs=[self.odom_topic] if busy else [])
+            self.active = busy
+
     def _on_odom(self, msg: Odometry) -> None:
         p, q, v = msg.pose.pose.position, msg.pose.pose.orientation, msg.twist.twist
         values = (p.x, p.y, q.x, q.y, q.z, q.w, v.linear.x, v.linear.y, v.angular.z)
         if not all(math.isfinite(x) for x in values):
             self.rejected.reject("odom", f"move_base: ignoring odom with non-finite values {values!r}")
             return
+        t = msg.header.stamp.to_sec()
         with self.tracker_lock:
-            self.tracker.on_odom(msg.header.stamp.to_sec(), Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
+            self.tracker.on_odom(t, Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w)),
                                  Twist2D(v.linear.x, v.linear.y, v.angular.z))
+        self._step(t)
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
         try:
@@ -208,7 +239,7 @@ class MoveBaseNode:
             elif kind == "preempt":
                 if not self.server.is_new_goal_available() and self.server.is_active():
                     self.core.cancel()
-                    self.cmd_pub.publish(ru.twist_msg(ZERO))
+                    self._command(ZERO)
                     self.server.set_preempted(MoveBaseResult(), "Goal cancelled")
             elif kind == "obstacles":
                 latest_obstacles = msg           # each array is the whole set: only the newest matters
@@ -228,7 +259,7 @@ class MoveBaseNode:
         except GidaBotError as err:
             self.rejected.reject("goal", f"move_base: aborting on goal: {err}")
             self.core.cancel()
-            self.cmd_pub.publish(ru.twist_msg(ZERO))
+            self._command(ZERO)
             self.server.set_aborted(MoveBaseResult(), f"Aborting on goal because it was sent with an invalid "
                                     f"pose: {err}")
             return
@@ -259,7 +290,7 @@ class MoveBaseNode:
             result = self.core.step(now)
             path, goal, plans_after = self.core.path, self.core.goal, self.core.plans
         if result.cmd is not None:
-            self.cmd_pub.publish(ru.twist_msg(result.cmd))
+            self._command(result.cmd)
         if result.outcome == SUCCEEDED and self.server.is_active():
             self.server.set_succeeded(MoveBaseResult(), result.text)
         elif result.outcome == ABORTED and self.server.is_active():
@@ -275,10 +306,14 @@ class MoveBaseNode:
             if self.plan_pub.get_num_connections():
                 self.plan_pub.publish(path_msg(path.plan, goal.yaw, self.spacing, now))
 
+    def _command(self, cmd: Twist2D) -> None:
+        self.cmd_pub.publish(ru.twist_msg(cmd))
+        self.answers.command_sent()
+
     def run(self, guard: ExitGuard) -> None:
-        """The control loop at ``~controller_frequency`` (ROS time) until shutdown. Stops at the first
-        signal (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only
-        then closes the topics (see :mod:`gidabot_navigation.ros.exit_guard`)."""
+        """The control loop, at the simulator's steps, until shutdown. Stops at the first signal
+        (``guard.requested``; the guard also ends an idle wait) and tells the guard, which only then closes the
+        topics (see :mod:`gidabot_navigation.ros.exit_guard`)."""
         guard.set_wake(self.wake.set)
         try:
             self._loop(lambda: rospy.is_shutdown() or guard.requested)
@@ -288,30 +323,36 @@ class MoveBaseNode:
         finally:
             guard.loop_stopped()
 
-    def _loop(self, stop: Callable[[], bool]) -> None:
-        period = 1.0 / self.rate_hz
-        due = rospy.get_time()
-        while not stop():
-            if self.core.state is State.IDLE and self.events.empty():
-                self.wake.wait(0.5)           # idle: sleep until a goal (or an obstacle update) arrives
-                self.wake.clear()
-                if self.events.empty():
-                    continue
-            self._cycle()
-            due = next_cycle(due, period, rospy.get_time())
-            self._sleep_until(due, period, stop)
+    def _busy(self) -> bool:
+        return self.core.state is not State.IDLE or not self.events.empty()
 
-    @staticmethod
-    def _sleep_until(t: float, period: float, stop: Callable[[], bool]) -> None:
-        """rospy.Rate.sleep in ROS time, but ending within 50 ms wall of ``stop()`` (rospy's sleep only
-        notices a shutdown, and every 0.5 s while the clock stands still) and at a jump back in time."""
-        cond = rospy.rostime.get_rostime_cond()       # notified at every /clock message
-        while not stop():
-            now = rospy.get_time()
-            if now >= t or now < t - 2 * period:
+    def _step(self, t: float) -> None:
+        """The odometry of the simulator's step at ``t``: this node's time; while a goal runs, a control cycle (when
+        due) and the answer; once the goal is over, one answer saying it is idle."""
+        with self.turn:
+            if t < self.now - 1e-9:
+                return                       # an older message (a late delivery): the world is past it
+            self.now = t
+            self.set_time(t)
+            if not self.active and not self._busy():
                 return
-            with cond:
-                cond.wait(min(0.05, t - now))
+            if self.control_due.due(t):
+                self._cycle()
+            self._answer(t, self._busy())
+
+    def _loop(self, stop: Callable[[], bool]) -> None:
+        """Idle, a goal (or an obstacle update) is handled at once, at the latest odometry's time; if a goal then
+        runs, the answer tells the simulator to send every step's odometry and to wait for this node."""
+        self.answers.answer(0.0, idle=True)          # known to the simulator from the start
+        while not stop():
+            self.wake.wait(0.5)
+            self.wake.clear()
+            with self.turn:
+                if self.active or not self._busy():
+                    continue
+                self._cycle()
+                if self._busy():
+                    self._answer(self.now, busy=True)
 
 
 def main() -> None:

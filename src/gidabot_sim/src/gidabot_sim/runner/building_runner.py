@@ -51,6 +51,7 @@ from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, MachinesError, ProcessError
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
+from gidabot_sim.world.timeline import Clock, Timeline
 
 T = TypeVar("T")
 # where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
@@ -58,11 +59,14 @@ T = TypeVar("T")
 RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
 RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
-RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE))
+# and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
+RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
+                   Topic.DIAGNOSTICS)
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
 MACHINE_MASTER_PORT = 11311   # every robot's master on a machine of its own: the standard port
+CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
 
 
 def node_executable(package: str, name: str) -> str:
@@ -173,11 +177,22 @@ def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
 @dataclass
 class SimulatedBuilding:
     """The simulated building's processes. ``addresses`` (one per robot, building order) replace
-    the building file's own master addresses (tests use a per-session loopback network)."""
+    the building file's own master addresses (tests use a per-session loopback network).
+
+    Time: every floor's simulator shares the run's timeline (``<run>/timeline``, slot = the robot's index):
+    ``speed`` is the ceiling of every floor's clock (None: none, ``--speed max``; :meth:`set_ceiling` changes
+    it while the run goes), no floor runs more than ``max_drift`` sim seconds ahead of the slowest live one,
+    and :meth:`clocks` tells where each floor is. ``seed``: the simulated noise of robot ``i`` is seeded with
+    ``seed + i`` (None: random). ``sim_nice``: CPU niceness of every floor's simulator and stand-ins: in lockstep
+    their starvation only slows the floors' time down, so the robots' own software goes first."""
 
     building_dir: Path
     run_dir: Path
-    speed: float = 10.0
+    speed: float | None = 10.0
+    seed: int | None = None
+    max_drift: float | None = 1.0             # sim s
+    peer_timeout: float = 5.0                 # wall s a frozen floor holds the others up at most
+    sim_nice: int = 10
     gui: bool = False
     record: bool = True
     relay_secret: Path | None = None          # FILE with the relays' secret; None = a fresh one in run_dir
@@ -207,7 +222,8 @@ class SimulatedBuilding:
         self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
         self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
         self.off: set[str] = set()               # robots whose machine is off (machine_off)
-        self.ros_offsets: dict[str, float] = {}   # robot -> how far its sim clock is ahead (clock offsets)
+        self.timeline: Timeline | None = None
+        self._history: list[tuple[float, float]] = []    # (wall, slowest floor's sim time), see clocks()
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -237,10 +253,6 @@ class SimulatedBuilding:
                 self.net = Machines(names, clock_offsets=self.clock_offsets).create()
             except MachinesError as err:
                 raise DemoError(f"cannot make the robots' machines: {err}") from err
-        # sim time: every floor's clock runs from the same start; a robot whose wall clock is off runs its
-        # sim clock ahead by (its offset - the smallest offset): ROS times disagree as its wall clock does
-        low = min([0.0, *self.clock_offsets.values()])
-        self.ros_offsets = {n: float(self.clock_offsets.get(n, 0.0)) - low for n in names}
         uris: dict[str, str] = {}
         relay_ports: dict[str, int] = {}
         try:
@@ -264,6 +276,8 @@ class SimulatedBuilding:
         if self.relay_secret is None:
             self.relay_secret = write_secret(self.run_dir / "relay.secret")
         self.start_wall = time.time() + self.start_delay
+        self.timeline = Timeline.create(self.run_dir / "timeline", len(self.building.robots), self.speed,
+                                        self.max_drift, self.peer_timeout, self.start_wall)
         for robot in self.building.robots:
             check()
             if self.record:
@@ -282,6 +296,28 @@ class SimulatedBuilding:
         self.procs.start("monitor", self.command(first.name, [sys.executable, node_executable("gidabot_sim", "monitor"),
                                                               f"_out:={self.monitor_file}", f"_robots:={robots}"]),
                          self.env(first.name))
+
+    def clocks(self) -> dict[str, Clock]:
+        """Each robot's floor clock (sim time, heartbeat, timing counters), from the timeline; also kept (a
+        while) for :meth:`sim_time_at`."""
+        if self.timeline is None or self.building is None:
+            return {}
+        clocks = {r.name: c for r, c in zip(self.building.robots, self.timeline.clocks(), strict=True)}
+        self._history.append((time.time(), min(c.sim for c in clocks.values())))
+        del self._history[:-CLOCK_HISTORY]
+        return clocks
+
+    def sim_time_at(self, wall: float) -> float:
+        """The slowest floor's sim time at wall time ``wall`` (at most that: the latest look at the clocks before
+        it; the floors' clocks run at their own pace)."""
+        self.clocks()
+        before = [sim for w, sim in self._history if w <= wall]
+        return before[-1] if before else (self._history[0][1] if self._history else 0.0)
+
+    def set_ceiling(self, speed: float | None) -> None:
+        """A new speed ceiling for every floor, from now on (None: none)."""
+        if self.timeline is not None:
+            self.timeline.set_ceiling(speed)
 
     def env(self, robot: str, clock: bool = False) -> dict[str, str]:
         """Environment of a process using ``robot``'s master; ``clock``: a process of the robot itself (with
@@ -311,18 +347,16 @@ class SimulatedBuilding:
         wait_until(lambda: self.call(robot, master_pid, uri) is not None, timeout, f"master {robot} at {uri}")
         return uri
 
-    def sim_time(self, wall: float, robot: str) -> float:
-        """The sim time ``robot``'s clock showed at (host) wall time ``wall`` (docs/simulator.md)."""
-        return (wall - self.start_wall) * self.speed + self.ros_offsets.get(robot, 0.0)
-
     def launch_args(self, robot: str) -> list[str]:
+        assert self.building is not None
         tours_dir = self.run_dir / "tours" / robot
-        # a robot's wall clock is off by its clock offset; its sim clock is ahead by its ros offset
-        start_wall = (self.start_wall + self.clock_offsets.get(robot, 0.0)
-                      - self.ros_offsets.get(robot, 0.0) / self.speed)
+        index = [r.name for r in self.building.robots].index(robot)
         args = {
-            "building": str(self.building_file), "robot": robot, "sim": "true", "speed": f"{self.speed:g}",
-            "start_wall": f"{start_wall:.3f}", "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
+            "building": str(self.building_file), "robot": robot, "sim": "true",
+            "speed": "max" if self.speed is None else f"{self.speed:g}", "start_wall": f"{self.start_wall:.3f}",
+            "timeline": str(self.run_dir / "timeline"), "timeline_slot": str(index),
+            "seed": str(-1 if self.seed is None else self.seed + index), "sim_nice": str(self.sim_nice),
+            "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),
         }
@@ -405,7 +439,9 @@ class SimulatedBuilding:
         return up
 
     def housekeeping(self) -> None:
-        """Stop the recorders a restarted master made obsolete, once their successors have run a while."""
+        """Stop the recorders a restarted master made obsolete, once their successors have run a while; look at
+        the floors' clocks (:meth:`sim_time_at`)."""
+        self.clocks()
         now = time.monotonic()
         for name, due in list(self.retired.items()):
             if due is not None and now >= due and self.procs.alive(name):
@@ -509,6 +545,9 @@ class SimulatedBuilding:
         for name in robots:
             self.procs.stop(name, grace=20.0)
         self.procs.close()
+        if self.timeline is not None:
+            self.timeline.close()
+            self.timeline = None
         for info in self.leftovers():   # a node whose roslaunch did not stop it (own session: own group)
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 if info.pgid == info.pid:

@@ -144,8 +144,12 @@ class VisitorNode:
 
     @staticmethod
     def _deliver(core: VisitorCore, msg: NavEvent) -> None:
-        core.on_event(rospy.get_time(), msg.uid, msg.robot, msg.phase, msg.goal_uid, msg.floor, msg.target_floor,
-                      msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
+        # the visitor sees what a robot does when it happens (the event's stamp), not when its message got here:
+        # the messages' wall latency would otherwise add sim time, the more the faster the run (never later than
+        # now: another floor's clock may be a little ahead)
+        now, happened = rospy.get_time(), msg.header.stamp.to_sec()
+        core.on_event(min(happened, now) if happened > 0 else now, msg.uid, msg.robot, msg.phase, msg.goal_uid,
+                      msg.floor, msg.target_floor, msg.tour_step, tour_file=msg.tour_file, location_id=msg.location_id)
 
     def _on_catalog(self, msg: TourCatalog) -> None:
         for t in msg.tours:

@@ -1,61 +1,83 @@
-"""Simulated time (ROS-free): one formula on every floor, and sim-time schedules.
+"""Simulated time (ROS-free): the speed ceiling of a floor's clock, and sim-time schedules.
 
-``sim_time = (wall_now - start_wall) * speed``: every floor's simulator derives its
-``/clock`` from the same ``start_wall`` and ``speed``, so stamps agree across the
-robots' masters without any exchange. Physics catches up to that target in fixed
-steps; a starved CPU makes the catch-up bigger but never lets a floor drift.
+A floor's clock advances only by steps the simulator has computed (:mod:`gidabot_sim.world.lockstep`);
+:class:`Pacer` keeps it from running faster than its speed ceiling and counts the wall time it spent
+behind that ceiling. It never makes up lost time by jumping: a floor that cannot keep up runs slower.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from gidabot_sim.errors import SimConfigError
 
 MAX_SPEED = 1000.0
 
 
-@dataclass(frozen=True)
-class SimClock:
-    """``speed`` sim seconds per wall second, sim time 0 at wall time ``start_wall`` (s since the epoch)."""
-
-    speed: float
-    start_wall: float
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.speed, (int, float)) and math.isfinite(self.speed) and 0 < self.speed <= MAX_SPEED):
-            raise SimConfigError(f"speed: {self.speed!r} must be a number in (0, {MAX_SPEED:g}] "
-                                 "(sim seconds per wall second)")
-        if not (isinstance(self.start_wall, (int, float)) and math.isfinite(self.start_wall)
-                and self.start_wall >= 0):
-            raise SimConfigError(f"start_wall: {self.start_wall!r} must be a wall time >= 0 (s since the epoch)")
-
-    @classmethod
-    def create(cls, speed: float, start_wall: float, wall_now: float) -> SimClock:
-        """``start_wall`` 0 means "now"."""
-        return cls(float(speed), float(wall_now) if float(start_wall) == 0.0 else float(start_wall))
-
-    def sim_time(self, wall: float) -> float:
-        """Sim seconds at wall time ``wall`` (negative before ``start_wall``: the simulation has not started)."""
-        return (wall - self.start_wall) * self.speed
-
-    def wall_time(self, sim: float) -> float:
-        """Wall time at which sim time reaches ``sim``."""
-        return self.start_wall + sim / self.speed
+def check_speed(speed: float | None) -> float | None:
+    """``speed`` (sim seconds per wall second) as a ceiling: a number in (0, MAX_SPEED], or None (no ceiling)."""
+    if speed is None:
+        return None
+    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not (
+            math.isfinite(speed) and 0 < speed <= MAX_SPEED):
+        raise SimConfigError(f"speed: {speed!r} must be a number in (0, {MAX_SPEED:g}] (sim seconds per wall "
+                             "second), or none for no ceiling")
+    return float(speed)
 
 
-def tick_period(speed: float, clock_step: float = 0.05, max_rate: float = 100.0) -> float:
-    """Wall seconds between two ``/clock`` messages.
+class Pacer:
+    """The speed ceiling: sim time ``t`` may be reached no earlier than wall time :meth:`due` ``(t)``.
 
-    Aim for ``clock_step`` sim seconds per tick (control loops get that resolution) but
-    never more than ``max_rate`` messages per wall second: at 10x with the defaults that
-    is 100 Hz wall, 0.1 s of sim time per tick.
+    The schedule runs from an anchor (a wall time and the sim time reached then) at ``speed``. A stop
+    reached late by up to ``slack`` wall seconds is made up by not sleeping before the next steps (each
+    one still computed); later than that, the schedule is re-anchored at that stop, so the clock never
+    runs faster than the ceiling to catch up what it lost. :attr:`behind` adds up the wall time lost
+    against the ceiling at those re-anchorings; :meth:`behind_at` includes the lateness still pending.
+    ``speed`` None: no ceiling (as fast as the simulation goes), never behind.
     """
-    for name, value in (("speed", speed), ("clock_step", clock_step), ("max_rate", max_rate)):
-        if not (math.isfinite(value) and value > 0):
-            raise SimConfigError(f"{name}: {value!r} must be a finite number > 0")
-    return max(clock_step / speed, 1.0 / max_rate)
+
+    def __init__(self, speed: float | None, start_wall: float, start_sim: float = 0.0, slack: float = 0.05) -> None:
+        if not (math.isfinite(start_wall) and math.isfinite(start_sim)):
+            raise SimConfigError(f"start: wall {start_wall!r}, sim {start_sim!r} must be finite")
+        if not (math.isfinite(slack) and slack >= 0):
+            raise SimConfigError(f"slack: {slack!r} must be >= 0 wall seconds")
+        self.speed = check_speed(speed)
+        self.slack = float(slack)
+        self.anchor_wall, self.anchor_sim = float(start_wall), float(start_sim)
+        self.behind = 0.0
+
+    def due(self, t: float) -> float:
+        """Wall time at which sim time ``t`` may be reached (-inf without a ceiling)."""
+        if self.speed is None:
+            return -math.inf
+        return self.anchor_wall + (t - self.anchor_sim) / self.speed
+
+    def lateness(self, t: float, wall: float) -> float:
+        """Wall seconds by which reaching ``t`` at ``wall`` is behind the schedule (0 when on time)."""
+        if self.speed is None:
+            return 0.0
+        return max(0.0, wall - self.due(t))
+
+    def reached(self, t: float, wall: float) -> None:
+        """The world reached sim time ``t`` at ``wall``; re-anchors when it was late beyond the slack."""
+        late = self.lateness(t, wall)
+        if late > self.slack:
+            self.behind += late
+            self.anchor_wall, self.anchor_sim = wall, t
+
+    def behind_at(self, t: float, wall: float) -> float:
+        """Wall seconds behind the ceiling so far, with the world at ``t`` at ``wall``."""
+        return self.behind + self.lateness(t, wall)
+
+    def set_speed(self, speed: float | None, t: float, wall: float) -> None:
+        """A new ceiling from now on (the world is at ``t`` at ``wall``): the lateness so far is counted and the
+        schedule starts again from here."""
+        speed = check_speed(speed)
+        if speed == self.speed:
+            return
+        self.behind += self.lateness(t, wall)
+        self.speed = speed
+        self.anchor_wall, self.anchor_sim = wall, t
 
 
 class Periodic:
@@ -79,13 +101,3 @@ class Periodic:
 
     def reset(self) -> None:
         self.next = 0.0
-
-
-def next_cycle(due: float, period: float, now: float) -> float:
-    """When the next cycle of a ``period`` loop is due, after the one due at ``due`` ran at ``now``
-    (rospy.Rate's rule): one period later, but re-anchored at ``now`` when the loop fell more than a
-    period behind (missed cycles are skipped, not run back to back) or time jumped back."""
-    nxt = due + period
-    if nxt < now - period or nxt > now + period:
-        return now + period
-    return nxt

@@ -144,30 +144,34 @@ class World:
     """One floor: the map, its robots and obstacles, stepped in fixed ``dt`` sim seconds.
 
     ``cmd_timeout`` (s): a robot without a command for longer brakes to a stop (at its
-    acceleration limits). ``max_catchup`` (s): a gap larger than this between the world's
-    time and the target (the process was stopped or starved) is skipped, not simulated.
-    ``rng``: random generator for sensor noise (pass a seeded one for repeatable runs).
+    acceleration limits). ``rng``: random generator for sensor noise (pass a seeded one for
+    repeatable runs). Time advances only by steps (:meth:`step`): it is ``start + steps * dt``,
+    without rounding drift.
     """
 
     def __init__(self, grid: OccupancyMap, dt: float = 0.02, cmd_timeout: float = 0.2,
-                 max_catchup: float = 10.0, rng: np.random.Generator | None = None) -> None:
-        for name, value in (("dt", dt), ("cmd_timeout", cmd_timeout), ("max_catchup", max_catchup)):
+                 rng: np.random.Generator | None = None) -> None:
+        for name, value in (("dt", dt), ("cmd_timeout", cmd_timeout)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise SimConfigError(f"{name}: {value!r} must be a finite number of seconds > 0")
         self.grid = grid
         self.dt = float(dt)
         self.cmd_timeout = float(cmd_timeout)
-        self.max_catchup = float(max_catchup)
         self.rng = rng if rng is not None else np.random.default_rng()
-        self.time = 0.0
+        self.start = 0.0
+        self.steps = 0
         self.robots: list[SimRobot] = []
         self.obstacles: dict[str, Shape] = {}
         self.obstacle_version = 0
-        self.skipped = 0.0                       # sim seconds skipped (not simulated) so far
         self._static = grid.cells != FREE        # occupied or unknown: solid
         self._obstacle_mask = np.zeros_like(self._static)
         self._dirty = False
         self.caster = RayCaster(self._static, grid.resolution, (grid.origin_x, grid.origin_y, grid.origin_yaw))
+
+    @property
+    def time(self) -> float:
+        """Sim seconds."""
+        return self.start + self.steps * self.dt
 
     # -- robots ----------------------------------------------------------------
     def add_robot(self, spec: RobotSpec, pose: Pose2D) -> int:
@@ -323,18 +327,9 @@ class World:
 
     # -- physics ---------------------------------------------------------------
     def advance_to(self, target: float) -> int:
-        """Step until the world's time reaches ``target`` (within one ``dt``); returns the steps made.
-
-        A gap beyond ``max_catchup`` is skipped (time jumps, robots hold still); see :attr:`skipped`.
-        """
+        """Step until the world's time reaches ``target`` (within one ``dt``); returns the steps made."""
         if not math.isfinite(target):
             raise ValueError(f"target time {target!r} is not finite")
-        if target - self.time > self.max_catchup:
-            jump = target - self.max_catchup - self.time
-            self.skipped += jump
-            self.time += jump
-            for robot in self.robots:          # commands do not survive the gap
-                robot.cmd_time, robot.vel = None, ZERO
         steps = 0
         while self.time + self.dt <= target + 1e-9:
             self.step()
@@ -342,21 +337,23 @@ class World:
         return steps
 
     def start_at(self, t: float) -> None:
-        """Set the world's time (at start, when the simulation joins a clock already running)."""
-        self.time = float(t)
+        """Set the world's time (at start, or when a restarted simulator resumes its floor's timeline)."""
+        if not math.isfinite(t):
+            raise ValueError(f"start time {t!r} is not finite")
+        self.start, self.steps = float(t), 0
 
     def step(self) -> None:
         """Advance every robot by one ``dt``."""
-        t = self.time + self.dt
+        t = self.start + (self.steps + 1) * self.dt
         for index, robot in enumerate(self.robots):
             self._step_robot(index, robot, t)
-        self.time = t
+        self.steps += 1
 
     def _step_robot(self, index: int, robot: SimRobot, t: float) -> None:
         limits = robot.spec.limits
         fresh = robot.cmd_time is not None and t - robot.cmd_time <= self.cmd_timeout + 1e-9
         target = robot.cmd if fresh else ZERO
-        vel = accelerate(robot.vel, target, limits, self.dt)
+        vel = ZERO if target is ZERO and robot.vel is ZERO else accelerate(robot.vel, target, limits, self.dt)
         if not vel.is_zero():
             new = integrate(robot.pose, vel, self.dt)
             if self._blocked(index, robot, new):

@@ -1,23 +1,25 @@
-"""ROS adapter of the floor simulator: the ``/sim`` node (core: :mod:`gidabot_sim.world.world`).
+"""ROS adapter of the floor simulator: the ``/sim`` node (cores: :mod:`gidabot_sim.world.world`,
+:mod:`gidabot_sim.world.lockstep`).
 
-One node per floor (per master), like one of the paper's Gazebo worlds. It owns sim
-time: it publishes ``/clock`` from the wall clock with the shared formula
-(:mod:`gidabot_sim.world.clock`) and steps the world's physics to it.
+One node per floor (per master), like one of the paper's Gazebo worlds. It owns sim time: the
+floor's clock advances only by the steps it computes, in lockstep with the floor's controllers
+(the move_base and amcl stand-ins), within the building's drift bound and under its speed ceiling
+(docs/simulator.md, "Simulated time").
 """
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import queue
+import threading
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import rospy
-import rospy.impl.simtime
-import rospy.rostime
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseWithCovarianceStamped, Twist
 from nav_msgs.msg import MapMetaData, OccupancyGrid, Odometry
@@ -26,8 +28,8 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, LaserScan
 from tf2_msgs.msg import TFMessage
 
-from gidabot_msgs.msg import Obstacle, ObstacleArray
-from gidabot_navigation.building.geometry import Pose2D
+from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone
+from gidabot_navigation.building.geometry import Pose2D, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import Node, Service, Topic
@@ -36,11 +38,18 @@ from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
 from gidabot_sim.ros import convert as ru
-from gidabot_sim.world.clock import Periodic, SimClock, tick_period
+from gidabot_sim.ros.participant import own_time, synchronous_publisher
+from gidabot_sim.world.clock import MAX_SPEED, Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits
+from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
+from gidabot_sim.world.timeline import Clock as TimelineClock
+from gidabot_sim.world.timeline import Timeline
 from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
 
-MAX_EVENTS_PER_TICK = 200     # inputs applied per /clock tick; a flood waits for the next ticks
+MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
+HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
+IDLE_SLEEP = 0.01             # wall s an idle floor sleeps at least when ahead of its ceiling or of the other floors
+ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
 
 
 def _pose_param(name: str, value: Any) -> Pose2D | None:
@@ -61,12 +70,15 @@ class SimParams:
     robots: tuple[str, ...]
     floor: float
     poses: tuple[Pose2D | None, ...]
-    speed: float
+    speed: float | None
     start_wall: float
     dt: float
+    step: float
+    participant_timeout: float
+    max_drift: float | None
+    timeline: str
+    timeline_slot: int
     cmd_timeout: float
-    max_catchup: float
-    clock_step: float
     clock_rate_max: float
     odom_rate: float
     truth_rate: float
@@ -106,22 +118,27 @@ class SimParams:
                                idle_per_hour=param_number("~battery_idle_per_hour", 0.05, strict=False),
                                per_km=param_number("~battery_per_km", 0.25, strict=False))
         seed = int(rospy.get_param("~seed", -1))
+        speed = rospy.get_param("~speed", 1.0)
+        drift = param_number("~max_drift", 1.0, strict=False)
         return SimParams(
             building=building, robots=tuple(robots), floor=float(rospy.get_param("~floor", math.nan)),
-            poses=tuple(poses), speed=param_number("~speed", 1.0, 0.0, 1000.0),
+            poses=tuple(poses),
+            speed=None if speed == "max" else param_number("~speed", 1.0, 0.0, MAX_SPEED),
             start_wall=param_number("~start_wall", 0.0, strict=False),
             dt=param_number("~physics_dt", 0.02, 0.0, 0.2),
-            cmd_timeout=param_number("~cmd_timeout", 0.2),
-            max_catchup=param_number("~max_catchup", 10.0),
-            clock_step=param_number("~clock_step", 0.05, 0.0, 10.0),
+            step=param_number("~step", 0.1, 0.0, 10.0),
+            participant_timeout=param_number("~participant_timeout", 2.0, 0.0),
+            max_drift=drift or None, timeline=str(rospy.get_param("~timeline", "")),
+            timeline_slot=int(param_number("~timeline_slot", 0.0, 0.0, 63.0, strict=False)),
+            cmd_timeout=param_number("~cmd_timeout", 0.2, 0.0),
             clock_rate_max=param_number("~clock_rate_max", 100.0, 0.0, 1000.0),
-            odom_rate=param_number("~odom_rate", 20.0, 0.0, 1000.0),
+            odom_rate=param_number("~odom_rate", 10.0, 0.0, 1000.0),
             truth_rate=param_number("~truth_rate", 5.0, 0.0, 1000.0),
             rest_rate=param_number("~rest_rate", 1.0, 0.0, 1000.0),
             laser_rate=param_number("~laser_rate", 10.0, 0.0, 1000.0),
             battery_rate=param_number("~battery_rate", 1.0, 0.0, 100.0),
             laser=laser, laser_z=param_number("~laser_z", 0.3, -5, 5, strict=False), battery=battery,
-            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0))
+            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0, 0.0))
 
 
 class _RobotIO:
@@ -129,19 +146,26 @@ class _RobotIO:
 
     def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
         self.index, self.prefix = index, prefix
+        # the lockstep participants' inputs, by resolved name (as StepDone names them)
+        self.odom_topic = rospy.resolve_name(prefix + Topic.ODOM)
+        self.truth_topic = rospy.resolve_name(prefix + Topic.BASE_POSE_GROUND_TRUTH)
         self.frame = {name: f"{prefix}{name}" for name in ("odom", "base_footprint", "base_link", "base_laser_link")}
+        self.odom_msg, self.truth_msg = Odometry(), Odometry()      # reused at every publication
+        for msg, frame in ((self.odom_msg, self.frame["odom"]), (self.truth_msg, "map")):
+            msg.header.frame_id, msg.child_frame_id = frame, self.frame["base_footprint"]
+            msg.pose.covariance = msg.twist.covariance = ODOM_COVARIANCE
         self.odom = rospy.Publisher(prefix + Topic.ODOM, Odometry, queue_size=5)
         self.truth = rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry, queue_size=5)
         self.scan = rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2)
         self.battery = rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)
         rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.enqueue, callback_args=(Topic.CMD_VEL, index),
-                         queue_size=5)
+                         queue_size=50, tcp_nodelay=True)
         rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.enqueue,
                          callback_args=(Topic.INITIALPOSE, index), queue_size=5)
 
 
 class SimNode:
-    """Simulates one floor: its map, robots, laser, battery and run-time obstacles; owns ``/clock``.
+    """Simulates one floor: its map, robots, laser, battery and run-time obstacles; owns its sim time.
 
     Per robot (no prefix with one robot; ``robot_<i>/`` with several, as stage_ros does):
       Subscribes:
@@ -162,28 +186,38 @@ class SimNode:
       tf: ``odom -> base_footprint`` (while /tf has subscribers); static ``base_footprint -> base_link``
         and ``base_link -> base_laser_link``.
     Floor-wide:
-      ``/clock`` (rosgraph_msgs/Clock): sim time = (wall - ``~start_wall``) * ``~speed``, about every
-        ``~clock_step`` sim seconds but at most ``~clock_rate_max`` per wall second; nothing before
-        ``~start_wall``.
+      ``/clock`` (rosgraph_msgs/Clock): the sim time of the latest step, at most ``~clock_rate_max`` times
+        per wall second; nothing before ``~start_wall``.
+      ``/sim/step_done`` (gidabot_msgs/StepDone, subscribed): the lockstep participants' answers; while one
+        is not idle, its inputs (a robot's ``odom``) are published at every step (docs/simulator.md, "Lockstep").
       ``map`` (nav_msgs/OccupancyGrid, latched) and ``map_metadata`` (latched), service ``static_map``
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
       ``/sim/obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
       ``/sim/obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
-        wall seconds (speed, sim time, achieved factor, lag, counters of rejected input, stalls, scans).
+        wall seconds: speed ceiling, sim time, achieved factor, wall time behind the ceiling and waiting
+        (for controllers, for other floors, for the ceiling), each participant's stops owed / answered /
+        missed and timeouts, counters of rejected input, stalls, scans, batteries.
     Params:
       ``~building`` (str), ``~robot`` (str) or ``~robots`` (list of str): robots of the building file
         simulated here (their drive, limits, radius); ``~floor`` (default: the first robot's);
       ``~initial_pose`` ([x, y, yaw], m/rad; default the robot's home) or ``~initial_poses`` (one per robot);
-      ``~speed`` (sim s per wall s, 1), ``~start_wall`` (s since the epoch, 0 = now);
-      ``~physics_dt`` (s, 0.02), ``~cmd_timeout`` (s, 0.2), ``~max_catchup`` (s, 10: a longer stall of
-        the process is skipped, not simulated); ``~clock_step`` (s, 0.05), ``~clock_rate_max`` (Hz, 100);
-      ``~odom_rate`` (Hz, 20), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
-        ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per /clock tick);
+      ``~speed`` (sim s per wall s, 1; ``max``: no ceiling): a ceiling, never a promise; ``~start_wall`` (s since
+        the epoch, 0 = now): when sim time 0 starts;
+      ``~step`` (sim s, 0.1: the controllers' period), ``~physics_dt`` (s, 0.02; ``~step`` is a multiple of it),
+        ``~participant_timeout`` (wall s, 2: a participant that has not answered by then is absent until it
+        answers again), ``~timeline`` (path of the building's timeline file, '' = none) and ``~timeline_slot``
+        (this floor's slot): the other floors' clocks, the drift bound and the ceiling (which then replaces
+        ``~speed``); ``~cmd_timeout`` (s, 0.2), ``~clock_rate_max`` (Hz wall, 100);
+      ``~odom_rate`` (Hz, 10), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
+        ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per step);
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 3 pi/2), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1).
+    Restart: the floor's time goes on from where it was (the timeline's slot; without one, ``~resume_at``,
+      saved every ``~diagnostics_period``), never back; the robot restarts at its initial pose, obstacles
+      are lost.
     Shutdown: the process exits within 1 wall second of SIGINT/SIGTERM, whatever state the master
       and the subscribers are in (:mod:`gidabot_navigation.ros.exit_guard`).
     """
@@ -202,8 +236,11 @@ class SimNode:
             self.floor = building.floor(floor_id)
         except KeyError as err:
             raise SimConfigError(f"~floor: {err}") from err
+        substeps = params.step / params.dt
+        if abs(substeps - round(substeps)) > 1e-6:
+            raise SimConfigError(f"~step: {params.step:g} s must be a multiple of ~physics_dt ({params.dt:g} s)")
         self.world = World(self.floor.map, dt=params.dt, cmd_timeout=params.cmd_timeout,
-                           max_catchup=params.max_catchup, rng=np.random.default_rng(params.seed))
+                           rng=np.random.default_rng(params.seed))
         for robot, pose in zip(robots, params.poses, strict=True):
             spec = RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), params.laser, params.battery)
             try:
@@ -211,14 +248,13 @@ class SimNode:
             except SimError as err:
                 raise SimConfigError(f"robot {robot.name}: initial pose: {err}") from err
         self.log = ru.CountingLog(rospy.logerr)
-        self.events: queue.SimpleQueue = queue.SimpleQueue()
+        self.events: queue.SimpleQueue = queue.SimpleQueue()        # initialpose, obstacles: a flood waits
+        self.lock_events: queue.SimpleQueue = queue.SimpleQueue()   # cmd_vel and answers: always applied
+        self.wake = threading.Event()
         multi = len(robots) > 1
         self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
-        # /clock is published synchronously (no queue thread per subscriber): tiny messages, 100 per wall
-        # second, and a tick must not wait behind a queue (rospy warns about queue_size=None: intended)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", SyntaxWarning)
-            self.clock_pub = rospy.Publisher(Topic.CLOCK, Clock, queue_size=None)
+        # /clock is written in this thread, at once (a tiny message)
+        self.clock_pub = synchronous_publisher(Topic.CLOCK, Clock)
         self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=20)
         self.tf_static_pub = rospy.Publisher(Topic.TF_STATIC, TFMessage, queue_size=1, latch=True)
         self.map_pub = rospy.Publisher(Topic.MAP, OccupancyGrid, queue_size=1, latch=True)
@@ -226,6 +262,7 @@ class SimNode:
         self.obstacles_pub = rospy.Publisher(Topic.SIM_OBSTACLES, ObstacleArray, queue_size=1, latch=True)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
         rospy.Subscriber(Topic.SIM_OBSTACLE, Obstacle, self.enqueue, callback_args=("obstacle", -1), queue_size=50)
+        rospy.Subscriber(Topic.SIM_STEP_DONE, StepDone, self._on_step_done, queue_size=200, tcp_nodelay=True)
         self.map_msg = ru.occupancy_grid(self.floor.map, 0.0)
         rospy.Service(Service.STATIC_MAP, GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.odom_due = Periodic(params.odom_rate)
@@ -234,29 +271,66 @@ class SimNode:
         self.laser_due = Periodic(params.laser_rate)
         self.battery_due = Periodic(params.battery_rate)
         self.tf_due = Periodic(params.odom_rate)
-        self.clock = SimClock.create(params.speed, params.start_wall, time.time())
-        if params.start_wall == 0.0:     # "now": keep it, so a respawned simulator continues the same timeline
-            rospy.set_param("~start_wall", self.clock.start_wall)
-        self.period = tick_period(params.speed, params.clock_step, params.clock_rate_max)
-        self._diag = {"wall": time.time(), "sim": 0.0}
-        self.late_ticks = 0
+        self.timeline = Timeline.open(params.timeline) if params.timeline else None
+        wall = time.time()
+        resume = self._resume_time()
+        start_wall = wall if resume > 0.0 or params.start_wall == 0.0 else params.start_wall
+        speed = self.timeline.ceiling if self.timeline is not None else params.speed
+        drift = self.timeline.max_drift if self.timeline is not None else params.max_drift
+        self.stepper = Stepper(params.step, Pacer(speed, start_wall, resume), Lockstep(params.participant_timeout),
+                               max_drift=drift if self.timeline is not None else None, start=resume)
+        self.world.start_at(resume)
+        self.start_wall = start_wall
+        self.lockstep = self.stepper.lockstep
+        self.set_time = own_time()
+        self._clock_wall = -math.inf       # wall time of the latest /clock
+        self._heartbeat = -math.inf
+        self._diag = {"wall": wall, "sim": resume, "next": wall + params.diagnostics_period}
         self.scans = 0
+
+    def _resume_time(self) -> float:
+        """Sim time to start from: 0 for a new floor; where a restarted simulator's floor was (never earlier)."""
+        if self.timeline is not None:
+            return self.timeline.read(self.p.timeline_slot).sim
+        value = rospy.get_param("~resume_at", 0.0)
+        return float(value) if isinstance(value, (int, float)) and math.isfinite(value) and value > 0 else 0.0
 
     # -- callbacks: enqueue only -------------------------------------------------
     def enqueue(self, msg: Any, args: tuple[str, int]) -> None:
-        self.events.put((args[0], args[1], msg))
+        if args[0] == Topic.CMD_VEL:
+            self.lock_events.put((Topic.CMD_VEL, args[1], msg, msg._connection_header.get("callerid", "")))
+        else:
+            self.events.put((args[0], args[1], msg))
+        self.wake.set()
 
-    def _drain(self) -> None:
-        """Apply the queued inputs (at most ``MAX_EVENTS_PER_TICK``; obstacle changes update the world once)."""
-        for _ in range(MAX_EVENTS_PER_TICK):
+    def _on_step_done(self, msg: StepDone) -> None:
+        self.lock_events.put(("step_done", -1, msg, ""))
+        self.wake.set()
+
+    def _drain(self, wall: float) -> None:
+        """Apply the queued commands and answers (all), then other inputs (at most ``MAX_EVENTS_PER_STEP``;
+        obstacle changes update the world once)."""
+        while True:
+            try:
+                kind, index, msg, caller = self.lock_events.get_nowait()
+            except queue.Empty:
+                break
+            try:
+                if kind == Topic.CMD_VEL:
+                    self.lockstep.command(caller)
+                    self.world.set_command(index, *ru.twist_of(msg))
+                else:
+                    self.lockstep.answer(Answer(msg.node, msg.session, msg.done.to_sec(), msg.idle, tuple(msg.inputs),
+                                                msg.commands), wall)
+            except (GidaBotError, ValueError, TypeError) as err:
+                self.log.reject(kind, str(err))
+        for _ in range(MAX_EVENTS_PER_STEP):
             try:
                 kind, index, msg = self.events.get_nowait()
             except queue.Empty:
                 break
             try:
-                if kind == Topic.CMD_VEL:
-                    self.world.set_command(index, *ru.twist_of(msg))
-                elif kind == Topic.INITIALPOSE:
+                if kind == Topic.INITIALPOSE:
                     self.world.rebuild()         # check the pose against the obstacles as they are now
                     self._relocate(index, msg)
                 elif kind == "obstacle":
@@ -265,6 +339,14 @@ class SimNode:
                 self.log.reject(kind, str(err))
         if self.world.rebuild():
             self._publish_obstacles()
+        for node in self.lockstep.timed_out:
+            rospy.logwarn(f"sim: {node} has not answered for {self.lockstep.timeout:g} s: the world goes on without "
+                          "it until it answers again")
+        for node in self.lockstep.rejoined:
+            rospy.loginfo(f"sim: {node} answers again")
+        self.lockstep.timed_out.clear()
+        self.lockstep.rejoined.clear()
+
 
     def _relocate(self, index: int, msg: PoseWithCovarianceStamped) -> None:
         wanted = ru.initialpose_to_pose2d(msg)
@@ -314,18 +396,23 @@ class SimNode:
                                            Pose2D(laser.x, laser.y, laser.yaw), self.world.time, self.p.laser_z))
         self.tf_static_pub.publish(TFMessage(transforms=transforms))
 
+    def _publish_odom(self, io: _RobotIO, robot: Any, t: float) -> None:
+        io.odom.publish(self._odometry(io.odom_msg, robot.odom, robot.vel, t))
+        self.lockstep.published(io.odom_topic, t)
+
     def _publish_sensors(self) -> None:
         t = self.world.time
         odom_due, truth_due, rest_due = self.odom_due.due(t), self.truth_due.due(t), self.rest_due.due(t)
         laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
+        inputs = self.lockstep.inputs_due()           # a driving participant's odometry: at every step
         transforms = []
         for io, robot in zip(self.io, self.world.robots, strict=True):
             resting = self.world.at_rest(io.index)
-            if (rest_due if resting else odom_due) and io.odom.get_num_connections():
-                io.odom.publish(self._odometry(io.frame["odom"], io.frame["base_footprint"], robot.odom,
-                                               robot.vel, t))
+            if ((rest_due if resting else odom_due) or io.odom_topic in inputs) and io.odom.get_num_connections():
+                self._publish_odom(io, robot, t)
             if (rest_due if resting else truth_due) and io.truth.get_num_connections():
-                io.truth.publish(self._odometry("map", io.frame["base_footprint"], robot.pose, robot.vel, t))
+                io.truth.publish(self._odometry(io.truth_msg, robot.pose, robot.vel, t))
+                self.lockstep.published(io.truth_topic, t)
             if tf_due and self.tf_pub.get_num_connections():
                 transforms.append(ru.transform(io.frame["odom"], io.frame["base_footprint"], robot.odom, t))
             if laser_due and io.scan.get_num_connections():
@@ -337,15 +424,14 @@ class SimNode:
             self.tf_pub.publish(TFMessage(transforms=transforms))
 
     @staticmethod
-    def _odometry(frame: str, child: str, pose: Pose2D, vel: Any, t: float) -> Odometry:
-        msg = Odometry()
+    def _odometry(msg: Odometry, pose: Pose2D, vel: Any, t: float) -> Odometry:
+        """``msg`` (the robot's own, reused: publishing serialises it at once) set to ``pose``, ``vel`` at ``t``."""
         msg.header.stamp = ru.stamp(t)
-        msg.header.frame_id = frame
-        msg.child_frame_id = child
-        msg.pose.pose = ru.pose_msg(pose)
-        msg.pose.covariance = [1e-4 if i in (0, 7, 35) else 0.0 for i in range(36)]
-        msg.twist.twist = ru.twist_msg(vel)
-        msg.twist.covariance = [1e-4 if i in (0, 7, 35) else 0.0 for i in range(36)]
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+        p.x, p.y = pose.x, pose.y
+        q.x, q.y, q.z, q.w = yaw_to_quaternion(pose.yaw)
+        v = msg.twist.twist
+        v.linear.x, v.linear.y, v.angular.z = vel.vx, vel.vy, vel.wz
         return msg
 
     def _scan(self, io: _RobotIO, t: float) -> LaserScan:
@@ -377,54 +463,86 @@ class SimNode:
         msg.location = robot.spec.name
         return msg
 
+
+    def _publish_stop(self, t: float, wall: float) -> None:
+        """Everything of the stop the world just reached: sensors (the participants' inputs), then /clock."""
+        self._publish_sensors()
+        if wall - self._clock_wall >= 1.0 / self.p.clock_rate_max:
+            self.clock_pub.publish(Clock(clock=ru.stamp(t)))
+            self.set_time(t)                 # this node's own ROS time, as the others see it (log lines)
+            self._clock_wall = wall
+        self._write_timeline(wall)
+
+    def _idle(self) -> bool:
+        """No robot moves or is commanded and no participant drives: a stop changes nothing but the time."""
+        return not self.lockstep.inputs_due() and all(self.world.at_rest(i) for i in range(len(self.world.robots)))
+
+    def _publish_missing_inputs(self, t: float) -> None:
+        """A participant stopped being idle during this stop: its inputs for it, published now."""
+        for topic in self.lockstep.missing_inputs(t):
+            for io, robot in zip(self.io, self.world.robots, strict=True):
+                if topic == io.odom_topic:
+                    self._publish_odom(io, robot, t)
+
+    def _write_timeline(self, wall: float) -> None:
+        self._heartbeat = wall
+        if self.timeline is None:
+            return
+        s = self.stepper
+        self.timeline.write(self.p.timeline_slot, TimelineClock(
+            sim=s.t, wall=wall, behind=s.behind(wall), wait_controllers=s.waited["controllers"],
+            wait_floors=s.waited["floors"], wait_ceiling=s.waited["ceiling"], steps=s.steps,
+            timeouts=sum(p.timeouts for p in self.lockstep.participants.values()), max_lead=s.max_lead,
+            pid=os.getpid()))
+
+    def _follow_ceiling(self, wall: float) -> None:
+        if self.timeline is not None:
+            self.stepper.pacer.set_speed(self.timeline.ceiling, self.stepper.t, wall)
+
     def _diagnostics(self, wall: float) -> None:
         d = self._diag
-        span = wall - d["wall"]
-        if span < self.p.diagnostics_period:
+        if wall < d["next"]:
             return
-        achieved = (self.world.time - d["sim"]) / span if span > 0 else 0.0
-        lag = self.clock.sim_time(wall) - self.world.time
+        s = self.stepper
+        span = wall - d["wall"]
+        achieved = (s.t - d["sim"]) / span if span > 0 else 0.0
+        speed = s.pacer.speed
         values = {
-            "floor": self.floor.label, "speed": f"{self.p.speed:g}", "sim_time": f"{self.world.time:.2f}",
-            "achieved_factor": f"{achieved:.2f}", "lag_s": f"{lag:.3f}", "late_ticks": str(self.late_ticks),
-            "skipped_s": f"{self.world.skipped:.2f}", "obstacles": str(len(self.world.obstacles)),
-            "stalls": str(sum(r.stalls for r in self.world.robots)), "laser_scans": str(self.scans),
+            "floor": self.floor.label, "speed": "max" if speed is None else f"{speed:g}", "sim_time": f"{s.t:.2f}",
+            "wall_time": f"{wall:.3f}", "achieved_factor": f"{achieved:.2f}", "behind_s": f"{s.behind(wall):.3f}",
+            "wait_controllers_s": f"{s.waited['controllers']:.3f}", "wait_floors_s": f"{s.waited['floors']:.3f}",
+            "wait_ceiling_s": f"{s.waited['ceiling']:.3f}", "steps": str(s.steps), "max_lead_s": f"{s.max_lead:.2f}",
+            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for r in self.world.robots)),
+            "laser_scans": str(self.scans),
         }
-        for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle"):
+        for node, stats in self.lockstep.stats().items():
+            values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
+        for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle", "step_done"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
         for robot in self.world.robots:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
-        status = DiagnosticStatus(level=DiagnosticStatus.OK if lag < 1.0 + self.p.speed * self.period
-                                  else DiagnosticStatus.WARN,
+        absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)
+        behind = s.behind(wall) - d.get("behind", 0.0) > 0.1 * span
+        status = DiagnosticStatus(level=DiagnosticStatus.WARN if absent or behind else DiagnosticStatus.OK,
                                   name=f"sim: floor {self.floor.label}",
-                                  message="running" if lag < 1.0 else "lagging behind the clock",
+                                  message=(f"going on without {', '.join(absent)}" if absent else
+                                           "behind its speed ceiling" if behind else "running"),
                                   hardware_id=",".join(r.spec.name for r in self.world.robots),
                                   values=[KeyValue(k, v) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])
-        msg.header.stamp = ru.stamp(self.world.time)
+        msg.header.stamp = ru.stamp(s.t)
         self.diag_pub.publish(msg)
-        d.update(wall=wall, sim=self.world.time)
-
-    def _stop_listening_to_own_clock(self) -> None:
-        """With /use_sim_time, rospy subscribed this node to /clock to drive rospy.Time; the simulator is
-        the clock, so it sets rospy's time itself at every tick (:meth:`_set_own_time`) instead of
-        receiving its own 100 messages per wall second. Uses rospy internals, so only when present."""
-        sub = getattr(rospy.impl.simtime, "_clock_sub", None)
-        self._own_time = getattr(rospy.rostime, "_set_rostime", None) if sub is not None else None
-        if sub is not None and self._own_time is not None:
-            sub.unregister()
-
-    def _set_own_time(self, now: Any) -> None:
-        if self._own_time is not None:
-            self._own_time(now)
+        if self.timeline is None:     # a restarted simulator goes on from here, ahead of any stamp seen so far
+            lead = max(achieved, speed or 0.0) * self.p.diagnostics_period * 2.0 + self.p.step
+            rospy.set_param("~resume_at", s.t + lead)
+        d.update(wall=wall, sim=s.t, next=wall + self.p.diagnostics_period, behind=s.behind(wall))
 
     # -- main loop -----------------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """Tick on the wall clock until shutdown: events, physics to the clock, /clock, sensors.
-
-        Stops at the first signal (``guard.requested``, checked every tick, i.e. every <= 0.2 s wall) and
-        tells the guard, which only then closes the topics (rospy's own handler closed them from inside
-        this loop, possibly in the middle of a publish: see :mod:`gidabot_navigation.ros.exit_guard`)."""
+        """Step the world until shutdown (see the module docstring). Stops at the first signal
+        (``guard.requested``, checked at least every 50 ms wall) and tells the guard, which only then closes the
+        topics (rospy's own handler closed them from inside this loop, possibly in the middle of a publish:
+        see :mod:`gidabot_navigation.ros.exit_guard`)."""
         try:
             self._loop(guard)
         except rospy.ROSException:
@@ -432,41 +550,45 @@ class SimNode:
                 raise
         finally:
             guard.loop_stopped()
+            if self.timeline is not None:
+                self.timeline.close()
 
     def _loop(self, guard: ExitGuard) -> None:
-        self._stop_listening_to_own_clock()
-        started = False
-        next_tick = time.time()
+        s = self.stepper
+        while not rospy.is_shutdown() and not guard.requested and time.time() < self.start_wall:
+            rospy.loginfo_once(f"sim: waiting {self.start_wall - time.time():.1f} s for start_wall")
+            self.wake.clear()
+            self._drain(time.time())
+            self.wake.wait(min(self.start_wall - time.time(), 0.05))
+        wall = time.time()
+        self._publish_static()
+        self._publish_stop(s.t, wall)
+        speed = s.pacer.speed
+        rospy.loginfo(f"sim: floor {self.floor.label} running from {s.t:.1f} s, speed ceiling "
+                      f"{'none' if speed is None else f'{speed:g}x'}, a step every {s.step:g} s"
+                      + ("" if self.timeline is None else
+                         f", timeline {self.timeline.path} slot {self.p.timeline_slot}"))
         while not rospy.is_shutdown() and not guard.requested:
+            self.wake.clear()
             wall = time.time()
-            target = self.clock.sim_time(wall)
-            if target < 0.0:
-                rospy.loginfo_once(f"sim: waiting {-target / self.p.speed:.1f} s for start_wall")
-                self._drain()
-                time.sleep(min(-target / self.p.speed, 0.2))
-                next_tick = time.time()
+            self._drain(wall)
+            self._follow_ceiling(wall)
+            peers = self.timeline.slowest_peer(self.p.timeline_slot, wall) if self.timeline is not None else None
+            wait = s.check(wall, peers)
+            if wait is None:
+                self.world.advance_to(s.advance(wall))
+                self._publish_stop(s.t, wall)
+                self._diagnostics(wall)
                 continue
-            if not started:
-                self.world.start_at(target)
-                self._diag.update(wall=wall, sim=target)
-                self._publish_static()
-                started = True
-                rospy.loginfo(f"sim: floor {self.floor.label} running at {self.p.speed:g}x, "
-                              f"/clock every {self.period * 1000:.0f} ms wall")
-            self._drain()
-            self.world.advance_to(target)
-            now = ru.stamp(target)
-            self.clock_pub.publish(Clock(clock=now))
-            self._set_own_time(now)
-            self._publish_sensors()
+            timeout = min(wait.until - wall, HEARTBEAT)
+            if wait.reason == CONTROLLERS:
+                self._publish_missing_inputs(s.t)
+            elif self._idle():              # nothing moves: wake less often, then step through what is due
+                timeout = max(timeout, IDLE_SLEEP)
+            if wall - self._heartbeat >= HEARTBEAT:
+                self._write_timeline(wall)
             self._diagnostics(wall)
-            next_tick += self.period
-            now = time.time()
-            if next_tick < now:             # starved: resynchronise, the next tick catches up more
-                self.late_ticks += 1
-                next_tick = now
-            else:
-                time.sleep(next_tick - now)
+            self.wake.wait(max(0.0, timeout))
 
 
 def main() -> None:

@@ -1,0 +1,87 @@
+"""``--speed max`` (ROS-free): the highest speed ceiling every floor keeps up with, found by the run and held.
+
+Every floor's clock advances in lockstep with its controllers, so at any ceiling they run at their nominal
+rate in sim time; what a floor cannot sustain shows as wall time *behind* the ceiling (its timeline slot's
+``behind`` counter). The demo passes the floors' clocks to :meth:`SpeedGovernor.look` a few times per wall
+second and sets every floor's ceiling to what it returns. Over each window of ``window`` wall seconds:
+
+- a floor fell behind the ceiling (its ``behind`` grew by more than ``tolerance`` of the window): the ceiling
+  was too high. It becomes ``back_off`` times the slowest floor's achieved factor over the window, and no
+  later raise goes above ``back_off`` times the ceiling that failed (the ``limit``);
+- every floor kept up and one of them waited for the ceiling (it held the floor back) for ``patience``
+  windows in a row: the ceiling is raised by ``raise_by``, up to the limit and ``high``;
+- otherwise it is held.
+
+Raising starts only once the tour runs (``active``): idle floors keep up with any ceiling, which says nothing
+about the floors while their robots drive.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from gidabot_sim.world.timeline import Clock
+
+
+@dataclass
+class SpeedGovernor:
+    start: float = 50.0          # the first ceiling, sim s per wall s
+    low: float = 5.0             # never below
+    high: float = 200.0          # never above
+    window: float = 1.0          # wall s
+    tolerance: float = 0.02      # share of the window a floor may have been behind
+    back_off: float = 0.9
+    raise_by: float = 1.1
+    patience: int = 2            # windows kept up, waiting for the ceiling, before a raise
+    ceiling: float = field(init=False)
+    limit: float = field(init=False)
+    changes: list[tuple[float, float]] = field(default_factory=list)   # (wall, new ceiling)
+    _since: tuple[float, dict[str, Clock]] | None = None
+    _kept_up: int = 0
+
+    def __post_init__(self) -> None:
+        if not (0 < self.low <= self.start <= self.high and math.isfinite(self.high)):
+            raise ValueError(f"expected 0 < low {self.low} <= start {self.start} <= high {self.high}")
+        if not (self.window > 0 and 0 <= self.tolerance < 1 and 0 < self.back_off < 1 < self.raise_by
+                and self.patience >= 1):
+            raise ValueError("window > 0, 0 <= tolerance < 1, 0 < back_off < 1 < raise_by, patience >= 1")
+        self.ceiling, self.limit = float(self.start), float(self.high)
+
+    def look(self, clocks: dict[str, Clock], wall: float, active: bool) -> float | None:
+        """The floors' clocks at wall time ``wall``; the new ceiling when it changes, else None."""
+        if not clocks:
+            return None
+        if self._since is None or set(self._since[1]) != set(clocks):
+            self._since = (wall, dict(clocks))
+            return None
+        began, before = self._since
+        span = wall - began
+        if span < self.window:
+            return None
+        self._since = (wall, dict(clocks))
+        behind = max(clocks[r].behind - before[r].behind for r in clocks)
+        if behind > self.tolerance * span:
+            slowest = min((clocks[r].sim - before[r].sim) / span for r in clocks)
+            self.limit = max(self.low, min(self.limit, self.back_off * self.ceiling))
+            self._kept_up = 0
+            return self._set(max(self.low, min(self.back_off * slowest, self.limit)), wall)
+        waited = max(clocks[r].wait_ceiling - before[r].wait_ceiling for r in clocks)
+        self._kept_up = self._kept_up + 1 if active and waited > 0 else 0
+        if self._kept_up >= self.patience and self.ceiling < self.limit:
+            self._kept_up = 0
+            return self._set(min(self.ceiling * self.raise_by, self.limit, self.high), wall)
+        return None
+
+    def _set(self, ceiling: float, wall: float) -> float | None:
+        ceiling = round(ceiling, 2)
+        if ceiling == self.ceiling:
+            return None
+        self.ceiling = ceiling
+        self.changes.append((wall, ceiling))
+        return ceiling
+
+    def summary(self) -> dict:
+        """For run.json: the ceiling held at the end, the limit found, and every change."""
+        return {"ceiling": self.ceiling, "limit": self.limit,
+                "changes": [[round(w, 2), c] for w, c in self.changes]}

@@ -1,0 +1,46 @@
+"""bench demo: Table 5 differences and the verdicts (the runs themselves are system-level)."""
+
+from __future__ import annotations
+
+from gidabot_sim.bench.demo import format_markdown, max_delta_pct, summarise, verdicts
+
+ROBOTS = ["A", "B"]
+
+
+def _report(times: tuple[float, float], processed: tuple[int, int], wall: float, degraded: bool = False) -> dict:
+    return {"exit_status": 0, "degraded": degraded,
+            "robots": [{"name": n, "received": 15, "processed": p, "time_s": t, "distance_m": t / 2}
+                       for n, p, t in zip(ROBOTS, processed, times, strict=True)],
+            "tour": {"goals": 15, "completed": 15, "time_s": sum(times), "distance_m": sum(times) / 2,
+                     "sim_s": 1500.0, "wall_s": wall, "sim_to_wall": 1500.0 / wall},
+            "timing": {"floors": {}, "reasons": ["x"] if degraded else []}}
+
+
+def test_table5_differences_are_relative_to_the_reference_run() -> None:
+    a = {"A": (200.0, 100.0), "Tour": (400.0, 200.0)}
+    assert max_delta_pct(a, {"A": (206.0, 100.0), "Tour": (400.0, 201.0)}) == 3.0
+    assert max_delta_pct({"A": (0.0, 0.0)}, {"A": (1.0, 0.0)}) == 100.0
+
+
+def test_the_verdicts_name_every_missed_target() -> None:
+    ten = _report((200.0, 300.0), (7, 8), 150.0)
+    runs = [summarise(ten, 10.0, ROBOTS, None),
+            summarise(_report((200.0, 303.0), (7, 8), 29.0), 50.0, ROBOTS, ten),
+            summarise(_report((210.0, 300.0), (7, 7), 31.0, degraded=True), "max", ROBOTS, ten)]
+    assert runs[1]["table3"] == [7, 8] and runs[1]["table5_max_delta_pct"] == 1.0
+    assert verdicts(runs[:2]) == []
+    missed = verdicts(runs)
+    assert missed == ["max: degraded (x)", "max: Table 3 [15, 15]/[7, 7] differs from the 10x run's [15, 15]/[7, 8]",
+                      "max: Table 5 differs by 5.0 % from the 10x run (target <= 3 %)", "max: 48.4x (target >= 50x)"]
+    runs[1]["wall_s"] = 31.0
+    assert verdicts(runs[:2]) == ["50x: the tour took 31.0 s of wall time (target <= 30 s)"]
+
+
+def test_the_markdown_table_has_one_row_per_run_and_the_verdict() -> None:
+    ten = _report((200.0, 300.0), (7, 8), 150.0)
+    runs = [summarise(ten, 10.0, ROBOTS, None), summarise(_report((200.0, 303.0), (7, 8), 29.0), 50.0, ROBOTS, ten)]
+    text = format_markdown({"seed": 1, "tour": "t.tour", "robots": ROBOTS, "runs": runs, "missed": ["x"],
+                            "pass": False})
+    rows = [line for line in text.splitlines() if line.startswith(("| 10x", "| 50x"))]
+    assert len(rows) == 2 and "| 29.0 |" in rows[1] and "| 1.00 % |" in rows[1] and "| 7, 8 |" in rows[1]
+    assert text.endswith("FAIL: x")

@@ -1,0 +1,61 @@
+"""--speed max: the governor raises the ceiling while every floor keeps up with it, backs off when one falls
+behind, and never goes back above what failed."""
+
+from __future__ import annotations
+
+import pytest
+
+from gidabot_sim.demo.governor import SpeedGovernor
+from gidabot_sim.world.timeline import Clock
+
+
+class Floors:
+    """Two floors' clocks: ``run`` advances them by one wall second at a given pace."""
+
+    def __init__(self) -> None:
+        self.wall = 0.0
+        self.clocks = {"A": Clock(0.0, 0.0), "B": Clock(0.0, 0.0)}
+
+    def run(self, factor: dict[str, float], behind: dict[str, float] | None = None,
+            waited: dict[str, float] | None = None) -> dict[str, Clock]:
+        self.wall += 1.0
+        self.clocks = {r: Clock(c.sim + factor[r], self.wall, behind=c.behind + (behind or {}).get(r, 0.0),
+                                wait_ceiling=c.wait_ceiling + (waited or {}).get(r, 0.0))
+                       for r, c in self.clocks.items()}
+        return self.clocks
+
+
+def test_the_ceiling_rises_while_the_floors_keep_up_and_wait_for_it_only_once_the_tour_runs() -> None:
+    gov, floors = SpeedGovernor(start=50.0, patience=2), Floors()
+    assert gov.look(floors.clocks, floors.wall, active=False) is None
+    for _ in range(4):                                       # before the tour: held
+        assert gov.look(floors.run({"A": 50, "B": 50}, waited={"A": 0.3}), floors.wall, active=False) is None
+    assert gov.look(floors.run({"A": 50, "B": 50}, waited={"A": 0.3}), floors.wall, active=True) is None
+    assert gov.look(floors.run({"A": 50, "B": 50}, waited={"A": 0.3}), floors.wall, active=True) == 55.0
+    # kept up without waiting for the ceiling (not limited by it): held
+    for _ in range(3):
+        assert gov.look(floors.run({"A": 55, "B": 55}), floors.wall, active=True) is None
+
+
+def test_a_floor_behind_brings_the_ceiling_down_below_what_it_achieved_and_caps_later_raises() -> None:
+    gov, floors = SpeedGovernor(start=100.0, patience=1), Floors()
+    gov.look(floors.clocks, floors.wall, active=True)
+    new = gov.look(floors.run({"A": 100, "B": 70}, behind={"B": 0.3}), floors.wall, active=True)
+    assert new == 63.0 and gov.limit == 90.0                # 0.9 x B's 70x; never again above 0.9 x 100
+    for _ in range(10):
+        gov.look(floors.run({"A": gov.ceiling, "B": gov.ceiling}, waited={"B": 0.1}), floors.wall, active=True)
+    assert gov.ceiling == 90.0
+    assert [c for _, c in gov.changes] == [63.0, 69.3, 76.23, 83.85, 90.0]
+    # a little lateness (within the tolerance of the window) is not a failure
+    assert gov.look(floors.run({"A": 90, "B": 90}, behind={"A": 0.01}), floors.wall, active=True) is None
+    assert gov.summary()["ceiling"] == 90.0
+
+
+def test_a_frozen_floor_brings_it_down_to_the_lowest_ceiling_and_bad_settings_are_refused() -> None:
+    gov, floors = SpeedGovernor(start=50.0, low=5.0), Floors()
+    gov.look(floors.clocks, floors.wall, active=True)
+    assert gov.look(floors.run({"A": 0, "B": 50}, behind={"A": 1.0}), floors.wall, active=True) == 5.0
+    with pytest.raises(ValueError):
+        SpeedGovernor(start=1.0, low=5.0)
+    with pytest.raises(ValueError):
+        SpeedGovernor(back_off=1.5)
