@@ -1,6 +1,7 @@
 """System tests of the simulated floor (masters on loopback): launch file, the floors' clocks on one timeline
 (ceiling, drift bound), lockstep with a frozen move_base, run-time obstacles seen by the laser, hostile input,
-the laser only when subscribed, several robots."""
+the laser only when subscribed, several robots (their own topics, seeing each other, a collision counted once,
+two robots driven by their move_base crossing each other in a corridor)."""
 
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ REPO = Path(__file__).resolve().parents[2]
 FACULTY = REPO / "maps" / "faculty"
 SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
 SIM_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "sim"
+TWO_ROBOTS_LAUNCH = Path(__file__).resolve().parent / "two_robots.launch"
 DIAG = "diagnostic_msgs/DiagnosticArray"
 
 
@@ -207,6 +209,13 @@ def test_several_robots_on_one_floor_get_their_own_topics(procs: ProcessGroup, t
         for i in (0, 1):
             probe.sub(f"robot_{i}/{Topic.BASE_POSE_GROUND_TRUTH}", "nav_msgs/Odometry")
             probe.sub(f"robot_{i}/{Topic.BATTERY}", "sensor_msgs/BatteryState")
+            probe.sub(f"robot_{i}/{Topic.ROBOTS_SEEN}", "gidabot_msgs/ObstacleArray")
+        # each laser sees the other (they face each other): its obstacle layer's input
+        seen = probe.wait(f"robot_0/{Topic.ROBOTS_SEEN}", lambda m: m["obstacles"], 60, "Kbot sees Tartalo")
+        assert [(o["id"], o["x"], o["radius"]) for o in seen["obstacles"]] == [
+            ("Tartalo", pytest.approx(21.5), pytest.approx(0.33))]
+        seen = probe.wait(f"robot_1/{Topic.ROBOTS_SEEN}", lambda m: m["obstacles"], 20, "Tartalo sees Kbot")
+        assert [o["id"] for o in seen["obstacles"]] == ["Kbot"]
         for i, x in ((0, 20.0), (1, 21.5)):
             truth = probe.wait(f"robot_{i}/{Topic.BASE_POSE_GROUND_TRUTH}", lambda m: True, 60, f"robot_{i}")
             assert truth["pose"]["pose"]["position"]["x"] == pytest.approx(x)
@@ -222,3 +231,34 @@ def test_several_robots_on_one_floor_get_their_own_topics(procs: ProcessGroup, t
         n = len(probe.msgs(truth))
         x0 = probe.wait(truth, lambda m: True, 10, since=n)["pose"]["pose"]["position"]["x"]
         assert 21.5 - 0.3 - 0.33 - 0.01 <= x0 <= 21.5 - 0.3 - 0.33 + 0.06    # Kbot 0.3 m, Tartalo 0.33 m
+        # pushing on is the same contact: counted once, in the diagnostics
+        for _ in range(10):
+            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}})
+            time.sleep(0.04)
+        wait_until(lambda: sim_diag(probe).get("robot_collisions") == "1", 10, "the collision counted")
+        assert sim_diag(probe)["robot_deadlocks"] == "0"
+
+
+def test_two_robots_driven_by_their_move_base_cross_each_other_without_a_collision(procs: ProcessGroup,
+                                                                                   tmp_path: Path) -> None:
+    building, env = floor_master(procs, tmp_path, "Kbot")
+    # head-on along the 3 m corridor of floor 1: Kbot (robot_0) east, Tartalo (robot_1) west
+    procs.start("floor", ["roslaunch", "--skip-log-check", str(TWO_ROBOTS_LAUNCH), f"building:={building}"], env)
+    goals = {0: (40.0, 12.0, 0.0, 1.0), 1: (20.0, 12.0, 1.0, 0.0)}       # x, y (m), quaternion z, w: east, west
+    with Probe(env, tmp_path / "probe.log") as probe:
+        probe.sub(Topic.DIAGNOSTICS, DIAG)
+        for i in goals:
+            probe.sub(f"robot_{i}/{Topic.MOVE_BASE_RESULT}", "move_base_msgs/MoveBaseActionResult")
+            probe.sub(f"robot_{i}/{Topic.AMCL_POSE}", "geometry_msgs/PoseWithCovarianceStamped")
+        for i in goals:
+            probe.wait(f"robot_{i}/{Topic.AMCL_POSE}", lambda m: True, 60, f"robot_{i}'s amcl_pose")
+        for i, (x, y, z, w) in goals.items():
+            pose = {"position": {"x": x, "y": y}, "orientation": {"z": z, "w": w}}
+            goal = {"header": {"frame_id": "map"}, "pose": pose}
+            probe.pub(f"robot_{i}/{Topic.MOVE_BASE_SIMPLE_GOAL}", "geometry_msgs/PoseStamped", goal)
+        for i in goals:
+            result = probe.wait(f"robot_{i}/{Topic.MOVE_BASE_RESULT}", lambda m: True, 120, f"robot_{i}'s goal")
+            assert result["status"]["status"] == 3, result                 # SUCCEEDED
+        diag = sim_diag(probe)
+        assert diag["robot_collisions"] == "0" and diag["robot_deadlocks"] == "0", diag
+        assert diag["deadlocked"] == ""

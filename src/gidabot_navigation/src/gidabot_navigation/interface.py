@@ -101,6 +101,8 @@ class Topic:
     # the simulator's run-time obstacles (topics of the node /sim)
     SIM_OBSTACLE = "/sim/obstacle"
     SIM_OBSTACLES = "/sim/obstacles"
+    # several robots on a floor: the other robots a robot's laser sees (/sim publishes, its move_base marks them)
+    ROBOTS_SEEN = "robots_seen"
     # the lockstep participants' answers to their floor's simulator (gidabot_msgs/StepDone; docs/simulator.md)
     SIM_STEP_DONE = "/sim/step_done"
     # ROS-wide

@@ -224,3 +224,62 @@ def test_the_faculty_robots_fit_at_home_and_the_synchro_robot_turns_while_slidin
     drive(world, 0, 0.4, 0.0, 0.5, 4.0)
     pose = world.robots[0].pose
     assert pose.yaw > 1.0 and world.robots[0].stalls == 0
+
+
+def test_a_robot_sees_the_others_it_has_a_line_of_sight_to() -> None:
+    world = World(hall(), dt=0.02)
+    a = world.add_robot(spec("A"), Pose2D(2.0, 3.0, 0.0))
+    b = world.add_robot(spec("B"), Pose2D(5.0, 3.0, 0.0))
+    c = world.add_robot(spec("C"), Pose2D(8.0, 3.0, 0.0))
+    assert world.seen_robots(a) == [b]                          # C is hidden behind B (same size, farther)
+    assert world.seen_robots(b) == [c]                          # A is in the blind 90 degrees behind B
+    world.teleport(c, Pose2D(8.0, 5.0, 0.0))
+    assert world.seen_robots(a) == [b, c]
+    assert world.seen_robots(c) == []                           # C looks +x: A and B are in its blind sector
+    world.teleport(c, Pose2D(8.0, 5.0, math.pi))
+    assert world.seen_robots(c) == [a, b]
+    world.add_obstacle("wall", Rectangle(6.5, 4.0, 0.2, 4.0))
+    assert world.seen_robots(a) == [b]                          # C is behind the new wall
+
+
+def test_a_collision_between_robots_is_counted_once_per_contact() -> None:
+    world = World(hall(), dt=0.02)
+    a = world.add_robot(spec("B"), Pose2D(2.0, 3.0, 0.0))
+    b = world.add_robot(spec("A"), Pose2D(5.0, 3.0, math.pi))
+    drive(world, a, 0.6, 0.0, 0.0, 10.0)                   # into A (parked), pushing for seconds: one contact
+    ra, rb = world.robots
+    assert ra.stalled and rb.pose.x == 5.0                 # stopped as against a wall; A not pushed
+    assert world.robot_collisions == 1
+    [event] = world.take_events()
+    assert (event.kind, event.robots) == ("collision", ("A", "B")) and "B ran into robot A" in event.text
+    drive(world, a, -0.3, 0.0, 0.0, 1.0)                   # parts...
+    drive(world, a, 0.6, 0.0, 0.0, 3.0)                    # ...and hits again: a second contact
+    assert world.robot_collisions == 2 and len(world.take_events()) == 1
+    drive(world, b, -0.3, 0.0, 0.0, 0.1)                   # A backs off a little, B drives on: still counted once
+    drive(world, a, 0.6, 0.0, 0.0, 3.0)
+    assert world.robot_collisions == 2                      # never parted by 0.05 m: the same contact
+    assert world.deadlocks == 0                            # nobody had a goal
+
+
+def test_two_robots_blocking_each_other_are_reported_as_a_deadlock_once() -> None:
+    world = World(hall(), dt=0.02, deadlock_time=20.0)
+    a = world.add_robot(spec("A"), Pose2D(2.0, 3.0, 0.0))
+    b = world.add_robot(spec("B"), Pose2D(3.2, 3.0, math.pi))
+    world.set_active(a, True)
+    world.set_active(b, True)
+    drive(world, a, 0.0, 0.0, 0.3, 19.0)                   # turning on the spot is no progress
+    assert world.deadlocks == 0 and world.deadlocked == []
+    drive(world, a, 0.0, 0.0, 0.3, 2.0)
+    assert world.deadlocks == 1 and world.deadlocked == [("A", "B")]
+    [event] = world.take_events()
+    assert event.kind == "deadlock" and event.robots == ("A", "B") and "robots A and B block each other" in event.text
+    drive(world, a, 0.0, 0.0, 0.3, 30.0)
+    assert world.deadlocks == 1 and world.take_events() == []       # reported once
+    world.teleport(a, Pose2D(1.0, 3.0, math.pi))
+    world.step()
+    assert world.deadlocked == [] and [e.kind for e in world.take_events()] == ["deadlock_resolved"]
+    drive(world, a, 0.0, 0.0, 0.3, 5.0)                    # the new standoff starts from zero
+    world.set_active(a, False)
+    world.set_active(b, False)
+    drive(world, a, 0.0, 0.0, 0.3, 60.0)                   # parked robots side by side are no deadlock
+    assert world.deadlocks == 1

@@ -450,6 +450,15 @@ class GridPlanner:
         points = [(float(sx), float(sy)), *mid, goal_xy_out]
         return Path(points, polyline_length(points), goal_xy_out)
 
+    def reachable(self, start_xy: tuple[float, float]) -> np.ndarray:
+        """Mask of the cells a robot at ``start_xy`` can reach (finite weight, connected to it; from inside the
+        inscribed zone, through its own footprint as :meth:`plan` lets it); :class:`PlanningError` as :meth:`plan`."""
+        start = self._cell(*start_xy, "start")
+        labels = self._components()
+        box, disc = self._disc(*start, self.robot_radius + self.grid.resolution)
+        ids = {int(labels[start])} if labels[start] else {int(v) for v in np.unique(labels[box][disc])}
+        return np.isin(labels, sorted(ids - {0}))
+
     def path_length(self, a: tuple[float, float], b: tuple[float, float]) -> float:
         """Length (m) of the planned path from ``a`` to ``b``; raises :class:`PlanningError`."""
         return self.plan(a, b).length

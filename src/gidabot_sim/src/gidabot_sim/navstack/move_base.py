@@ -26,6 +26,20 @@ the robot closer than its radius to a lethal cell is slowed down or replaced by 
 turn on the spot. It never commands more than the robot's velocity limits and ramps
 within its acceleration limits.
 
+Other robots (several robots on a floor): the robots its laser sees (:meth:`MoveBaseCore.set_robots`)
+are marked in the costmap as discs of their radius + ``robot_mark_step`` (re-marked when one has
+moved that far, cleared when it is no longer seen where the laser looks, ``laser_fov`` centred
+ahead: one in the blind sector behind stays marked, as a costmap clears only by ray tracing); a
+path they block is re-planned, so the robot drives around them. When no plan exists because robots
+stand in the way (there is one without them; the blocker is the first robot along it), the robot
+does not abort after ``planner_patience``: it drives on along that way until its safety check
+stops it near the blocker, and a deterministic priority, name order, resolves the meeting: the
+robot whose name sorts later *yields* (drives to the nearest reachable spot where the other has
+room to pass, then waits there facing it); the other waits for the way to open, and yields itself
+when the blocker has not moved for ``yield_timeout`` (it may have no room to yield). Every cycle
+re-tries the real goal, so either robot also re-routes when another way opens. Blocked by a robot
+without progress for ``robot_patience`` -> ABORTED, naming the robot (a deadlock).
+
 Time is passed in (sim seconds): :meth:`MoveBaseCore.step` is called at the controller
 frequency and returns the velocity command and, when the goal ends, its outcome.
 """
@@ -33,7 +47,7 @@ frequency and returns the velocity command and, when the goal ends, its outcome.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
@@ -41,12 +55,22 @@ import numpy as np
 
 from gidabot_navigation.building.geometry import Pose2D, wrap_angle
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
-from gidabot_navigation.building.planning import GridPlanner, Path, Shape
+from gidabot_navigation.building.planning import (
+    Circle,
+    GridPlanner,
+    Path,
+    Shape,
+    cells_of,
+    rasterize,
+    sample_polyline,
+)
 from gidabot_navigation.errors import PlanningError
 from gidabot_navigation.logs import Logger
 from gidabot_sim.errors import NavGoalRejected, SimConfigError
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D, clamp_velocity, integrate
 
+YIELD_CANDIDATES = 20000    # nearest cells considered for a yield spot
+YIELD_ATTEMPTS = 5          # spots tried (each one's path may rule out the next nearest)
 SAFETY_STEP = 0.2     # s between the points of a trajectory checked against the costmap (0.14 m at 0.7 m/s)
 SUCCEEDED = "succeeded"
 ABORTED = "aborted"
@@ -57,6 +81,17 @@ class State(Enum):
     PLANNING = "planning"
     FOLLOWING = "following"
     ROTATING = "rotating"     # at the goal position, turning to the goal heading
+    YIELDING = "yielding"     # moving aside for (or waiting beside) a robot that blocks the way
+
+
+@dataclass(frozen=True)
+class SensedRobot:
+    """Another robot the laser sees: its name (priority) and disc in the map frame (m)."""
+
+    name: str
+    x: float
+    y: float
+    radius: float
 
 
 @dataclass(frozen=True)
@@ -78,11 +113,28 @@ class NavConfig:
     pose_timeout: float = 5.0            # s without a pose estimate -> abort
     heading_gain: float = 2.0            # 1/s, turning-on-the-spot and final-heading gain
     footprint_padding: float = 0.05      # m added to the robot's radius for planning (costmap_2d's padding)
+    robot_mark_step: float = 0.1         # m a seen robot moves before it is marked again (fewer re-plans); its
+    #                                      disc is marked this much larger (it may be that far from its mark)
+    laser_fov: float = 1.5 * math.pi     # rad: a robot no longer seen is cleared when its place is in view
+    yield_timeout: float = 10.0          # s the first name waits for a blocker that does not move before yielding
+    robot_patience: float = 60.0         # s blocked by a robot (waiting or yielding) before aborting: deadlock
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise SimConfigError(f"move_base {name}: {value!r} must be a finite number > 0")
+
+
+@dataclass
+class _RobotWait:
+    """Blocked by robot ``blocker`` without progress since ``since``; where both stood then (``anchors``:
+    the blocker, this robot)."""
+
+    blocker: str
+    since: float
+    anchors: tuple[tuple[float, float], tuple[float, float]]
+    yielding: bool = False
+    tried: bool = False        # looked for a spot to yield to (once per wait)
 
 
 @dataclass(frozen=True)
@@ -139,16 +191,18 @@ class MoveBaseCore:
     @classmethod
     def for_robot(cls, grid: OccupancyMap, radius: float, limits: Limits, config: NavConfig | None = None,
                   log: Logger | None = None, inflation_radius: float | None = None, cost_scaling: float = 3.0,
-                  goal_tolerance: float = 0.5) -> MoveBaseCore:
+                  goal_tolerance: float = 0.5, name: str = "") -> MoveBaseCore:
         """A core with its planner: inscribed radius = ``radius`` + ``footprint_padding``."""
         config = config or NavConfig()
         padded = radius + config.footprint_padding
         planner = GridPlanner(grid, padded, inflation_radius=max(inflation_radius or radius + 0.7, padded),
                               cost_scaling=cost_scaling, goal_tolerance=goal_tolerance)
-        return cls(planner, limits, radius, config, log)
+        return cls(planner, limits, radius, config, log, name=name)
 
     def __init__(self, planner: GridPlanner, limits: Limits, radius: float, config: NavConfig | None = None,
-                 log: Logger | None = None, static_planner: Callable[[], GridPlanner] | None = None) -> None:
+                 log: Logger | None = None, static_planner: Callable[[], GridPlanner] | None = None,
+                 name: str = "") -> None:
+        self.name = name                     # this robot's name: its priority against other robots
         self.planner = planner
         self.limits = limits
         self.radius = float(radius)
@@ -158,6 +212,7 @@ class MoveBaseCore:
             planner.grid, planner.robot_radius, planner.inflation_radius, planner.cost_scaling,
             planner.inflation_cost, planner.goal_tolerance))
         self._static: GridPlanner | None = None
+        self._unmarked: GridPlanner | None = None     # walls and obstacles, not robots (who blocks the way?)
         self.state = State.IDLE
         self.goal: Pose2D | None = None
         self.path: FollowedPath | None = None
@@ -168,6 +223,8 @@ class MoveBaseCore:
         self.plans = 0                       # plans made (for tests and diagnostics)
         self.replans = 0
         self._obstacles: dict[str, Shape] = {}
+        self._robots: dict[str, SensedRobot] = {}     # as marked in the costmap
+        self._wait: _RobotWait | None = None
         self._reset_goal_state(0.0)
 
     # -- inputs ----------------------------------------------------------------
@@ -181,6 +238,7 @@ class MoveBaseCore:
         self._progress_time = now
         self._oscillation_replanned = False
         self._turning = False
+        self._wait = None
 
     def set_goal(self, goal: Pose2D, now: float) -> None:
         """Start driving to ``goal`` (map frame), replacing any current goal.
@@ -215,6 +273,39 @@ class MoveBaseCore:
             self._need_plan = True
         return changed
 
+    def set_robots(self, robots: Sequence[SensedRobot]) -> bool:
+        """The other robots the laser sees now (all of them): marked in the costmap, the others cleared unless
+        their place is out of the laser's view; a running path they block is re-planned. True when the marks
+        changed."""
+        marks: dict[str, SensedRobot] = {}
+        if self.pose is not None:
+            p = self.pose
+            marks = {name: r for name, r in self._robots.items()
+                     if abs(wrap_angle(math.atan2(r.y - p.y, r.x - p.x) - p.yaw)) > 0.5 * self.config.laser_fov}
+        for robot in robots:
+            if not (math.isfinite(robot.x) and math.isfinite(robot.y) and math.isfinite(robot.radius)
+                    and robot.radius > 0) or robot.name == self.name:
+                continue
+            old = self._robots.get(robot.name)
+            keep = (old is not None and old.radius == robot.radius
+                    and math.hypot(old.x - robot.x, old.y - robot.y) < self.config.robot_mark_step)
+            marks[robot.name] = old if keep else robot       # type: ignore[assignment]
+        if marks == self._robots:
+            return False
+        self._robots = marks
+        grid = self.planner.grid
+        mask = np.zeros((grid.height, grid.width), dtype=bool)
+        for robot in marks.values():
+            cells = rasterize(Circle(robot.x, robot.y, robot.radius + self.config.robot_mark_step), grid)
+            if cells is not None:
+                mask[cells[0]] |= cells[1]
+        if not self.planner.set_sensor_marks(mask):
+            return False
+        if self.state in (State.FOLLOWING, State.ROTATING) and self.path is not None \
+                and self.planner.path_blocked(self.path.remaining(), skip=0.0):
+            self._need_plan = True
+        return True
+
     def clear_costmaps(self) -> None:
         """move_base's ~clear_costmaps: reset the costmap to the static map; the obstacle layer (here the
         simulator's obstacle list, a perfect sensor) marks the known obstacles again at once."""
@@ -247,7 +338,7 @@ class MoveBaseCore:
         grid = self.planner.grid
         if not grid.contains(goal.x, goal.y) or grid.value_at(goal.x, goal.y) != FREE:
             return True
-        if not self._obstacles:
+        if not self._obstacles and not self._robots:
             return True
         if self._static is None:
             self._static = self._static_factory()
@@ -263,6 +354,9 @@ class MoveBaseCore:
             path = self.planner.plan((self.pose.x, self.pose.y), (self.goal.x, self.goal.y))
         except PlanningError as err:
             self._plan_error = str(err)
+            blocked = self._blocking_robot()
+            if blocked is not None:
+                return self._blocked_by_robot(*blocked, now)
             if self._permanent(self.goal):
                 return self._abort(f"Failed to find a valid plan: {err}")
             if self._plan_fail_since is None:
@@ -277,6 +371,11 @@ class MoveBaseCore:
         self.plans += 1
         if self.path is not None:
             self.replans += 1
+        if self._wait is not None:
+            self.log.info(f"move_base: the way past robot {self._wait.blocker} is open after "
+                          f"{now - self._wait.since:.1f} s, going on")
+            self._wait = None
+            self.state = State.FOLLOWING
         self.path = FollowedPath(path, self.planner.grid.resolution)
         self._need_plan = False
         self._plan_fail_since = None
@@ -284,6 +383,121 @@ class MoveBaseCore:
         if self.state is not State.ROTATING:
             self.state = State.FOLLOWING
         return None
+
+    # -- other robots in the way ---------------------------------------------------
+    def _blocking_robot(self) -> tuple[SensedRobot, Path] | None:
+        """The robot that blocks the way to the goal: the first marked robot along the plan made without the
+        robots (returned with it); None when there is no such plan (walls or obstacles block it) or no robot
+        is marked."""
+        if self.pose is None or self.goal is None or not self._robots:
+            return None
+        if self._unmarked is None:
+            self._unmarked = self._static_factory()
+        self._unmarked.set_obstacles(self._obstacles)
+        try:
+            path = self._unmarked.plan((self.pose.x, self.pose.y), (self.goal.x, self.goal.y))
+        except PlanningError:
+            return None
+        pts = np.asarray(path.densified(self.planner.grid.resolution), dtype=np.float64)
+        best: tuple[int, SensedRobot] | None = None
+        for robot in self._robots.values():
+            d = np.hypot(pts[:, 0] - robot.x, pts[:, 1] - robot.y)
+            near = np.nonzero(d < robot.radius + self.planner.robot_radius + self.planner.grid.resolution)[0]
+            if near.size and (best is None or int(near[0]) < best[0]):
+                best = (int(near[0]), robot)
+        if best is not None:
+            return best[1], path
+        p = self.pose
+        return min(self._robots.values(), key=lambda r: math.hypot(r.x - p.x, r.y - p.y)), path
+
+    def _blocked_by_robot(self, blocker: SensedRobot, way: Path, now: float) -> StepResult:
+        """No plan while ``blocker`` is in the way (``way``: the plan without robots): yield (the later name, or
+        the other after ``yield_timeout`` without progress) or drive on along ``way`` as far as is safe and
+        wait; abort after ``robot_patience`` (see the module docstring)."""
+        cfg = self.config
+        assert self.pose is not None
+        wait = self._wait
+        here = ((blocker.x, blocker.y), (self.pose.x, self.pose.y))
+        if wait is None or wait.blocker != blocker.name:
+            wait = self._wait = _RobotWait(blocker.name, now if wait is None else wait.since, here)
+            self.log.warning(f"move_base: robot {blocker.name} blocks the way; "
+                             + ("yielding to it" if self.name > blocker.name else "waiting for it to yield"))
+        if now - wait.since >= cfg.robot_patience:
+            return self._abort(f"Blocked by robot {blocker.name} for {now - wait.since:.0f} s: deadlock "
+                               f"(robots {self.name or '?'} and {blocker.name} cannot pass each other)")
+        self._plan_fail_since = None
+        self._progress_time = now          # waiting for a robot is not oscillating
+        if any(math.dist(p, q) >= cfg.oscillation_distance for p, q in zip(here, wait.anchors, strict=True)):
+            wait.since, wait.anchors = now, here       # one of the two made progress: no deadlock yet
+        if not wait.tried and (self.name > blocker.name or now - wait.since >= cfg.yield_timeout):
+            wait.tried = True
+            wait.yielding = self._start_yield(blocker, way, now)
+        self._blocked_since = now          # the safety check stops it near the robot: not stuck
+        if not wait.yielding:
+            self.state = State.PLANNING
+            self.path = FollowedPath(way, self.planner.grid.resolution)
+            return self._follow(now, self.pose, 0.0)
+        assert self.path is not None
+        end = self.path.xy[-1]
+        dist = math.hypot(float(end[0]) - self.pose.x, float(end[1]) - self.pose.y)
+        if dist <= cfg.xy_goal_tolerance:
+            # aside: wait there facing the blocker (so the laser sees it pass; the goal is re-tried every cycle)
+            err = wrap_angle(math.atan2(blocker.y - self.pose.y, blocker.x - self.pose.x) - self.pose.yaw)
+            return self._command(Twist2D(0.0, 0.0, self._turn_rate(err)) if abs(err) > 0.3 else ZERO)
+        return self._follow(now, self.pose, dist)
+
+    def _start_yield(self, blocker: SensedRobot, way: Path, now: float) -> bool:
+        """Plan to the nearest reachable spot where ``blocker`` has room to pass: walls at least ``room`` away
+        all round, and the narrow stretches (where two robots cannot pass) of ``way`` and of the path there at
+        least ``clear`` away, so the blocker can come out of them and turn; False when there is none."""
+        assert self.pose is not None
+        planner, grid = self.planner, self.planner.grid
+        room = planner.robot_radius + 2.0 * (blocker.radius + self.config.footprint_padding) + grid.resolution
+        clear = 2.0 * (planner.robot_radius + blocker.radius + self.config.footprint_padding)
+        start = (self.pose.x, self.pose.y)
+        try:
+            ok = planner.reachable(start) & (planner.static_distance >= room)
+        except PlanningError:
+            ok = np.zeros((grid.height, grid.width), dtype=bool)
+        rows, cols = np.nonzero(ok)
+        row, col = grid.world_to_cell(*start)
+        order = np.argsort((rows - row) ** 2 + (cols - col) ** 2)[:YIELD_CANDIDATES]
+        rows, cols = rows[order], cols[order]
+        far = np.ones(rows.size, dtype=bool)
+        limit = (clear / grid.resolution) ** 2
+
+        def keep_clear_of(points: list[tuple[float, float]]) -> None:
+            wr, wc = cells_of(grid, *sample_polyline(points, 2.0 * grid.resolution))
+            inside = (wr >= 0) & (wr < grid.height) & (wc >= 0) & (wc < grid.width)
+            wr, wc = wr[inside], wc[inside]
+            narrow = planner.static_distance[wr, wc] < room
+            for r, c in zip(wr[narrow], wc[narrow], strict=True):
+                far[:] &= (rows - r) ** 2 + (cols - c) ** 2 >= limit
+
+        keep_clear_of(way.points)
+        for _ in range(YIELD_ATTEMPTS):
+            if not far.any():
+                break
+            k = int(np.argmax(far))
+            spot = grid.cell_to_world(int(rows[k]), int(cols[k]))
+            try:
+                path = planner.plan(start, spot)
+            except PlanningError:
+                far[k] = False
+                continue
+            before = int(far.sum())
+            keep_clear_of(path.points)
+            if far[k]:
+                self.path = FollowedPath(path, grid.resolution)
+                self.state = State.YIELDING
+                self._progress_best, self._progress_time = math.inf, now
+                self.log.info(f"move_base: yielding to robot {blocker.name}: moving aside to "
+                              f"({spot[0]:.2f}, {spot[1]:.2f})")
+                return True
+            if int(far.sum()) == before:
+                far[k] = False
+        self.log.warning(f"move_base: no room to yield to robot {blocker.name}: waiting")
+        return False
 
     # -- control -----------------------------------------------------------------
     def step(self, now: float) -> StepResult:
@@ -333,7 +547,7 @@ class MoveBaseCore:
         path = self.path
         speed = self.velocity.speed
         index, deviation = path.project(pose.x, pose.y, window=2.0 + cfg.lookahead)
-        if deviation > cfg.replan_distance:
+        if deviation > cfg.replan_distance and self._wait is None:
             self.log.info(f"move_base: {deviation:.2f} m off the path, re-planning")
             self._need_plan = True
             failed = self._plan(now)

@@ -34,7 +34,7 @@ from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.navstack.amcl import PoseTracker
-from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, State
+from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, NavConfig, SensedRobot, State
 from gidabot_sim.ros import convert as ru
 from gidabot_sim.ros.participant import StepAnswers, own_time, synchronous_publisher
 from gidabot_sim.world.clock import Periodic
@@ -76,6 +76,10 @@ class MoveBaseNode:
         map pose, as tf's map -> odom -> base_footprint would give it.
       ``~obstacles_topic`` (gidabot_msgs/ObstacleArray, default ``/sim/obstacles``): run-time obstacles,
         lethal in the costmap (a perfect obstacle layer); any change re-plans the running goal.
+      ``~robots_topic`` (gidabot_msgs/ObstacleArray, default ``robots_seen``): the other robots the laser sees
+        (id = name, CIRCLE), marked in the costmap; a robot in the way is driven around, or yielded to / waited
+        for by name priority (:mod:`gidabot_sim.navstack.move_base`); ABORTED naming it after
+        ``~robot_patience`` without progress (a deadlock).
     Publishes:
       ``cmd_vel`` (geometry_msgs/Twist) at ``~controller_frequency`` while a goal runs (zero when it ends);
       ``move_base/current_goal`` (geometry_msgs/PoseStamped); ``move_base/NavfnROS/plan`` (nav_msgs/Path)
@@ -86,14 +90,17 @@ class MoveBaseNode:
         goal is running, unless ``~make_plan_while_active`` is true.
       ``move_base/clear_costmaps`` (std_srvs/Empty).
     Params:
-      ``~building`` (str), ``~robot`` (str): radius, drive, velocity/acceleration limits;
+      ``~building`` (str), ``~robot`` (str): radius, drive, velocity/acceleration limits; ``~floor`` (the map,
+      default the robot's floor: another floor's robot simulated there, several robots on a floor);
       ``~xy_goal_tolerance`` (m, 0.25), ``~yaw_goal_tolerance`` (rad, 0.2), ``~controller_frequency`` (Hz, 10),
       ``~planner_patience`` (s, 5), ``~controller_patience`` (s, 15), ``~oscillation_timeout`` (s, 30),
       ``~oscillation_distance`` (m, 0.5), ``~lookahead`` (m, 0.8), ``~safety_time`` (s, 1.2),
       ``~footprint_padding`` (m, 0.05: added to the radius for planning),
       ``~inflation_radius`` (m, radius + 0.7), ``~cost_scaling_factor`` (1/m, 3), ``~default_tolerance``
       (m, 0.5: how far a goal too close to an obstacle may move), ``~feedback_rate`` (Hz, 5),
-      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false).
+      ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
+      ``~robot_mark_step`` (m, 0.1), ``~laser_fov`` (rad, 3 pi/2), ``~yield_timeout`` (s, 10),
+      ``~robot_patience`` (s, 60).
       All times are sim time.
     Lockstep (docs/simulator.md): ROS time is the stamp of the latest odometry (no ``/clock``). While a goal
       runs, the simulator sends the odometry of every step, a control cycle runs on it (at most
@@ -108,14 +115,17 @@ class MoveBaseNode:
             robot = building.robot(str(rospy.get_param("~robot", "")))
         except KeyError as err:
             raise SimConfigError(f"~robot: {err}") from err
-        floor = building.floor(robot.floor)
+        try:
+            floor = building.floor(float(rospy.get_param("~floor", robot.floor)))
+        except (KeyError, TypeError, ValueError) as err:
+            raise SimConfigError(f"~floor: {err}") from err
 
         defaults = NavConfig()
         config = NavConfig(**{name: param_number(f"~{name}", value) for name, value in defaults.__dict__.items()})
         self.core = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
                                            inflation_radius=param_number("~inflation_radius", robot.radius + 0.7),
                                            cost_scaling=param_number("~cost_scaling_factor", 3.0),
-                                           goal_tolerance=param_number("~default_tolerance", 0.5))
+                                           goal_tolerance=param_number("~default_tolerance", 0.5), name=robot.name)
         self.spacing = param_number("~plan_point_spacing", floor.map.resolution)
         self.feedback_due = Periodic(param_number("~feedback_rate", 5.0))
         self.control_due = Periodic(config.controller_frequency)
@@ -146,6 +156,8 @@ class MoveBaseNode:
         rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_amcl, queue_size=10)
         rospy.Subscriber(str(rospy.get_param("~obstacles_topic", Topic.SIM_OBSTACLES)), ObstacleArray,
                          lambda msg: self._event("obstacles", msg), queue_size=10)
+        rospy.Subscriber(str(rospy.get_param("~robots_topic", Topic.ROBOTS_SEEN)), ObstacleArray,
+                         lambda msg: self._event("robots", msg), queue_size=10)
         rospy.Subscriber(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, self._on_simple_goal, queue_size=2)
         rospy.Service(Service.MAKE_PLAN, GetPlan, self._make_plan)
         rospy.Service(Service.CLEAR_COSTMAPS, Empty, self._clear_costmaps)
@@ -228,7 +240,7 @@ class MoveBaseNode:
 
     # -- the control loop ------------------------------------------------------------------
     def _drain(self, now: float) -> None:
-        latest_obstacles = None
+        latest_obstacles = latest_robots = None
         while True:
             try:
                 kind, msg = self.events.get_nowait()
@@ -243,8 +255,13 @@ class MoveBaseNode:
                     self.server.set_preempted(MoveBaseResult(), "Goal cancelled")
             elif kind == "obstacles":
                 latest_obstacles = msg           # each array is the whole set: only the newest matters
+            elif kind == "robots":
+                latest_robots = msg
         if latest_obstacles is not None:
             self._obstacles(latest_obstacles)
+        if latest_robots is not None:
+            self.core.set_robots([SensedRobot(ob.id, ob.x, ob.y, ob.radius) for ob in latest_robots.obstacles
+                                  if ob.shape == ob.CIRCLE])
 
     def _accept_goal(self, now: float) -> None:
         if not self.server.is_new_goal_available():

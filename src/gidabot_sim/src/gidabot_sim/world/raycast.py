@@ -132,12 +132,12 @@ class RayCaster:
         ranges = hit_t * self.resolution
         ranges[ranges > range_max] = np.inf
         for cx, cy, radius in discs:
-            ranges = np.minimum(ranges, _disc_hits(x, y, angles, cx, cy, radius))
+            ranges = np.minimum(ranges, disc_hits(x, y, angles, cx, cy, radius))
         ranges[ranges > range_max] = np.inf
         return ranges
 
 
-def _disc_hits(x: float, y: float, angles: np.ndarray, cx: float, cy: float, radius: float) -> np.ndarray:
+def disc_hits(x: float, y: float, angles: np.ndarray, cx: float, cy: float, radius: float) -> np.ndarray:
     """Distance along each ray from (x, y) to the disc (cx, cy, radius); inf when missed or behind."""
     ex, ey = cx - x, cy - y
     b = ex * np.cos(angles) + ey * np.sin(angles)

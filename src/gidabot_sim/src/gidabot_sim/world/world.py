@@ -7,6 +7,14 @@ push a robot into a wall, an obstacle or another robot is refused (the robot
 stalls, its velocity drops to zero), so robots never overlap anything; a move that
 increases the clearance is always allowed, so a robot can back out.
 
+With several robots on a floor (and only then: one robot costs nothing more) the world also
+watches pairs of robots: a *collision* is a move refused because of another robot, counted once
+per contact (the pair must part by ``CONTACT_RELEASE`` before it counts again); a *deadlock* is
+two robots within ``DEADLOCK_NEAR`` of each other, at least one of them active (its navigation
+has a goal, :meth:`World.set_active`), neither moving ``DEADLOCK_PROGRESS`` for ``deadlock_time``
+sim seconds. Both are counted and reported as :class:`WorldEvent` (:meth:`World.take_events`).
+:meth:`World.seen_robots` tells which other robots a robot's laser sees (its obstacle layer).
+
 Run-time obstacles (a person, a closed door) are :class:`~gidabot_navigation.building.planning.Circle`
 and :class:`~gidabot_navigation.building.planning.Rectangle` shapes rasterised into the solid
 mask: the laser sees them and robots collide with them.
@@ -20,6 +28,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -39,9 +48,13 @@ from gidabot_sim.world.kinematics import (
     compose,
     integrate,
 )
-from gidabot_sim.world.raycast import RayCaster, beam_angles
+from gidabot_sim.world.raycast import RayCaster, beam_angles, disc_hits
 
 MAX_OBSTACLES = 200
+CONTACT_RELEASE = 0.05      # m: two robots in contact part when their gap exceeds this (then a new contact counts)
+DEADLOCK_NEAR = 1.0         # m: gap between two robots' discs below which they may block each other
+DEADLOCK_PROGRESS = 0.5     # m: a robot that moved this far since the pair met has made progress
+MAX_EVENTS = 100            # world events kept until taken (the oldest are dropped)
 OBSTACLE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-/]{1,64}$")
 
 
@@ -138,6 +151,31 @@ class SimRobot:
     odometer: float = 0.0              # m driven
     stalled: bool = False
     stalls: int = 0                    # number of times a move was refused
+    active: bool = False               # its navigation has a goal (deadlock watch)
+
+
+@dataclass(frozen=True)
+class WorldEvent:
+    """Something the world reports about two robots (logged by the node)."""
+
+    kind: str                  # COLLISION, DEADLOCK or DEADLOCK_RESOLVED
+    robots: tuple[str, str]    # names, in name order
+    time: float                # sim s
+    text: str
+
+
+COLLISION = "collision"
+DEADLOCK = "deadlock"
+DEADLOCK_RESOLVED = "deadlock_resolved"
+
+
+@dataclass
+class _Standoff:
+    """Two robots near each other: since when without progress, from where."""
+
+    since: float
+    anchors: tuple[tuple[float, float], tuple[float, float]]
+    reported: bool = False
 
 
 class World:
@@ -150,13 +188,14 @@ class World:
     """
 
     def __init__(self, grid: OccupancyMap, dt: float = 0.02, cmd_timeout: float = 0.2,
-                 rng: np.random.Generator | None = None) -> None:
-        for name, value in (("dt", dt), ("cmd_timeout", cmd_timeout)):
+                 rng: np.random.Generator | None = None, deadlock_time: float = 30.0) -> None:
+        for name, value in (("dt", dt), ("cmd_timeout", cmd_timeout), ("deadlock_time", deadlock_time)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise SimConfigError(f"{name}: {value!r} must be a finite number of seconds > 0")
         self.grid = grid
         self.dt = float(dt)
         self.cmd_timeout = float(cmd_timeout)
+        self.deadlock_time = float(deadlock_time)
         self.rng = rng if rng is not None else np.random.default_rng()
         self.start = 0.0
         self.steps = 0
@@ -167,6 +206,11 @@ class World:
         self._obstacle_mask = np.zeros_like(self._static)
         self._dirty = False
         self.caster = RayCaster(self._static, grid.resolution, (grid.origin_x, grid.origin_y, grid.origin_yaw))
+        self.robot_collisions = 0                  # contacts between two robots (each counted once)
+        self.deadlocks = 0                         # deadlocks reported
+        self.events: deque[WorldEvent] = deque(maxlen=MAX_EVENTS)
+        self._contacts: set[tuple[int, int]] = set()
+        self._standoffs: dict[tuple[int, int], _Standoff] = {}
 
     @property
     def time(self) -> float:
@@ -208,6 +252,10 @@ class World:
             return False
         return (robot.cmd_time is None or robot.cmd.is_zero()
                 or self.time - robot.cmd_time > self.cmd_timeout + 1e-9)
+
+    def set_active(self, index: int, active: bool) -> None:
+        """Whether robot ``index``'s navigation has a goal (a robot that has none is parked, never deadlocked)."""
+        self.robot(index).active = bool(active)
 
     def clearance(self, x: float, y: float) -> float:
         """Distance (m) from (x, y) to the nearest edge of a wall, unknown cell or obstacle; 0 off the map."""
@@ -348,6 +396,8 @@ class World:
         for index, robot in enumerate(self.robots):
             self._step_robot(index, robot, t)
         self.steps += 1
+        if len(self.robots) > 1:
+            self._watch_pairs(t)
 
     def _step_robot(self, index: int, robot: SimRobot, t: float) -> None:
         limits = robot.spec.limits
@@ -356,10 +406,13 @@ class World:
         vel = ZERO if target is ZERO and robot.vel is ZERO else accelerate(robot.vel, target, limits, self.dt)
         if not vel.is_zero():
             new = integrate(robot.pose, vel, self.dt)
-            if self._blocked(index, robot, new):
+            blocker = self._blocked(index, robot, new)
+            if blocker is not None:
                 if not robot.stalled:
                     robot.stalls += 1
                 robot.stalled, robot.vel = True, ZERO
+                if blocker >= 0:
+                    self._touch(index, blocker, t)
             else:
                 moved = math.hypot(new.x - robot.pose.x, new.y - robot.pose.y)
                 robot.odometer += moved
@@ -371,21 +424,89 @@ class World:
             robot.vel = ZERO
         robot.battery = max(0.0, robot.battery - robot.spec.battery.idle_per_hour * self.dt / 3600.0)
 
-    def _blocked(self, index: int, robot: SimRobot, new: Pose2D) -> bool:
+    def _blocked(self, index: int, robot: SimRobot, new: Pose2D) -> int | None:
+        """What refuses the move to ``new``: None (nothing), -1 (a wall or an obstacle) or another robot's index."""
         radius = robot.spec.radius
         after = self.clearance(new.x, new.y)
         if after < radius and after < self.clearance(robot.pose.x, robot.pose.y):
-            return True
+            return -1
         if len(self.robots) == 1:
-            return False
+            return None
         for j, other in enumerate(self.robots):
             if j == index:
                 continue
             gap = radius + other.spec.radius
             d_new = math.hypot(other.pose.x - new.x, other.pose.y - new.y)
             if d_new < gap and d_new < math.hypot(other.pose.x - robot.pose.x, other.pose.y - robot.pose.y):
-                return True
-        return False
+                return j
+        return None
+
+    # -- robot pairs (several robots only) ---------------------------------------
+    def _names(self, i: int, j: int) -> tuple[str, str]:
+        a, b = self.robots[i].spec.name, self.robots[j].spec.name
+        return (a, b) if a <= b else (b, a)
+
+    def _touch(self, index: int, other: int, t: float) -> None:
+        """Robot ``index`` was stopped by robot ``other``: a collision, unless the two are still in contact."""
+        pair = (min(index, other), max(index, other))
+        if pair in self._contacts:
+            return
+        self._contacts.add(pair)
+        self.robot_collisions += 1
+        mover, hit = self.robots[index], self.robots[other]
+        self.events.append(WorldEvent(COLLISION, self._names(index, other), t,
+                                      f"robot {mover.spec.name} ran into robot {hit.spec.name} at "
+                                      f"({mover.pose.x:.2f}, {mover.pose.y:.2f}) and was stopped"))
+
+    def _watch_pairs(self, t: float) -> None:
+        """Contacts that ended; standoffs that made progress, ended or lasted ``deadlock_time`` (a deadlock)."""
+        robots = self.robots
+        for i in range(len(robots)):
+            a = robots[i]
+            for j in range(i + 1, len(robots)):
+                b = robots[j]
+                gap = math.hypot(a.pose.x - b.pose.x, a.pose.y - b.pose.y) - a.spec.radius - b.spec.radius
+                pair = (i, j)
+                if gap > CONTACT_RELEASE:
+                    self._contacts.discard(pair)
+                standoff = self._standoffs.get(pair)
+                if gap >= DEADLOCK_NEAR or not (a.active or b.active):
+                    if standoff is not None:
+                        self._end_standoff(pair, t, "parted" if gap >= DEADLOCK_NEAR else "no longer driving")
+                    continue
+                here = ((a.pose.x, a.pose.y), (b.pose.x, b.pose.y))
+                if standoff is None:
+                    self._standoffs[pair] = _Standoff(t, here)
+                    continue
+                if any(math.dist(p, q) >= DEADLOCK_PROGRESS for p, q in zip(here, standoff.anchors, strict=True)):
+                    if standoff.reported:
+                        self._end_standoff(pair, t, "moving again")
+                    self._standoffs[pair] = _Standoff(t, here)
+                elif not standoff.reported and t - standoff.since >= self.deadlock_time - 1e-9:
+                    standoff.reported = True
+                    self.deadlocks += 1
+                    names = self._names(i, j)
+                    self.events.append(WorldEvent(
+                        DEADLOCK, names, t, f"deadlock: robots {names[0]} and {names[1]} block each other "
+                        f"({gap:.2f} m apart, no progress of {DEADLOCK_PROGRESS:g} m for {t - standoff.since:.1f} s)"))
+
+    def _end_standoff(self, pair: tuple[int, int], t: float, why: str) -> None:
+        standoff = self._standoffs.pop(pair)
+        if standoff.reported:
+            names = self._names(*pair)
+            self.events.append(WorldEvent(DEADLOCK_RESOLVED, names, t, f"deadlock of robots {names[0]} and "
+                                          f"{names[1]} resolved ({why}) after {t - standoff.since:.1f} s"))
+
+    @property
+    def deadlocked(self) -> list[tuple[str, str]]:
+        """Pairs of robots (names) in a reported deadlock now."""
+        return sorted(self._names(*pair) for pair, s in self._standoffs.items() if s.reported)
+
+    def take_events(self) -> list[WorldEvent]:
+        """The events since the last call (oldest first)."""
+        events = list(self.events)
+        self.events.clear()
+        return events
 
     # -- sensors ---------------------------------------------------------------
     def laser_pose(self, index: int) -> Pose2D:
@@ -406,6 +527,29 @@ class World:
         finite = np.isfinite(ranges)
         ranges[finite] = np.clip(ranges[finite], laser.range_min, laser.range_max)
         return ranges
+
+
+    def seen_robots(self, index: int) -> list[int]:
+        """Indices of the other robots robot ``index``'s laser sees now (a beam hits their disc before anything
+        else, within range and field of view; noise-free): what its obstacle layer may mark."""
+        if len(self.robots) == 1:
+            return []
+        laser = self.robot(index).spec.laser
+        origin = self.laser_pose(index)
+        angles = laser.angles() + origin.yaw
+        seen = []
+        for j, other in enumerate(self.robots):
+            if j == index:
+                continue
+            hits = disc_hits(origin.x, origin.y, angles, other.pose.x, other.pose.y, other.spec.radius)
+            beams = hits <= laser.range_max
+            if not beams.any():
+                continue
+            discs = [(o.pose.x, o.pose.y, o.spec.radius) for k, o in enumerate(self.robots) if k not in (index, j)]
+            others = self.caster.cast(origin.x, origin.y, angles[beams], laser.range_max, discs)
+            if bool((hits[beams] < others).any()):
+                seen.append(j)
+        return seen
 
 
 def obstacle_shape(kind: int, x: float, y: float, yaw: float, radius: float, width: float,

@@ -31,6 +31,7 @@ from tf2_msgs.msg import TFMessage
 from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone
 from gidabot_navigation.building.geometry import Pose2D, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.building.planning import Circle
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
@@ -44,7 +45,15 @@ from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
 from gidabot_sim.world.timeline import Clock as TimelineClock
 from gidabot_sim.world.timeline import Timeline
-from gidabot_sim.world.world import BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
+from gidabot_sim.world.world import (
+    COLLISION,
+    DEADLOCK,
+    BatteryModel,
+    LaserSpec,
+    RobotSpec,
+    World,
+    obstacle_shape,
+)
 
 MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
 HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
@@ -90,6 +99,7 @@ class SimParams:
     battery: BatteryModel
     seed: int | None
     diagnostics_period: float
+    deadlock_time: float
 
     @staticmethod
     def read() -> SimParams:
@@ -138,7 +148,8 @@ class SimParams:
             laser_rate=param_number("~laser_rate", 10.0, 0.0, 1000.0),
             battery_rate=param_number("~battery_rate", 1.0, 0.0, 100.0),
             laser=laser, laser_z=param_number("~laser_z", 0.3, -5, 5, strict=False), battery=battery,
-            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0, 0.0))
+            seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0, 0.0),
+            deadlock_time=param_number("~deadlock_time", 30.0, 0.0))
 
 
 class _RobotIO:
@@ -158,6 +169,7 @@ class _RobotIO:
         self.truth = rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry, queue_size=5)
         self.scan = rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2)
         self.battery = rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)
+        self.seen = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2) if prefix else None
         rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.enqueue, callback_args=(Topic.CMD_VEL, index),
                          queue_size=50, tcp_nodelay=True)
         rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.enqueue,
@@ -183,6 +195,9 @@ class SimNode:
         ``base_scan`` (sensor_msgs/LaserScan, frame ``base_laser_link``, ``inf`` = no return) at
           ``~laser_rate``, only while somebody subscribes;
         ``battery`` (sensor_msgs/BatteryState, ``percentage`` 0..1) at ``~battery_rate``.
+        ``robots_seen`` (gidabot_msgs/ObstacleArray, frame ``map``; several robots only): the other robots its
+          laser sees now (id = robot name, a CIRCLE of its radius) at ``~laser_rate``, while somebody subscribes:
+          its move_base's obstacle layer.
       tf: ``odom -> base_footprint`` (while /tf has subscribers); static ``base_footprint -> base_link``
         and ``base_link -> base_laser_link``.
     Floor-wide:
@@ -197,7 +212,11 @@ class SimNode:
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
         wall seconds: speed ceiling, sim time, achieved factor, wall time behind the ceiling and waiting
         (for controllers, for other floors, for the ceiling), each participant's stops owed / answered /
-        missed and timeouts, counters of rejected input, stalls, scans, batteries.
+        missed and timeouts, counters of rejected input, stalls, scans, batteries; with several robots
+        ``robot_collisions`` (contacts, each counted once), ``robot_deadlocks`` (reported) and ``deadlocked``
+        (the pairs now), ERROR while two robots are deadlocked.
+      Log: a collision between robots (warning) and a deadlock (error: two robots near each other, at least
+        one with a goal running, neither moving 0.5 m for ``~deadlock_time``), each naming both robots.
     Params:
       ``~building`` (str), ``~robot`` (str) or ``~robots`` (list of str): robots of the building file
         simulated here (their drive, limits, radius); ``~floor`` (default: the first robot's);
@@ -214,7 +233,8 @@ class SimNode:
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 3 pi/2), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
-        (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1).
+        (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1);
+      ``~deadlock_time`` (sim s, 30).
     Restart: the floor's time goes on from where it was (the timeline's slot; without one, ``~resume_at``,
       saved every ``~diagnostics_period``), never back; the robot restarts at its initial pose, obstacles
       are lost.
@@ -240,7 +260,7 @@ class SimNode:
         if abs(substeps - round(substeps)) > 1e-6:
             raise SimConfigError(f"~step: {params.step:g} s must be a multiple of ~physics_dt ({params.dt:g} s)")
         self.world = World(self.floor.map, dt=params.dt, cmd_timeout=params.cmd_timeout,
-                           rng=np.random.default_rng(params.seed))
+                           rng=np.random.default_rng(params.seed), deadlock_time=params.deadlock_time)
         for robot, pose in zip(robots, params.poses, strict=True):
             spec = RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), params.laser, params.battery)
             try:
@@ -418,6 +438,8 @@ class SimNode:
             if laser_due and io.scan.get_num_connections():
                 io.scan.publish(self._scan(io, t))
                 self.scans += 1
+            if laser_due and io.seen is not None and io.seen.get_num_connections():
+                io.seen.publish(self._seen(io, t))
             if battery_due:
                 io.battery.publish(self._battery(robot, t))
         if transforms:
@@ -445,6 +467,29 @@ class SimNode:
         msg.range_min, msg.range_max = laser.range_min, laser.range_max
         msg.ranges = self.world.scan(io.index).astype(np.float32).tolist()
         return msg
+
+    def _seen(self, io: _RobotIO, t: float) -> ObstacleArray:
+        msg = ObstacleArray()
+        msg.header.frame_id = "map"
+        msg.header.stamp = ru.stamp(t)
+        robots = self.world.robots
+        msg.obstacles = [ru.obstacle_msg(robots[j].spec.name, Circle(robots[j].pose.x, robots[j].pose.y,
+                                                                      robots[j].spec.radius))
+                         for j in self.world.seen_robots(io.index)]
+        return msg
+
+    def _pairs(self) -> None:
+        """Several robots: tell the world whose navigation drives (deadlock watch); log what it reports."""
+        inputs = self.lockstep.inputs_due()
+        for io in self.io:
+            self.world.set_active(io.index, io.odom_topic in inputs)
+        for event in self.world.take_events():
+            if event.kind == DEADLOCK:
+                rospy.logerr(f"sim: {event.text}")
+            elif event.kind == COLLISION:
+                rospy.logwarn(f"sim: collision: {event.text}")
+            else:
+                rospy.loginfo(f"sim: {event.text}")
 
     def _battery(self, robot: Any, t: float) -> BatteryState:
         model = robot.spec.battery
@@ -521,11 +566,19 @@ class SimNode:
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
         for robot in self.world.robots:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
+        deadlocked = self.world.deadlocked
+        if len(self.io) > 1:
+            values["robot_collisions"] = str(self.world.robot_collisions)
+            values["robot_deadlocks"] = str(self.world.deadlocks)
+            values["deadlocked"] = ", ".join(f"{a}+{b}" for a, b in deadlocked)
         absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)
         behind = s.behind(wall) - d.get("behind", 0.0) > 0.1 * span
-        status = DiagnosticStatus(level=DiagnosticStatus.WARN if absent or behind else DiagnosticStatus.OK,
-                                  name=f"sim: floor {self.floor.label}",
-                                  message=(f"going on without {', '.join(absent)}" if absent else
+        level = (DiagnosticStatus.ERROR if deadlocked else
+                 DiagnosticStatus.WARN if absent or behind else DiagnosticStatus.OK)
+        status = DiagnosticStatus(level=level, name=f"sim: floor {self.floor.label}",
+                                  message=(f"deadlock: robots {', '.join(f'{a} and {b}' for a, b in deadlocked)}"
+                                           if deadlocked else
+                                           f"going on without {', '.join(absent)}" if absent else
                                            "behind its speed ceiling" if behind else "running"),
                                   hardware_id=",".join(r.spec.name for r in self.world.robots),
                                   values=[KeyValue(k, v) for k, v in values.items()])
@@ -577,6 +630,8 @@ class SimNode:
             wait = s.check(wall, peers)
             if wait is None:
                 self.world.advance_to(s.advance(wall))
+                if len(self.io) > 1:
+                    self._pairs()
                 self._publish_stop(s.t, wall)
                 self._diagnostics(wall)
                 continue
