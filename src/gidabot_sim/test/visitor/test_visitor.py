@@ -132,6 +132,21 @@ def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None
     assert [c.command for c in start.step(6.0)] == [Cmd.START_TOUR]
 
 
+def test_a_refusal_at_another_robot_does_not_end_the_visit_here() -> None:
+    """Tartalo refused a step (its partner offline, nothing queued) and asks again itself; the node of the floor
+    the person reaches later must still ask again for a trip that is given up there."""
+    kw = dict(tour_file="t.tour", retry_s=30.0, think_s=0.0)
+    galtx = v.VisitorCore(cfg("Galtxagorri", 2, **kw))
+    galtx.on_event(10.0, "r", "Tartalo", Phase.PARTNER_OFFLINE, "", 0, 1, tour_step=1, tour_file="t.tour")
+    assert not galtx.finished
+    galtx.on_event(100.0, "d", "Galtxagorri", Phase.TOUR_STEP_DONE, "Kbot/v/2", 2, 2, tour_step=2,
+                   tour_file="t.tour")
+    galtx.step(100.0)
+    galtx.on_event(120.0, "o", "Galtxagorri", Phase.PARTNER_OFFLINE, "Galtxagorri/v/3", 2, 0, tour_step=3,
+                   tour_file="t.tour")
+    assert [(c.command, c.tour_step) for c in galtx.step(150.0)] == [(Cmd.SKIP, 3)]
+
+
 def test_a_trip_a_robot_gave_up_is_asked_for_again_where_the_person_is() -> None:
     kw = dict(tour_file="t.tour", retry_s=30.0, think_s=0.0, stairs_s_per_floor=20.0)
     # the start robot's floor still has the person (never released): it asks again for the same step

@@ -220,7 +220,8 @@ class VisitorCore:
                 self._walk_alone(now, floor, tour_step)
             return
         if not mine:
-            if phase in ENDS and phase != TOUR_FINISHED:
+            # a refusal elsewhere (PARTNER_OFFLINE without a trip) is asked again there: the visit goes on
+            if phase in ENDS and phase not in (TOUR_FINISHED, PARTNER_OFFLINE):
                 self.finished, self.outcome = True, f"phase {phase} from {robot}"
             return
         if phase == WAITING_VISITOR:
