@@ -23,7 +23,6 @@ The verdict fails (``problems``) on a visit that neither completed nor ended as 
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -46,6 +45,7 @@ from gidabot_navigation.interface import (
     TOUR_FINISHED,
     UNREACHABLE,
 )
+from gidabot_sim.demo.progress import MonitorFeed
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
@@ -84,7 +84,7 @@ def _number(value: object, default: float = math.nan) -> float:
     return out if math.isfinite(out) else default
 
 
-class Crowd:
+class Crowd(MonitorFeed):
     """Feed monitor records (:meth:`feed`) in order; :meth:`visit_end` and :meth:`summary` read the result."""
 
     def __init__(self, plans: Iterable[VisitorPlan]) -> None:
@@ -100,14 +100,6 @@ class Crowd:
         self._ends: dict[str, tuple[str, float]] = {}              # visitor -> how and when its visit ended
 
     # -- input -----------------------------------------------------------------------------------
-    def feed_line(self, line: str) -> bool:
-        """One JSON line of the monitor; True when the progress line may have changed."""
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            return False
-        return self.feed(rec) if isinstance(rec, dict) else False
-
     def feed(self, rec: dict) -> bool:
         """One monitor record; True when it concerns a visitor of the population (or a robot came up)."""
         if rec.get("kind") == "up" and str(rec.get("robot")) not in self.robots_up:

@@ -114,8 +114,24 @@ class Visit:
                 and self.sent_by(robot, rec.get("callerid")))
 
 
+class MonitorFeed:
+    """Something fed the monitor's JSON lines (monitor.jsonl): :meth:`feed` takes one record."""
+
+    def feed(self, rec: dict) -> bool:
+        raise NotImplementedError
+
+    def feed_line(self, line: str) -> bool:
+        """Take one JSON line; return True when the visible progress changed (a line that is not a JSON
+        object changes nothing)."""
+        try:
+            rec = json.loads(line)
+        except json.JSONDecodeError:
+            return False
+        return self.feed(rec) if isinstance(rec, dict) else False
+
+
 @dataclass
-class Progress:
+class Progress(MonitorFeed):
     """What happened so far: goals issued and completed, the latest phase, the end."""
 
     total_goals: int
@@ -146,14 +162,6 @@ class Progress:
     @property
     def tour_mode(self) -> bool:
         return bool(self.visit.tour_file)
-
-    def feed_line(self, line: str) -> bool:
-        """Take one JSON line; return True when the visible progress changed."""
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            return False
-        return self.feed(rec) if isinstance(rec, dict) else False
 
     def feed(self, rec: dict) -> bool:
         kind = rec.get("kind")
