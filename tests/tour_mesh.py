@@ -18,40 +18,21 @@ import os
 import time
 import xmlrpc.client
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 from relay_system import RelayMesh
+from sim_building import SimBuilding
 from tour_system import FACULTY, TOUR, start_store
 
-from gidabot_navigation.building.model import Building, load_building, relocate_building
+from gidabot_navigation.building.model import load_building, relocate_building
 from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.tours.tour_store import META_NAME
 from gidabot_sim.errors import ProcessError
-from gidabot_sim.runner.procs import ProcessGroup, master_pid, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, start_master, wait_until
 
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 CATALOG, RESULT, DIAG = Topic.TOUR_CATALOG, Topic.TOUR_EDIT_RESULT, Topic.DIAGNOSTICS
 TYPES = {CATALOG: "gidabot_msgs/TourCatalog", RESULT: "gidabot_msgs/TourEditResult"}
-
-
-@dataclass
-class Masters:
-    """The faculty's masters (the interface RelayMesh expects, as conftest.SimBuilding)."""
-
-    path: Path
-    building: Building
-    procs: ProcessGroup
-    log_dir: Path
-
-    def env(self, robot: str, **extra: str) -> dict[str, str]:
-        r = self.building.robot(robot)
-        return ros_env(r.master_uri, r.ip, log_dir=self.log_dir / "ros" / robot, **extra)
-
-    def restart_master(self, robot: str) -> None:
-        self.procs.restart(f"master_{robot}")
-        uri = self.building.robot(robot).master_uri
-        wait_until(lambda: master_pid(uri) is not None, 15.0, f"master of {robot} back", interval=0.02)
 
 
 def dir_files(directory: Path, hidden: bool = False) -> dict[str, bytes]:
@@ -105,7 +86,7 @@ class TourMesh:
         self.tmp = tmp
         self.procs = ProcessGroup(tmp / "logs")
         self.mesh: RelayMesh | None = None
-        self.masters: Masters | None = None
+        self.masters: SimBuilding | None = None
         self.dirs = {r: tmp / "tours" / r for r in ROBOTS}
         self.n = 0
 
@@ -125,7 +106,7 @@ class TourMesh:
         uris = {r.name: start_master(self.procs, f"master_{r.name}", robot_address(i))
                 for i, r in enumerate(base.robots)}
         path = relocate_building(FACULTY, self.tmp / "building", uris)
-        self.masters = Masters(path, load_building(path), self.procs, self.tmp / "logs")
+        self.masters = SimBuilding(path, load_building(path), self.procs, self.tmp / "logs")
         self.mesh = RelayMesh(self.masters, self.tmp)
         self.mesh.start(subscribe=[(CATALOG, TYPES[CATALOG]), (RESULT, TYPES[RESULT])], timeout=timeout)
         for r in ROBOTS:
