@@ -16,9 +16,9 @@ the other. Side by side in one run:
 Printed per robot: answer time p50 / max (ms) quiet and flooded, the flood rate achieved (while
 the requests were made), and the goal manager's state writes while the flood ran alone for
 about 3 s before the flooded requests (its ``state_saves`` on ``/diagnostics``).
-Exit status 1 if a flooded answer takes more than ``--limit`` (0.5 s), a state file was written
-because of the flood, or a worker could not publish at 90 % of the rate (the verdict would not
-mean anything).
+Exit status 1 if a flooded answer takes more than 0.5 s (``LIMIT_S``, the issue's bound), a state
+file was written because of the flood, or a worker could not publish at 90 % of the rate (the
+verdict would not mean anything).
 """
 
 from __future__ import annotations
