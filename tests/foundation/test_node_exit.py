@@ -17,12 +17,12 @@ import os
 import signal
 import subprocess
 import sys
-import time
 import xmlrpc.client
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from exit_timing import signal_and_time
 
 from gidabot_navigation.building.model import load_building, relocate_building
 from gidabot_navigation.interface import Node, global_name, relay_end_name
@@ -123,20 +123,7 @@ class Robot:
 
     def signal_and_time(self, names: list[str], sig: int) -> dict[str, float]:
         """Send ``sig`` to every node at once; wall s until each one has exited (inf: not within the bound + 5 s)."""
-        sent = time.monotonic()
-        for name in names:
-            self.signal(name, sig)
-        exited: dict[str, float] = {}
-
-        def all_gone() -> bool:
-            for name in names:
-                if name not in exited and not self.alive(name):
-                    exited[name] = time.monotonic() - sent
-            return len(exited) == len(names)
-
-        with contextlib.suppress(Exception):
-            wait_until(all_gone, EXIT_BOUND + 5.0, "the nodes' exit", interval=0.02)
-        return {name: exited.get(name, float("inf")) for name in names}
+        return signal_and_time(names, self.signal, self.alive, sig, EXIT_BOUND + 5.0)
 
     def children(self, name: str) -> list[int]:
         """Pids of the child processes of ``name``."""
