@@ -5,7 +5,9 @@ Without the guard, rospy unregisters from the master in its signal handler with 
 timeout: with the master frozen, goal_manager, multirobot_navigation, tour_store, the relay ends and
 supervisor, the visitor, the monitor, the chaos probe and the GUI never exited. Each node is started
 directly (not by roslaunch) against one master, so each one's exit is timed; the simulator's stand-ins are
-covered by tests/sim/test_sim_exit.py.
+covered by tests/sim/test_sim_exit.py, and here while ``init_node`` waits on a master frozen from the start
+(the stand-ins installed their guard after ``init_node``: rospy's handler ran in that window and never
+returned).
 """
 
 from __future__ import annotations
@@ -15,12 +17,12 @@ import os
 import signal
 import subprocess
 import sys
-import time
 import xmlrpc.client
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from exit_timing import signal_and_time
 
 from gidabot_navigation.building.model import load_building, relocate_building
 from gidabot_navigation.interface import Node, global_name, relay_end_name
@@ -46,10 +48,13 @@ ROS_NODES = {        # process name -> ROS node name (registered on the master o
 class Robot:
     """One master and every long-running node of one robot (the chaos probe on a pipe, as chaos runs it)."""
 
-    def __init__(self, procs: ProcessGroup, tmp: Path) -> None:
+    def __init__(self, procs: ProcessGroup, tmp: Path, stand_ins: bool = False,
+                 frozen_from_start: bool = False) -> None:
         self.procs = procs
         ip = robot_address([r.name for r in load_building(FACULTY).robots].index(ROBOT))
         self.uri = start_master(procs, "master", ip)
+        if frozen_from_start:
+            procs.signal("master", signal.SIGSTOP)     # every node's init_node waits on it
         building = str(relocate_building(FACULTY, tmp / "building", {ROBOT: self.uri}))
         self.env = {**ros_env(self.uri, ip, log_dir=tmp / "ros"), "QT_QPA_PLATFORM": "offscreen"}
         common = [f"_building:={building}", f"_robot:={ROBOT}"]
@@ -72,6 +77,12 @@ class Robot:
             "monitor": [py, str(SIM_NODES / "monitor"), f"_out:={tmp / 'monitor.jsonl'}"],
             "gui": [py, str(GUI_NODE), *common, "_speech:=false", "_fullscreen:=false"],
         }
+        if stand_ins:
+            starts |= {"sim": [py, str(SIM_NODES / "sim"), f"__name:={Node.SIM}", *common, "_speed:=20",
+                               "_use_sim_time:=true"],
+                       "move_base": [py, str(SIM_NODES / "move_base"), f"__name:={Node.MOVE_BASE}", *common],
+                       "amcl": [py, str(SIM_NODES / "amcl"), f"__name:={Node.AMCL}"]}
+        self.names = [*starts, "chaos_probe"]
         for name, argv in starts.items():
             procs.start(name, argv, self.env)
         log = open(tmp / "chaos_probe.log", "ab")  # noqa: SIM115 - closed at once: the child has its copy
@@ -91,6 +102,28 @@ class Robot:
             proc = self.procs.get(name).popen
             with contextlib.suppress(ProcessLookupError):
                 os.kill(proc.pid, sig)          # the node itself, as roslaunch does
+
+    def pid(self, name: str) -> int:
+        return self.probe.pid if name == "chaos_probe" else self.procs.get(name).popen.pid
+
+    def at_master(self, name: str) -> bool:
+        """The node has a TCP connection to its master (a frozen master's kernel still accepts it: the node
+        then waits for the answer to its first call, in init_node)."""
+        host, port = self.uri.split("//", 1)[1].rstrip("/").split(":")
+        remote = "".join(f"{int(b):02X}" for b in reversed(host.split("."))) + f":{int(port):04X}"
+        inodes = set()
+        with contextlib.suppress(OSError):
+            for fd in Path(f"/proc/{self.pid(name)}/fd").iterdir():
+                with contextlib.suppress(OSError):
+                    target = os.readlink(fd)
+                    if target.startswith("socket:["):
+                        inodes.add(target[len("socket:["):-1])
+        with open("/proc/net/tcp") as table:
+            return any(f[2] == remote and f[9] in inodes for f in (line.split() for line in list(table)[1:]))
+
+    def signal_and_time(self, names: list[str], sig: int) -> dict[str, float]:
+        """Send ``sig`` to every node at once; wall s until each one has exited (inf: not within the bound + 5 s)."""
+        return signal_and_time(names, self.signal, self.alive, sig, EXIT_BOUND + 5.0)
 
     def children(self, name: str) -> list[int]:
         """Pids of the child processes of ``name``."""
@@ -138,27 +171,33 @@ def test_every_node_exits_within_2_s(robot: Robot, tmp_path: Path, sig: int, fro
     assert ends
     if frozen:
         robot.procs.signal("master", signal.SIGSTOP)
-    sent = time.monotonic()
-    for name in ROS_NODES:
-        robot.signal(name, sig)
-    exited: dict[str, float] = {}
-
-    def all_gone() -> bool:
-        for name in ROS_NODES:
-            if name not in exited and not robot.alive(name):
-                exited[name] = time.monotonic() - sent
-        return len(exited) == len(ROS_NODES)
-
-    with contextlib.suppress(Exception):
-        wait_until(all_gone, EXIT_BOUND + 5.0, "the nodes' exit", interval=0.02)
+    times = robot.signal_and_time(list(ROS_NODES), sig)
     robot.procs.signal("master", signal.SIGCONT)
-    times = {name: exited.get(name, float("inf")) for name in ROS_NODES}
     print(f"\n[exit] {signal.Signals(sig).name}, master {'frozen' if frozen else 'running'}: "
           + ", ".join(f"{n} {t:.2f} s" for n, t in sorted(times.items(), key=lambda kv: kv[1])))
     assert max(times.values()) < EXIT_BOUND, times
     # and nothing the supervisor started is left: it stops its ends, or the kernel SIGTERMs them (pdeathsig)
     wait_until(lambda: not any(Path(f"/proc/{pid}").exists() and not _zombie(pid) for pid in ends), EXIT_BOUND + 2.0,
                f"the supervisor's relay ends {ends} gone", interval=0.05)
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_node_signalled_while_init_node_waits_on_a_frozen_master_exits_within_2_s(tmp_path: Path, sig: int) -> None:
+    """A robot started (or restarted) while its master is frozen, then stopped: every node, the stand-ins
+    included, is in init_node waiting for the master's answer when the signal comes."""
+    with ProcessGroup(tmp_path / "logs") as procs:
+        robot = Robot(procs, tmp_path, stand_ins=True, frozen_from_start=True)
+        try:
+            wait_until(lambda: all(robot.at_master(n) for n in robot.names), 120,
+                       "every node waiting for the frozen master", interval=0.1)
+            times = robot.signal_and_time(robot.names, sig)
+        finally:
+            procs.signal("master", signal.SIGCONT)
+            robot.close()
+    print(f"\n[exit in init_node] {signal.Signals(sig).name}, master frozen: "
+          + ", ".join(f"{n} {t:.2f} s" for n, t in sorted(times.items(), key=lambda kv: kv[1])))
+    assert max(times.values()) < EXIT_BOUND, times
 
 
 def _zombie(pid: int) -> bool:

@@ -8,20 +8,18 @@ here), and unregisters from the master without a timeout (a frozen master: a han
 
 from __future__ import annotations
 
-import contextlib
 import os
 import signal
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from exit_timing import signal_and_time
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building, relocate_building
 from gidabot_navigation.interface import Node, Topic
-from gidabot_sim.errors import ProcessError
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -66,20 +64,7 @@ def subscribed_probe(env: dict[str, str], log: Path) -> Probe:
 
 def sigint_and_time(procs: ProcessGroup, names: tuple[str, ...]) -> dict[str, float]:
     """SIGINT every node at once (as roslaunch does at shutdown); wall s until each has exited."""
-    sent = time.monotonic()
-    for name in names:
-        procs.signal(name, signal.SIGINT)
-    exited: dict[str, float] = {}
-
-    def all_gone() -> bool:
-        for name in names:
-            if name not in exited and not procs.alive(name):
-                exited[name] = time.monotonic() - sent
-        return len(exited) == len(names)
-
-    with contextlib.suppress(ProcessError):
-        wait_until(all_gone, EXIT_BOUND + 3.0, "the nodes' exit", interval=0.02)
-    return {name: exited.get(name, float("inf")) for name in names}
+    return signal_and_time(names, procs.signal, procs.alive, signal.SIGINT, EXIT_BOUND + 3.0)
 
 
 def forced_exits(procs: ProcessGroup, name: str) -> list[str]:

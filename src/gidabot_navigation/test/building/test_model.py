@@ -181,6 +181,8 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
     ("blueprint_transform upside down (v up)", lambda d: d["floors"][0]["blueprint_transform"].update(
         origin_px=[24, 24]),
      "robots[0].home: (30, 12) is at pixel (504, -168) of the blueprint floor0.png, outside its 1200x432 pixels"),
+    ("no robot at all", lambda d: d.update(robots=[]),
+     "robots: []: a building needs at least one robot"),
     ("blueprint_transform with the wrong scale", lambda d: d["floors"][3]["blueprint_transform"].update(scale=32.0),
      "connectors[2].meeting[3].pose: (67.6, 12) is at pixel (2187, 24) of the blueprint floor3.png, outside its "
      "1200x432 pixels"),
@@ -189,6 +191,14 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
 
 def _replace_file(name: str, data: bytes) -> Callable[[Path], None]:
     return lambda d: (d / name).write_bytes(data)
+
+
+def _text_edit(name: str, old: str, new: str) -> Callable[[Path], None]:
+    def edit(d: Path) -> None:
+        text = (d / name).read_text()
+        assert old in text, (name, old)
+        (d / name).write_text(text.replace(old, new, 1))
+    return edit
 
 
 def _truncate(name: str) -> Callable[[Path], None]:
@@ -201,6 +211,14 @@ FILE_BROKEN: list[tuple[str, Callable[[Path], None], str]] = [
      "floors[1].blueprint: 'floor1.png' is not a readable image"),
     ("blueprint cut short (truncated PNG)", _truncate("floor2.png"),
      "floors[2].blueprint: 'floor2.png' is not a readable image"),
+    ("a key given twice (YAML keeps the last)", _text_edit("building.yaml", "  pose: [9.0, 11.4, -1.5708]\n",
+                                                          "  pose: [9.0, 11.4, -1.5708]\n  pose: [9.0, 1.4, 0.0]\n"),
+     "line 50: key 'pose' is given twice in one mapping: [9.0, 11.4, -1.5708] on line 49, [9.0, 1.4, 0.0] on "
+     "line 50 (YAML would silently keep the last)"),
+    ("a key given twice in a floor's map file", _text_edit("floor1.yaml", "resolution: 0.05\n",
+                                                           "resolution: 0.05\nresolution: 0.5\n"),
+     "floors[1].map: [*]floor1.yaml: line 3: key 'resolution' is given twice in one mapping: 0.05 on line 2, "
+     "0.5 on line 3"),
     ("a closed door across a corridor", lambda d: paint(d, 2, 50.0, 50.2, 10.0, 14.0),
      "location 229: (56.5, 11.4) on floor 2 is not reachable by Galtxagorri (radius 0.27 m) from its home "
      "(30, 12): walled off (no free way at all): the way closes at (50.03, 12.03)"),
@@ -244,6 +262,32 @@ def test_broken_building_names_file_key_value(faculty_copy: Path, capsys, mistak
     assert line is not None, text
     assert f"{faculty_copy / 'building.yaml'}: " in line
     mistakes_table[label] = line.split(f"{faculty_copy / 'building.yaml'}: ", 1)[1]
+
+
+@pytest.mark.parametrize("change", [_replace_file("floor1.png", b"<html>not found</html>"), _truncate("floor1.png"),
+                                    lambda d: (d / "floor1.png").unlink(), lambda d: (d / "floor1.pgm").unlink()],
+                         ids=["not an image", "truncated", "blueprint missing", "map image missing"])
+def test_a_floor_that_does_not_load_is_one_problem(faculty_copy: Path, change) -> None:
+    """A floor whose blueprint or map is broken is reported once, not again at every place, connector and robot
+    on it as 'unknown floor 1' (it is declared: only its files are wrong)."""
+    change(faculty_copy)
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    [problem] = info.value.problems
+    assert problem.where in ("floors[1].blueprint", "floors[1].map"), problem
+    _edit(faculty_copy, lambda d: _loc(d, "101").update(floor=7))
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    assert [p.message for p in info.value.problems[1:]] == ["unknown floor 7 (floors: 0, 1, 2, 3)"]
+
+
+def test_yaml_keys_given_twice() -> None:
+    from gidabot_navigation.building.yaml_text import DuplicateKeyError, load_yaml
+
+    assert load_yaml("base: &b {x: 1, y: 2}\nd:\n  <<: *b\n  x: 3\n")["d"] == {"x": 3, "y": 2}   # merge, override
+    with pytest.raises(DuplicateKeyError) as info:
+        load_yaml("l:\n- {id: a, floor: 0, floor: 1}\n")
+    assert (info.value.key, info.value.line, info.value.first_line) == ("floor", 2, 2)
 
 
 def test_several_robots_on_a_floor_and_floors_without_robot(faculty_copy: Path) -> None:

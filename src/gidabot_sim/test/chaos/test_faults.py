@@ -9,6 +9,7 @@ import threading
 import pytest
 
 from gidabot_sim.chaos.faults import LinkCuts
+from gidabot_sim.runner import procs
 
 pytestmark = pytest.mark.system
 
@@ -44,7 +45,8 @@ def _connects(src: str, dst: str, port: int) -> bool:
 
 @pytest.mark.skipif(shutil.which("iptables") is None, reason="iptables not installed")
 def test_cut_and_restore() -> None:
-    a, b, c = "127.0.91.1", "127.0.91.2", "127.0.91.3"
+    net = procs.test_network()  # this session's own 127.N network: a concurrent run's cuts never touch it
+    a, b, c = f"127.{net}.91.1", f"127.{net}.91.2", f"127.{net}.91.3"
     srv, port = _server(b)
     try:
         with LinkCuts() as cuts:

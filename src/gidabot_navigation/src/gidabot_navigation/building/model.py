@@ -19,6 +19,7 @@ import yaml
 
 from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
 from gidabot_navigation.building.occupancy import OccupancyMap, load_map
+from gidabot_navigation.building.yaml_text import DuplicateKeyError, load_yaml
 from gidabot_navigation.errors import BuildingError, MapError, Problem
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, WAYS
 
@@ -345,7 +346,9 @@ def load_building(path: str | Path) -> Building:
     except UnicodeDecodeError as err:
         raise BuildingError([Problem(str(path), "file", f"not UTF-8 text: {err}")]) from err
     try:
-        doc = yaml.safe_load(raw)
+        doc = load_yaml(raw)
+    except DuplicateKeyError as err:
+        raise BuildingError([Problem(str(path), f"line {err.line}", err.problem)]) from err
     except yaml.YAMLError as err:
         raise BuildingError([Problem(str(path), "file", f"not valid YAML: {err}")]) from err
     doc = chk.mapping(doc, "(top level)")
@@ -353,11 +356,13 @@ def load_building(path: str | Path) -> Building:
     building_id = chk.text(doc.get("id", "x"), "id") or ""
     building_name = chk.text(doc.get("name", "x"), "name") or ""
 
-    floors = _load_floors(chk, doc.get("floors", []))
-    by_floor = {f.id: f for f in floors}
+    floors, unusable = _load_floors(chk, doc.get("floors", []))
+    by_floor = _Floors({f.id: f for f in floors}, unusable)
     locations = _load_locations(chk, doc.get("locations", []), by_floor)
     connectors = _load_connectors(chk, doc.get("connectors", []), by_floor, {loc.id for loc in locations})
     robots = _load_robots(chk, doc.get("robots", []), by_floor)
+    if doc.get("robots") == []:
+        chk.problem("robots", "[]: a building needs at least one robot (every node runs as one of them)")
 
     if chk.problems:
         raise BuildingError(chk.problems)
@@ -401,8 +406,19 @@ def _in_free_space(chk: _Checker, floor: Floor, pose: Pose2D, where: str, what: 
                            f"{floor.label}; {what} must be in free space")
 
 
-def _load_floors(chk: _Checker, value: object) -> list[Floor]:
+class _Floors(dict):
+    """The floors that loaded, by id; ``unusable``: ids of floors declared but not loaded (their map or
+    blueprint has a problem, already reported): a place on one is not checked further, and not reported again
+    as on an unknown floor."""
+
+    def __init__(self, floors: dict[float, Floor], unusable: set[float]) -> None:
+        super().__init__(floors)
+        self.unusable = unusable
+
+
+def _load_floors(chk: _Checker, value: object) -> tuple[list[Floor], set[float]]:
     floors: list[Floor] = []
+    unusable: set[float] = set()
     for i, item in enumerate(chk.seq(value, "floors")):
         where = f"floors[{i}]"
         doc = chk.mapping(item, where)
@@ -436,27 +452,31 @@ def _load_floors(chk: _Checker, value: object) -> list[Floor]:
                 chk.problem(f"{where}.map", str(err))
         size = _image_size(chk, blueprint, f"{where}.blueprint") if blueprint is not None else None
         if None in (fid, map_file, blueprint, transform, grid, size) or len(names) != len(LANGUAGES):
+            if fid is not None:
+                unusable.add(fid)
             continue
         floors.append(Floor(fid, names, map_file, blueprint, transform, grid,  # type: ignore[arg-type]
                             blueprint_size=size))  # type: ignore[arg-type]
     if not floors and not chk.problems:
         chk.problem("floors", "a building needs at least one floor")
-    return floors
+    return floors, unusable
 
 
-def _floor_ref(chk: _Checker, value: object, where: str, by_floor: dict[float, Floor]) -> Floor | None:
+def _floor_ref(chk: _Checker, value: object, where: str, by_floor: _Floors) -> Floor | None:
     number = chk.number(value, where)
     if number is None:
         return None
     for fid, floor in by_floor.items():
         if abs(fid - number) < FLOOR_TOLERANCE:
             return floor
-    known = ", ".join(format_floor(f) for f in by_floor) or "none"
+    if any(abs(fid - number) < FLOOR_TOLERANCE for fid in by_floor.unusable):
+        return None                 # the floor's own problem is reported: nothing more to say here
+    known = ", ".join(format_floor(f) for f in sorted([*by_floor, *by_floor.unusable])) or "none"
     chk.problem(where, f"unknown floor {_show(value)} (floors: {known})")
     return None
 
 
-def _load_locations(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> list[Location]:
+def _load_locations(chk: _Checker, value: object, by_floor: _Floors) -> list[Location]:
     locations: list[Location] = []
     seen: set[str] = set()
     for i, item in enumerate(chk.seq(value, "locations")):
@@ -489,7 +509,7 @@ def _load_locations(chk: _Checker, value: object, by_floor: dict[float, Floor]) 
     return locations
 
 
-def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
+def _load_connectors(chk: _Checker, value: object, by_floor: _Floors,
                      location_ids: set[str]) -> list[Connector]:
     connectors: list[Connector] = []
     for i, item in enumerate(chk.seq(value, "connectors")):
@@ -534,7 +554,7 @@ def _load_connectors(chk: _Checker, value: object, by_floor: dict[float, Floor],
 
 
 def _serves(chk: _Checker, value: object, where: str, cid: str, meeting: dict[float, Pose2D],
-            by_floor: dict[float, Floor]) -> tuple[float, ...]:
+            by_floor: _Floors) -> tuple[float, ...]:
     """The floors a connector serves: ``serves`` (default every floor), which must be the floors of its
     meeting poses exactly (a meeting pose elsewhere would offer the connector for trips it cannot make)."""
     if value is None:
@@ -562,7 +582,7 @@ def _serves(chk: _Checker, value: object, where: str, cid: str, meeting: dict[fl
     return tuple(sorted(serves))
 
 
-def _load_robots(chk: _Checker, value: object, by_floor: dict[float, Floor]) -> list[Robot]:
+def _load_robots(chk: _Checker, value: object, by_floor: _Floors) -> list[Robot]:
     robots: list[Robot] = []
     uris: dict[str, str] = {}
     for i, item in enumerate(chk.seq(value, "robots")):

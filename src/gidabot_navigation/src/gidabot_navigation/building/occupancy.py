@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from gidabot_navigation.building.yaml_text import DuplicateKeyError, load_yaml
 from gidabot_navigation.errors import MapError
 
 OCCUPIED = 100
@@ -138,9 +139,11 @@ def load_map(yaml_path: str | Path) -> OccupancyMap:
 
     path = Path(yaml_path)
     try:
-        doc = yaml.safe_load(path.read_text(encoding="utf-8"))
+        doc = load_yaml(path.read_text(encoding="utf-8"))
     except OSError as err:
         raise MapError(f"{path}: cannot read map YAML: {err.strerror}") from err
+    except DuplicateKeyError as err:
+        raise MapError(f"{path}: {err}") from err
     except (yaml.YAMLError, UnicodeDecodeError) as err:
         raise MapError(f"{path}: not valid YAML: {err}") from err
     if not isinstance(doc, dict):

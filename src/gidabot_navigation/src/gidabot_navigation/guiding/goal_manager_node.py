@@ -8,7 +8,6 @@ pending list.
 from __future__ import annotations
 
 import queue
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +18,6 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.guiding_node import (
@@ -31,7 +29,6 @@ from gidabot_navigation.guiding.guiding_node import (
     event_from_msg,
     event_to_msg,
     from_relay,
-    keep_registered,
     trip_from_msg,
     trip_to_msg,
     yaw_of,
@@ -41,8 +38,9 @@ from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default
 from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Phase, Topic
 from gidabot_navigation.loop_meter import LoopMeter
-from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
+from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
@@ -295,15 +293,5 @@ class GoalManagerNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    guard = rospy_exit_guard(Node.GOAL_MANAGER, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
-    rospy.init_node(Node.GOAL_MANAGER, argv=argv if argv is not None else sys.argv, disable_signals=True)
-    keep_registered()
-    try:
-        node = GoalManagerNode(Params.read())
-    except (GidaBotError, OSError, ValueError) as err:
-        rospy.logfatal(f"goal_manager cannot start: {err}")
-        return 1
-    rospy.loginfo(f"goal_manager of {node.robot} (floor {node.core.robot.floor:g}) running")
-    node.run(guard)
-    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
-    return 0
+    return run_node(Node.GOAL_MANAGER, lambda: GoalManagerNode(Params.read()),
+                    lambda n: f"goal_manager of {n.robot} (floor {n.core.robot.floor:g}) running", argv)

@@ -122,12 +122,3 @@ def diagnostics(name: str, robot: str, stats: dict, level_warn: bool, message: s
     arr.status = [status]
     return arr
 
-
-def keep_registered() -> None:
-    """Re-register with a restarted master (gidabot_navigation.ros.master_watch), if available."""
-    try:
-        from gidabot_navigation.ros.master_watch import keep_registered as watch
-    except ImportError:
-        rospy.logwarn("gidabot_navigation.ros.master_watch is missing: this node will not survive a master restart")
-        return
-    watch()

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import queue
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +24,6 @@ from sensor_msgs.msg import BatteryState
 
 from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.guiding_node import (
     cancel_from_msg,
     cancel_to_msg,
@@ -34,7 +32,6 @@ from gidabot_navigation.guiding.guiding_node import (
     event_from_msg,
     event_to_msg,
     from_relay,
-    keep_registered,
     quaternion,
     sender,
     trip_from_msg,
@@ -54,8 +51,9 @@ from gidabot_navigation.guiding.navigation import (
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
-from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
+from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
+from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
@@ -423,15 +421,5 @@ class NavigationNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    guard = rospy_exit_guard(Node.MULTIROBOT_NAVIGATION, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM
-    rospy.init_node(Node.MULTIROBOT_NAVIGATION, argv=argv if argv is not None else sys.argv, disable_signals=True)
-    keep_registered()
-    try:
-        node = NavigationNode(Params.read())
-    except (GidaBotError, OSError, ValueError) as err:
-        rospy.logfatal(f"multirobot_navigation cannot start: {err}")
-        return 1
-    rospy.loginfo(f"multirobot_navigation of {node.robot} (floor {node.core.floor:g}) running")
-    node.run(guard)
-    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
-    return 0
+    return run_node(Node.MULTIROBOT_NAVIGATION, lambda: NavigationNode(Params.read()),
+                    lambda n: f"multirobot_navigation of {n.robot} (floor {n.core.floor:g}) running", argv)

@@ -12,7 +12,6 @@ import io
 import os
 import queue
 import struct
-import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,11 +22,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import GidaBotError, TourRejected, TourStoreError
+from gidabot_navigation.errors import TourRejected, TourStoreError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
-from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
+from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.master_watch import keep_registered
+from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.tours.tour_store import NS, StoreLimits, TourMessage, TourRecord, TourStore, index_entries
 
@@ -306,15 +305,5 @@ class TourStoreNode:
 
 
 def main(argv: list[str] | None = None) -> int:
-    guard = rospy_exit_guard(Node.TOUR_STORE, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, master frozen
-    rospy.init_node(Node.TOUR_STORE, argv=argv if argv is not None else sys.argv, disable_signals=True)
-    keep_registered()    # found again after its master restarts (docs/interfaces.md)
-    try:
-        node = TourStoreNode(Params.read())
-    except (GidaBotError, OSError) as err:
-        rospy.logfatal(f"tour_store cannot start: {err}")
-        return 1
-    rospy.loginfo(f"tour_store of {node.robot}: {Path(node.params.tours_dir)}")
-    node.run(guard)
-    guard.spin(rospy.is_shutdown)     # the shutdown runs in the guard's thread, never in this one
-    return 0
+    return run_node(Node.TOUR_STORE, lambda: TourStoreNode(Params.read()),
+                    lambda n: f"tour_store of {n.robot}: {Path(n.params.tours_dir)}", argv)

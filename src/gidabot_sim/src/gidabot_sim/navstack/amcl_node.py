@@ -132,8 +132,10 @@ class AmclNode:
 
 
 def main() -> None:
-    rospy.init_node(Node.AMCL)
-    guard = rospy_exit_guard(Node.AMCL)     # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    # installed before init_node: a signal while init_node waits on a frozen master would run rospy's
+    # handler, which never returns (exit within 1 s of SIGINT/SIGTERM, whatever happens)
+    guard = rospy_exit_guard(Node.AMCL)
+    rospy.init_node(Node.AMCL, disable_signals=True)
     keep_registered()     # re-register with a restarted master
     try:
         AmclNode()

@@ -373,8 +373,10 @@ class MoveBaseNode:
 
 
 def main() -> None:
-    rospy.init_node(Node.MOVE_BASE)
-    guard = rospy_exit_guard(Node.MOVE_BASE, main_loop=True)   # exit within 1 s of SIGINT/SIGTERM, whatever happens
+    # installed before init_node: a signal while init_node waits on a frozen master would run rospy's
+    # handler, which never returns (exit within 1 s of SIGINT/SIGTERM, whatever happens)
+    guard = rospy_exit_guard(Node.MOVE_BASE, main_loop=True)
+    rospy.init_node(Node.MOVE_BASE, disable_signals=True)
     keep_registered()     # re-register with a restarted master
     try:
         node = MoveBaseNode()
