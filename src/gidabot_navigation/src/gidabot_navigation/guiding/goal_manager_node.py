@@ -48,7 +48,7 @@ from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
 LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
-DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
+DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog")   # inputs that may change the state kept across restarts
 
 
 @dataclass(frozen=True)
@@ -248,7 +248,7 @@ class GoalManagerNode:
         elif kind == "pending":
             core.on_pending(msg.robot, [trip_from_msg(g) for g in msg.goals], msg.wait_new, now_wall)
         elif kind == "catalog":
-            core.on_catalog(catalog_entries(msg))
+            return core.on_catalog(catalog_entries(msg), now_ros, now_wall)
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
