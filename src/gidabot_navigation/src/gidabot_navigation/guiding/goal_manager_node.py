@@ -48,7 +48,8 @@ from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
 LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
-DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog")   # inputs that may change the state kept across restarts
+# inputs that may change the state kept across restarts
+DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog")
 
 
 @dataclass(frozen=True)
