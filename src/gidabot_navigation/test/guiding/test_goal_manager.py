@@ -229,6 +229,19 @@ def test_hostile_goals_are_counted_and_only_ours_get_an_event(faculty) -> None:
     assert events(tartalo.on_goal(replace(good, uid="Tartalo/v/x", goal_id="999"), 1.0, 1.0), REJECTED)
 
 
+def test_a_pending_list_with_a_wait_that_is_not_a_number_is_rejected_and_counted(faculty) -> None:
+    """The chaos run's spoofed /gidabot/pending (wait_new -inf, eta nan): it made the robot look idle (wait 0) to
+    the others, and nobody counted it. The last good list of that robot is kept."""
+    kbot = core(faculty, "Kbot")
+    queued = goals(request(core(faculty, "Galtxagorri"), "104"))[0]
+    kbot.on_pending("Galtxagorri", [queued], 240.0, 1.0)
+    for wait in (-math.inf, math.nan, math.inf, "x"):
+        kbot.on_pending("Galtxagorri", [], wait, 2.0)
+    view = kbot.fleet["Galtxagorri"]
+    assert (view.wait_new, [t.uid for t in view.queue], view.heard) == (240.0, [queued.uid], 1.0)
+    assert kbot.stats["rejected_pending"] == 4
+
+
 def test_a_full_queue_refuses_and_cancels(faculty) -> None:
     gm = core(faculty, max_queue=2)
     request(gm, "001")

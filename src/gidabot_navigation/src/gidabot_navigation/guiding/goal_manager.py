@@ -207,15 +207,18 @@ class GoalManagerCore:
         found = self.building.find_robot(robot) if isinstance(robot, str) else None
         if found is None or robot == self.me:
             return
+        if isinstance(wait_new, bool) or not isinstance(wait_new, (int, float)) or not math.isfinite(wait_new):
+            self.stats.inc("rejected_pending")       # a spoofed or broken list: the last good one is kept
+            self.warn.warning("pending", f"pending list of {robot} with wait_new {wait_new!r} ignored")
+            return
         queue = []
         for trip in list(goals)[:self.cfg.max_queue * 2]:
             try:
                 queue.append(validate_trip(self.building, trip))
             except GoalRejected:
                 self.stats.inc("rejected_pending")
-        wait = float(wait_new) if isinstance(wait_new, (int, float)) and math.isfinite(wait_new) else 0.0
         view = self.fleet.get(robot) or RobotView(found)
-        self.fleet[robot] = replace(view, queue=tuple(queue), wait_new=max(0.0, wait), heard=now_wall)
+        self.fleet[robot] = replace(view, queue=tuple(queue), wait_new=max(0.0, float(wait_new)), heard=now_wall)
 
     def on_pose(self, x: float, y: float, yaw: float) -> None:
         """This robot's localisation (amcl_pose), map frame of its floor."""
