@@ -202,6 +202,39 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     assert book.duplicated_cancels() == {}
 
 
+def test_a_goal_its_restarted_goal_manager_published_again_is_no_duplicate_but_a_double_delivery_is(faculty) -> None:
+    """The quick chaos run on machines, seed 3: Tartalo's goal_manager was killed 0.45 s after it published
+    attempt 3 of a goal; the restarted process published its outbox (that goal, the ASSIGNED event) again, with
+    the same uids. Tartalo's probe saw attempt 3 twice from /goal_manager (a new connection: a new process), the
+    relays forwarded it once (every other master once), Kbot accepted that proposal once: counted apart, not
+    as a duplicate. Twice on one connection, or twice from a relay end, stays a duplicate."""
+    def goals_of(uid: str, conns: list[int], caller: str = GM, on: str = "Tartalo") -> list[dict]:
+        recs = [dict(_goal(m, uid, "Tartalo", 0.0, 1.0), attempt=3, n=1) for m in ROBOTS if m != on]
+        return recs + [dict(_goal(on, uid, "Tartalo", 0.0, 1.0, caller=caller), attempt=3, n=n) for n in conns]
+
+    recs = goals_of("T/v/9", [4, 11]) + goals_of("T/v/10", [4, 4]) + goals_of("T/v/11", [3])
+    recs += goals_of("T/v/12", [2, 6], caller=relay_end_name("Tartalo", "Kbot"), on="Kbot")[-2:]
+    recs += [{k: v for k, v in r.items() if k != "n"} for r in goals_of("T/v/13", [4, 11])]    # an old run's records
+    for uid in ("T/v/9", "T/v/10", "T/v/11", "T/v/12", "T/v/13"):
+        recs += _everywhere(_ev, "Tartalo", uid, Phase.ACCEPTED, f"{uid}/e/1")
+        recs += _everywhere(_ev, "Kbot", uid, Phase.ACCEPTED, f"{uid}/e/2")
+        recs += _everywhere(_ev, "Kbot", uid, Phase.TOUR_STEP_DONE, f"{uid}/e/3")
+    cancel = {"k": "cancel", "c": GM, "uid": "T/c/1", "goal_uid": "T/v/9", "origin": "Tartalo", "reason": "offline"}
+    recs += [dict(cancel, m=m, n=1) for m in ROBOTS] + [dict(cancel, m="Tartalo", n=12)]
+    recs += [dict(cancel, uid="T/c/2", goal_uid="T/v/10", m=m, n=1) for m in ROBOTS]
+    recs += [dict(cancel, uid="T/c/2", goal_uid="T/v/10", m="Kbot", n=1)]
+    book = cc.Bookkeeping(faculty, recs)
+    fates = book.fates()
+    assert fates["T/v/9"].duplicated == [] and fates["T/v/9"].republished == [
+        f"attempt 3 published 2 times on Tartalo's master by {GM}, each on a new connection"]
+    assert fates["T/v/10"].duplicated == ["attempt 3 delivered 2 times on Tartalo's master"]
+    assert fates["T/v/11"].duplicated == [] and fates["T/v/11"].republished == []
+    assert fates["T/v/12"].duplicated == ["attempt 3 delivered 2 times on Kbot's master"]
+    assert fates["T/v/13"].duplicated == ["attempt 3 delivered 2 times on Tartalo's master"]
+    assert book.duplicated_cancels() == {"T/c/2": ["delivered 2 times on Kbot's master"]}
+    assert book.duplicated_cancels(republished=True) == {"T/c/1": ["published 2 times on Tartalo's master"]}
+
+
 def test_partner_notices_must_be_answered(faculty) -> None:
     recs = [_ev("Kbot", "Kbot", "g", Phase.PARTNER_LOST, "a", 1.0),
             _ev("Kbot", "Kbot", "g", Phase.PARTNER_BACK, "b", 2.0),

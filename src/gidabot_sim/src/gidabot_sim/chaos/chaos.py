@@ -1063,7 +1063,8 @@ def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error
     expected = cc.expected_table3(run.building, run.trips)
     result = cc.ChaosResult(
         seed=args.seed, tour=run.tour.file_name, speed=args.speed, faults=run.results, fates=fates,
-        duplicated_cancels=book.duplicated_cancels(), table3_expected=expected,
+        duplicated_cancels=book.duplicated_cancels(), republished_cancels=book.duplicated_cancels(republished=True),
+        table3_expected=expected,
         table3_measured=cc.fold_table3(run.building, book.table3(fates)),
         table3_bags=cc.fold_table3(run.building, bags) if bags else {}, tours_intact=False, tours_problems=[],
         crashes=crashes, tracebacks=tbs, hostile_rejected=hostile, partner_lost=lost, partner_answered=answered,

@@ -456,6 +456,7 @@ class GoalFate:
     cancel_reasons: list[str] = field(default_factory=list)
     visible_failures: list[str] = field(default_factory=list)
     duplicated: list[str] = field(default_factory=list)
+    republished: list[str] = field(default_factory=list)     # published again by its own node: see republication
     system_ended: bool = False        # a robot ended it (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE): see StepFate
 
     @property
@@ -490,8 +491,22 @@ class StepFate:
         else:
             how = "NOT completed" + ("" if self.goals else " (no goal was ever made for it)")
         ends = f"; ended by the system: {'; '.join(self.system_ends)}" if self.system_ends else ""
-        refused = f"; {self.refusals} request(s) refused and asked again" if self.refusals else ""
+        refused = f"; {self.refusals} request(s) refused with nothing queued" if self.refusals else ""
         return f"{label}: {how}{ends}{refused}"
+
+
+def republication(recs: list[dict[str, Any]]) -> bool:
+    """Whether the deliveries ``recs`` of one goal attempt (or cancel) on one master are one guiding node
+    publishing the same message again, each time on a new connection to the probe: a restarted goal_manager
+    or multirobot_navigation publishes its outbox again (docs/chaos.md, what the faults showed, 2), and a
+    publisher replays its recent events to a subscriber that connects again (``ReplayPublisher``); same uid,
+    every receiver ignores it. Not one: two copies on one connection (a node that published it twice), a copy
+    a relay end delivered (a relay delivers each event exactly once), copies from different publishers, and
+    records without their connection number."""
+    callers = {str(r.get("c", "")) for r in recs}
+    conns = [r.get("n") for r in recs]
+    return len(callers) == 1 and callers <= set(GUIDING_CALLERS) and \
+        all(isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in conns) and len(set(conns)) == len(conns)
 
 
 class Bookkeeping:
@@ -595,10 +610,17 @@ class Bookkeeping:
             for (robot, leg), uids in finals.items():
                 if len(uids) > 1:
                     fate.duplicated.append(f"{robot} ended it {len(uids)} times" + (f" (its {leg} leg)" if leg else ""))
-            per_master = Counter((str(r.get("m")), r.get("attempt", 0)) for r in self.goal_records[uid])
-            for (master, attempt), n in per_master.items():
-                if n > 1:
-                    fate.duplicated.append(f"attempt {attempt} delivered {n} times on {master}'s master")
+            per_master: dict[tuple[str, Any], list[dict[str, Any]]] = defaultdict(list)
+            for r in self.goal_records[uid]:
+                per_master[(str(r.get("m")), r.get("attempt", 0))].append(r)
+            for (master, attempt), recs in per_master.items():
+                if len(recs) < 2:
+                    continue
+                if republication(recs):
+                    fate.republished.append(f"attempt {attempt} published {len(recs)} times on {master}'s master by "
+                                            f"{recs[0].get('c')}, each on a new connection")
+                else:
+                    fate.duplicated.append(f"attempt {attempt} delivered {len(recs)} times on {master}'s master")
             fates[uid] = fate
         return fates
 
@@ -663,17 +685,21 @@ class Bookkeeping:
         return {row: (rec + added.get(row, (0, 0))[0], proc + added.get(row, (0, 0))[1])
                 for row, (rec, proc) in expected.items()}
 
-    def duplicated_cancels(self) -> dict[str, list[str]]:
-        """Cancel uids (of accepted goals) delivered more than once on one master."""
+    def duplicated_cancels(self, republished: bool = False) -> dict[str, list[str]]:
+        """Cancel uids (of accepted goals) delivered more than once on one master (``republished``: instead,
+        those only published again by their own node, see :func:`republication`)."""
         goals = self.accepted()
         out: dict[str, list[str]] = {}
         for uid, recs in self.cancel_records.items():
             if str(recs[0].get("goal_uid")) not in goals:
                 continue
-            per_master = Counter(str(r.get("m")) for r in recs)
-            dup = [f"delivered {n} times on {m}'s master" for m, n in per_master.items() if n > 1]
-            if dup:
-                out[uid] = dup
+            per_master: dict[str, list[dict[str, Any]]] = defaultdict(list)
+            for r in recs:
+                per_master[str(r.get("m"))].append(r)
+            found = [f"{'published' if republished else 'delivered'} {len(rs)} times on {m}'s master"
+                     for m, rs in per_master.items() if len(rs) > 1 and republication(rs) == republished]
+            if found:
+                out[uid] = found
         return out
 
     def table3(self, fates: dict[str, GoalFate]) -> dict[str, tuple[int, int]]:
@@ -885,6 +911,7 @@ class ChaosResult:
     bags_error: str = ""                                           # the bags could not be read
     machines: bool = False
     relay_counters: dict[str, int] = field(default_factory=dict)   # RELAY_COUNTERS summed over every relay end
+    republished_cancels: dict[str, list[str]] = field(default_factory=dict)   # published again by their node
 
     # -- derived --------------------------------------------------------------------------
     def injected(self) -> list[FaultResult]:
@@ -915,6 +942,11 @@ class ChaosResult:
 
     def duplicated(self) -> list[str]:
         return sorted(uid for uid, f in self.fates.items() if f.duplicated)
+
+    def republished(self) -> list[str]:
+        """Goals their own node published again after its restart (or replayed on a new connection): no
+        duplicate, each receiver ignores the copy (:func:`republication`); listed apart."""
+        return sorted(uid for uid, f in self.fates.items() if f.republished)
 
     def node_crashes(self) -> int:
         return len(self.crashes) + sum(self.tracebacks.values())
@@ -976,6 +1008,9 @@ class ChaosResult:
             "cancelled": sum(1 for f in self.fates.values() if f.cancelled),
             "lost": len(self.lost()), "duplicated": len(self.duplicated()),
             "cancels_duplicated": len(self.duplicated_cancels),
+            "republished": len(self.republished()), "cancels_republished": len(self.republished_cancels),
+            "republished_goals": {u: self.fates[u].republished for u in self.republished()},
+            "republished_cancels": self.republished_cancels,
             "max_recovery_s": None if mr is None else (round(mr, 2) if math.isfinite(mr) else "not recovered"),
             "recovery": rec,
             "requests": [{"step": st.step, "passed": st.passed, "goals": st.goals, "completed_by": st.completed_by,
@@ -1025,6 +1060,10 @@ class ChaosResult:
                   f"Goals accepted {len(fates)}, completed {sum(1 for f in fates.values() if f.completed)}, "
                   f"cancelled {sum(1 for f in fates.values() if f.cancelled)}, lost {len(self.lost())}, "
                   f"duplicated {len(self.duplicated())} (cancels duplicated {len(self.duplicated_cancels)})",
+                  f"Published again by their own node after its restart (same uid, ignored by every receiver; "
+                  f"not duplicates): {len(self.republished())} goal(s), {len(self.republished_cancels)} cancel(s)"
+                  + "".join(f"\n  {u}: {'; '.join(self.fates[u].republished)}" for u in self.republished())
+                  + "".join(f"\n  cancel {u}: {'; '.join(v)}" for u, v in self.republished_cancels.items()),
                   "Max recovery: " + ("-" if mr is None else "not recovered" if math.isinf(mr) else f"{mr:.2f} s")
                   + f" (target {RECOVERY_TARGET_S:g} s)",
                   f"Partner offline notices: {self.partner_lost}, followed by 'back' or the end of the leg: "
