@@ -227,7 +227,10 @@ class GoalManagerNode:
             actions = self.core.tick(rospy.get_time(), now)
             self.commit(actions, self.core.version != version)
             if self.core.version != self._published_version or now >= next_pending:
-                self.publish_pending()
+                if self.store is not None:      # saved first: what its navigation acts on survives a restart
+                    self.store.publish_state(self.core.state, self.publish_pending)
+                else:
+                    self.publish_pending()
                 if now >= next_pending:
                     next_pending = now + period
                     self.publish_diagnostics()
