@@ -369,6 +369,40 @@ def test_steps_of_the_visit_know_completions_retries_system_ends_and_refusals(fa
     assert book.retried_goals(steps) == ["T/v/1"]
 
 
+def test_table3_counts_a_retried_step_as_the_trip_that_completed_it(faculty) -> None:
+    """The full chaos run on machines, seed 1: Tartalo was cut off 150 s during step 2 (floor 0 -> 301 on floor
+    3); MariSorgin gave the trip up after its partner_timeout; the visitor, sent upstairs already, asked again
+    at MariSorgin: a trip on floor 3 only. Tartalo processed one goal fewer than the tour's Table 3 says
+    (15 / 6 instead of 15 / 7): the expected table counts that step as the retry's trip."""
+    tour = parse_tour("Tour: T\n0, 005, Student Council\n3, 301, IXA Lab\n", "t.tour", building=faculty)
+    step_trips = cc.tour_step_trips(tour, 0.0, faculty)
+    assert step_trips == {0: (0.0, 0.0), 1: (0.0, 3.0)}
+    t = {"tour_file": "t.tour"}
+    recs = [dict(r, **t, tour_step=0, w=1.0) for r in _everywhere(_goal, "T/v/1", "Tartalo", 0.0, 0.0)]
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.ACCEPTED, "T/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.TOUR_STEP_DONE, "T/e/2")
+    recs += [dict(r, **t, tour_step=1, w=2.0) for r in _everywhere(_goal, "T/v/3", "Tartalo", 0.0, 3.0)]
+    recs += _everywhere(_ev, "Tartalo", "T/v/3", Phase.ACCEPTED, "T/e/3")
+    recs += _everywhere(_ev, "MariSorgin", "T/v/3", Phase.ACCEPTED, "M/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/3", Phase.GO_TO_FLOOR, "T/e/4")
+    recs += _everywhere(_ev, "MariSorgin", "T/v/3", Phase.PARTNER_OFFLINE, "M/e/2", w=150.0)
+    recs += [{"k": "cancel", "m": m, "c": GM, "uid": "M/c/1", "goal_uid": "T/v/3", "origin": "MariSorgin",
+              "reason": "offline"} for m in ROBOTS]
+    recs += [dict(r, **t, tour_step=1, w=200.0) for r in _everywhere(_goal, "M/v/2", "MariSorgin", 3.0, 3.0)]
+    recs += _everywhere(_ev, "MariSorgin", "M/v/2", Phase.ACCEPTED, "M/e/3")
+    recs += _everywhere(_ev, "MariSorgin", "M/v/2", Phase.TOUR_FINISHED, "M/e/4")
+    book = cc.Bookkeeping(faculty, recs)
+    fates = book.fates()
+    steps = book.visit(fates, "t.tour", 2)
+    assert all(st.passed for st in steps) and book.retried_routes(steps) == {1: (3.0, 3.0)}
+    expected = cc.expected_table3(faculty, cc.trips_with_retries(step_trips, book.retried_routes(steps)))
+    assert cc.expected_table3(faculty, list(step_trips.values()))["Tartalo"] == (2, 2)      # the tour alone
+    assert expected == {"Tartalo": (2, 1), "Kbot": (2, 0), "Galtxagorri": (2, 0), "MariSorgin": (2, 1)}
+    assert book.table3(fates) == expected                                                   # what the probes saw
+    assert book.table3_with(expected, fates, book.retried_goals(steps)) == {
+        "Tartalo": (3, 2), "Kbot": (3, 0), "Galtxagorri": (3, 0), "MariSorgin": (3, 2)}    # the bags hold T/v/3
+
+
 def test_hostile_templates_fill_in_robots() -> None:
     h = cc.hostile_by_name("cancel_ghost_robot")
     msg = cc.fill_placeholders(h.msg, "Kbot", "Tartalo")

@@ -398,14 +398,27 @@ def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_
 def tour_trips(tour: Tour, start_floor: float, building: Building) -> list[tuple[float, float]]:
     """(start floor, goal floor) of every goal of a tour run from ``start_floor``: a stop on a floor without
     robot that follows another such stop gets no goal (the visitor finds it alone, docs/guiding.md)."""
-    trips, here = [], start_floor
-    for g in tour.goals:
+    return list(tour_step_trips(tour, start_floor, building).values())
+
+
+def tour_step_trips(tour: Tour, start_floor: float, building: Building) -> dict[int, tuple[float, float]]:
+    """:func:`tour_trips` by tour step (the steps that make a goal)."""
+    trips, here = {}, start_floor
+    for k, g in enumerate(tour.goals):
         if not (building.has_robot(here) or building.has_robot(g.floor)):
             here = g.floor
             continue
-        trips.append((here, g.floor))
+        trips[k] = (here, g.floor)
         here = g.floor
     return trips
+
+
+def trips_with_retries(step_trips: dict[int, tuple[float, float]],
+                       retried: dict[int, tuple[float, float]]) -> list[tuple[float, float]]:
+    """The tour's trips, a step the system ended and the visitor asked for again counted as the trip that
+    completed it: the person asks again where they are (e.g. upstairs, where the start robot had sent them
+    before the goal floor's robot gave up), so that trip may start on another floor than the tour's."""
+    return [retried.get(k, trip) for k, trip in step_trips.items()]
 
 
 def table3_rows(building: Building) -> dict[str, list[str]]:
@@ -668,6 +681,17 @@ class Bookkeeping:
                     step.refusals += 1
         return list(out.values())
 
+    def retried_routes(self, steps: list[StepFate]) -> dict[int, tuple[float, float]]:
+        """Steps the system ended and a retry completed: step -> (start floor, goal floor) of the goal that
+        completed it."""
+        goals = self.accepted()
+        out = {}
+        for st in steps:
+            g = goals.get(st.completed_by) if st.completed_by and st.system_ends else None
+            if g is not None:
+                out[st.step] = (float(g.get("initial_floor", math.nan)), float(g.get("goal_floor", math.nan)))
+        return out
+
     def retried_goals(self, steps: list[StepFate]) -> list[str]:
         """Goals of completed steps that the system ended before a retry completed the step (each is one
         more goal in Table 3 than a run without faults has)."""
@@ -912,6 +936,7 @@ class ChaosResult:
     machines: bool = False
     relay_counters: dict[str, int] = field(default_factory=dict)   # RELAY_COUNTERS summed over every relay end
     republished_cancels: dict[str, list[str]] = field(default_factory=dict)   # published again by their node
+    table3_tour: dict[str, tuple[int, int]] = field(default_factory=dict)     # the tour's, before retries
 
     # -- derived --------------------------------------------------------------------------
     def injected(self) -> list[FaultResult]:
@@ -1023,6 +1048,7 @@ class ChaosResult:
                        "measured": {k: list(v) for k, v in self.table3_measured.items()},
                        "bags": table, "bags_expected": {k: list(v) for k, v in self.table3_bags_expected.items()},
                        "bags_error": self.bags_error,
+                       "tour": {k: list(v) for k, v in (self.table3_tour or self.table3_expected).items()},
                        "unchanged": self.table3_measured == self.table3_expected},
             "tours_intact": self.tours_intact, "tours_problems": self.tours_problems,
             "hostile_rejected": self.hostile_rejected,
@@ -1090,6 +1116,9 @@ class ChaosResult:
             be = self.table3_bags_expected.get(name, exp)
             lines.append(f"{name:<14} {exp[0]:>5} / {exp[1]:<4} {m[0]:>5} / {m[1]:<4} "
                          + (f"{b[0]:>5} / {b[1]:<4}" if b else f"{'-':>12}") + f" {be[0]:>6} / {be[1]:<5}")
+        if self.table3_tour and self.table3_tour != self.table3_expected:
+            lines.append("(expected: a step the system ended counted as the trip of the retry that completed it; "
+                         "the tour's: " + ", ".join(f"{k} {a} / {b}" for k, (a, b) in self.table3_tour.items()) + ")")
         if self.bags_error:
             lines.append(f"(bags: {self.bags_error})")
         lines += ["", f"Tour: {self.outcome}"]
