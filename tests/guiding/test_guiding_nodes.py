@@ -251,5 +251,13 @@ def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
     uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
     p.pub(Topic.PENDING, PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, subs=2)
     robot.wait_phase(GOAL_REACHED, uid)
+
+    def spoofed_pending() -> int:          # and counted as rejected by the navigation node (a chaos verdict)
+        for m in reversed(p.msgs(Topic.DIAGNOSTICS)):
+            st = m["status"][0]
+            if st["name"] == "guiding: navigation Tartalo":
+                return int({kv["key"]: kv["value"] for kv in st["values"]}.get("rejected_pending_sender", 0))
+        return 0
+    wait_until(lambda: spoofed_pending() >= 1, 15, "the spoofed pending list counted")
     log = (robot.procs.get("guiding").log_path or Path("/dev/null")).read_text(errors="replace")
     assert "Traceback" not in log

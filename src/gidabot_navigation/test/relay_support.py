@@ -44,11 +44,18 @@ def validate(topic: str, payload: bytes) -> str | None:
     return "garbage" if payload.startswith(b"BAD") else None
 
 
+def speaker(topic: str, payload: bytes) -> str | None:
+    """A test state payload b"robot=<name>;..." speaks for <name>; any other does not say."""
+    if not payload.startswith(b"robot="):
+        return None
+    return payload[6:].split(b";")[0].decode()
+
+
 def make_core(side: str, journal: Journal, clock: Clock, log: Log, secret: bytes | None = SECRET,
               **kw: object) -> RelayEndCore:
     cfg = RelayEndConfig(robot_a="Tartalo", robot_b="Kbot", side=side, topics=TOPICS, md5s=MD5, secret=secret,
                          **kw)  # type: ignore[arg-type]
-    return RelayEndCore(cfg, journal, clock, log, validate)
+    return RelayEndCore(cfg, journal, clock, log, validate, speaker)
 
 
 @dataclass

@@ -23,6 +23,7 @@ from gidabot_navigation.interface import (
     GOAL_REACHED,
     LEG_COMMITTED,
     LEG_PROPOSED,
+    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
     REASON_VISITOR,
@@ -228,6 +229,19 @@ def test_hostile_goals_are_counted_and_only_ours_get_an_event(faculty) -> None:
     assert events(tartalo.on_goal(replace(good, uid="Tartalo/v/x", goal_id="999"), 1.0, 1.0), REJECTED)
 
 
+def test_a_pending_list_with_a_wait_that_is_not_a_number_is_rejected_and_counted(faculty) -> None:
+    """The chaos run's spoofed /gidabot/pending (wait_new -inf, eta nan): it made the robot look idle (wait 0) to
+    the others, and nobody counted it. The last good list of that robot is kept."""
+    kbot = core(faculty, "Kbot")
+    queued = goals(request(core(faculty, "Galtxagorri"), "104"))[0]
+    kbot.on_pending("Galtxagorri", [queued], 240.0, 1.0)
+    for wait in (-math.inf, math.nan, math.inf, "x"):
+        kbot.on_pending("Galtxagorri", [], wait, 2.0)
+    view = kbot.fleet["Galtxagorri"]
+    assert (view.wait_new, [t.uid for t in view.queue], view.heard) == (240.0, [queued.uid], 1.0)
+    assert kbot.stats["rejected_pending"] == 4
+
+
 def test_a_full_queue_refuses_and_cancels(faculty) -> None:
     gm = core(faculty, max_queue=2)
     request(gm, "001")
@@ -335,3 +349,77 @@ def test_continue_without_uid_prefers_the_meeting_point(tour_gm) -> None:
     own_event(tour_gm, other.uid, WAITING_VISITOR, 2)
     assert tour_gm.on_command(CommandData(command=CONTINUE), 11.0, 1.0) == []   # navigation's Continue
     assert goals(tour_gm.on_command(CommandData(command=CONTINUE, goal_uid=trip.uid), 11.0, 1.0))
+
+
+# ---------------------------------------------------------------------------- before the first catalog
+
+def test_a_tour_command_before_the_first_catalog_waits_for_it(faculty) -> None:
+    """A goal manager that has just (re)started hears the visitor's (replayed) command before the tour store's
+    latched catalog: it was refused ("not in this robot's catalog (0 tours)") and the tour stalled."""
+    gm = core(faculty, "Kbot")
+    cmd = CommandData(command=START_TOUR, tour_file="real_world.tour", way="lift", uid="Kbot/v/cmd/1", stamp=5.0,
+                      visitor_id="v")
+    assert gm.on_command(cmd, 10.0, 1.0) == []
+    assert gm.on_command(cmd, 10.0, 1.2) == []                  # its replay waits once
+    acts = gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), 10.5, 1.5)
+    [trip] = goals(acts)
+    assert (trip.tour_file, trip.tour_step, trip.goal_id) == ("real_world.tour", 0, "014")
+    assert not events(acts, REJECTED)
+    assert gm.on_command(cmd, 11.0, 2.0) == []                  # carried out: remembered
+    assert gm.stats["waited_for_catalog"] == 1
+
+
+def test_a_continue_replayed_to_a_restarted_goal_manager_before_its_catalog_goes_on(faculty) -> None:
+    """The chaos run's stall: goal_manager restarted at the end of a tour step; the step's TOUR_STEP_DONE and the
+    visitor's Continue were replayed to it before the catalog: the next step is issued once the catalog comes."""
+    catalog = catalog_of(faculty, TOURS / "real_world.tour")
+    gm = core(faculty, "Kbot")
+    gm.on_catalog(catalog)
+    trip = goals(gm.on_command(CommandData(command=SKIP, tour_file="real_world.tour", tour_step=2, visitor_id="v"),
+                               10.0, 1.0))[0]
+    assert trip.goal_id == "101"                                  # floor 1: guided by Kbot itself
+    own_event(gm, trip.uid, ON_THE_WAY, 1)
+    new = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0, boot="t2")
+    new.load_state(gm.state())
+    done = NavEventData(uid="Kbot/event/nav.t.2", robot="Kbot", floor=1.0, goal_uid=trip.uid, phase=TOUR_STEP_DONE,
+                        tour_file="real_world.tour", tour_step=2, stamp=30.0)
+    new.on_nav_event(done, 30.0, 50.1)
+    cont = CommandData(command=CONTINUE, goal_uid=trip.uid, tour_file="real_world.tour", uid="Kbot/v/cmd/7",
+                       stamp=31.0, visitor_id="v")
+    assert new.on_command(cont, 31.0, 50.2) == []
+    [nxt] = goals(new.on_catalog(catalog, 31.1, 50.3))
+    assert (nxt.tour_step, nxt.goal_id) == (3, "104")
+    assert new.on_command(cont, 31.2, 50.4) == []                # a later replay of it: handled already
+
+
+def test_without_a_catalog_tour_commands_are_refused_after_the_wait(faculty) -> None:
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot", catalog_wait=10.0), ListLog(), now_wall=0.0,
+                         boot="t")
+    assert start(gm) == []                                        # at 1.0 s: waits
+    assert gm.tick(12.0, 5.0) == []
+    [refused] = events(gm.tick(20.0, 10.5), REJECTED)
+    assert "not in this robot's catalog (0 tours)" in refused.detail and refused.tour_file == "real_world.tour"
+    late = CommandData(command=START_TOUR, tour_file="real_world.tour", visitor_id="v")
+    assert events(gm.on_command(late, 21.0, 11.0), REJECTED)      # later ones at once
+    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"))
+    for r in faculty.robots:
+        gm.on_status(r.name, 12.0)
+    assert goals(gm.on_command(late, 22.0, 12.0))
+
+
+def test_a_tour_going_on_past_a_floor_without_robot_waits_for_the_catalog(faculty3) -> None:
+    """NO_ROBOT_ON_FLOOR of a tour trip heard by a restarted goal manager before its catalog: the tour goes on
+    (the next stop on a floor with a robot) once the catalog comes, instead of stopping there."""
+    catalog = catalog_of(faculty3, TOURS / "real_world.tour")
+    gm = core(faculty3, "Kbot")
+    gm.on_catalog(catalog)
+    trip = goals(gm.on_command(CommandData(command=SKIP, tour_file="real_world.tour", tour_step=4, visitor_id="v"),
+                               10.0, 1.0))[0]
+    assert (trip.goal_id, trip.goal_floor) == ("223", 2.0)          # floor 2 of faculty3 has no robot
+    new = GoalManagerCore(faculty3, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0, boot="t2")
+    new.load_state(gm.state())
+    alone = NavEventData(uid="Kbot/event/nav.t.3", robot="Kbot", floor=1.0, goal_uid=trip.uid,
+                         phase=NO_ROBOT_ON_FLOOR, tour_file="real_world.tour", tour_step=4, stamp=40.0)
+    assert new.on_nav_event(alone, 40.0, 50.1) == []
+    [nxt] = goals(new.on_catalog(catalog, 40.2, 50.2))
+    assert (nxt.tour_step, nxt.start_id, nxt.initial_floor) == (6, "274", 2.0)

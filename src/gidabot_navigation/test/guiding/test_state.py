@@ -17,6 +17,7 @@ from gidabot_navigation.guiding.messages import (
     SendCancel,
     SendEvent,
     SendGoal,
+    Trip,
     command_key,
 )
 from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
@@ -341,3 +342,35 @@ def test_state_changes_are_written_before_publishing_or_within_the_soft_interval
     sf.flush(gm.state)
     assert json.loads(sf.path.read_bytes())["state"] == roundtrip(gm.state())    # nothing lost after the interval
     assert json.loads(sf.path.read_bytes())["outbox"] == []
+
+
+def test_a_leg_committed_in_the_published_pending_list_survives_a_restart_right_after(faculty, tmp_path: Path) -> None:
+    """The quick chaos run on machines (seed 3): Kbot's goal_manager applied attempt 3 of a trip (its goal leg
+    committed to Kbot: a change that publishes nothing, saved within the soft interval), published its pending
+    list (its navigation started for the meeting point) and was killed 0.3 s later. The restarted one resumed
+    attempt 2 (the leg only proposed), published that, and its navigation stopped the leg for good: the
+    visitor was sent upstairs to nobody, the goal lost. The pending list is now published only once saved."""
+    from gidabot_navigation.interface import LEG_COMMITTED, LEG_PROPOSED
+
+    mono = _Monotonic()
+    sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    bus = Bus(faculty, auto_move=False)
+    bus.status_all()
+    bus.request("Tartalo", "101")
+    proposed = next(g for g in bus.goals if g.goal_robot == "Kbot" and g.goal_state == LEG_PROPOSED)
+    committed = next(g for g in bus.goals if g.goal_robot == "Kbot" and g.goal_state == LEG_COMMITTED)
+    actions = gm.on_goal(proposed, 100.0, 0.0)                  # ACCEPTED: written before it is published
+    sf.commit(gm.state, actions, actions, lambda _a: None)
+    mono.t = 0.3
+    sf.commit(gm.state, gm.on_goal(committed, 100.3, 0.3), [], lambda _a: None, changed=True)
+    shown: list[Trip] = []
+    sf.publish_state(gm.state, lambda: shown.extend(gm.pending(100.3).goals))   # what the node does
+    assert shown[0].goal_state == LEG_COMMITTED                 # its navigation starts the leg
+    # killed now: the restarted goal manager shows what its navigation acts on, not an older list
+    again = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 10.0, boot="t2")
+    loaded = StateFile(sf.path, "goal_manager", "Kbot", ListLog()).load()
+    assert loaded is not None
+    again.load_state(loaded[0])
+    assert [(t.uid, t.attempt, t.goal_state) for t in again.pending(110.0).goals] == [
+        (committed.uid, committed.attempt, LEG_COMMITTED)]

@@ -118,6 +118,25 @@ def test_local_messages_that_must_not_cross(tmp_path) -> None:
     assert la.has("only gidabot_msgs/Goal")
 
 
+def test_a_state_crosses_only_from_the_robot_it_speaks_for(tmp_path) -> None:
+    """A status / pose / pending list published on Tartalo's master that speaks for another robot (a spoofed or
+    hostile one: the chaos run's NavPose of 'Ghost' with an infinite pose) never leaves Tartalo; it is counted."""
+    w, la, _, _ = pair(tmp_path)
+    w.connect()
+    w.local("a", S, b"robot=Tartalo;ok", callerid="/multirobot_navigation")
+    w.local("a", S, b"robot=Ghost;x=inf", callerid="/chaos_probe")
+    w.local("a", S, b"robot=Kbot;spoofed", callerid="/chaos_probe")
+    assert w.payloads("b", S) == [b"robot=Tartalo;ok"]
+    assert w.a.snapshot()["rejected_foreign"] == 2 and la.has("speaks for 'Ghost', not for Tartalo")
+    # and a peer's state that does not speak for the peer is not published here (the link stays)
+    from gidabot_navigation.relay.protocol import Message, encode_message
+
+    for payload in (b"robot=MariSorgin;relayed", b"robot=Tartalo;ok again"):
+        w.run("a", [w.a._frame(w.a.active, FrameType.STATE, encode_message(Message(S, "/x", MD5[S], payload), False))])
+    assert w.payloads("b", S) == [b"robot=Tartalo;ok", b"robot=Tartalo;ok again"]
+    assert w.b.snapshot()["rejected_foreign"] == 1 and w.b.active is not None
+
+
 def test_oversized_frame_from_the_peer_closes_only_that_connection(tmp_path) -> None:
     w, _, _, _ = pair(tmp_path, max_message_bytes=100)
     w.connect()

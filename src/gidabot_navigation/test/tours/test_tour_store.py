@@ -113,6 +113,7 @@ def test_edit_of_a_seeded_tour_keeps_its_origin(store: TourStore) -> None:
     (tour_msg("visit.tour", VISIT, language="fr"), "language", "'fr' is not one of eu, en, es"),
     (tour_msg("visit.tour", VISIT, name="x\n0, 014, injected"), "name", "control characters"),
     (tour_msg("visit.tour", VISIT, floor=float("nan")), "floor", "nan"),
+    (tour_msg(".gidabot-tours.json", ["0, 014, A\n9, 999, injected line"]), "file_name", "hidden"),
 ])
 def test_invalid_admin_edits_are_rejected(store, tmp_path, msg, reason, text) -> None:
     before = snapshot(tmp_path / "tours", hidden=True)
@@ -120,6 +121,7 @@ def test_invalid_admin_edits_are_rejected(store, tmp_path, msg, reason, text) ->
         store.edit(msg)
     assert info.value.reason == reason
     assert snapshot(tmp_path / "tours", hidden=True) == before
+    assert store.stats()["rejected_edit"] == 1      # counted as a rejection (a chaos verdict reads rejected_*)
 
 
 def test_admin_cannot_create_over_a_file_the_store_does_not_own(store, tmp_path) -> None:

@@ -202,6 +202,39 @@ def test_bookkeeping_counts_completed_lost_duplicated_and_cancelled(faculty) -> 
     assert book.duplicated_cancels() == {}
 
 
+def test_a_goal_its_restarted_goal_manager_published_again_is_no_duplicate_but_a_double_delivery_is(faculty) -> None:
+    """The quick chaos run on machines, seed 3: Tartalo's goal_manager was killed 0.45 s after it published
+    attempt 3 of a goal; the restarted process published its outbox (that goal, the ASSIGNED event) again, with
+    the same uids. Tartalo's probe saw attempt 3 twice from /goal_manager (a new connection: a new process), the
+    relays forwarded it once (every other master once), Kbot accepted that proposal once: counted apart, not
+    as a duplicate. Twice on one connection, or twice from a relay end, stays a duplicate."""
+    def goals_of(uid: str, conns: list[int], caller: str = GM, on: str = "Tartalo") -> list[dict]:
+        recs = [dict(_goal(m, uid, "Tartalo", 0.0, 1.0), attempt=3, n=1) for m in ROBOTS if m != on]
+        return recs + [dict(_goal(on, uid, "Tartalo", 0.0, 1.0, caller=caller), attempt=3, n=n) for n in conns]
+
+    recs = goals_of("T/v/9", [4, 11]) + goals_of("T/v/10", [4, 4]) + goals_of("T/v/11", [3])
+    recs += goals_of("T/v/12", [2, 6], caller=relay_end_name("Tartalo", "Kbot"), on="Kbot")[-2:]
+    recs += [{k: v for k, v in r.items() if k != "n"} for r in goals_of("T/v/13", [4, 11])]    # an old run's records
+    for uid in ("T/v/9", "T/v/10", "T/v/11", "T/v/12", "T/v/13"):
+        recs += _everywhere(_ev, "Tartalo", uid, Phase.ACCEPTED, f"{uid}/e/1")
+        recs += _everywhere(_ev, "Kbot", uid, Phase.ACCEPTED, f"{uid}/e/2")
+        recs += _everywhere(_ev, "Kbot", uid, Phase.TOUR_STEP_DONE, f"{uid}/e/3")
+    cancel = {"k": "cancel", "c": GM, "uid": "T/c/1", "goal_uid": "T/v/9", "origin": "Tartalo", "reason": "offline"}
+    recs += [dict(cancel, m=m, n=1) for m in ROBOTS] + [dict(cancel, m="Tartalo", n=12)]
+    recs += [dict(cancel, uid="T/c/2", goal_uid="T/v/10", m=m, n=1) for m in ROBOTS]
+    recs += [dict(cancel, uid="T/c/2", goal_uid="T/v/10", m="Kbot", n=1)]
+    book = cc.Bookkeeping(faculty, recs)
+    fates = book.fates()
+    assert fates["T/v/9"].duplicated == [] and fates["T/v/9"].republished == [
+        f"attempt 3 published 2 times on Tartalo's master by {GM}, each on a new connection"]
+    assert fates["T/v/10"].duplicated == ["attempt 3 delivered 2 times on Tartalo's master"]
+    assert fates["T/v/11"].duplicated == [] and fates["T/v/11"].republished == []
+    assert fates["T/v/12"].duplicated == ["attempt 3 delivered 2 times on Kbot's master"]
+    assert fates["T/v/13"].duplicated == ["attempt 3 delivered 2 times on Tartalo's master"]
+    assert book.duplicated_cancels() == {"T/c/2": ["delivered 2 times on Kbot's master"]}
+    assert book.duplicated_cancels(republished=True) == {"T/c/1": ["published 2 times on Tartalo's master"]}
+
+
 def test_partner_notices_must_be_answered(faculty) -> None:
     recs = [_ev("Kbot", "Kbot", "g", Phase.PARTNER_LOST, "a", 1.0),
             _ev("Kbot", "Kbot", "g", Phase.PARTNER_BACK, "b", 2.0),
@@ -334,6 +367,40 @@ def test_steps_of_the_visit_know_completions_retries_system_ends_and_refusals(fa
     assert steps[0].system_ends == ["T/v/1: partner offline from Kbot"]
     assert not steps[1].passed and steps[1].refusals == 2 and "no goal was ever made" in steps[1].describe()
     assert book.retried_goals(steps) == ["T/v/1"]
+
+
+def test_table3_counts_a_retried_step_as_the_trip_that_completed_it(faculty) -> None:
+    """The full chaos run on machines, seed 1: Tartalo was cut off 150 s during step 2 (floor 0 -> 301 on floor
+    3); MariSorgin gave the trip up after its partner_timeout; the visitor, sent upstairs already, asked again
+    at MariSorgin: a trip on floor 3 only. Tartalo processed one goal fewer than the tour's Table 3 says
+    (15 / 6 instead of 15 / 7): the expected table counts that step as the retry's trip."""
+    tour = parse_tour("Tour: T\n0, 005, Student Council\n3, 301, IXA Lab\n", "t.tour", building=faculty)
+    step_trips = cc.tour_step_trips(tour, 0.0, faculty)
+    assert step_trips == {0: (0.0, 0.0), 1: (0.0, 3.0)}
+    t = {"tour_file": "t.tour"}
+    recs = [dict(r, **t, tour_step=0, w=1.0) for r in _everywhere(_goal, "T/v/1", "Tartalo", 0.0, 0.0)]
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.ACCEPTED, "T/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/1", Phase.TOUR_STEP_DONE, "T/e/2")
+    recs += [dict(r, **t, tour_step=1, w=2.0) for r in _everywhere(_goal, "T/v/3", "Tartalo", 0.0, 3.0)]
+    recs += _everywhere(_ev, "Tartalo", "T/v/3", Phase.ACCEPTED, "T/e/3")
+    recs += _everywhere(_ev, "MariSorgin", "T/v/3", Phase.ACCEPTED, "M/e/1")
+    recs += _everywhere(_ev, "Tartalo", "T/v/3", Phase.GO_TO_FLOOR, "T/e/4")
+    recs += _everywhere(_ev, "MariSorgin", "T/v/3", Phase.PARTNER_OFFLINE, "M/e/2", w=150.0)
+    recs += [{"k": "cancel", "m": m, "c": GM, "uid": "M/c/1", "goal_uid": "T/v/3", "origin": "MariSorgin",
+              "reason": "offline"} for m in ROBOTS]
+    recs += [dict(r, **t, tour_step=1, w=200.0) for r in _everywhere(_goal, "M/v/2", "MariSorgin", 3.0, 3.0)]
+    recs += _everywhere(_ev, "MariSorgin", "M/v/2", Phase.ACCEPTED, "M/e/3")
+    recs += _everywhere(_ev, "MariSorgin", "M/v/2", Phase.TOUR_FINISHED, "M/e/4")
+    book = cc.Bookkeeping(faculty, recs)
+    fates = book.fates()
+    steps = book.visit(fates, "t.tour", 2)
+    assert all(st.passed for st in steps) and book.retried_routes(steps) == {1: (3.0, 3.0)}
+    expected = cc.expected_table3(faculty, cc.trips_with_retries(step_trips, book.retried_routes(steps)))
+    assert cc.expected_table3(faculty, list(step_trips.values()))["Tartalo"] == (2, 2)      # the tour alone
+    assert expected == {"Tartalo": (2, 1), "Kbot": (2, 0), "Galtxagorri": (2, 0), "MariSorgin": (2, 1)}
+    assert book.table3(fates) == expected                                                   # what the probes saw
+    assert book.table3_with(expected, fates, book.retried_goals(steps)) == {
+        "Tartalo": (3, 2), "Kbot": (3, 0), "Galtxagorri": (3, 0), "MariSorgin": (3, 2)}    # the bags hold T/v/3
 
 
 def test_hostile_templates_fill_in_robots() -> None:

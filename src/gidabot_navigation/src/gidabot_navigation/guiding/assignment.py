@@ -170,18 +170,19 @@ class Assigner:
         return [Publish(trip), Assigned(trip, leg, robot, eta)]
 
     def tick(self, now_wall: float, online: Callable[[str], bool]) -> list[Output]:
-        """Proposals nobody answered in time, or made to a robot that went offline: the next robot."""
+        """Proposals nobody answered in time: the next robot. A robot proposed a leg (online then) that goes
+        offline has the same ``answer_timeout`` to answer: it was heard at most ``offline_after`` ago, its status
+        and its answer may come together when a short cut heals (a 4.7 s cut ended trips it did not need to)."""
         out: list[Output] = []
         for uid in list(self.legs):
             for leg, rec in list(self.legs.get(uid, {}).items()):
                 if rec.state != LEG_PROPOSED or uid not in self.legs:      # (given up by its other leg)
                     continue
                 rec.since = min(rec.since, now_wall)         # the monotonic clock restarted (host reboot)
-                if not online(rec.robot):
-                    out += self._next(uid, leg, f"{rec.robot} is offline", now_wall)
-                elif now_wall - rec.since >= self.cfg.answer_timeout:
-                    out += self._next(uid, leg, f"{rec.robot} did not answer within "
-                                                f"{self.cfg.answer_timeout:g} s", now_wall)
+                if now_wall - rec.since >= self.cfg.answer_timeout:
+                    why = (f"{rec.robot} is offline" if not online(rec.robot) else
+                           f"{rec.robot} did not answer within {self.cfg.answer_timeout:g} s")
+                    out += self._next(uid, leg, why, now_wall)
         return out
 
     def on_done(self, goal_uid: str, leg: str, robot: str) -> None:

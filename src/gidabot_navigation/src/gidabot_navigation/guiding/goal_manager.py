@@ -118,13 +118,16 @@ PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)
 class GoalManagerConfig:
     """``robot``: this robot's name; ``offline_after``: wall s without status before a robot is offline;
     ``max_queue``: goals kept at most (a leg proposed beyond it is declined; one committed is refused and
-    cancelled everywhere); ``assign``: the leg assignment's timeouts and bounds."""
+    cancelled everywhere); ``assign``: the leg assignment's timeouts and bounds; ``catalog_wait``: wall s after
+    the start during which a tour command waits for the tour store's first catalog (a restarted node hears
+    the visitor's replayed Continue before the catalog) instead of being refused."""
 
     robot: str
     default_way: str = WAY_STAIRS
     default_language: str = DEFAULT_LANGUAGE
     offline_after: float = 5.0
     max_queue: int = 50
+    catalog_wait: float = 10.0
     wait: WaitModel = field(default_factory=WaitModel)
     assign: AssignConfig = field(default_factory=AssignConfig)
 
@@ -183,6 +186,9 @@ class GoalManagerCore:
         self.assigner = Assigner(self.me, cfg.assign, self._rank)   # the trips this robot originated
         self.legs = LegBook(self.me)                       # the assignments naming this robot
         self.fleet: dict[str, RobotView] = {}              # the other robots' queues and poses
+        self._started = now_wall
+        self._catalog_known = False                        # the tour store's catalog arrived (even empty)
+        self._awaiting_catalog: list[CommandData | Trip] = []   # tour commands / tours going on, until it does
 
     # ------------------------------------------------------------------ inputs
     def on_status(self, robot: str, now_wall: float, pose: tuple[float, float] | None = None) -> None:
@@ -201,25 +207,54 @@ class GoalManagerCore:
         found = self.building.find_robot(robot) if isinstance(robot, str) else None
         if found is None or robot == self.me:
             return
+        if isinstance(wait_new, bool) or not isinstance(wait_new, (int, float)) or not math.isfinite(wait_new):
+            self.stats.inc("rejected_pending")       # a spoofed or broken list: the last good one is kept
+            self.warn.warning("pending", f"pending list of {robot} with wait_new {wait_new!r} ignored")
+            return
         queue = []
         for trip in list(goals)[:self.cfg.max_queue * 2]:
             try:
                 queue.append(validate_trip(self.building, trip))
             except GoalRejected:
                 self.stats.inc("rejected_pending")
-        wait = float(wait_new) if isinstance(wait_new, (int, float)) and math.isfinite(wait_new) else 0.0
         view = self.fleet.get(robot) or RobotView(found)
-        self.fleet[robot] = replace(view, queue=tuple(queue), wait_new=max(0.0, wait), heard=now_wall)
+        self.fleet[robot] = replace(view, queue=tuple(queue), wait_new=max(0.0, float(wait_new)), heard=now_wall)
 
     def on_pose(self, x: float, y: float, yaw: float) -> None:
         """This robot's localisation (amcl_pose), map frame of its floor."""
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = (float(x), float(y), float(yaw))
 
-    def on_catalog(self, entries: Iterable[CatalogEntry]) -> None:
-        """The tour store's catalog changed."""
+    def on_catalog(self, entries: Iterable[CatalogEntry], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
+        """The tour store's catalog changed; the tour commands that waited for the first one are carried out."""
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
+        self._catalog_known = True
+        return self._after_catalog(now_ros, now_wall)
+
+    def _wait_for_catalog(self, item: CommandData | Trip, now_wall: float) -> bool:
+        """Whether ``item`` (a tour command, or a tour that goes on after a floor without robot) needing a tour
+        not (yet) known waits for the first catalog: only until ``catalog_wait`` after the start."""
+        if self._catalog_known or now_wall - self._started >= self.cfg.catalog_wait:
+            return False
+        if item not in self._awaiting_catalog:          # a replay of the same command waits once
+            self._awaiting_catalog.append(item)
+            self.stats.inc("waited_for_catalog")
+        return True
+
+    def _after_catalog(self, now_ros: float, now_wall: float) -> list[Action]:
+        """What waited for the catalog, in order (refused, as unknown tours, once the wait is over)."""
+        items, self._awaiting_catalog = self._awaiting_catalog, []
+        actions: list[Action] = []
+        for item in items:
+            if isinstance(item, Trip):
+                actions += self._tour_goes_on(item, now_ros, now_wall)
+                continue
+            done = self._command(item, now_ros, now_wall)
+            if item.key and not (done and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in done)):
+                self._commands_seen.add(item.key)
+            actions += done
+        return actions
 
     def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
@@ -234,7 +269,10 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("command", f"visitor command refused: {err}")
             return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+        waiting = len(self._awaiting_catalog)
         actions = self._command(cmd, now_ros, now_wall)
+        if len(self._awaiting_catalog) > waiting:
+            return actions                    # waits for the catalog: remembered once carried out
         if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in actions)):
             self._commands_seen.add(key)      # a refused command is not remembered: it changes no state
         return actions
@@ -476,6 +514,10 @@ class GoalManagerCore:
         robot; proposals held here that were never confirmed are forgotten after ``proposal_ttl``."""
         self._now_ros = now_ros
         actions: list[Action] = []
+        if self._awaiting_catalog and now_wall - self._started >= self.cfg.catalog_wait:
+            self.log.warning(f"goal_manager of {self.me}: no tour catalog {self.cfg.catalog_wait:g} s after the "
+                             f"start; {len(self._awaiting_catalog)} tour command(s) that waited for it go on without")
+            actions += self._after_catalog(now_ros, now_wall)
         if len(self.assigner):
             outputs = self.assigner.tick(now_wall, lambda r: r == self.me or self.liveness.online(r, now_wall))
             actions = self._assign(outputs, now_ros, now_wall)
@@ -600,6 +642,8 @@ class GoalManagerCore:
         """This robot sent the visitor of a tour to a floor without robot (NO_ROBOT_ON_FLOOR): the tour goes on
         at its next stop on a floor with a robot, from the last stop the visitor finds alone."""
         tour = self.tours.get(trip.tour_file)
+        if tour is None and self._wait_for_catalog(trip, now_wall):
+            return []
         nxt = next_robot_stop(tour, self.building, trip.tour_step) if tour is not None else None
         if tour is None or nxt is None:
             return []
@@ -650,6 +694,8 @@ class GoalManagerCore:
         ctx = {"tour_file": tour_file, "tour_step": step if 0 <= step < MAX_GOALS else -1,
                "language": cmd.language or (wait.language if wait else "")}
         tour = self.tours.get(tour_file)
+        if tour is None and self._wait_for_catalog(cmd, now_wall):
+            return []
         if tour is None:
             self.stats.inc("rejected_tour")
             return [self._event(REJECTED, None, now_ros, detail=f"tour {tour_file!r} is not in this robot's "

@@ -46,7 +46,8 @@ from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
 LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
-DURABLE_INPUTS = ("command", "goal", "cancel", "event")   # inputs that may change the state kept across restarts
+# inputs that may change the state kept across restarts
+DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog")
 
 
 @dataclass(frozen=True)
@@ -224,7 +225,10 @@ class GoalManagerNode:
             actions = self.core.tick(rospy.get_time(), now)
             self.commit(actions, self.core.version != version)
             if self.core.version != self._published_version or now >= next_pending:
-                self.publish_pending()
+                if self.store is not None:      # saved first: what its navigation acts on survives a restart
+                    self.store.publish_state(self.core.state, self.publish_pending)
+                else:
+                    self.publish_pending()
                 if now >= next_pending:
                     next_pending = now + period
                     self.publish_diagnostics()
@@ -246,7 +250,7 @@ class GoalManagerNode:
         elif kind == "pending":
             core.on_pending(msg.robot, [trip_from_msg(g) for g in msg.goals], msg.wait_new, now_wall)
         elif kind == "catalog":
-            core.on_catalog(catalog_entries(msg))
+            return core.on_catalog(catalog_entries(msg), now_ros, now_wall)
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:

@@ -163,7 +163,7 @@ class NavigationNode:
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self.dropped = 0
-        self.ignored_pending = 0
+        self.rejected_pending_sender = 0    # a pending list of this robot not from its goal manager
         self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
         self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
@@ -203,7 +203,7 @@ class NavigationNode:
         if msg.robot != self.robot:
             return
         if sender(msg) != self.params.goal_manager:
-            self.ignored_pending += 1
+            self.rejected_pending_sender += 1
             return
         self._enqueue(msg, "pending")
 
@@ -413,7 +413,7 @@ class NavigationNode:
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
         stats.update(self.loop.values())
-        stats.update(queue_dropped=self.dropped, ignored_pending=self.ignored_pending,
+        stats.update(queue_dropped=self.dropped, rejected_pending_sender=self.rejected_pending_sender,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,
                                           not self.core.available or bool(self.dropped),

@@ -11,7 +11,9 @@ already handled).
 When it is written (:meth:`StateFile.commit`):
 
 - a change that publishes something is written *before* it is published, with the
-  outbox, at once: what the node told others is never lost;
+  outbox, at once: what the node told others is never lost; so is a change that shows in
+  the state the node publishes (goal_manager's pending list, on which its navigation acts:
+  :meth:`StateFile.publish_state`), before that is published;
 - any other change (uids remembered, a goal dropped after its final event, the outbox
   published) is written at most every ``soft_interval`` wall seconds (1 s): a restart
   loses at most that much of it, and the replays every node sends to a restarted
@@ -266,6 +268,13 @@ class StateFile:
         if durable or changed:
             self._dirty = True
         self.flush(state)
+
+    def publish_state(self, state: Callable[[], dict[str, Any]], publish: Callable[[], None]) -> None:
+        """Publish the node's state (``publish``: goal_manager's pending list) after saving what changed since
+        the last save: a restarted node then never shows an older list than the one others acted on (a leg
+        committed to this robot, its navigation already driving it, must not vanish from the list and back)."""
+        self.flush(state, force=True)
+        publish()
 
     def flush(self, state: Callable[[], dict[str, Any]], force: bool = False) -> None:
         """Save what changed since the last save, if ``soft_interval`` passed since it (or ``force``: at exit)."""

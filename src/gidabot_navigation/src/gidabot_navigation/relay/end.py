@@ -20,9 +20,11 @@ the :class:`Send` / :class:`Close` actions it returns and the deliveries it hand
 - **No loops**: messages whose publisher is a relay (``/gidabot_relay_*``) are never
   forwarded, so a message crosses exactly one relay.
 - **Security and hygiene**: HMAC-SHA256 on every frame when a secret is configured,
-  size limits, whitelist of topics and types (md5); anything rejected is counted by
-  reason (auth, oversize, malformed, type) and logged at a limited rate; a bad frame
-  closes that connection, never the end.
+  size limits, whitelist of topics and types (md5); a robot's state (status, pose, pending
+  list, tour index: their ``robot`` field) crosses only from that robot: a local state that
+  speaks for another robot, or a peer's state that does not speak for the peer, is refused;
+  anything rejected is counted by reason (auth, oversize, malformed, type, foreign) and
+  logged at a limited rate; a bad frame closes that connection, never the end.
 - **Liveness** in monotonic wall time: heartbeats every ``heartbeat`` s; a connection
   with no frame for ``link_timeout`` s is closed (detected within 3 s with the defaults).
 """
@@ -61,7 +63,7 @@ from gidabot_navigation.relay.protocol import (
     session_keys,
 )
 
-REJECT_REASONS = ("auth", "oversize", "malformed", "type")
+REJECT_REASONS = ("auth", "oversize", "malformed", "type", "foreign")
 # how an end process tells its supervisor (gidabot_navigation.relay.supervisor) why it stopped
 EXIT_CONFIG = 2                          # bad options: restarting will not help
 EXIT_PORT = 3                            # end b cannot bind the building's link port (taken, or not its address)
@@ -240,17 +242,20 @@ class RelayEndCore:
     """One end's decisions (see the module docstring). Not thread-safe: the adapter serialises calls.
 
     ``validate(topic, payload)`` returns None if the payload is a well-formed message of
-    the topic's type, else a short description of what is wrong.
+    the topic's type, else a short description of what is wrong; ``speaker(topic, payload)``
+    the robot a state message speaks for (its ``robot`` field; None: not known, not checked).
     """
 
     def __init__(self, cfg: RelayEndConfig, journal: Journal, clock: Callable[[], float], log: Logger,
-                 validate: Callable[[str, bytes], str | None] | None = None) -> None:
+                 validate: Callable[[str, bytes], str | None] | None = None,
+                 speaker: Callable[[str, bytes], str | None] | None = None) -> None:
         self.cfg = cfg
         self.journal = journal
         self.clock = clock
         self.log = log
         self.rlog = RateLimitedLog(log, clock, burst=1, window=5.0)
         self.validate = validate or (lambda topic, payload: None)
+        self.speaker = speaker or (lambda topic, payload: None)
         self.topics = {t.name: t for t in cfg.topics}
         self.key_hello = hello_key(cfg.secret) if cfg.secret else None
         self.max_body = cfg.max_message_bytes + FRAME_OVERHEAD
@@ -296,6 +301,15 @@ class RelayEndCore:
         conn.tx_count += 1
         return Send(conn.id, data)
 
+    def _speaks_for(self, topic: str, payload: bytes, robot: str, origin: str) -> bool:
+        """Whether a state message speaks for ``robot`` (or does not say): else rejected and counted."""
+        who = self.speaker(topic, payload)
+        if who is None or who == robot:
+            return True
+        self._reject("foreign", f"{origin} {topic} speaks for {who[:64]!r}, not for {robot}: a robot's state "
+                                f"crosses only from that robot")
+        return False
+
     def _check_size(self, topic: str, payload: bytes, origin: str) -> bool:
         if len(payload) > self.cfg.max_message_bytes:
             self._reject("oversize", f"{origin} message on {topic} of {len(payload)} bytes is larger than "
@@ -324,6 +338,8 @@ class RelayEndCore:
             self._reject("malformed", f"local publisher {callerid} on {topic}: {problem}")
             return []
         if spec.kind == STATE:
+            if not self._speaks_for(topic, payload, self.cfg.robot, f"local publisher {callerid}'s"):
+                return []
             return self._local_state(Message(topic, callerid, md5, payload))
         digest = event_digest(topic, payload, 4 if topic in self.cfg.header_topics else 0)
         if digest in self.state.recent_out:
@@ -572,7 +588,8 @@ class RelayEndCore:
         if problem:
             self._reject("malformed", f"{self.cfg.peer_robot} on {m.topic}: {problem}")
             return False
-        return True
+        return kind != STATE or self._speaks_for(m.topic, m.payload, self.cfg.peer_robot,
+                                                 f"{self.cfg.peer_robot}'s")
 
     def _peer_event(self, m: Message) -> bool:
         st = self.state

@@ -165,6 +165,24 @@ def make_validator(classes: dict[str, type]) -> Callable[[str, bytes], str | Non
     return validate
 
 
+def make_speaker(classes: dict[str, type]) -> Callable[[str, bytes], str | None]:
+    """speaker(topic, payload): the ``robot`` field of a message whose type has one (the state topics), else
+    None (also for a payload that does not decode: the validator reports that)."""
+
+    def speaker(topic: str, payload: bytes) -> str | None:
+        cls = classes[topic]
+        if "robot" not in getattr(cls, "__slots__", ()):
+            return None
+        msg = cls()
+        try:
+            msg.deserialize(payload)
+        except (genpy.DeserializationError, struct.error, ValueError, TypeError, IndexError, UnicodeError):
+            return None
+        return msg.robot if isinstance(msg.robot, str) else None
+
+    return speaker
+
+
 class _StateLatch(rospy.SubscribeListener):
     """Gives a new subscriber of a state topic the latest value of every publisher (rospy's latch
     holds only the last one published, which it sends itself right after this)."""
@@ -223,7 +241,7 @@ class RelayEndNode:
     ``/diagnostics`` (diagnostic_msgs/DiagnosticArray, stamped with WALL time: relays never use
     ROS time and do not subscribe ``/clock``) at ``--diagnostics_rate``: status
     ``relay <A>-<B>: <this robot>`` with connected, rtt_ms, queue_depth, forwarded, dropped,
-    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type and more (docs/relay.md).
+    duplicates_suppressed, rejected_auth / _oversize / _malformed / _type / _foreign and more (docs/relay.md).
 
     Link: end ``b`` listens on ``--link_host``:``--link_port``; end ``a`` connects there from
     ``--bind_ip``. Frames are authenticated with HMAC-SHA256 when ``--secret_file`` names a file.
@@ -272,7 +290,8 @@ class RelayEndNode:
         self.cfg = cfg
         journal = Journal(Path(params.state_dir) / f"{cfg.pair}.{params.side}.journal")
         self.lock = threading.Lock()
-        self.core = RelayEndCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes))
+        self.core = RelayEndCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes),
+                                 make_speaker(classes))
         self.raw = {n: raw_class(c) for n, c in classes.items()}
         self._last_latched: dict[str, str] = {}
         self.pruned = 0                      # subscriptions to relay publishers closed

@@ -577,7 +577,7 @@ class TourStore:
         try:
             candidate = self.validate(msg, remote=False)
         except TourRejected as err:
-            self.counters["local_rejected"] += 1
+            self.counters["rejected_edit"] += 1         # an admin edit refused (a local message)
             self.last_rejection = str(err)
             raise
         name = candidate.file_name

@@ -237,7 +237,8 @@ class ChaosRun:
         self.profile = cc.PROFILES[args.profile]
         self.schedule = cc.make_schedule(args.seed, building, self.profile, machines=args.machines)
         self.clock_offsets = cc.clock_offsets(args.seed, building, self.profile) if args.machines else {}
-        self.trips = cc.tour_trips(tour, args.start_floor, building)
+        self.step_trips = cc.tour_step_trips(tour, args.start_floor, building)
+        self.trips = list(self.step_trips.values())
         sched_s = cc.schedule_seconds(self.schedule)
         if args.speed is None:   # the tour must outlast the faults: ~100 s of sim time per goal
             args.speed = round(min(20.0, max(1.5, SIM_S_PER_GOAL * len(tour.goals) / (1.3 * sched_s))), 1)
@@ -1045,7 +1046,8 @@ def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error
                 "completed": run.watch.last_step_done + 1, "outcome": outcome, "speed": args.speed, "seed": args.seed,
                 "sim_s": round(sim_s, 1), "wall_s": round(wall_s, 1),
                 "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag",
-                            "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots]}
+                            "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots],
+                "bag_parts_never_recorded": run.sim.never_recorded}
     (run.run_dir / "run.json").write_text(json.dumps(run_json, indent=2), encoding="utf-8")
     bags: dict[str, tuple[int, int]] = {}
     bags_error = ""
@@ -1060,17 +1062,20 @@ def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error
     except ReportError as err:
         bags_error = str(err)
     steps = book.visit(fates, run.tour.file_name, len(run.tour.goals))
-    expected = cc.expected_table3(run.building, run.trips)
+    # the tour's Table 3; a step the system ended counts as the trip of the retry that completed it
+    expected = cc.expected_table3(run.building, cc.trips_with_retries(run.step_trips, book.retried_routes(steps)))
     result = cc.ChaosResult(
         seed=args.seed, tour=run.tour.file_name, speed=args.speed, faults=run.results, fates=fates,
-        duplicated_cancels=book.duplicated_cancels(), table3_expected=expected,
+        duplicated_cancels=book.duplicated_cancels(), republished_cancels=book.duplicated_cancels(republished=True),
+        table3_expected=expected,
         table3_measured=cc.fold_table3(run.building, book.table3(fates)),
         table3_bags=cc.fold_table3(run.building, bags) if bags else {}, tours_intact=False, tours_problems=[],
         crashes=crashes, tracebacks=tbs, hostile_rejected=hostile, partner_lost=lost, partner_answered=answered,
         tour_completed=book.tour_finished(run.tour.file_name, len(run.tour.goals) - 1), outcome=outcome,
         run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s, steps=steps,
         table3_bags_expected=book.table3_with(expected, fates, book.retried_goals(steps)), bags_error=bags_error,
-        machines=bool(args.machines), relay_counters=relays)
+        machines=bool(args.machines), relay_counters=relays,
+        table3_tour=cc.expected_table3(run.building, run.trips))
     problems = run.tours_problems() if run.tours_before else ["the tour directories were never read"]
     result.tours_intact, result.tours_problems = not problems, problems
     doc = result.to_json()

@@ -398,14 +398,27 @@ def schedule_seconds(faults: Iterable[Fault], recovery_s: float = 2.0, corridor_
 def tour_trips(tour: Tour, start_floor: float, building: Building) -> list[tuple[float, float]]:
     """(start floor, goal floor) of every goal of a tour run from ``start_floor``: a stop on a floor without
     robot that follows another such stop gets no goal (the visitor finds it alone, docs/guiding.md)."""
-    trips, here = [], start_floor
-    for g in tour.goals:
+    return list(tour_step_trips(tour, start_floor, building).values())
+
+
+def tour_step_trips(tour: Tour, start_floor: float, building: Building) -> dict[int, tuple[float, float]]:
+    """:func:`tour_trips` by tour step (the steps that make a goal)."""
+    trips, here = {}, start_floor
+    for k, g in enumerate(tour.goals):
         if not (building.has_robot(here) or building.has_robot(g.floor)):
             here = g.floor
             continue
-        trips.append((here, g.floor))
+        trips[k] = (here, g.floor)
         here = g.floor
     return trips
+
+
+def trips_with_retries(step_trips: dict[int, tuple[float, float]],
+                       retried: dict[int, tuple[float, float]]) -> list[tuple[float, float]]:
+    """The tour's trips, a step the system ended and the visitor asked for again counted as the trip that
+    completed it: the person asks again where they are (e.g. upstairs, where the start robot had sent them
+    before the goal floor's robot gave up), so that trip may start on another floor than the tour's."""
+    return [retried.get(k, trip) for k, trip in step_trips.items()]
 
 
 def table3_rows(building: Building) -> dict[str, list[str]]:
@@ -456,6 +469,7 @@ class GoalFate:
     cancel_reasons: list[str] = field(default_factory=list)
     visible_failures: list[str] = field(default_factory=list)
     duplicated: list[str] = field(default_factory=list)
+    republished: list[str] = field(default_factory=list)     # published again by its own node: see republication
     system_ended: bool = False        # a robot ended it (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE): see StepFate
 
     @property
@@ -490,8 +504,22 @@ class StepFate:
         else:
             how = "NOT completed" + ("" if self.goals else " (no goal was ever made for it)")
         ends = f"; ended by the system: {'; '.join(self.system_ends)}" if self.system_ends else ""
-        refused = f"; {self.refusals} request(s) refused and asked again" if self.refusals else ""
+        refused = f"; {self.refusals} request(s) refused with nothing queued" if self.refusals else ""
         return f"{label}: {how}{ends}{refused}"
+
+
+def republication(recs: list[dict[str, Any]]) -> bool:
+    """Whether the deliveries ``recs`` of one goal attempt (or cancel) on one master are one guiding node
+    publishing the same message again, each time on a new connection to the probe: a restarted goal_manager
+    or multirobot_navigation publishes its outbox again (docs/chaos.md, what the faults showed, 2), and a
+    publisher replays its recent events to a subscriber that connects again (``ReplayPublisher``); same uid,
+    every receiver ignores it. Not one: two copies on one connection (a node that published it twice), a copy
+    a relay end delivered (a relay delivers each event exactly once), copies from different publishers, and
+    records without their connection number."""
+    callers = {str(r.get("c", "")) for r in recs}
+    conns = [r.get("n") for r in recs]
+    return len(callers) == 1 and callers <= set(GUIDING_CALLERS) and \
+        all(isinstance(n, int) and not isinstance(n, bool) and n > 0 for n in conns) and len(set(conns)) == len(conns)
 
 
 class Bookkeeping:
@@ -595,10 +623,17 @@ class Bookkeeping:
             for (robot, leg), uids in finals.items():
                 if len(uids) > 1:
                     fate.duplicated.append(f"{robot} ended it {len(uids)} times" + (f" (its {leg} leg)" if leg else ""))
-            per_master = Counter((str(r.get("m")), r.get("attempt", 0)) for r in self.goal_records[uid])
-            for (master, attempt), n in per_master.items():
-                if n > 1:
-                    fate.duplicated.append(f"attempt {attempt} delivered {n} times on {master}'s master")
+            per_master: dict[tuple[str, Any], list[dict[str, Any]]] = defaultdict(list)
+            for r in self.goal_records[uid]:
+                per_master[(str(r.get("m")), r.get("attempt", 0))].append(r)
+            for (master, attempt), recs in per_master.items():
+                if len(recs) < 2:
+                    continue
+                if republication(recs):
+                    fate.republished.append(f"attempt {attempt} published {len(recs)} times on {master}'s master by "
+                                            f"{recs[0].get('c')}, each on a new connection")
+                else:
+                    fate.duplicated.append(f"attempt {attempt} delivered {len(recs)} times on {master}'s master")
             fates[uid] = fate
         return fates
 
@@ -646,6 +681,17 @@ class Bookkeeping:
                     step.refusals += 1
         return list(out.values())
 
+    def retried_routes(self, steps: list[StepFate]) -> dict[int, tuple[float, float]]:
+        """Steps the system ended and a retry completed: step -> (start floor, goal floor) of the goal that
+        completed it."""
+        goals = self.accepted()
+        out = {}
+        for st in steps:
+            g = goals.get(st.completed_by) if st.completed_by and st.system_ends else None
+            if g is not None:
+                out[st.step] = (float(g.get("initial_floor", math.nan)), float(g.get("goal_floor", math.nan)))
+        return out
+
     def retried_goals(self, steps: list[StepFate]) -> list[str]:
         """Goals of completed steps that the system ended before a retry completed the step (each is one
         more goal in Table 3 than a run without faults has)."""
@@ -663,17 +709,21 @@ class Bookkeeping:
         return {row: (rec + added.get(row, (0, 0))[0], proc + added.get(row, (0, 0))[1])
                 for row, (rec, proc) in expected.items()}
 
-    def duplicated_cancels(self) -> dict[str, list[str]]:
-        """Cancel uids (of accepted goals) delivered more than once on one master."""
+    def duplicated_cancels(self, republished: bool = False) -> dict[str, list[str]]:
+        """Cancel uids (of accepted goals) delivered more than once on one master (``republished``: instead,
+        those only published again by their own node, see :func:`republication`)."""
         goals = self.accepted()
         out: dict[str, list[str]] = {}
         for uid, recs in self.cancel_records.items():
             if str(recs[0].get("goal_uid")) not in goals:
                 continue
-            per_master = Counter(str(r.get("m")) for r in recs)
-            dup = [f"delivered {n} times on {m}'s master" for m, n in per_master.items() if n > 1]
-            if dup:
-                out[uid] = dup
+            per_master: dict[str, list[dict[str, Any]]] = defaultdict(list)
+            for r in recs:
+                per_master[str(r.get("m"))].append(r)
+            found = [f"{'published' if republished else 'delivered'} {len(rs)} times on {m}'s master"
+                     for m, rs in per_master.items() if len(rs) > 1 and republication(rs) == republished]
+            if found:
+                out[uid] = found
         return out
 
     def table3(self, fates: dict[str, GoalFate]) -> dict[str, tuple[int, int]]:
@@ -885,6 +935,8 @@ class ChaosResult:
     bags_error: str = ""                                           # the bags could not be read
     machines: bool = False
     relay_counters: dict[str, int] = field(default_factory=dict)   # RELAY_COUNTERS summed over every relay end
+    republished_cancels: dict[str, list[str]] = field(default_factory=dict)   # published again by their node
+    table3_tour: dict[str, tuple[int, int]] = field(default_factory=dict)     # the tour's, before retries
 
     # -- derived --------------------------------------------------------------------------
     def injected(self) -> list[FaultResult]:
@@ -915,6 +967,11 @@ class ChaosResult:
 
     def duplicated(self) -> list[str]:
         return sorted(uid for uid, f in self.fates.items() if f.duplicated)
+
+    def republished(self) -> list[str]:
+        """Goals their own node published again after its restart (or replayed on a new connection): no
+        duplicate, each receiver ignores the copy (:func:`republication`); listed apart."""
+        return sorted(uid for uid, f in self.fates.items() if f.republished)
 
     def node_crashes(self) -> int:
         return len(self.crashes) + sum(self.tracebacks.values())
@@ -976,6 +1033,9 @@ class ChaosResult:
             "cancelled": sum(1 for f in self.fates.values() if f.cancelled),
             "lost": len(self.lost()), "duplicated": len(self.duplicated()),
             "cancels_duplicated": len(self.duplicated_cancels),
+            "republished": len(self.republished()), "cancels_republished": len(self.republished_cancels),
+            "republished_goals": {u: self.fates[u].republished for u in self.republished()},
+            "republished_cancels": self.republished_cancels,
             "max_recovery_s": None if mr is None else (round(mr, 2) if math.isfinite(mr) else "not recovered"),
             "recovery": rec,
             "requests": [{"step": st.step, "passed": st.passed, "goals": st.goals, "completed_by": st.completed_by,
@@ -988,6 +1048,7 @@ class ChaosResult:
                        "measured": {k: list(v) for k, v in self.table3_measured.items()},
                        "bags": table, "bags_expected": {k: list(v) for k, v in self.table3_bags_expected.items()},
                        "bags_error": self.bags_error,
+                       "tour": {k: list(v) for k, v in (self.table3_tour or self.table3_expected).items()},
                        "unchanged": self.table3_measured == self.table3_expected},
             "tours_intact": self.tours_intact, "tours_problems": self.tours_problems,
             "hostile_rejected": self.hostile_rejected,
@@ -1025,6 +1086,10 @@ class ChaosResult:
                   f"Goals accepted {len(fates)}, completed {sum(1 for f in fates.values() if f.completed)}, "
                   f"cancelled {sum(1 for f in fates.values() if f.cancelled)}, lost {len(self.lost())}, "
                   f"duplicated {len(self.duplicated())} (cancels duplicated {len(self.duplicated_cancels)})",
+                  f"Published again by their own node after its restart (same uid, ignored by every receiver; "
+                  f"not duplicates): {len(self.republished())} goal(s), {len(self.republished_cancels)} cancel(s)"
+                  + "".join(f"\n  {u}: {'; '.join(self.fates[u].republished)}" for u in self.republished())
+                  + "".join(f"\n  cancel {u}: {'; '.join(v)}" for u, v in self.republished_cancels.items()),
                   "Max recovery: " + ("-" if mr is None else "not recovered" if math.isinf(mr) else f"{mr:.2f} s")
                   + f" (target {RECOVERY_TARGET_S:g} s)",
                   f"Partner offline notices: {self.partner_lost}, followed by 'back' or the end of the leg: "
@@ -1051,6 +1116,9 @@ class ChaosResult:
             be = self.table3_bags_expected.get(name, exp)
             lines.append(f"{name:<14} {exp[0]:>5} / {exp[1]:<4} {m[0]:>5} / {m[1]:<4} "
                          + (f"{b[0]:>5} / {b[1]:<4}" if b else f"{'-':>12}") + f" {be[0]:>6} / {be[1]:<5}")
+        if self.table3_tour and self.table3_tour != self.table3_expected:
+            lines.append("(expected: a step the system ended counted as the trip of the retry that completed it; "
+                         "the tour's: " + ", ".join(f"{k} {a} / {b}" for k, (a, b) in self.table3_tour.items()) + ")")
         if self.bags_error:
             lines.append(f"(bags: {self.bags_error})")
         lines += ["", f"Tour: {self.outcome}"]

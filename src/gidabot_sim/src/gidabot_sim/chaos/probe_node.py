@@ -4,7 +4,9 @@ It watches what its master delivers and acts on it when the chaos runner asks:
 
 * appends every goal, cancel, navigation event and tour seen on the shared topics to a
   JSON-lines file (``--out``): kind ``k``, this master's robot ``m``, the publisher's
-  caller id ``c``, the wall time received ``w`` and the message's ids (no payloads);
+  caller id ``c``, the connection it came through ``n`` (1, 2, ... in the order the probe's
+  connections were made: a publisher that restarted, or a connection made again, has a new
+  one), the wall time received ``w`` and the message's ids (no payloads);
 * keeps the wall times at which each robot's ``/gidabot/status`` and ``/gidabot/pending``
   arrived (the runner asks for the first delivery after a fault was cleared);
 * keeps this robot's latest ``amcl_pose`` and global plan (``move_base/NavfnROS/plan``,
@@ -107,6 +109,9 @@ class ChaosProbeNode:
         self.plan_wall = 0.0
         self.own_state = ("", "")          # this robot's latest RobotStatus: state, current goal uid
         self.pubs: dict[str, Any] = {}
+        # id of a connection's header dict (rospy gives every message of a connection the same one) -> (that
+        # dict, kept so that its id is never reused; the connection's number)
+        self.conns: dict[int, tuple[dict[str, str], int]] = {}
         self.subs = [
             rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=500),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._on_cancel, queue_size=500),
@@ -134,8 +139,17 @@ class ChaosProbeNode:
 
     # -- recording --------------------------------------------------------------------------
     def _write(self, kind: str, msg: Any, **data: Any) -> None:
-        header = getattr(msg, "_connection_header", None) or {}
-        rec = {"k": kind, "m": self.robot, "c": header.get("callerid", ""), "w": time.time(), **data}
+        header = getattr(msg, "_connection_header", None)
+        conn = 0
+        if isinstance(header, dict):
+            with self.lock:
+                known = self.conns.get(id(header))
+                if known is None or known[0] is not header:
+                    known = self.conns[id(header)] = (header, len(self.conns) + 1)
+            conn = known[1]
+        else:
+            header = {}
+        rec = {"k": kind, "m": self.robot, "c": header.get("callerid", ""), "n": conn, "w": time.time(), **data}
         line = json.dumps(rec, allow_nan=True)
         with self.lock:
             if not self.out.closed:

@@ -16,7 +16,9 @@ A master can be stopped and started again (:meth:`stop_master`,
 :meth:`start_master_again`, fault injection): ``rosbag record`` never re-registers
 with a restarted master, so it would miss publishers that (re)start afterwards;
 that robot's recording then goes on in a new bag part (``<robot>.<n>.bag``; the
-old recorder is stopped a little later), and :attr:`bags` lists every part.
+old recorder is stopped once a newer part records -- a recorder starts only with the
+simulated clock, which may stand still for minutes while a floor that was down catches
+up -- and has for a few seconds), and :attr:`bags` lists every part that recorded.
 
 With ``machines``, a robot's master and launch run in its namespace with its clock; the
 tools of the simulated world (the visitor, the recorder, the monitor, the chaos probes) run in
@@ -57,7 +59,7 @@ T = TypeVar("T")
 # where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
 # GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
 RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
-RECORDER_OVERLAP = 5.0   # wall s both recorders of a robot run after its master restarted
+RECORDER_OVERLAP = 5.0   # wall s the old recorder of a restarted master goes on after a newer one records
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
 # and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
 RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
@@ -110,6 +112,21 @@ def set_param(master_uri: str, key: str, value: object) -> None:
         raise DemoError(f"cannot set {key} on the master {master_uri}: {err}") from err
     if code != 1:
         raise DemoError(f"cannot set {key} on the master {master_uri}: {msg}")
+
+
+def obsolete_recorders(retired: dict[str, tuple[str, int]], bags: dict[str, list[Path]],
+                       recording_from: dict[Path, float], now: float, overlap: float = RECORDER_OVERLAP) -> list[str]:
+    """The retired recorders to stop now: ``retired`` maps a recorder to (robot, its bag part); one is stopped
+    once a later part of its robot has been recording (``recording_from``: when its file appeared) for
+    ``overlap`` s. Until then it records on: a new recorder waits for the simulated clock, which may stand still
+    for minutes (the other floors wait while one that was down catches up), and stopping the old one after a
+    fixed time left the master unrecorded (a chaos run's missing part and gap)."""
+    out = []
+    for name, (robot, n) in retired.items():
+        started = [recording_from[p] for p in bags.get(robot, [])[n + 1:] if p in recording_from]
+        if started and now - min(started) >= overlap:
+            out.append(name)
+    return out
 
 
 @dataclass(frozen=True)
@@ -219,7 +236,10 @@ class SimulatedBuilding:
         self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
         self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
         self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
-        self.retired: dict[str, float] = {}      # old recorders -> wall time to stop them (monotonic)
+        self.retired: dict[str, tuple[str, int]] = {}   # old recorders -> (robot, bag part): stopped once a
+        self._retired_stopped: set[str] = set()          # later part has recorded RECORDER_OVERLAP s
+        self._recording_from: dict[Path, float] = {}    # bag part -> monotonic time its file was first seen
+        self.never_recorded: list[str] = []              # parts replaced before they recorded (no valid time)
         self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
         self.off: set[str] = set()               # robots whose machine is off (machine_off)
         self.timeline: Timeline | None = None
@@ -406,9 +426,10 @@ class SimulatedBuilding:
         up = time.monotonic()
         self.call(robot, set_param, uri, "/use_sim_time", True)
         if self.record and self.bags.get(robot):
-            old_rec = f"record_{robot}" if len(self.bags[robot]) == 1 else f"record_{robot}.{len(self.bags[robot]) - 1}"
+            n = len(self.bags[robot]) - 1
+            old_rec = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
             self.start_recorder(robot)
-            self.retired[old_rec] = up + RECORDER_OVERLAP
+            self.retired[old_rec] = (robot, n)
         return up
 
     def machine_off(self, robot: str) -> list[int]:
@@ -439,14 +460,23 @@ class SimulatedBuilding:
         return up
 
     def housekeeping(self) -> None:
-        """Stop the recorders a restarted master made obsolete, once their successors have run a while; look at
-        the floors' clocks (:meth:`sim_time_at`)."""
+        """Stop the recorders a restarted master made obsolete, once a newer part of that robot has recorded for
+        RECORDER_OVERLAP s (until then the old one records on: no gap while the new one waits for the simulated
+        clock); look at the floors' clocks (:meth:`sim_time_at`)."""
         self.clocks()
         now = time.monotonic()
-        for name, due in list(self.retired.items()):
-            if due is not None and now >= due and self.procs.alive(name):
-                self.procs.signal(name, signal.SIGINT)      # bag closed and indexed; reaped by stop()
-                self.retired[name] = float("inf")
+        running = {n: r for n, r in self.retired.items() if n not in self._retired_stopped and self.procs.alive(n)}
+        for part in (p for parts in self.bags.values() for p in parts[1:]):
+            self._recording_since(part, now)
+        for name in obsolete_recorders(running, self.bags, self._recording_from, now):
+            self.procs.signal(name, signal.SIGINT)      # bag closed and indexed; reaped by stop()
+            self._retired_stopped.add(name)
+
+    def _recording_since(self, bag: Path, now: float) -> float | None:
+        """When ``bag``'s recorder was first seen writing it (rosbag creates ``<bag>.active`` once it records)."""
+        if bag not in self._recording_from and (bag.exists() or bag.with_name(bag.name + ".active").exists()):
+            self._recording_from[bag] = now
+        return self._recording_from.get(bag)
 
     def launch_robot(self, robot: str) -> None:
         """(Re)start robot's whole stack (its roslaunch) against its master."""
@@ -562,3 +592,6 @@ class SimulatedBuilding:
             shutil.move(str(active), str(active.with_suffix("")))
             for orig in self.run_dir.glob("*.bag.orig.active"):   # reindex's backup
                 orig.unlink()
+        for robot, parts in self.bags.items():   # replaced before the clock let them record: the older part did
+            self.never_recorded += [p.name for p in parts[1:] if not p.exists()]
+            self.bags[robot] = [parts[0], *(p for p in parts[1:] if p.exists())] if parts else parts
