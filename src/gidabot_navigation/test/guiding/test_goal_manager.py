@@ -228,14 +228,46 @@ def test_hostile_goals_are_counted_and_only_ours_get_an_event(faculty) -> None:
     assert events(tartalo.on_goal(replace(good, uid="Tartalo/v/x", goal_id="999"), 1.0, 1.0), REJECTED)
 
 
-def test_a_full_queue_refuses_and_cancels(faculty) -> None:
+def test_a_full_queue_declines_the_leg_waits_and_is_taken_when_there_is_room(faculty) -> None:
+    """The only robot of the floor declines the start leg (queue full): the leg is not refused nor left unserved,
+    it waits; a new round after requeue_after asks again; once there is room it is accepted."""
+    gm = core(faculty, max_queue=2)
+    [first] = goals(request(gm, "001"))
+    request(gm, "022")
+    acts = request(gm, "012")
+    [declined] = events(acts, DECLINED)
+    assert len(gm.queue) == 2 and "queue of Tartalo is full" in declined.detail and not events(acts, REJECTED)
+    [waiting] = goals(acts)                    # published: the leg waits for Tartalo's queue
+    assert (waiting.start_robot, waiting.start_state) == ("Tartalo", LEG_PROPOSED)
+    assert waiting.uid in gm.assigner and gm.tick(10.0, 5.0) == []
+    acts = gm.tick(10.0, 11.5)                  # a new round: still full, declined again, still waiting
+    assert [e.attempt for e in events(acts, DECLINED)] == [2] and waiting.uid in gm.assigner
+    own_event(gm, first.uid, GOAL_REACHED, 1)   # room in the queue
+    acts = gm.tick(10.0, 22.0)
+    assert [e.leg for e in events(acts, ACCEPTED)] == ["start"] and [g.start_state for g in goals(acts)] == [
+        LEG_COMMITTED]
+    assert waiting.uid in [t.uid for t in gm.queue] and not [a for a in acts if isinstance(a, SendCancel)]
+
+
+def test_a_long_queue_is_no_reason_to_decline_unless_max_wait_is_set(faculty) -> None:
+    from gidabot_navigation.guiding.assignment import AssignConfig
+    [trip] = goals(request(core(faculty), "301"))
+    mari = core(faculty, "MariSorgin")
+    mari.on_pending("Tartalo", [], 0.0, 1.0)
+    for i, target in enumerate(("301", "305", "310", "301", "305") * 3):   # its queue: 15 trips across the floor
+        mari.on_command(CommandData(command=REQUEST, goal_id=target, visitor_id=f"m{i}"), 10.0, 1.0)
+    acts = mari.on_goal(trip, 10.0, 1.0)
+    [acc] = events(acts, ACCEPTED)
+    assert acc.eta > 900 and not events(acts, DECLINED)      # the former fixed limit: 900 s
+    strict = core(faculty, "MariSorgin", assign=AssignConfig(max_wait=1.0))
+    [dec] = events(strict.on_goal(trip, 10.0, 1.0), DECLINED)
+    assert "more than max_wait 1 s" in dec.detail
+
+
+def test_a_commit_to_a_full_queue_is_refused_and_cancelled(faculty) -> None:
     gm = core(faculty, max_queue=2)
     request(gm, "001")
     request(gm, "022")
-    acts = request(gm, "012")
-    assert len(gm.queue) == 2 and events(acts, DECLINED) and events(acts, REJECTED)
-    assert "queue of Tartalo is full" in events(acts, REJECTED)[0].detail
-    assert goals(acts) == [] and not [a for a in acts if isinstance(a, SendCancel)]   # nobody else heard of it
     # a trip committed here while the queue is full (never answered here) is refused and cancelled everywhere
     [down] = goals(request(core(faculty, "Kbot"), "012", visitor="w"))
     assert (down.goal_robot, down.goal_state) == ("Tartalo", LEG_PROPOSED)

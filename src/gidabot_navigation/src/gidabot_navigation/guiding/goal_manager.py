@@ -296,15 +296,18 @@ class GoalManagerCore:
                 self.legs.settled(trip.uid)
             return []
         if state == LEG_PROPOSED:
-            if not self.legs.first_answer(trip.uid, leg):
-                return []                      # answered already (declined, or held too long unconfirmed)
+            if not self.legs.first_answer(trip.uid, leg, trip.attempt):
+                return []                      # this proposal was answered already (e.g. before a restart)
             eta = self._eta_for(trip, leg, now_ros, now_wall)
-            if len(self.queue) >= self.cfg.max_queue or eta > self.cfg.assign.max_wait:
+            # a long queue is no reason to decline (the visitor saw the wait and confirmed), unless the site set
+            # a max_wait; a full queue is
+            if len(self.queue) >= self.cfg.max_queue or self.cfg.assign.too_long(eta):
                 why = (f"the queue of {self.me} is full ({self.cfg.max_queue} goals)" if len(self.queue)
                        >= self.cfg.max_queue else f"{self.me} could be there in {eta:.0f} s only "
-                       f"(more than {self.cfg.assign.max_wait:g} s)")
+                       f"(more than max_wait {self.cfg.assign.max_wait:g} s)")
                 self.stats.inc("declined")
                 return [self._event(DECLINED, trip, now_ros, leg=leg, detail=why)]
+            self.legs.first_answer(trip.uid, leg)      # accepted (an ACCEPTED per leg for a commit seen later)
             self.legs.holding(trip.uid, now_wall)
             return self._keep(trip, leg, eta, now_ros)
         if len(self.queue) >= self.cfg.max_queue:
