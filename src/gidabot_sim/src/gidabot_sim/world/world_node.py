@@ -460,7 +460,7 @@ class SimNode:
         self.meta_pub.publish(self.map_msg.info)
         self._publish_obstacles()
         transforms = []
-        for io, robot in zip(self.io, self.world.robots, strict=True):
+        for io, robot in self._own():
             laser = robot.spec.laser
             transforms.append(ru.transform(io.frame["base_footprint"], io.frame["base_link"], Pose2D(0, 0, 0),
                                            self.world.time))
@@ -478,7 +478,7 @@ class SimNode:
         laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
         inputs = self.lockstep.inputs_due()           # a driving participant's odometry: at every step
         transforms = []
-        for io, robot in zip(self.io, self.world.robots, strict=True):
+        for io, robot in self._own():
             resting = self.world.at_rest(io.index)
             if ((rest_due if resting else odom_due) or io.odom_topic in inputs) and io.odom.get_num_connections():
                 self._publish_odom(io, robot, t)
@@ -530,6 +530,10 @@ class SimNode:
                          for j in self.world.seen_robots(io.index)]
         return msg
 
+    def _own(self) -> list[tuple[_RobotIO, Any]]:
+        """This node's robots (not its mates) with their topics."""
+        return [(io, self.world.robots[io.index]) for io in self.io]
+
     def _pairs(self) -> None:
         """Several robots: tell the world whose navigation drives (deadlock watch); log what it reports."""
         inputs = self.lockstep.inputs_due()
@@ -573,12 +577,12 @@ class SimNode:
 
     def _idle(self) -> bool:
         """No robot moves or is commanded and no participant drives: a stop changes nothing but the time."""
-        return not self.lockstep.inputs_due() and all(self.world.at_rest(i) for i in range(len(self.world.robots)))
+        return not self.lockstep.inputs_due() and all(self.world.at_rest(io.index) for io in self.io)
 
     def _publish_missing_inputs(self, t: float) -> None:
         """A participant stopped being idle during this stop: its inputs for it, published now."""
         for topic in self.lockstep.missing_inputs(t):
-            for io, robot in zip(self.io, self.world.robots, strict=True):
+            for io, robot in self._own():
                 if topic == io.odom_topic:
                     self._publish_odom(io, robot, t)
 
@@ -610,14 +614,14 @@ class SimNode:
             "wall_time": f"{wall:.3f}", "achieved_factor": f"{achieved:.2f}", "behind_s": f"{s.behind(wall):.3f}",
             "wait_controllers_s": f"{s.waited['controllers']:.3f}", "wait_floors_s": f"{s.waited['floors']:.3f}",
             "wait_ceiling_s": f"{s.waited['ceiling']:.3f}", "steps": str(s.steps), "max_lead_s": f"{s.max_lead:.2f}",
-            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for r in self.world.robots)),
+            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for _io, r in self._own())),
             "laser_scans": str(self.scans),
         }
         for node, stats in self.lockstep.stats().items():
             values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
         for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle", "step_done"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
-        for robot in self.world.robots:
+        for _io, robot in self._own():
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
         deadlocked = self.world.deadlocked
         # counted with one robot too (0: a floor world with one robot has nobody to collide with); with mates,
@@ -635,7 +639,7 @@ class SimNode:
                                            if deadlocked else
                                            f"going on without {', '.join(absent)}" if absent else
                                            "behind its speed ceiling" if behind else "running"),
-                                  hardware_id=",".join(r.spec.name for r in self.world.robots),
+                                  hardware_id=",".join(r.spec.name for _io, r in self._own()),
                                   values=[KeyValue(k, v) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = ru.stamp(s.t)
