@@ -144,3 +144,16 @@ def test_a_trip_given_up_and_asked_again_is_a_new_request_not_a_duplicate() -> N
     assert (rows["v1"]["outcome"], rows["v1"]["asked_again"], rows["v1"]["duplicated"]) == (COMPLETED, 1, 0)
     assert rows["v2"]["duplicated"] == 1
     assert c.summary(["Tartalo"])["problems"] == ["v2: 1 duplicated goal(s)"]
+
+
+def test_an_event_that_overtakes_its_goal_counts_and_times_are_the_robots_stamps() -> None:
+    """The monitor sees Galtxagorri's ON_THE_WAY (stamped 137.4) before the goal (confirmed at 137.0, seen at
+    137.7): it is kept until the goal comes; the wait is 0.4 s (stamps), not the time of a later robot's move."""
+    c = Crowd([plan("v1", robot="Galtxagorri")])
+    first = dict(event(1, "Galtxagorri", Phase.ON_THE_WAY, "G/v1/1", 137.6), stamp=137.4)
+    assert not c.feed(first)
+    c.feed(dict(goal("G/v1/1", "v1", 137.7, start="Galtxagorri"), stamp=137.0))
+    c.feed(dict(event(2, "Kbot", Phase.GOING_TO_MEETING, "G/v1/1", 488.6), stamp=488.5))
+    c.feed(dict(event(3, "Kbot", Phase.GOAL_REACHED, "G/v1/1", 583.6), stamp=583.5))
+    [row] = c.visitor_rows()
+    assert (row["wait_s"], row["trip_s"], row["outcome"]) == (0.4, 446.5, COMPLETED)

@@ -113,6 +113,7 @@ class Crowd(MonitorFeed):
         self.asked_again: dict[str, int] = {}                      # visitor -> trips asked again after a give-up
         self.shown: dict[str, list] = {}                           # visitor -> the waits shown before confirming
         self.patience: dict[str, float] = {}
+        self._early: dict[str, list[dict]] = {}                    # goal uid -> its events that came before it
 
     # -- input -----------------------------------------------------------------------------------
     def feed(self, rec: dict) -> bool:
@@ -128,21 +129,34 @@ class Crowd(MonitorFeed):
             uid, goal_uid = str(rec.get("uid", "")), str(rec.get("goal_uid", ""))
             if not goal_uid and rec.get("phase") in REFUSALS:
                 return self._refusal(rec)
-            if goal_uid not in self.goals or not uid or uid in self.events:
+            if not uid or uid in self.events:
                 return False
-            t = self._clock(rec)
-            self.events[uid] = rec
-            phase, visitor = rec.get("phase"), self.goals[goal_uid].visitor
-            if phase in TRIP_ENDS:
-                g = self.goals[goal_uid]
-                g.ended_s = min(g.ended_s, t if math.isfinite(t) else g.first_s)
-            end = _ending(phase, bool(self.plans[visitor].tour_file))
-            if end and visitor not in self._ends:
-                self._ends[visitor] = (end, t)
-                self._end_phase[visitor] = phase
-            self.latest = f"{rec.get('robot')}: {PHASE_NAMES.get(phase, phase)} ({self.goals[goal_uid].visitor})"
-            return True
+            if goal_uid not in self.goals:
+                # an event may overtake its goal (other topic, other relay): kept until the goal comes
+                if len(self._early) < 10000 and len(self._early.get(goal_uid, [])) < 1000:
+                    self._early.setdefault(goal_uid, []).append(rec)
+                return False
+            return self._event(rec)
         return False
+
+    def _event(self, rec: dict) -> bool:
+        """An event of a population visitor's trip (its goal known)."""
+        uid, goal_uid = str(rec.get("uid", "")), str(rec.get("goal_uid", ""))
+        if uid in self.events:
+            return False
+        self._clock(rec)
+        t = _when(rec)
+        self.events[uid] = rec
+        phase, visitor = rec.get("phase"), self.goals[goal_uid].visitor
+        if phase in TRIP_ENDS:
+            g = self.goals[goal_uid]
+            g.ended_s = min(g.ended_s, t if math.isfinite(t) else g.first_s)
+        end = _ending(phase, bool(self.plans[visitor].tour_file))
+        if end and visitor not in self._ends:
+            self._ends[visitor] = (end, t)
+            self._end_phase[visitor] = phase
+        self.latest = f"{rec.get('robot')}: {PHASE_NAMES.get(phase, phase)} ({self.goals[goal_uid].visitor})"
+        return True
 
     def _refusal(self, rec: dict) -> bool:
         """A request refused before any goal (``REJECTED``: e.g. no robot could be there within its max wait;
@@ -195,9 +209,11 @@ class Crowd(MonitorFeed):
                 del self._ends[visitor], self._end_phase[visitor]
                 self.asked_again[visitor] = self.asked_again.get(visitor, 0) + 1
             step = rec.get("tour_step", -1)
-            g = self.goals[uid] = _Goal(uid, visitor, t, step if isinstance(step, int) else -1,
-                                        bool(rec.get("tour_file")))
+            g = self.goals[uid] = _Goal(uid, visitor, _when(rec, "stamp") if math.isfinite(t) else t,
+                                        step if isinstance(step, int) else -1, bool(rec.get("tour_file")))
         attempt = int(_number(rec.get("attempt"), 0))
+        for early in self._early.pop(uid, []):
+            self._event(early)
         if attempt > g.attempt:
             g.attempt = attempt
             g.committed = {leg: str(rec.get(f"{leg}_robot", "")) for leg in (LEG_START, LEG_GOAL)
@@ -209,7 +225,7 @@ class Crowd(MonitorFeed):
     # -- results ---------------------------------------------------------------------------------
     def _events_of(self, uids: set[str]) -> list[dict]:
         return sorted((e for e in self.events.values() if e.get("goal_uid") in uids),
-                      key=lambda e: _number(e.get("sim"), 0.0))
+                      key=lambda e: _when(e, default=0.0))
 
     def visit_end(self, visitor: str) -> tuple[str, float | None]:
         """(how the visit ended, sim s of the end or None): the first event of its trips that ends it."""
@@ -241,9 +257,8 @@ class Crowd(MonitorFeed):
             goals = sorted((g for g in self.goals.values() if g.visitor == vid), key=lambda g: g.first_s)
             end, end_s = self.visit_end(vid)
             start = goals[0].first_s if goals else None
-            moves = [_number(e.get("sim")) for e in self._events_of({g.uid for g in goals})
-                     if e.get("phase") in MOVING]
-            wait = round(moves[0] - start, 1) if moves and start is not None else None
+            moves = [_when(e) for e in self._events_of({g.uid for g in goals}) if e.get("phase") in MOVING]
+            wait = round(max(0.0, moves[0] - start), 1) if moves and start is not None else None
             trip = round(end_s - start, 1) if end_s is not None and start is not None else None
             as_chosen = end in (COMPLETED, LEFT) or (plan.intent == INTENT_CANCEL and end == CANCELLED) or \
                 (plan.intent == INTENT_NO_SHOW and end == TIMED_OUT)
@@ -303,6 +318,15 @@ class Crowd(MonitorFeed):
             "wait_p95_s": round(percentile(waits, 95), 1) if waits else None,
             "per_visitor": visitors, "per_robot": self.robot_rows(robots, end_s), "problems": problems,
         }
+
+
+def _when(rec: dict, key: str = "stamp", default: float = math.nan) -> float:
+    """When a goal or an event happened (sim s): its stamp (the visitor confirming, the robot acting: that robot's
+    clock), else when the monitor saw it (later by the relays' latency, times the speed)."""
+    stamp = _number(rec.get(key))
+    if math.isfinite(stamp) and stamp > 0:
+        return stamp
+    return _number(rec.get("sim"), default)
 
 
 def _duplicated(goals: Sequence[_Goal]) -> int:
