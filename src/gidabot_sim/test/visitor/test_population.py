@@ -81,3 +81,17 @@ def test_patience_comes_from_a_stream_of_its_own(faculty6) -> None:
     assert plans_from_list([p.to_dict() for p in with_patience], faculty6) == with_patience
     with pytest.raises(SimConfigError, match="patience"):
         make_population(faculty6, 5, 1, patience_s=(10.0, 5.0))
+
+
+def test_the_same_seed_gives_the_same_visitors_on_both_faculties(faculty6) -> None:
+    """maps/faculty and maps/faculty6 have robots on the same floors and the same places: the same visitors
+    (arrival, floor, target, way, cancel, no-show, patience), only the robot of a two-robot floor may differ."""
+    faculty = load_building(MAPS / "faculty")
+    tours = {"real_world.tour": 8}
+    four, six = make_population(faculty, 60, 1, tours), make_population(faculty6, 60, 1, tours)
+    floor4 = [faculty.robot(p.robot).floor for p in four]
+    assert floor4 == [faculty6.robot(p.robot).floor for p in six]
+    assert [p.__class__(**{**p.to_dict(), "robot": ""}) for p in four] == \
+        [p.__class__(**{**p.to_dict(), "robot": ""}) for p in six]
+    assert {p.robot for p in six if faculty6.robot(p.robot).floor == 1.0} == {"Kbot", "Basajaun"}
+    assert len(set(floor4)) == 4

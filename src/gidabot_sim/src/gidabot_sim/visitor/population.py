@@ -1,15 +1,15 @@
 """A population of simulated visitors, deterministic from a seed (ROS-free; issue 18, *many visitors*).
 
 ``make_population`` draws K visitors: each arrives at a random time (exponential gaps,
-``mean_gap_s`` apart on average) at the screen of a random robot and asks for a random
-single target or, now and then, a tour, by the stairs or the lift; some cancel after a
-while, some never turn up at the meeting point on the goal floor (the robot waiting there
-gives up: ``TIMEOUT``). Each has a *patience*: the longest wait it accepts when the screen
+``mean_gap_s`` apart on average) on a random floor with robots, at the screen of one of them,
+and asks for a random single target or, now and then, a tour, by the stairs or the lift; some
+cancel after a while, some never turn up at the meeting point on the goal floor (the robot
+waiting there gives up: ``TIMEOUT``). Each has a *patience*: the longest wait it accepts when the screen
 shows, before it confirms, how long until the robots of its trip are there (the paper's
 pending requests); a longer one and it does not confirm, it leaves. The same building,
 tours, K and seed give the same visitors, so a run can be repeated and its numbers compared
-(the patience comes from a stream of its own: the same seed draws the same arrivals, robots,
-targets, cancels and no-shows as before it existed).
+(the patience and the robot of a floor with several come from streams of their own: see
+:func:`make_population`).
 
 A plan says what the visitor *chooses* (:attr:`VisitorPlan.intent`): ``complete`` (the trip
 should complete), ``cancel`` (cancelling, or completing before the cancel, is as chosen),
@@ -105,9 +105,12 @@ def make_population(building: Building, count: int, seed: int, tours: Mapping[st
                     p_no_show: float = 0.15, patience_s: tuple[float, float] | None = PATIENCE_S
                     ) -> tuple[VisitorPlan, ...]:
     """``count`` visitors drawn from ``seed``. ``tours``: tour file name -> number of stops, the tours a visitor
-    may take (none: single targets only). A no-show is only drawn for a target on another floor that has a robot
-    (someone waits for the visitor there). ``patience_s``: (low, high) of the uniform patience (sim s; None:
-    every visitor waits however long it is shown), drawn from a stream of its own."""
+    may take (none: single targets only). A visitor arrives on a random floor with robots, at the screen of one of
+    that floor's robots (drawn from a stream of its own): two buildings with robots on the same floors and the
+    same locations (``maps/faculty``, ``maps/faculty6``) get the same visitors from the same seed, only the robot
+    whose screen they use may differ, so their runs compare. A no-show is only drawn for a target on another
+    floor that has a robot (someone waits for the visitor there). ``patience_s``: (low, high) of the uniform
+    patience (sim s; None: every visitor waits however long it is shown), drawn from a stream of its own."""
     if not 1 <= count <= MAX_VISITORS:
         raise SimConfigError(f"visitors: {count} (expected 1..{MAX_VISITORS})")
     if not (math.isfinite(mean_gap_s) and mean_gap_s > 0):
@@ -117,14 +120,16 @@ def make_population(building: Building, count: int, seed: int, tours: Mapping[st
     if patience_s is not None and not (all(math.isfinite(v) and v >= 0 for v in patience_s)
                                        and patience_s[0] <= patience_s[1]):
         raise SimConfigError(f"patience {patience_s!r}: expected (low, high) s with 0 <= low <= high")
-    robots = sorted(building.robots, key=lambda r: r.name)
+    floors = sorted({r.floor for r in building.robots})
+    screen_rng = random.Random(f"screen {seed}")
     locations = sorted(building.locations, key=lambda loc: loc.id)
     tour_files = sorted(tours or {})
     width = len(str(count))
     plans, t = [], 0.0
     for i in range(count):
         t += rng.expovariate(1.0 / mean_gap_s)
-        robot = rng.choice(robots)
+        floor = rng.choice(floors)
+        robot = screen_rng.choice(sorted(building.robots_on(floor), key=lambda r: r.name))
         way = rng.choice(sorted(WAYS))
         tour = rng.choice(tour_files) if tour_files and rng.random() < p_tour else ""
         target = "" if tour else rng.choice(locations).id
