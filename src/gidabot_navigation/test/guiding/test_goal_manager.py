@@ -317,6 +317,24 @@ def test_continue_after_a_step_issues_the_next_from_here(tour_gm) -> None:
     assert tour_gm.on_command(CommandData(command=CONTINUE, goal_uid=trip.uid), 11.0, 1.0) == []
 
 
+def test_two_visitors_on_the_same_tour_at_one_robot_keep_their_own_steps(tour_gm) -> None:
+    """Visitor a finished step 2 here and is about to press Continue; visitor b starts the same tour at this screen
+    (many visitors: found on faculty6 seed 2, a's Continue was lost): a's step waits on, its Continue goes on."""
+    trip = replace(goals(start(tour_gm))[0], uid="Tartalo/a/9", origin_robot="Tartalo", visitor_id="a",
+                   initial_floor=0.0, goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
+                   start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="Kbot", goal_state=LEG_COMMITTED)
+    loc = tour_gm.building.location("101")
+    tour_gm.on_goal(replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw), 10.0, 1.0)
+    own_event(tour_gm, trip.uid, TOUR_STEP_DONE, 1, tour_file="real_world.tour", tour_step=2)
+    b = tour_gm.on_command(CommandData(command=START_TOUR, tour_file="real_world.tour", visitor_id="b"), 10.5, 1.0)
+    assert [g.visitor_id for g in goals(b)] == ["b"] and not [a for a in b if isinstance(a, SendCancel)]
+    [nxt] = goals(tour_gm.on_command(CommandData(command=CONTINUE, goal_uid=trip.uid, visitor_id="a"), 11.0, 1.0))
+    assert (nxt.visitor_id, nxt.tour_step, nxt.goal_id) == ("a", 3, "104")
+    # b cancels its own tour: a's next step is untouched
+    tour_gm.on_command(CommandData(command=CANCEL, goal_uid=goals(b)[0].uid, visitor_id="b"), 12.0, 1.0)
+    assert nxt.uid in [t.uid for t in tour_gm.queue]
+
+
 def test_skip_restart_cancel_and_finish(tour_gm) -> None:
     first = goals(start(tour_gm))[0]
     # skip while step 0 is still held here: step 0 is cancelled everywhere, step 5 issued

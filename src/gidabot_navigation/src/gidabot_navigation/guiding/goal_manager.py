@@ -641,7 +641,8 @@ class GoalManagerCore:
         tour_file = cmd.tour_file or (latest.tour_file if latest else "")
         if not tour_file:
             return [self._event(REJECTED, None, now_ros, detail="skip without a tour_file")]
-        wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file), None)
+        wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file
+                     and (not cmd.visitor_id or not w.visitor_id or w.visitor_id == cmd.visitor_id)), None)
         return self._tour_step(tour_file, cmd.tour_step, cmd, wait, now_ros, now_wall)
 
     def _tour_step(self, tour_file: str, step: int, cmd: CommandData, wait: TourWait | None, now_ros: float,
@@ -665,7 +666,7 @@ class GoalManagerCore:
                                                                 f"not {step}", **ctx)]
         visitor = cmd.visitor_id or (wait.visitor_id if wait else "")
         actions = self._end_tour_here(tour_file, visitor, now_ros, detail=f"the visitor went to step {step}")
-        self.waits.clear_tour(tour_file)
+        self.waits.clear_tour(tour_file, visitor or None)     # this visitor's: others may follow the same tour
         way = cmd.way or (wait.way if wait else "")
         language = cmd.language or (wait.language if wait else "")
         actions += self._issue(tour.goals[step].room, way, language, visitor, tour_file, step, now_ros, now_wall)
@@ -709,12 +710,12 @@ class GoalManagerCore:
                 self.stats.inc("cancel_unknown")
                 return []
         if trip.tour_file:
-            self.waits.clear_tour(trip.tour_file)
+            self.waits.clear_tour(trip.tour_file, trip.visitor_id or None)
         cancel = self._new_cancel(trip.uid, REASON_VISITOR, f"the visitor cancelled at {self.me}", now_ros)
         return [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True)]
 
     def _tour_ended(self, wait: TourWait, now_ros: float) -> SendEvent:
-        self.waits.clear_tour(wait.tour_file)
+        self.waits.clear_tour(wait.tour_file, wait.visitor_id or None)
         return self._event(CANCELLED_HERE, None, now_ros, goal_uid=wait.goal_uid, tour_file=wait.tour_file,
                            tour_step=wait.step, language=wait.language, way=wait.way, detail="tour ended")
 
