@@ -160,6 +160,32 @@ def test_a_declined_leg_goes_to_the_next_robot(faculty6) -> None:
     check_invariant(bus)
 
 
+def test_a_leg_every_robot_declined_waits_and_is_served_once_there_is_room(faculty6) -> None:
+    """Both robots of floor 2 decline the goal leg (queues full): it is neither given up nor left unserved; it
+    waits, is proposed again every requeue_after, and the first robot with room takes it, alone."""
+    bus = bus6(faculty6)
+    for robot in GOAL_FLOOR:
+        gm = bus.robots[robot].gm
+        gm.cfg = replace(gm.cfg, max_queue=1)
+    bus.request("Galtxagorri", "201")
+    bus.request("Lamia", "231")
+    bus.request("Tartalo", "223")
+    uid = [g.uid for g in bus.goals if g.origin_robot == "Tartalo"][0]
+    assert sorted(e.robot for e in bus.events if e.phase == DECLINED) == sorted(GOAL_FLOOR)
+    assert uid in bus.robots["Tartalo"].gm.assigner and not bus.phases("Tartalo", uid).count(PARTNER_OFFLINE)
+    for _ in range(3):
+        wait(bus, 3.5)                                        # a second round: both still full
+    assert len([e for e in bus.events if e.phase == DECLINED]) == 4 and newest(bus, uid).goal_state == LEG_PROPOSED
+    bus.finish_move("Lamia")                                  # Lamia's own visitor is there: room
+    bus.pump()
+    for _ in range(3):
+        wait(bus, 3.5)
+    trip = newest(bus, uid)
+    assert (trip.goal_robot, trip.goal_state) == ("Lamia", LEG_COMMITTED)
+    assert moved_for(bus, "Lamia", uid) and not moved_for(bus, "Galtxagorri", uid)
+    check_invariant(bus)
+
+
 def test_no_online_robot_on_the_goal_floor_answers_at_once(faculty6) -> None:
     bus = bus6(faculty6)
     bus.tick(wall_dt=10.0)
@@ -516,8 +542,17 @@ def test_assigner_gives_up_when_nobody_is_left_and_survives_a_restart() -> None:
     b = Assigner("A", AssignConfig(answer_timeout=2.0), rank)
     b.load_state(a.state())
     assert "A/v/1" in b
-    [gave_up] = b.on_answer("A/v/1", LEG_GOAL, "B", 1, False, 0.0, "queue full", 11.0)
-    assert isinstance(gave_up, GaveUp) and "B declined (queue full)" in gave_up.detail and "A/v/1" not in b
+    # B declines (its queue is full): nobody else on the floor, but B is there: the leg waits, then a new round
+    assert b.on_answer("A/v/1", LEG_GOAL, "B", 1, False, 0.0, "queue full", 11.0) == []
+    assert "A/v/1" in b and b.tick(20.0, lambda r: True) == []
+    c = Assigner("A", AssignConfig(answer_timeout=2.0), rank)      # restarts while the leg waits
+    c.load_state(b.state())
+    [again] = c.tick(21.0, lambda r: True)
+    assert isinstance(again, Publish) and again.trip.goal_robot == "B" and again.trip.attempt == 2
+    # B goes offline before answering: nobody declined this round, nobody is left: given up, visibly
+    [gave_up] = c.tick(21.5, lambda r: r != "B")
+    assert isinstance(gave_up, GaveUp) and "B declined (queue full)" in gave_up.detail and "B is offline" in \
+        gave_up.detail and "A/v/1" not in c
     assert b.open(trip, [LEG_GOAL], 0.0)[0].trip.goal_robot == "B"
     assert isinstance(Assigner("A", AssignConfig(), lambda *x: []).open(trip, [LEG_GOAL], 0.0)[0], GaveUp)
 

@@ -242,14 +242,46 @@ def test_a_pending_list_with_a_wait_that_is_not_a_number_is_rejected_and_counted
     assert kbot.stats["rejected_pending"] == 4
 
 
-def test_a_full_queue_refuses_and_cancels(faculty) -> None:
+def test_a_full_queue_declines_the_leg_waits_and_is_taken_when_there_is_room(faculty) -> None:
+    """The only robot of the floor declines the start leg (queue full): the leg is not refused nor left unserved,
+    it waits; a new round after requeue_after asks again; once there is room it is accepted."""
+    gm = core(faculty, max_queue=2)
+    [first] = goals(request(gm, "001"))
+    request(gm, "022")
+    acts = request(gm, "012")
+    [declined] = events(acts, DECLINED)
+    assert len(gm.queue) == 2 and "queue of Tartalo is full" in declined.detail and not events(acts, REJECTED)
+    [waiting] = goals(acts)                    # published: the leg waits for Tartalo's queue
+    assert (waiting.start_robot, waiting.start_state) == ("Tartalo", LEG_PROPOSED)
+    assert waiting.uid in gm.assigner and gm.tick(10.0, 5.0) == []
+    acts = gm.tick(10.0, 11.5)                  # a new round: still full, declined again, still waiting
+    assert [e.attempt for e in events(acts, DECLINED)] == [2] and waiting.uid in gm.assigner
+    own_event(gm, first.uid, GOAL_REACHED, 1)   # room in the queue
+    acts = gm.tick(10.0, 22.0)
+    assert [e.leg for e in events(acts, ACCEPTED)] == ["start"] and [g.start_state for g in goals(acts)] == [
+        LEG_COMMITTED]
+    assert waiting.uid in [t.uid for t in gm.queue] and not [a for a in acts if isinstance(a, SendCancel)]
+
+
+def test_a_long_queue_is_no_reason_to_decline_unless_max_wait_is_set(faculty) -> None:
+    from gidabot_navigation.guiding.assignment import AssignConfig
+    [trip] = goals(request(core(faculty), "301"))
+    mari = core(faculty, "MariSorgin")
+    mari.on_pending("Tartalo", [], 0.0, 1.0)
+    for i, target in enumerate(("301", "305", "310", "301", "305") * 3):   # its queue: 15 trips across the floor
+        mari.on_command(CommandData(command=REQUEST, goal_id=target, visitor_id=f"m{i}"), 10.0, 1.0)
+    acts = mari.on_goal(trip, 10.0, 1.0)
+    [acc] = events(acts, ACCEPTED)
+    assert acc.eta > 900 and not events(acts, DECLINED)      # the former fixed limit: 900 s
+    strict = core(faculty, "MariSorgin", assign=AssignConfig(max_wait=1.0))
+    [dec] = events(strict.on_goal(trip, 10.0, 1.0), DECLINED)
+    assert "more than max_wait 1 s" in dec.detail
+
+
+def test_a_commit_to_a_full_queue_is_refused_and_cancelled(faculty) -> None:
     gm = core(faculty, max_queue=2)
     request(gm, "001")
     request(gm, "022")
-    acts = request(gm, "012")
-    assert len(gm.queue) == 2 and events(acts, DECLINED) and events(acts, REJECTED)
-    assert "queue of Tartalo is full" in events(acts, REJECTED)[0].detail
-    assert goals(acts) == [] and not [a for a in acts if isinstance(a, SendCancel)]   # nobody else heard of it
     # a trip committed here while the queue is full (never answered here) is refused and cancelled everywhere
     [down] = goals(request(core(faculty, "Kbot"), "012", visitor="w"))
     assert (down.goal_robot, down.goal_state) == ("Tartalo", LEG_PROPOSED)
@@ -297,6 +329,24 @@ def test_continue_after_a_step_issues_the_next_from_here(tour_gm) -> None:
     assert nxt.way == "lift" and nxt.language == "eu" and nxt.visitor_id == "v"      # remembered from the step
     # the same Continue again does nothing more
     assert tour_gm.on_command(CommandData(command=CONTINUE, goal_uid=trip.uid), 11.0, 1.0) == []
+
+
+def test_two_visitors_on_the_same_tour_at_one_robot_keep_their_own_steps(tour_gm) -> None:
+    """Visitor a finished step 2 here and is about to press Continue; visitor b starts the same tour at this screen
+    (many visitors: found on faculty6 seed 2, a's Continue was lost): a's step waits on, its Continue goes on."""
+    trip = replace(goals(start(tour_gm))[0], uid="Tartalo/a/9", origin_robot="Tartalo", visitor_id="a",
+                   initial_floor=0.0, goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
+                   start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="Kbot", goal_state=LEG_COMMITTED)
+    loc = tour_gm.building.location("101")
+    tour_gm.on_goal(replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw), 10.0, 1.0)
+    own_event(tour_gm, trip.uid, TOUR_STEP_DONE, 1, tour_file="real_world.tour", tour_step=2)
+    b = tour_gm.on_command(CommandData(command=START_TOUR, tour_file="real_world.tour", visitor_id="b"), 10.5, 1.0)
+    assert [g.visitor_id for g in goals(b)] == ["b"] and not [a for a in b if isinstance(a, SendCancel)]
+    [nxt] = goals(tour_gm.on_command(CommandData(command=CONTINUE, goal_uid=trip.uid, visitor_id="a"), 11.0, 1.0))
+    assert (nxt.visitor_id, nxt.tour_step, nxt.goal_id) == ("a", 3, "104")
+    # b cancels its own tour: a's next step is untouched
+    tour_gm.on_command(CommandData(command=CANCEL, goal_uid=goals(b)[0].uid, visitor_id="b"), 12.0, 1.0)
+    assert nxt.uid in [t.uid for t in tour_gm.queue]
 
 
 def test_skip_restart_cancel_and_finish(tour_gm) -> None:

@@ -109,3 +109,51 @@ def test_a_request_refused_before_any_goal_ends_that_visitors_visit() -> None:
     assert rows["b"]["outcome"] == rows["c"]["outcome"] == UNFINISHED
     assert s["problems"][0].startswith("a (complete, 115 from MariSorgin): refused")
     assert not any(p.startswith("a:") for p in s["problems"])        # refused, not lost
+
+
+def test_a_visitor_who_leaves_at_the_screen_chose_so() -> None:
+    """v1 is shown 700 s and accepts up to 600 s: it leaves (as chosen, no goal, not lost); v2 is shown 100 s and
+    asks: its visit is what counts."""
+    c = Crowd([plan("v1", patience_s=600.0), plan("v2", patience_s=600.0)])
+    assert c.feed({"kind": "visitor", "event": "left", "visitor": "v1", "robot": "Tartalo", "shown": [0.0, 700.0],
+                   "patience_s": 600.0, "sim": 10.0, "detail": "left: shown a wait of 700 s"})
+    assert c.feed({"kind": "visitor", "event": "asked", "visitor": "v2", "robot": "Tartalo", "shown": [0.0, 100.0],
+                   "patience_s": 600.0, "sim": 11.0})
+    assert not c.feed({"kind": "visitor", "event": "left", "visitor": "stranger", "sim": 12.0})
+    s = c.summary(["Tartalo"])
+    rows = {v["visitor"]: v for v in s["per_visitor"]}
+    assert rows["v1"]["outcome"] == "left" and rows["v1"]["as_chosen"] and rows["v1"]["shown_wait_s"] == 700.0
+    assert rows["v2"]["outcome"] == UNFINISHED and rows["v2"]["shown_wait_s"] == 100.0
+    assert s["left"] == 1 and s["problems"] == ["v2 (complete, 305 from Tartalo): unfinished",
+                                                "v2: its request made no goal (lost)"]
+    assert "1 left" in c.line()
+
+
+def test_a_trip_given_up_and_asked_again_is_a_new_request_not_a_duplicate() -> None:
+    """v1's trip is given up (PARTNER_OFFLINE: the robot upstairs was offline); v1 asks again 30 s later and
+    completes: one visit, completed, asked again once, nothing duplicated. v2 gets two goals at once: duplicated."""
+    c = Crowd([plan("v1"), plan("v2")])
+    for rec in (goal("T/v1/1", "v1", 10.0, goal_robot="MariSorgin", goal_state=LEG_PROPOSED),
+                event(1, "Tartalo", Phase.PARTNER_OFFLINE, "T/v1/1", 14.0),
+                goal("T/v1/2", "v1", 44.0, goal_robot="MariSorgin", goal_state=LEG_COMMITTED),
+                event(2, "MariSorgin", Phase.GOAL_REACHED, "T/v1/2", 300.0),
+                goal("T/v2/1", "v2", 20.0), goal("T/v2/2", "v2", 21.0),
+                event(3, "Tartalo", Phase.GOAL_REACHED, "T/v2/1", 90.0)):
+        c.feed(rec)
+    rows = {v["visitor"]: v for v in c.visitor_rows()}
+    assert (rows["v1"]["outcome"], rows["v1"]["asked_again"], rows["v1"]["duplicated"]) == (COMPLETED, 1, 0)
+    assert rows["v2"]["duplicated"] == 1
+    assert c.summary(["Tartalo"])["problems"] == ["v2: 1 duplicated goal(s)"]
+
+
+def test_an_event_that_overtakes_its_goal_counts_and_times_are_the_robots_stamps() -> None:
+    """The monitor sees Galtxagorri's ON_THE_WAY (stamped 137.4) before the goal (confirmed at 137.0, seen at
+    137.7): it is kept until the goal comes; the wait is 0.4 s (stamps), not the time of a later robot's move."""
+    c = Crowd([plan("v1", robot="Galtxagorri")])
+    first = dict(event(1, "Galtxagorri", Phase.ON_THE_WAY, "G/v1/1", 137.6), stamp=137.4)
+    assert not c.feed(first)
+    c.feed(dict(goal("G/v1/1", "v1", 137.7, start="Galtxagorri"), stamp=137.0))
+    c.feed(dict(event(2, "Kbot", Phase.GOING_TO_MEETING, "G/v1/1", 488.6), stamp=488.5))
+    c.feed(dict(event(3, "Kbot", Phase.GOAL_REACHED, "G/v1/1", 583.6), stamp=583.5))
+    [row] = c.visitor_rows()
+    assert (row["wait_s"], row["trip_s"], row["outcome"]) == (0.4, 446.5, COMPLETED)

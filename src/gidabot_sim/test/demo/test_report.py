@@ -287,17 +287,33 @@ def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
     assert out["rejected_goals"] == {"Kbot": 3}
 
 
-def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_fail(tmp_path: Path) -> None:
-    """Two visitors at Kbot: one completes, one was to complete but timed out: FAILED, exit 1; collisions are
-    reported as not measured (None), never as 0."""
-    pytest.importorskip("gidabot_msgs.msg")
+def _sim_diag(t: float, collisions: int | None, deadlocks: int = 0):
+    """The floor simulator's /diagnostics status (``robot_collisions`` None: an old simulator without the count)."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+    values = [KeyValue("sim_time", f"{t:.2f}")]
+    if collisions is not None:
+        values += [KeyValue("robot_collisions", str(collisions)), KeyValue("robot_deadlocks", str(deadlocks))]
+    msg = DiagnosticArray(status=[DiagnosticStatus(name="sim: floor 1", values=values)])
+    msg.header.stamp.secs, msg.header.stamp.nsecs = int(t), int((t % 1) * 1e9)
+    return msg
+
+
+def _crowd_run(tmp_path: Path, *, collisions: tuple[int | None, ...] = (0, 0), no_show_b: bool = True,
+               extra_msgs: tuple = (), extra_monitor: tuple = (), visitors: tuple = ("a", "b")) -> dict:
+    """A many-visitors run folder at Kbot: a completes; b times out (as it chose when ``no_show_b``); the bag holds
+    the simulator's collision counter at 10 s and 300 s. Returns the report (report.json)."""
+    tmp_path.mkdir(parents=True)
     gm, nav = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
     msgs = [(Topic.GOALS, _goal("Kbot/a/1", "Kbot", "104", visitor_id="a"), 1.0, gm),
             (Topic.GOALS, _goal("Kbot/b/1", "Kbot", "110", visitor_id="b"), 2.0, gm),
             (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ACCEPTED, 1.5), 1.5, gm),
             (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.ON_THE_WAY, 5.0), 5.0, nav),
             (Topic.NAV_EVENTS, _event("Kbot", "Kbot/a/1", Phase.GOAL_REACHED, 40.0), 40.0, nav),
-            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/b/1", Phase.TIMEOUT, 400.0), 400.0, nav)]
+            (Topic.NAV_EVENTS, _event("Kbot", "Kbot/b/1", Phase.TIMEOUT, 400.0), 400.0, nav),
+            (Topic.DIAGNOSTICS, _sim_diag(10.0, collisions[0]), 10.0),
+            (Topic.DIAGNOSTICS, _sim_diag(300.0, collisions[1]), 300.0), *extra_msgs]
+    msgs.sort(key=lambda m: m[2])
     _bag(tmp_path / "Kbot.bag", msgs)
     monitor = [{"kind": "goal", "uid": "Kbot/a/1", "visitor_id": "a", "sim": 1.0, "wall": 0.1, "start_robot": "Kbot",
                 "start_state": LEG_COMMITTED, "attempt": 1},
@@ -308,23 +324,87 @@ def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_f
                {"kind": "event", "uid": "Kbot/event/2", "robot": "Kbot", "goal_uid": "Kbot/a/1",
                 "phase": Phase.GOAL_REACHED, "sim": 40.0},
                {"kind": "event", "uid": "Kbot/event/3", "robot": "Kbot", "goal_uid": "Kbot/b/1",
-                "phase": Phase.TIMEOUT, "sim": 400.0}]
+                "phase": Phase.TIMEOUT, "sim": 400.0}, *extra_monitor]
     (tmp_path / "monitor.jsonl").write_text("".join(json.dumps(r) + "\n" for r in monitor))
-    population = [{"visitor_id": v, "arrive_s": 0.0, "robot": "Kbot", "way": "stairs", "goal_id": g}
-                  for v, g in (("a", "104"), ("b", "110"))]
-    run = {"tour": "2 visitors", "goals": 2, "building": str(REPO / "maps" / "faculty"), "outcome": "completed",
-           "seed": 5, "visitors": 2, "population": population,
+    targets = {"a": "104", "b": "110", "c": "115"}
+    population = [{"visitor_id": v, "arrive_s": 0.0, "robot": "Kbot", "way": "stairs", "goal_id": targets[v],
+                   "no_show": v == "b" and no_show_b} for v in visitors]
+    run = {"tour": f"{len(visitors)} visitors", "goals": 2, "building": str(REPO / "maps" / "faculty"),
+           "outcome": "completed", "seed": 5, "visitors": len(visitors), "population": population,
            "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}]}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 1
+    code = report.main([str(tmp_path), "--json", "--no-plots"])
     out = json.loads((tmp_path / "report.json").read_text())
-    assert (out["visitors"], out["completed"], out["timed_out"], out["verdict"]) == (2, 1, 1, "FAILED")
-    assert out["collisions"] is None and "not measured" in out["collisions_note"]
+    assert code == (1 if out["verdict"] == "FAILED" else 0)
+    return out
+
+
+def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_fail(tmp_path: Path) -> None:
+    """Two visitors at Kbot: one completes, one never turns up at the meeting point as it chose: PASSED, with the
+    statistics and the collisions counted by the simulator (0); b wanting to arrive but timing out: FAILED."""
+    pytest.importorskip("gidabot_msgs.msg")
+    out = _crowd_run(tmp_path / "ok")
+    assert (out["visitors"], out["completed"], out["timed_out"], out["verdict"]) == (2, 1, 1, "PASSED")
+    assert (out["collisions"], out["deadlocks"], out["problems"]) == (0, 0, [])
     assert (out["legs_double_served"], out["legs_unserved"], out["wait_mean_s"], out["wait_p95_s"]) == (0, 0, 4.0, 4.0)
-    assert out["problems"] == ["b (complete, 110 from Kbot): timed out"]
     assert out["population"]["per_robot"][0]["legs_served"] == 2
     text = report.format_tables(out)
-    assert "Visitors: 2 (seed 5): 1 completed" in text and "Verdict: FAILED" in text
-    population[1]["no_show"] = True                 # it never came: timing out is as it chose
-    (tmp_path / "run.json").write_text(json.dumps({**run, "population": population}))
-    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0
+    assert "Visitors: 2 (seed 5): 1 completed" in text and "Verdict: PASSED" in text
+    assert "Collisions (robot-robot): 0" in text
+    out = _crowd_run(tmp_path / "not_chosen", no_show_b=False)
+    assert out["verdict"] == "FAILED" and out["problems"] == ["b (complete, 110 from Kbot): timed out"]
+
+
+def test_the_verdict_fails_on_a_collision_or_a_count_that_is_missing(tmp_path: Path) -> None:
+    pytest.importorskip("gidabot_msgs.msg")
+    out = _crowd_run(tmp_path / "hit", collisions=(0, 1))
+    assert (out["collisions"], out["verdict"]) == (1, "FAILED")
+    assert out["problems"] == ["1 robot-robot collision(s): Kbot 1"]
+    out = _crowd_run(tmp_path / "restarted", collisions=(2, 0))       # the simulator restarted after 2: still 2
+    assert out["collisions"] == 2 and out["verdict"] == "FAILED"
+    out = _crowd_run(tmp_path / "old", collisions=(None, None))
+    assert out["collisions"] is None and out["verdict"] == "FAILED"
+    assert out["problems"] == ["robot-robot collisions not measured (no count from the simulator of Kbot)"]
+
+
+def test_the_verdict_fails_on_a_leg_served_twice_or_by_nobody(tmp_path: Path) -> None:
+    pytest.importorskip("gidabot_msgs.msg")
+    gm, nav = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
+    # a second robot of Kbot's floor also announces the start leg of a's trip as its own: two robots on one leg
+    twice = _event("Kbot", "Kbot/a/1", Phase.ASSIGNED, 1.2)
+    twice.leg, twice.assignee = LEG_START, "Basajaun"
+    serve = _event("Kbot", "Kbot/a/1", Phase.ON_THE_WAY, 5.0)
+    serve.leg = LEG_START
+    out = _crowd_run(tmp_path / "twice", extra_msgs=((Topic.NAV_EVENTS, twice, 1.2, gm),
+                                                     (Topic.NAV_EVENTS, serve, 5.0, nav)))
+    assert out["legs_double_served"] == 1 and out["verdict"] == "FAILED"
+    assert any("served by Basajaun, Kbot" in p for p in out["problems"])
+    # a goal whose start leg was proposed and never taken, and whose trip never ended: a leg served by nobody
+    orphan = _goal("Kbot/c/1", "Kbot", "115", visitor_id="c", start_state=LEG_PROPOSED, attempt=1)
+    out = _crowd_run(tmp_path / "nobody", visitors=("a", "b", "c"),
+                     extra_msgs=((Topic.GOALS, orphan, 3.0, gm),),
+                     extra_monitor=({"kind": "goal", "uid": "Kbot/c/1", "visitor_id": "c", "sim": 3.0,
+                                     "start_robot": "Kbot", "start_state": LEG_PROPOSED, "attempt": 1},))
+    assert out["legs_unserved"] == 1 and out["verdict"] == "FAILED"
+    assert "leg start of Kbot/c/1 served by nobody" in out["problems"]
+
+
+def test_the_verdict_fails_on_a_lost_or_a_duplicated_goal(tmp_path: Path) -> None:
+    pytest.importorskip("gidabot_msgs.msg")
+    # c asked (the visitor's record) and no goal was ever made for it: lost
+    out = _crowd_run(tmp_path / "lost", visitors=("a", "b", "c"),
+                     extra_monitor=({"kind": "visitor", "event": "asked", "visitor": "c", "robot": "Kbot",
+                                     "shown": [0.0], "patience_s": 600.0, "sim": 2.5},))
+    assert out["verdict"] == "FAILED" and "c: its request made no goal (lost)" in out["problems"]
+    # a second goal for a's one request while the first is open: duplicated
+    gm = global_name(Node.GOAL_MANAGER)
+    dup = _goal("Kbot/a/2", "Kbot", "104", visitor_id="a")
+    out = _crowd_run(tmp_path / "dup", extra_msgs=((Topic.GOALS, dup, 1.1, gm),),
+                     extra_monitor=({"kind": "goal", "uid": "Kbot/a/2", "visitor_id": "a", "sim": 1.1,
+                                     "start_robot": "Kbot", "start_state": LEG_COMMITTED, "attempt": 1},))
+    assert out["verdict"] == "FAILED" and "a: 1 duplicated goal(s)" in out["problems"]
+    # c left at the screen (shown a wait beyond its patience): as it chose, PASSED
+    out = _crowd_run(tmp_path / "left", visitors=("a", "b", "c"),
+                     extra_monitor=({"kind": "visitor", "event": "left", "visitor": "c", "robot": "Kbot",
+                                     "shown": [900.0], "patience_s": 600.0, "sim": 2.5},))
+    assert (out["left"], out["verdict"]) == (1, "PASSED")

@@ -182,3 +182,21 @@ def test_a_door_closed_far_from_any_robot_still_aborts_after_the_planner_patienc
     took = floor.run({0: Pose2D(13.0, 1.5, 0.0)}, timeout=120.0)
     assert floor.results[0].outcome == (ABORTED if blocked else SUCCEEDED)
     assert took < (10.0 if blocked else 60.0)
+
+
+def test_a_goal_where_another_robot_stands_is_reached_next_to_it() -> None:
+    """B is parked on A's goal (a meeting point, or the screen where A's visitor asked): A stops next to it
+    and succeeds there, without touching it; once B has left, the same goal is reached on the spot."""
+    hall = floor_map(12.0, 6.0, [(0.5, 0.5, 11.5, 5.5)])
+    floor = Floor(hall, {"A": Pose2D(2.0, 3.0, 0.0), "B": Pose2D(9.0, 3.0, 0.0)})
+    took = floor.run({0: Pose2D(9.0, 3.0, 0.0)}, timeout=120.0)
+    assert floor.results[0].outcome == SUCCEEDED, floor.logs["A"].lines
+    a = floor.world.robots[0].pose
+    assert 0.6 <= math.hypot(a.x - 9.0, a.y - 3.0) <= 1.2 and took < 40.0
+    assert any("robot B stands at the goal; stopping next to it" in line for line in floor.logs["A"].lines)
+    assert floor.world.robot_collisions == 0 and floor.world.deadlocks == 0 and floor.min_gap > 0.0
+    floor.world.teleport(1, Pose2D(9.0, 5.0, 0.0))           # B leaves
+    floor.results.clear()
+    floor.run({0: Pose2D(9.0, 3.0, 0.0)}, timeout=60.0)
+    a = floor.world.robots[0].pose
+    assert floor.results[0].outcome == SUCCEEDED and math.hypot(a.x - 9.0, a.y - 3.0) <= 0.25

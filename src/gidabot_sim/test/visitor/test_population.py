@@ -66,3 +66,32 @@ def test_plans_read_back_are_checked(faculty6) -> None:
     with pytest.raises(SimConfigError, match="visitors"):
         make_population(faculty6, 0, 1)
     assert VisitorPlan.from_dict({**good, "cancel_after_s": 12.0}).intent == INTENT_CANCEL
+
+
+def test_patience_comes_from_a_stream_of_its_own(faculty6) -> None:
+    """The patience is drawn apart: the same seed gives the same arrivals, robots, targets, cancels and no-shows
+    with or without it, so runs stay comparable."""
+    tours = {"real_world.tour": 8}
+    with_patience = make_population(faculty6, 60, 4, tours)
+    without = make_population(faculty6, 60, 4, tours, patience_s=None)
+    assert [p.__class__(**{**p.to_dict(), "patience_s": -1.0}) for p in with_patience] == list(without)
+    assert all(300.0 <= p.patience_s <= 1200.0 for p in with_patience)
+    assert len({p.patience_s for p in with_patience}) > 50 and {p.patience_s for p in without} == {-1.0}
+    assert make_population(faculty6, 60, 4, tours) == with_patience
+    assert plans_from_list([p.to_dict() for p in with_patience], faculty6) == with_patience
+    with pytest.raises(SimConfigError, match="patience"):
+        make_population(faculty6, 5, 1, patience_s=(10.0, 5.0))
+
+
+def test_the_same_seed_gives_the_same_visitors_on_both_faculties(faculty6) -> None:
+    """maps/faculty and maps/faculty6 have robots on the same floors and the same places: the same visitors
+    (arrival, floor, target, way, cancel, no-show, patience), only the robot of a two-robot floor may differ."""
+    faculty = load_building(MAPS / "faculty")
+    tours = {"real_world.tour": 8}
+    four, six = make_population(faculty, 60, 1, tours), make_population(faculty6, 60, 1, tours)
+    floor4 = [faculty.robot(p.robot).floor for p in four]
+    assert floor4 == [faculty6.robot(p.robot).floor for p in six]
+    assert [p.__class__(**{**p.to_dict(), "robot": ""}) for p in four] == \
+        [p.__class__(**{**p.to_dict(), "robot": ""}) for p in six]
+    assert {p.robot for p in six if faculty6.robot(p.robot).floor == 1.0} == {"Kbot", "Basajaun"}
+    assert len(set(floor4)) == 4

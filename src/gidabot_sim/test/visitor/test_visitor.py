@@ -239,3 +239,42 @@ def test_a_no_show_never_continues_at_the_meeting_point() -> None:
     assert up.step(1000.0) == []
     up.on_event(1300.0, "e3", "MariSorgin", Phase.TIMEOUT, "g1", 3, 3)
     assert up.finished
+
+
+def test_a_visitor_shown_a_wait_beyond_its_patience_does_not_confirm() -> None:
+    patient = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
+    [cmd] = patient.start(0.0, (30.0, 590.0))
+    assert cmd.command == Cmd.REQUEST and not patient.left and patient.shown == (30.0, 590.0)
+    hurried = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
+    assert hurried.start(0.0, (30.0, 601.0)) == [] and hurried.left and hurried.finished
+    assert "601 s" in hurried.outcome and "600 s" in hurried.outcome
+    assert hurried.step(1000.0) == []                     # nothing more: it went away
+    unknown = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=10.0))
+    assert len(unknown.start(0.0, (None, None))) == 1     # nothing shown it could judge: it confirms
+    anyone = v.VisitorCore(cfg("Tartalo", 0, goal_id="305"))
+    assert len(anyone.start(0.0, (5000.0,))) == 1        # no patience set: waits however long
+
+
+def test_the_screen_shows_the_waits_the_robot_will_decide_on() -> None:
+    """faculty6: at Tartalo's screen, a trip to 223 (floor 2): Tartalo itself for the start leg, Galtxagorri (nearer
+    the west stairs) for the goal leg; once Galtxagorri's queue is long, Lamia, with a longer wait than before."""
+    from pathlib import Path
+
+    from gidabot_navigation.building.model import load_building
+    from gidabot_navigation.guiding.messages import Trip
+
+    building = load_building(Path(__file__).resolve().parents[4] / "maps" / "faculty6")
+    screen = v.Screen(building)
+    for r in building.robots:
+        screen.on_status(r.name, 100.0, (r.home.x, r.home.y))
+    start, goal = screen.waits("Tartalo", "223", "stairs", 100.0)
+    assert start == 0.0 and goal is not None and goal > 0
+    busy = Trip(uid="Galtxagorri/x/1", origin_robot="Galtxagorri", visitor_id="x", initial_floor=2.0,
+                initial_x=30.0, initial_y=12.0, goal_floor=2.0, goal_x=63.0, goal_y=12.0, goal_yaw=0.0, way="stairs",
+                connector="", start_id="robot", goal_id="231", language="en", start_robot="Galtxagorri",
+                start_state=2, attempt=2)
+    screen.on_pending("Galtxagorri", [busy], 2000.0, 100.0)
+    _, later = screen.waits("Tartalo", "223", "stairs", 100.0)
+    assert later is not None and later > goal and later < 2000.0      # Lamia, not Galtxagorri's 2000 s
+    assert screen.waits("Tartalo", "223", "stairs", 200.0) == (None, None)   # nobody heard for 100 s: unknown
+    assert screen.waits("Tartalo", "nowhere", "stairs", 100.0) == ()

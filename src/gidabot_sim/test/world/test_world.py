@@ -283,3 +283,66 @@ def test_two_robots_blocking_each_other_are_reported_as_a_deadlock_once() -> Non
     world.set_active(b, False)
     drive(world, a, 0.0, 0.0, 0.3, 60.0)                   # parked robots side by side are no deadlock
     assert world.deadlocks == 1
+
+
+def test_two_worlds_of_one_floor_share_it_through_their_mates() -> None:
+    """A and B share a floor but not a simulator: each world moves its own robot and carries the other along
+    what its world wrote (pose, velocity, time). A drives east into B, B drives west into A: each sees the other
+    in its laser, each is stopped by the other, never overlapping it; each world counts the contact its own
+    robot had (both drove: one in each)."""
+    wa, wb = World(hall(), dt=0.02), World(hall(), dt=0.02)
+    a, a_mate = wa.add_robot(spec("A"), Pose2D(2.0, 3.0, 0.0)), wa.add_mate(spec("B"), Pose2D(8.0, 3.0, math.pi))
+    b, b_mate = wb.add_robot(spec("B"), Pose2D(8.0, 3.0, math.pi)), wb.add_mate(spec("A"), Pose2D(2.0, 3.0, 0.0))
+    assert wa.own == [a] and wb.own == [b]
+    assert wa.seen_robots(a) == [a_mate] and wb.seen_robots(b) == [b_mate]
+    scan = wa.scan(a, noisy=False)
+    assert abs(scan[180] - (8.0 - 2.1 - 0.3)) < 0.05             # the beam ahead ends on B's disc
+
+    def share(src: World, i: int, dst: World, j: int) -> None:
+        r = src.robots[i]
+        c, s_ = math.cos(r.pose.yaw), math.sin(r.pose.yaw)
+        dst.set_mate(j, r.pose, r.vel.vx * c - r.vel.vy * s_, r.vel.vx * s_ + r.vel.vy * c, src.time, True)
+
+    for _ in range(150):                                          # 15 s, 0.1 s steps, the two worlds in turn
+        wa.set_command(a, 0.6, 0.0, 0.0)
+        wb.set_command(b, 0.6, 0.0, 0.0)
+        wa.advance_to(wa.time + 0.1)
+        share(wa, a, wb, b_mate)
+        wb.advance_to(wb.time + 0.1)
+        share(wb, b, wa, a_mate)
+        gap = math.dist((wa.robots[a].pose.x, wa.robots[a].pose.y), (wb.robots[b].pose.x, wb.robots[b].pose.y))
+        assert gap >= 0.6 - 0.06                                 # never overlapping (one step of the other's drive)
+    assert wa.robots[a].stalled and wb.robots[b].stalled
+    assert (wa.robot_collisions, wb.robot_collisions) == (1, 1)
+    assert [e.robots for e in wa.take_events() if e.kind == "collision"] == [("A", "B")]
+    with pytest.raises(ValueError, match="not a mate"):
+        wa.set_mate(a, Pose2D(0, 0, 0), 0, 0, 0, False)
+    # a mate is carried along its velocity for at most 0.5 s past its last known time
+    wc = World(hall(), dt=0.02)
+    wc.add_robot(spec("C"), Pose2D(1.0, 1.0, 0.0))
+    m = wc.add_mate(spec("D"), Pose2D(5.0, 3.0, 0.0))
+    wc.set_mate(m, Pose2D(5.0, 3.0, 0.0), 0.5, 0.0, -0.2, True)
+    assert math.isclose(wc.robots[m].pose.x, 5.1)
+    wc.advance_to(2.0)
+    assert math.isclose(wc.robots[m].pose.x, 5.25) and wc.robots[m].active
+
+
+def test_the_mates_file_holds_each_robots_latest_motion(tmp_path) -> None:
+    from gidabot_sim.world.mates import NEVER, Mates, MateState, mate_motion
+
+    with Mates.create(tmp_path / "mates", [Pose2D(1.0, 2.0, 0.0), Pose2D(3.0, 4.0, 1.0)]) as created:
+        with Mates.open(tmp_path / "mates") as sim:
+            home = sim.read(1)
+            assert (home.sim, home.x, home.y, home.yaw) == (NEVER, 3.0, 4.0, 1.0)
+            assert mate_motion(home, 100.0, 5.0) == (Pose2D(3.0, 4.0, 1.0), 0.0, 0.0, NEVER, False)
+            sim.write(1, MateState(12.5, 100.0, 3.5, 4.0, 0.0, 0.4, 0.0, 1.0))
+            state = created.read(1)
+            assert mate_motion(state, 101.0, 5.0) == (Pose2D(3.5, 4.0, 0.0), 0.4, 0.0, 12.5, True)
+            assert mate_motion(state, 106.0, 5.0)[1:] == (0.0, 0.0, 12.5, False)     # its simulator stopped
+        with pytest.raises(SimConfigError, match="slot"):
+            created.read(2)
+    (tmp_path / "junk").write_bytes(b"x" * 100)
+    with pytest.raises(SimConfigError, match="not a mates file"):
+        Mates.open(tmp_path / "junk")
+    with pytest.raises(SimConfigError, match="cannot open"):
+        Mates.open(tmp_path / "none")

@@ -4,16 +4,13 @@ their waits, ranked as the robot will rank them when the visitor confirms
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_navigation.building.model import Building, Location
-from gidabot_navigation.errors import NoRouteError
 from gidabot_navigation.guiding.assignment import AssignConfig
-from gidabot_navigation.guiding.messages import START_ROBOT, Trip
-from gidabot_navigation.guiding.trips import WaitModel, rank_candidates
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_START, WAY_LIFT, WAY_STAIRS
+from gidabot_navigation.guiding.trips import WaitModel, preview_trip
+from gidabot_navigation.interface import LEG_START, WAY_LIFT, WAY_STAIRS
 
 
 @dataclass(frozen=True)
@@ -56,39 +53,22 @@ def leg_waits(fleet: Fleet, robot: str, goal: Location, now: float) -> tuple[Rob
     """The robot of each leg of a trip from ``robot`` to ``goal`` and its wait: for the start leg this robot
     (or another of its floor coming sooner), for the goal leg the robot of the goal floor at the meeting point
     first (by the stairs when they join the floors). A leg nobody online can serve: its floor's first robot,
-    not available."""
+    not available. (:func:`~gidabot_navigation.guiding.trips.preview_trip`: the robot decides the same way.)"""
     building = fleet.building
     here = building.robot(robot)
     pose = fleet.robots[robot].pose or (here.home.x, here.home.y, here.home.yaw)
-    trip = Trip(uid="", origin_robot=robot, visitor_id="", initial_floor=here.floor, initial_x=pose[0],
-                initial_y=pose[1], goal_floor=goal.floor, goal_x=goal.pose.x, goal_y=goal.pose.y,
-                goal_yaw=goal.pose.yaw, way=WAY_STAIRS, connector="", start_id=START_ROBOT, goal_id=goal.id,
-                language="en", start_robot=robot, start_state=LEG_COMMITTED)
-    legs = [(LEG_START, here.floor)]
-    if goal.floor != here.floor and building.has_robot(goal.floor):
-        ways = ways_between(building, here.floor, goal.floor)
-        try:
-            choice = fleet.planner.choose_connector(here.floor, pose[:2], goal.floor, (goal.pose.x, goal.pose.y),
-                                                    ways[0] if ways else WAY_STAIRS)
-        except NoRouteError:
-            choice = None
-        if choice is not None:
-            trip = replace(trip, way=choice.way, connector=choice.connector.id)
-            legs.append((LEG_GOAL, goal.floor))
-    views = fleet.views()
+    ways = ways_between(building, here.floor, goal.floor)
     waits = []
-    for leg, floor in legs:
-        ranked = rank_candidates(fleet.planner, WaitModel(), trip, leg, views,
-                                 lambda r: not fleet.is_offline(r, now), now,
-                                 prefer=robot if leg == LEG_START else "", prefer_gain=AssignConfig.helper_gain)
-        if not ranked:
-            name = robot if leg == LEG_START else building.robots_on(floor)[0].name
-            waits.append(RobotWait(name, floor, name == robot, known=False, leg=leg))
+    for p in preview_trip(fleet.planner, WaitModel(), here, (pose[0], pose[1]), goal,
+                          ways[0] if ways else WAY_STAIRS, fleet.views(), lambda r: not fleet.is_offline(r, now),
+                          now, AssignConfig.helper_gain):
+        if p.candidate is None:
+            name = robot if p.leg == LEG_START else building.robots_on(p.floor)[0].name
+            waits.append(RobotWait(name, p.floor, name == robot, known=False, leg=p.leg))
             continue
-        best = ranked[0]
-        info = fleet.wait_of(best.robot, now)
-        waits.append(RobotWait(best.robot, floor, best.robot == robot, known=True, num=info[0] if info else 0,
-                               wait_s=best.eta if math.isfinite(best.eta) else None, leg=leg))
+        info = fleet.wait_of(p.candidate.robot, now)
+        waits.append(RobotWait(p.candidate.robot, p.floor, p.candidate.robot == robot, known=True,
+                               num=info[0] if info else 0, wait_s=p.wait_s, leg=p.leg))
     return tuple(waits)
 
 

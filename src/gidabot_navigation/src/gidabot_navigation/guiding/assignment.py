@@ -11,14 +11,19 @@ needs exactly one of them, whatever the network does. The protocol (``docs/guidi
    robots of that floor (:func:`~gidabot_navigation.guiding.trips.rank_candidates`) and
    proposes the leg to the first: it broadcasts the Goal with the leg ``LEG_PROPOSED`` to
    that robot, as assignment ``attempt`` n (every change is a new, higher attempt).
-2. A robot that finds a leg newly proposed to it answers once, ACCEPTED (leg, attempt, its
-   own eta; it queues the trip but does not run it) or DECLINED (queue full, busy too long).
+2. A robot that finds a leg newly proposed to it answers once per proposal (attempt), ACCEPTED
+   (leg, attempt, its own eta; it queues the trip but does not run it) or DECLINED (its queue is
+   full; or, only where ``max_wait`` is configured, it could not be there in time). A long queue
+   is no reason to decline: the visitor was shown the wait before confirming, and chose.
 3. The requester commits on an ACCEPTED of the robot the leg is proposed to *now*: it
    broadcasts the Goal with the leg ``LEG_COMMITTED`` (attempt n+1) and an ASSIGNED event.
    A leg is committed once, to one robot, and never changes afterwards.
 4. DECLINED, no answer within ``answer_timeout`` or the robot offline: the leg is proposed
    to the next robot (a new attempt); an answer to an older proposal is ignored. No robot
-   left: the requester gives the trip up (:class:`GaveUp`), visibly, for every robot.
+   left: if one of them declined (it is there, its queue is full), the leg *waits*: after
+   ``requeue_after`` a new round proposes it again, best robot first, until one accepts; if
+   none declined (every one offline or silent), the requester gives the trip up
+   (:class:`GaveUp`), visibly, for every robot.
 5. A robot runs a leg only while the newest Goal it has of the trip (highest attempt)
    commits that leg to it; it drops a trip the newest Goal no longer names it in, ignores
    a Goal older than the newest it has, and forgets an unconfirmed proposal after
@@ -58,21 +63,30 @@ from gidabot_navigation.interface import (
 @dataclass(frozen=True)
 class AssignConfig:
     """``answer_timeout`` (wall s): how long a proposed robot has to answer; ``proposal_ttl`` (wall s): how
-    long a robot keeps a proposal that is never confirmed; ``max_wait`` (s): a robot declines a leg it could
-    not be at before this; ``helper_gain`` (s): another robot of the start floor comes to the visitor only if
-    it is there at least this much sooner than the robot the visitor stands at."""
+    long a robot keeps a proposal that is never confirmed; ``max_wait`` (s, 0 = off, the default): a robot
+    declines a leg it could not be at before this (the paper's design has no such limit: the visitor is shown
+    the wait and decides; a site may configure one); ``helper_gain`` (s): another robot of the start floor comes
+    to the visitor only if it is there at least this much sooner than the robot the visitor stands at;
+    ``requeue_after`` (wall s): a leg every robot of its floor declined (queues full) waits this long before it
+    is proposed again."""
 
     answer_timeout: float = 3.0
     proposal_ttl: float = 60.0
-    max_wait: float = 900.0
+    max_wait: float = 0.0
     helper_gain: float = 20.0
+    requeue_after: float = 10.0
 
     def __post_init__(self) -> None:
-        for name in ("answer_timeout", "proposal_ttl", "max_wait", "helper_gain"):
+        for name in ("answer_timeout", "proposal_ttl", "max_wait", "helper_gain", "requeue_after"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-                    or value < 0 or (value == 0 and name != "helper_gain"):
-                raise GuidingError(f"{name}: {value!r} must be a positive number of seconds")
+                    or value < 0 or (value == 0 and name not in ("helper_gain", "max_wait")):
+                raise GuidingError(f"{name}: {value!r} must be a positive number of seconds"
+                                   + (" (0: no limit)" if name == "max_wait" else ""))
+
+    def too_long(self, eta: float) -> bool:
+        """True when a robot that could be at a leg's meeting point in ``eta`` s declines it (``max_wait`` set)."""
+        return self.max_wait > 0 and eta > self.max_wait
 
 
 # -- what the requester asks its goal manager to do ---------------------------------------
@@ -104,6 +118,7 @@ class GaveUp:
 
 
 Output = Publish | Assigned | GaveUp
+MAX_PASSED = 20           # reasons kept per leg (the detail of a trip given up)
 # (trip, leg, robots to leave out, wall s) -> the online robots that could serve the leg, best first
 Ranker = Callable[[Trip, str, Sequence[str], float], list[Candidate]]
 
@@ -120,6 +135,10 @@ class LegTry:
     tried: list[str] = field(default_factory=list)     # every robot proposed so far, in order
     passed: list[str] = field(default_factory=list)    # why the earlier ones do not serve it
     done: bool = False       # the committed robot has finished its part
+    declined: list[str] = field(default_factory=list)  # robots that declined it in this round
+    waiting: bool = False    # every robot of the floor passed, one at least declined: asked again after
+    #                          ``requeue_after`` (since ``since``); ``robot`` is then the last one asked
+    rounds: int = 1          # rounds of proposals so far
 
 
 class Assigner:
@@ -164,22 +183,30 @@ class Assigner:
         if rec is None or rec.state != LEG_PROPOSED or rec.robot != robot or attempt < rec.attempt:
             return []
         if not accepted:
+            if rec.waiting:
+                return []               # the leg already waits for its next round
+            rec.declined.append(robot)
             return self._next(goal_uid, leg, f"{robot} declined" + (f" ({detail})" if detail else ""), now_wall)
-        rec.state, rec.eta = LEG_COMMITTED, eta
+        # (a late ACCEPTED of the last robot asked, while the leg waits: the newest attempt still proposes it there)
+        rec.state, rec.eta, rec.waiting = LEG_COMMITTED, eta, False
         trip = self._bump(goal_uid, leg, robot, LEG_COMMITTED)
         return [Publish(trip), Assigned(trip, leg, robot, eta)]
 
     def tick(self, now_wall: float, online: Callable[[str], bool]) -> list[Output]:
         """Proposals nobody answered in time: the next robot. A robot proposed a leg (online then) that goes
         offline has the same ``answer_timeout`` to answer: it was heard at most ``offline_after`` ago, its status
-        and its answer may come together when a short cut heals (a 4.7 s cut ended trips it did not need to)."""
+        and its answer may come together when a short cut heals (a 4.7 s cut ended trips it did not need to).
+        A leg that waits (its floor's robots declined it) is proposed again after ``requeue_after``."""
         out: list[Output] = []
         for uid in list(self.legs):
             for leg, rec in list(self.legs.get(uid, {}).items()):
                 if rec.state != LEG_PROPOSED or uid not in self.legs:      # (given up by its other leg)
                     continue
                 rec.since = min(rec.since, now_wall)         # the monotonic clock restarted (host reboot)
-                if now_wall - rec.since >= self.cfg.answer_timeout:
+                if rec.waiting:
+                    if now_wall - rec.since >= self.cfg.requeue_after:
+                        out += self._round(uid, leg, now_wall)
+                elif now_wall - rec.since >= self.cfg.answer_timeout:
                     why = (f"{rec.robot} is offline" if not online(rec.robot) else
                            f"{rec.robot} did not answer within {self.cfg.answer_timeout:g} s")
                     out += self._next(uid, leg, why, now_wall)
@@ -204,13 +231,29 @@ class Assigner:
     def _next(self, uid: str, leg: str, why: str, now_wall: float) -> list[Output]:
         rec = self.legs[uid][leg]
         rec.passed.append(why)
+        del rec.passed[:-MAX_PASSED]
         trip = self.trips[uid]
         candidates = self.rank(trip, leg, tuple(rec.tried), now_wall)
+        if not candidates and rec.declined:
+            # every robot of the floor passed and one at least is there but declined (queue full): the leg waits
+            # and is asked again in a new round; it is never left without a robot while one could take it
+            rec.waiting, rec.since = True, now_wall
+            return []
         if not candidates:
             self.close(uid)
             floor = format_floor(leg_floor(trip, leg))
             return [GaveUp(trip, leg, f"no robot of floor {floor} can serve it: {'; '.join(rec.passed)}")]
-        best = candidates[0]
+        return self._propose(uid, leg, candidates[0], now_wall)
+
+    def _round(self, uid: str, leg: str, now_wall: float) -> list[Output]:
+        """A new round for a leg that waited: every online robot of its floor again, best first."""
+        rec = self.legs[uid][leg]
+        rec.tried, rec.declined, rec.waiting = [], [], False
+        rec.rounds += 1
+        return self._next(uid, leg, f"round {rec.rounds}", now_wall)
+
+    def _propose(self, uid: str, leg: str, best: Candidate, now_wall: float) -> list[Output]:
+        rec = self.legs[uid][leg]
         rec.robot, rec.since, rec.eta = best.robot, now_wall, best.eta
         rec.tried.append(best.robot)
         trip = self._bump(uid, leg, best.robot, LEG_PROPOSED)
@@ -242,7 +285,8 @@ class Assigner:
                 parsed[leg] = LegTry(str(r["robot"]), int(r["state"]), number(r["since"], "since"),
                                      int(number(r["attempt"], "attempt")), number(r.get("eta", 0.0), "eta"),
                                      str_list(r.get("tried", []), "tried"), str_list(r.get("passed", []), "passed"),
-                                     bool(r.get("done", False)))
+                                     bool(r.get("done", False)), str_list(r.get("declined", []), "declined"),
+                                     bool(r.get("waiting", False)), int(number(r.get("rounds", 1), "rounds")))
             trips[trip.uid], legs[trip.uid] = trip, parsed
         self.trips, self.legs = trips, legs
 
@@ -269,12 +313,14 @@ class LegBook:
             self._newest.popitem(last=False)
         return True
 
-    def first_answer(self, goal_uid: str, leg: str) -> bool:
-        """True the first time this robot answers for ``leg`` of the trip."""
-        return self._answered.add(f"{goal_uid}#{leg}")
+    def first_answer(self, goal_uid: str, leg: str, attempt: int | None = None) -> bool:
+        """True the first time this robot answers the proposal of ``leg`` made in ``attempt`` (a leg that waited
+        may be proposed to it again in a later round: a new proposal, a new answer); ``attempt`` None: the first
+        time it accepts ``leg`` at all (an ACCEPTED for a commit that came without a proposal seen here)."""
+        return self._answered.add(f"{goal_uid}#{leg}" if attempt is None else f"{goal_uid}#{leg}@{attempt}")
 
-    def answered(self, goal_uid: str, leg: str) -> bool:
-        return f"{goal_uid}#{leg}" in self._answered
+    def answered(self, goal_uid: str, leg: str, attempt: int | None = None) -> bool:
+        return (f"{goal_uid}#{leg}" if attempt is None else f"{goal_uid}#{leg}@{attempt}") in self._answered
 
     def holding(self, goal_uid: str, now_wall: float) -> None:
         """This robot holds a proposal of the trip that is not confirmed yet (kept at most ``proposal_ttl``)."""

@@ -334,15 +334,18 @@ class GoalManagerCore:
                 self.legs.settled(trip.uid)
             return []
         if state == LEG_PROPOSED:
-            if not self.legs.first_answer(trip.uid, leg):
-                return []                      # answered already (declined, or held too long unconfirmed)
+            if not self.legs.first_answer(trip.uid, leg, trip.attempt):
+                return []                      # this proposal was answered already (e.g. before a restart)
             eta = self._eta_for(trip, leg, now_ros, now_wall)
-            if len(self.queue) >= self.cfg.max_queue or eta > self.cfg.assign.max_wait:
+            # a long queue is no reason to decline (the visitor saw the wait and confirmed), unless the site set
+            # a max_wait; a full queue is
+            if len(self.queue) >= self.cfg.max_queue or self.cfg.assign.too_long(eta):
                 why = (f"the queue of {self.me} is full ({self.cfg.max_queue} goals)" if len(self.queue)
                        >= self.cfg.max_queue else f"{self.me} could be there in {eta:.0f} s only "
-                       f"(more than {self.cfg.assign.max_wait:g} s)")
+                       f"(more than max_wait {self.cfg.assign.max_wait:g} s)")
                 self.stats.inc("declined")
                 return [self._event(DECLINED, trip, now_ros, leg=leg, detail=why)]
+            self.legs.first_answer(trip.uid, leg)      # accepted (an ACCEPTED per leg for a commit seen later)
             self.legs.holding(trip.uid, now_wall)
             return self._keep(trip, leg, eta, now_ros)
         if len(self.queue) >= self.cfg.max_queue:
@@ -682,7 +685,8 @@ class GoalManagerCore:
         tour_file = cmd.tour_file or (latest.tour_file if latest else "")
         if not tour_file:
             return [self._event(REJECTED, None, now_ros, detail="skip without a tour_file")]
-        wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file), None)
+        wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file
+                     and (not cmd.visitor_id or not w.visitor_id or w.visitor_id == cmd.visitor_id)), None)
         return self._tour_step(tour_file, cmd.tour_step, cmd, wait, now_ros, now_wall)
 
     def _tour_step(self, tour_file: str, step: int, cmd: CommandData, wait: TourWait | None, now_ros: float,
@@ -708,7 +712,7 @@ class GoalManagerCore:
                                                                 f"not {step}", **ctx)]
         visitor = cmd.visitor_id or (wait.visitor_id if wait else "")
         actions = self._end_tour_here(tour_file, visitor, now_ros, detail=f"the visitor went to step {step}")
-        self.waits.clear_tour(tour_file)
+        self.waits.clear_tour(tour_file, visitor or None)     # this visitor's: others may follow the same tour
         way = cmd.way or (wait.way if wait else "")
         language = cmd.language or (wait.language if wait else "")
         actions += self._issue(tour.goals[step].room, way, language, visitor, tour_file, step, now_ros, now_wall)
@@ -752,12 +756,12 @@ class GoalManagerCore:
                 self.stats.inc("cancel_unknown")
                 return []
         if trip.tour_file:
-            self.waits.clear_tour(trip.tour_file)
+            self.waits.clear_tour(trip.tour_file, trip.visitor_id or None)
         cancel = self._new_cancel(trip.uid, REASON_VISITOR, f"the visitor cancelled at {self.me}", now_ros)
         return [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True)]
 
     def _tour_ended(self, wait: TourWait, now_ros: float) -> SendEvent:
-        self.waits.clear_tour(wait.tour_file)
+        self.waits.clear_tour(wait.tour_file, wait.visitor_id or None)
         return self._event(CANCELLED_HERE, None, now_ros, goal_uid=wait.goal_uid, tour_file=wait.tour_file,
                            tour_step=wait.step, language=wait.language, way=wait.way, detail="tour ended")
 

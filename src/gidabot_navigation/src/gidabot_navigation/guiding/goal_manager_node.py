@@ -74,8 +74,9 @@ class Params:
                          unguided_s=param_number("~unguided_time", WaitModel.unguided_s, strict=False))
         assign = AssignConfig(answer_timeout=param_number("~answer_timeout", AssignConfig.answer_timeout),
                               proposal_ttl=param_number("~proposal_ttl", AssignConfig.proposal_ttl),
-                              max_wait=param_number("~max_wait", AssignConfig.max_wait),
-                              helper_gain=param_number("~helper_gain", AssignConfig.helper_gain, strict=False))
+                              max_wait=param_number("~max_wait", AssignConfig.max_wait, strict=False),
+                              helper_gain=param_number("~helper_gain", AssignConfig.helper_gain, strict=False),
+                              requeue_after=param_number("~requeue_after", AssignConfig.requeue_after))
         cfg = GoalManagerConfig(robot=robot, default_way=param_text("~default_way", WAY_STAIRS),
                                 default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
@@ -135,9 +136,11 @@ class GoalManagerNode:
         on floors without robot before a trip from there).
       - Who serves a leg (docs/guiding.md): ``~answer_timeout`` (wall s, 3: a robot asked to serve a leg that
         has not answered by then is passed over), ``~proposal_ttl`` (wall s, 60: a proposal held here that is
-        never confirmed is forgotten), ``~max_wait`` (s, 900: a leg this robot could not reach sooner is
-        declined), ``~helper_gain`` (s, 20: another robot of this floor comes to this robot's visitor only if
-        that much sooner).
+        never confirmed is forgotten), ``~max_wait`` (s, 0 = off, the default: a leg this robot could not reach
+        sooner is declined; off, a long queue is never a reason to decline: the visitor saw the wait and chose),
+        ``~helper_gain`` (s, 20: another robot of this floor comes to this robot's visitor only if that much
+        sooner), ``~requeue_after`` (wall s, 10: a leg every robot of its floor declined, queues full, is
+        proposed again after this, a new round).
     """
 
     def __init__(self, params: Params) -> None:

@@ -10,6 +10,9 @@
   between floors and the time to press Continue (``docs/guiding.md``).
 * :class:`RobotView` and :func:`rank_candidates`: which robots of a floor could serve a
   leg, soonest first (their queues and poses as they broadcast them).
+* :func:`preview_trip`: what the visitor is shown before confirming a trip: the robot that
+  would serve each leg and its wait, ranked as the robot will rank them (the GUI's
+  confirmation, and the simulated visitor that decides on it).
 """
 
 from __future__ import annotations
@@ -18,15 +21,16 @@ import enum
 import math
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_navigation.building.model import Building, Connector, Robot, format_floor
+from gidabot_navigation.building.model import Building, Connector, Location, Robot, format_floor
 from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import NoRouteError, PlanningError
-from gidabot_navigation.guiding.messages import Trip
+from gidabot_navigation.guiding.messages import START_ROBOT, Trip
 from gidabot_navigation.interface import (
     GOING_TO_MEETING,
+    LEG_COMMITTED,
     LEG_GOAL,
     LEG_NONE,
     LEG_START,
@@ -388,3 +392,53 @@ def rank_candidates(planner: TripPlanner, model: WaitModel, trip: Trip, leg: str
             key = eta + (prefer_gain if prefer else 0.0)
         ranked.append((key, index, Candidate(robot.name, eta)))
     return [c for _, _, c in sorted(ranked, key=lambda x: (x[0], x[1]))]
+
+
+# ---------------------------------------------------------------------------
+# What the visitor is shown before confirming
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LegPreview:
+    """The robot that would serve one leg of a trip not made yet, and how soon it could be there."""
+
+    leg: str                      # LEG_START or LEG_GOAL
+    floor: float
+    candidate: Candidate | None   # the first of :func:`rank_candidates`; None: no robot of the floor is online
+
+    @property
+    def wait_s(self) -> float | None:
+        """s until that robot is with the visitor (start leg) or at the meeting point (goal leg); None: unknown."""
+        if self.candidate is None or not math.isfinite(self.candidate.eta):
+            return None
+        return self.candidate.eta
+
+
+def preview_trip(planner: TripPlanner, model: WaitModel, origin: Robot, pose: tuple[float, float], goal: Location,
+                 way: str, views: Mapping[str, RobotView], online: Callable[[str], bool], now_wall: float,
+                 prefer_gain: float) -> tuple[LegPreview, ...]:
+    """Who would serve each leg of a trip from ``origin``'s screen (the visitor at ``pose``) to ``goal`` by ``way``
+    (the connector minimising the whole trip), and how soon: the start leg (``origin`` itself when free, or
+    another robot of its floor coming at least ``prefer_gain`` s sooner), and across floors, to a floor with
+    robots, the goal leg (the robot of the goal floor first at the meeting point). What the origin robot will
+    decide when the visitor confirms (:func:`rank_candidates` over the same views), before anything is sent."""
+    building = planner.building
+    trip = Trip(uid="", origin_robot=origin.name, visitor_id="", initial_floor=origin.floor, initial_x=pose[0],
+                initial_y=pose[1], goal_floor=goal.floor, goal_x=goal.pose.x, goal_y=goal.pose.y,
+                goal_yaw=goal.pose.yaw, way=way, connector="", start_id=START_ROBOT, goal_id=goal.id,
+                language="en", start_robot=origin.name, start_state=LEG_COMMITTED)
+    legs = [(LEG_START, origin.floor)]
+    if not math.isclose(goal.floor, origin.floor) and building.has_robot(goal.floor):
+        try:
+            choice = planner.choose_connector(origin.floor, pose, goal.floor, (goal.pose.x, goal.pose.y), way)
+        except NoRouteError:
+            choice = None
+        if choice is not None:
+            trip = replace(trip, way=choice.way, connector=choice.connector.id)
+            legs.append((LEG_GOAL, goal.floor))
+    out = []
+    for leg, floor in legs:
+        ranked = rank_candidates(planner, model, trip, leg, views, online, now_wall,
+                                 prefer=origin.name if leg == LEG_START else "", prefer_gain=prefer_gain)
+        out.append(LegPreview(leg, floor, ranked[0] if ranked else None))
+    return tuple(out)

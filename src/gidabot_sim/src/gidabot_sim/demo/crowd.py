@@ -10,15 +10,21 @@ again for every new assignment attempt: the newest attempt counts). Measured:
   end of its visit, and how the visit ended: ``completed`` (``GOAL_REACHED``; a target on a floor
   without robot: ``NO_ROBOT_ON_FLOOR``; a tour: ``TOUR_FINISHED``), ``cancelled``, ``timed out``,
   ``failed`` (unreachable, a partner offline, rejected), ``refused`` (the request made no goal: a
-  ``REJECTED`` or ``UNREACHABLE`` answer from the robot it asked, about its target) or ``unfinished``;
+  ``REJECTED`` or ``UNREACHABLE`` answer from the robot it asked, about its target), ``left`` (shown
+  the waits before confirming, the visitor did not confirm: one was longer than its patience; the
+  visitor's own record, kind ``visitor``, written by the simulated visitor into the same file) or
+  ``unfinished``. A visitor whose trip was given up (``PARTNER_OFFLINE``: a robot it needed was
+  offline) asks again (:mod:`gidabot_sim.visitor.visitor`): its visit goes on with the new trip;
 * per robot: legs served (the legs its trips' newest assignment committed to it), busy fraction
   (the share of the run during which it had a committed leg not yet ended) and queue length over
   time (committed legs not yet ended: max and time-weighted mean);
 * overall: mean and 95th percentile wait (nearest rank), visits completed, cancelled, timed out.
 
 The verdict fails (``problems``) on a visit that neither completed nor ended as the visitor chose
-(cancel: cancelled or completed first; no-show: timed out), a visitor whose request made no goal
-(lost), or two goals for one request (the same visitor and tour step: duplicated).
+(cancel: cancelled or completed first; no-show: timed out; any visitor: left at the screen), a
+visitor whose request made no goal (lost), or two goals for one request (duplicated: two goals of
+the same visitor and tour step open at the same time; a request asked again after its trip ended,
+e.g. given up, is a new request).
 """
 
 from __future__ import annotations
@@ -30,7 +36,9 @@ from dataclasses import dataclass, field
 from gidabot_navigation.interface import (
     CANCELLED_ELSEWHERE,
     CANCELLED_HERE,
+    DECLINED,
     FINAL_PHASES,
+    GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
     LEG_COMMITTED,
@@ -50,7 +58,9 @@ from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTEN
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
 REFUSED = "refused"              # the request made no goal: the robot refused it (REJECTED, UNREACHABLE)
+LEFT = "left"                    # shown the waits, the visitor did not confirm (its patience): its choice
 MOVING = (ON_THE_WAY, GOING_TO_MEETING)
+TRIP_ENDS = FINAL_PHASES - {GO_TO_FLOOR, DECLINED}    # a trip is over (not only one robot's part of it)
 FAILURE_PHASES = (UNREACHABLE, PARTNER_OFFLINE, REJECTED)
 REFUSALS = (REJECTED, UNREACHABLE)   # answers to a request that end the visit without a goal
 
@@ -65,6 +75,7 @@ class _Goal:
     attempt: int = -1
     committed: dict[str, str] = field(default_factory=dict)    # leg -> robot, newest attempt
     committed_s: dict[str, float] = field(default_factory=dict)  # leg -> sim s its robot was first committed
+    ended_s: float = math.inf           # sim s of the first event that ended the trip (any robot's)
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -98,6 +109,11 @@ class Crowd(MonitorFeed):
         self.robots_up: list[str] = []
         self.latest = ""                                           # the newest event, for the progress line
         self._ends: dict[str, tuple[str, float]] = {}              # visitor -> how and when its visit ended
+        self._end_phase: dict[str, object] = {}                    # visitor -> the phase that ended it
+        self.asked_again: dict[str, int] = {}                      # visitor -> trips asked again after a give-up
+        self.shown: dict[str, list] = {}                           # visitor -> the waits shown before confirming
+        self.patience: dict[str, float] = {}
+        self._early: dict[str, list[dict]] = {}                    # goal uid -> its events that came before it
 
     # -- input -----------------------------------------------------------------------------------
     def feed(self, rec: dict) -> bool:
@@ -107,21 +123,40 @@ class Crowd(MonitorFeed):
             return True
         if rec.get("kind") == "goal":
             return self._goal(rec, self._clock(rec))
+        if rec.get("kind") == "visitor":
+            return self._visitor(rec)
         if rec.get("kind") == "event":
             uid, goal_uid = str(rec.get("uid", "")), str(rec.get("goal_uid", ""))
             if not goal_uid and rec.get("phase") in REFUSALS:
                 return self._refusal(rec)
-            if goal_uid not in self.goals or not uid or uid in self.events:
+            if not uid or uid in self.events:
                 return False
-            t = self._clock(rec)
-            self.events[uid] = rec
-            phase, visitor = rec.get("phase"), self.goals[goal_uid].visitor
-            end = _ending(phase, bool(self.plans[visitor].tour_file))
-            if end and visitor not in self._ends:
-                self._ends[visitor] = (end, t)
-            self.latest = f"{rec.get('robot')}: {PHASE_NAMES.get(phase, phase)} ({self.goals[goal_uid].visitor})"
-            return True
+            if goal_uid not in self.goals:
+                # an event may overtake its goal (other topic, other relay): kept until the goal comes
+                if len(self._early) < 10000 and len(self._early.get(goal_uid, [])) < 1000:
+                    self._early.setdefault(goal_uid, []).append(rec)
+                return False
+            return self._event(rec)
         return False
+
+    def _event(self, rec: dict) -> bool:
+        """An event of a population visitor's trip (its goal known)."""
+        uid, goal_uid = str(rec.get("uid", "")), str(rec.get("goal_uid", ""))
+        if uid in self.events:
+            return False
+        self._clock(rec)
+        t = _when(rec)
+        self.events[uid] = rec
+        phase, visitor = rec.get("phase"), self.goals[goal_uid].visitor
+        if phase in TRIP_ENDS:
+            g = self.goals[goal_uid]
+            g.ended_s = min(g.ended_s, t if math.isfinite(t) else g.first_s)
+        end = _ending(phase, bool(self.plans[visitor].tour_file))
+        if end and visitor not in self._ends:
+            self._ends[visitor] = (end, t)
+            self._end_phase[visitor] = phase
+        self.latest = f"{rec.get('robot')}: {PHASE_NAMES.get(phase, phase)} ({self.goals[goal_uid].visitor})"
+        return True
 
     def _refusal(self, rec: dict) -> bool:
         """A request refused before any goal (``REJECTED``: e.g. no robot could be there within its max wait;
@@ -136,6 +171,22 @@ class Crowd(MonitorFeed):
                 self.latest = f"{robot}: {PHASE_NAMES.get(rec.get('phase'), '')} ({p.visitor_id}: {rec.get('detail')})"
                 return True
         return False
+
+    def _visitor(self, rec: dict) -> bool:
+        """What a visitor chose at the screen (the simulated visitor's record): asked, or left."""
+        vid = str(rec.get("visitor", ""))
+        if vid not in self.plans:
+            return False
+        t = self._clock(rec)
+        shown = rec.get("shown")
+        self.shown[vid] = [w if isinstance(w, (int, float)) else None for w in shown] if isinstance(shown, list) \
+            else []
+        self.patience[vid] = _number(rec.get("patience_s"))
+        if rec.get("event") == "left" and vid not in self._ends:
+            self._ends[vid] = (LEFT, t)
+            self._end_phase[vid] = None
+            self.latest = f"{vid} left {rec.get('robot')}'s screen ({rec.get('detail')})"
+        return True
 
     def _clock(self, rec: dict) -> float:
         t, wall = _number(rec.get("sim")), _number(rec.get("wall"))
@@ -153,10 +204,16 @@ class Crowd(MonitorFeed):
             return False
         g = self.goals.get(uid)
         if g is None:
+            if self._end_phase.get(visitor) == PARTNER_OFFLINE and t >= self._ends[visitor][1]:
+                # its trip was given up (a robot it needed was offline) and the visitor asked again: the visit goes on
+                del self._ends[visitor], self._end_phase[visitor]
+                self.asked_again[visitor] = self.asked_again.get(visitor, 0) + 1
             step = rec.get("tour_step", -1)
-            g = self.goals[uid] = _Goal(uid, visitor, t, step if isinstance(step, int) else -1,
-                                        bool(rec.get("tour_file")))
+            g = self.goals[uid] = _Goal(uid, visitor, _when(rec, "stamp") if math.isfinite(t) else t,
+                                        step if isinstance(step, int) else -1, bool(rec.get("tour_file")))
         attempt = int(_number(rec.get("attempt"), 0))
+        for early in self._early.pop(uid, []):
+            self._event(early)
         if attempt > g.attempt:
             g.attempt = attempt
             g.committed = {leg: str(rec.get(f"{leg}_robot", "")) for leg in (LEG_START, LEG_GOAL)
@@ -168,7 +225,7 @@ class Crowd(MonitorFeed):
     # -- results ---------------------------------------------------------------------------------
     def _events_of(self, uids: set[str]) -> list[dict]:
         return sorted((e for e in self.events.values() if e.get("goal_uid") in uids),
-                      key=lambda e: _number(e.get("sim"), 0.0))
+                      key=lambda e: _when(e, default=0.0))
 
     def visit_end(self, visitor: str) -> tuple[str, float | None]:
         """(how the visit ended, sim s of the end or None): the first event of its trips that ends it."""
@@ -184,8 +241,8 @@ class Crowd(MonitorFeed):
         ends = [self.visit_end(v)[0] for v in self.plans]
         asked = len({g.visitor for g in self.goals.values()})
         return (f"visitors: {asked} of {len(self.plans)} with a trip, {ends.count(COMPLETED)} completed, "
-                f"{ends.count(CANCELLED)} cancelled, {ends.count(TIMED_OUT)} timed out, {ends.count(FAILED)} failed, "
-                f"{ends.count(REFUSED)} refused | {self.latest or '-'}")
+                f"{ends.count(CANCELLED)} cancelled, {ends.count(TIMED_OUT)} timed out, {ends.count(LEFT)} left, "
+                f"{ends.count(FAILED)} failed, {ends.count(REFUSED)} refused | {self.latest or '-'}")
 
     def sim_seconds(self) -> float:
         return (self.last_s - self.first_s) if self.first_s is not None and self.last_s is not None else 0.0
@@ -200,17 +257,18 @@ class Crowd(MonitorFeed):
             goals = sorted((g for g in self.goals.values() if g.visitor == vid), key=lambda g: g.first_s)
             end, end_s = self.visit_end(vid)
             start = goals[0].first_s if goals else None
-            moves = [_number(e.get("sim")) for e in self._events_of({g.uid for g in goals})
-                     if e.get("phase") in MOVING]
-            wait = round(moves[0] - start, 1) if moves and start is not None else None
+            moves = [_when(e) for e in self._events_of({g.uid for g in goals}) if e.get("phase") in MOVING]
+            wait = round(max(0.0, moves[0] - start), 1) if moves and start is not None else None
             trip = round(end_s - start, 1) if end_s is not None and start is not None else None
-            as_chosen = end == COMPLETED or (plan.intent == INTENT_CANCEL and end == CANCELLED) or \
+            as_chosen = end in (COMPLETED, LEFT) or (plan.intent == INTENT_CANCEL and end == CANCELLED) or \
                 (plan.intent == INTENT_NO_SHOW and end == TIMED_OUT)
-            steps = [g.tour_step for g in goals]
+            shown = [w for w in self.shown.get(vid, []) if w is not None]
             rows.append({"visitor": vid, "robot": plan.robot, "target": plan.goal_id or plan.tour_file,
                          "way": plan.way, "intent": plan.intent, "arrive_s": plan.arrive_s, "goals": len(goals),
                          "outcome": end, "as_chosen": as_chosen, "wait_s": wait, "trip_s": trip,
-                         "duplicated": len(steps) - len(set(steps))})
+                         "shown_wait_s": round(max(shown), 1) if shown else None,
+                         "patience_s": plan.patience_s if plan.patience_s >= 0 else None,
+                         "asked_again": self.asked_again.get(vid, 0), "duplicated": _duplicated(goals)})
         return rows
 
     def robot_rows(self, robots: Sequence[str], end_s: float | None = None) -> list[dict]:
@@ -243,7 +301,7 @@ class Crowd(MonitorFeed):
     def summary(self, robots: Sequence[str], end_s: float | None = None) -> dict:
         visitors = self.visitor_rows()
         waits = [v["wait_s"] for v in visitors if v["wait_s"] is not None]
-        count = {k: sum(v["outcome"] == k for v in visitors) for k in (COMPLETED, CANCELLED, TIMED_OUT, FAILED,
+        count = {k: sum(v["outcome"] == k for v in visitors) for k in (COMPLETED, CANCELLED, TIMED_OUT, LEFT, FAILED,
                                                                       REFUSED, UNFINISHED)}
         problems = [f"{v['visitor']} ({v['intent']}, {v['target']} from {v['robot']}): {v['outcome']}"
                     for v in visitors if not v["as_chosen"]]
@@ -252,14 +310,33 @@ class Crowd(MonitorFeed):
         problems += [f"{v['visitor']}: {v['duplicated']} duplicated goal(s)" for v in visitors if v["duplicated"]]
         return {
             "visitors": len(visitors), "completed": count[COMPLETED], "cancelled": count[CANCELLED],
-            "timed_out": count[TIMED_OUT], "failed": count[FAILED], "refused": count[REFUSED],
-            "unfinished": count[UNFINISHED],
+            "timed_out": count[TIMED_OUT], "left": count[LEFT], "failed": count[FAILED], "refused": count[REFUSED],
+            "unfinished": count[UNFINISHED], "asked_again": sum(v["asked_again"] for v in visitors),
             "intents": {k: sum(v["intent"] == k for v in visitors)
                         for k in (INTENT_COMPLETE, INTENT_CANCEL, INTENT_NO_SHOW)},
             "wait_mean_s": round(sum(waits) / len(waits), 1) if waits else None,
             "wait_p95_s": round(percentile(waits, 95), 1) if waits else None,
             "per_visitor": visitors, "per_robot": self.robot_rows(robots, end_s), "problems": problems,
         }
+
+
+def _when(rec: dict, key: str = "stamp", default: float = math.nan) -> float:
+    """When a goal or an event happened (sim s): its stamp (the visitor confirming, the robot acting: that robot's
+    clock), else when the monitor saw it (later by the relays' latency, times the speed)."""
+    stamp = _number(rec.get(key))
+    if math.isfinite(stamp) and stamp > 0:
+        return stamp
+    return _number(rec.get("sim"), default)
+
+
+def _duplicated(goals: Sequence[_Goal]) -> int:
+    """Goals made for a request that already had an open one: two goals of the same tour step (-1: a single
+    target) open at the same time. A trip asked again once the earlier one ended (given up) is a new request."""
+    extra = 0
+    for i, g in enumerate(goals):
+        if any(h.tour_step == g.tour_step and h.first_s <= g.first_s < h.ended_s for h in goals[:i]):
+            extra += 1
+    return extra
 
 
 def _ending(phase: object, tour: bool) -> str:

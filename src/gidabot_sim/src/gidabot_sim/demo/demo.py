@@ -44,7 +44,7 @@ from gidabot_sim.demo.timing import RunTiming
 from gidabot_sim.errors import DemoError, ProcessError, SimConfigError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
-from gidabot_sim.visitor.population import VisitorPlan, make_population
+from gidabot_sim.visitor.population import PATIENCE_S, VisitorPlan, make_population
 
 DEFAULT_SPEED = 20.0
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
@@ -78,6 +78,10 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         "of the population (default 1)")
     p.add_argument("--mean-gap", type=float, default=30.0, metavar="S",
                    help="with --visitors: mean sim seconds between two arrivals (default 30)")
+    p.add_argument("--patience", type=_patience, default=PATIENCE_S, metavar="LOW-HIGH",
+                   help="with --visitors: each visitor's patience, uniform between LOW and HIGH sim s (default "
+                        f"{PATIENCE_S[0]:g}-{PATIENCE_S[1]:g}): shown a longer wait before confirming, it leaves; "
+                        "'none': every visitor confirms whatever the wait")
     p.add_argument("--start-floor", type=float, default=None,
                    help="floor where the visitor starts (default: the tour's first floor, else 0)")
     p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
@@ -105,6 +109,19 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="every robot a separate machine: its own network namespace, address, master and firewall "
                         "(needs root; docs/deploy.md)")
     return p.parse_args(argv)
+
+
+def _patience(text: str) -> tuple[float, float] | None:
+    """``--patience``: ``LOW-HIGH`` sim s, or ``none``."""
+    if text == "none":
+        return None
+    try:
+        low, high = (float(v) for v in text.split("-"))
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected LOW-HIGH (sim s) or 'none'") from err
+    if not (0 <= low <= high < float("inf")):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected 0 <= LOW <= HIGH")
+    return low, high
 
 
 def _speed(text: str) -> float | None:
@@ -213,7 +230,8 @@ def _population(args: argparse.Namespace, building: Building) -> tuple[VisitorPl
         if len(tour.goals) <= MAX_TOUR_STOPS:
             tours[path.name] = len(tour.goals)
     try:
-        return make_population(building, args.visitors, args.seed, tours, mean_gap_s=args.mean_gap)
+        return make_population(building, args.visitors, args.seed, tours, mean_gap_s=args.mean_gap,
+                               patience_s=args.patience)
     except SimConfigError as err:
         raise DemoError(str(err)) from err
 
@@ -246,10 +264,14 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor, "visit_time": args.visit_time}
     if plans:
-        visitor = {"population": [p.to_dict() for p in plans], "visit_time": args.visit_time}
+        # what each visitor chose at the screen (asked, or left: a wait shown was too long) goes to the monitor's file
+        visitor = {"population": [p.to_dict() for p in plans], "visit_time": args.visit_time,
+                   "record": str(run_dir / "monitor.jsonl")}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
     if plans:
-        what = f"{len(plans)} visitors (seed {args.seed}, one every {args.mean_gap:g} s on average)"
+        patience = "any wait" if args.patience is None else f"{args.patience[0]:g}-{args.patience[1]:g} s"
+        what = f"{len(plans)} visitors (seed {args.seed}, one every {args.mean_gap:g} s on average, patience " \
+               f"{patience})"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
           f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, "

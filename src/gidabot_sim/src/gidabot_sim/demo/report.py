@@ -232,7 +232,38 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
     timing = timing_report(records, run)
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"]}
+            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"],
+            "contacts": robot_contacts(records)}
+
+
+def _counter(samples: list[DiagSample], key: str) -> int | None:
+    """A counter of the floor simulator's ``/diagnostics`` over the run: its last value, plus the last value before
+    each drop (the simulator restarted and counted from 0 again). None: never published."""
+    total, last, seen = 0, 0, False
+    for d in samples:
+        if not d.name.startswith("sim: floor "):
+            continue
+        value = _number(d, key)
+        if not math.isfinite(value):
+            continue
+        seen = True
+        if value < last:
+            total += last
+        last = int(value)
+    return total + last if seen else None
+
+
+def robot_contacts(records: list[RobotRecord]) -> dict:
+    """Robot-robot collisions and deadlocks counted by every robot's floor simulator (its ``/diagnostics`` in its
+    bag: ``robot_collisions``, ``robot_deadlocks``; docs/simulator.md). Robots sharing a floor each run their own
+    simulator (world/mates.py): each counts the contacts in which its robot was stopped by another, so a contact in
+    which both drove counts twice: an upper bound. ``collisions`` None: some robot's simulator published no count
+    (``unmeasured`` names them)."""
+    per_robot = {r.name: _counter(r.diagnostics, "robot_collisions") for r in records}
+    deadlocks = {r.name: _counter(r.diagnostics, "robot_deadlocks") for r in records}
+    unmeasured = sorted(name for name, n in per_robot.items() if n is None)
+    return {"collisions": None if unmeasured or not records else sum(n or 0 for n in per_robot.values()),
+            "deadlocks": sum(n or 0 for n in deadlocks.values()), "per_robot": per_robot, "unmeasured": unmeasured}
 
 
 # ---------------------------------------------------------------------------
@@ -360,7 +391,8 @@ def leg_audit(records: list[RobotRecord]) -> dict:
 
 
 PASSED_VERDICT, FAILED_VERDICT = "PASSED", "FAILED"
-COLLISIONS_NOT_MEASURED = "robot-robot collisions are not measured: the simulator does not publish a count"
+COLLISIONS_NOTE = ("robot-robot contacts counted by each robot's floor simulator (a contact in which both robots "
+                   "drove counts for each)")
 
 
 def crowd_report(folder: Path, run: dict, report: dict) -> dict:
@@ -385,12 +417,20 @@ def crowd_report(folder: Path, run: dict, report: dict) -> dict:
     problems = list(summary["problems"])
     problems += [f"leg {leg} of {uid} served by {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
     problems += [f"leg {leg} of {uid} served by nobody" for uid, leg in legs["unserved"]]
+    contacts = report.get("contacts") or {"collisions": None, "deadlocks": 0, "per_robot": {}, "unmeasured": []}
+    if contacts["collisions"] is None:
+        problems.append("robot-robot collisions not measured (no count from the simulator of "
+                        f"{', '.join(contacts['unmeasured']) or 'any robot'})")
+    elif contacts["collisions"]:
+        problems.append(f"{contacts['collisions']} robot-robot collision(s): "
+                        + ", ".join(f"{r} {n}" for r, n in contacts["per_robot"].items() if n))
     if run.get("outcome") not in (None, "completed"):
         problems.append(f"the run did not finish: {run.get('outcome')}")
     return {"visitors": summary["visitors"], "completed": summary["completed"], "cancelled": summary["cancelled"],
-            "timed_out": summary["timed_out"], "failed": summary["failed"], "refused": summary["refused"],
-            "unfinished": summary["unfinished"],
-            "collisions": None, "collisions_note": COLLISIONS_NOT_MEASURED,
+            "timed_out": summary["timed_out"], "left": summary["left"], "failed": summary["failed"],
+            "refused": summary["refused"], "unfinished": summary["unfinished"], "asked_again": summary["asked_again"],
+            "collisions": contacts["collisions"], "collisions_note": COLLISIONS_NOTE,
+            "deadlocks": contacts["deadlocks"],
             "legs_double_served": len(legs["double_served"]), "legs_unserved": len(legs["unserved"]),
             "wait_mean_s": summary["wait_mean_s"], "wait_p95_s": summary["wait_p95_s"], "seed": run.get("seed"),
             "population": summary, "problems": problems,
@@ -402,8 +442,9 @@ def format_crowd(report: dict) -> list[str]:
     pop = report["population"]
     chosen = ", ".join(f"{k} {n}" for k, n in pop["intents"].items())
     lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
-                 f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report['failed']} failed, "
-                 f"{report['refused']} refused, {report['unfinished']} unfinished; chosen: {chosen}"]
+                 f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report.get('left', 0)} left "
+                 f"at the screen, {report['failed']} failed, {report['refused']} refused, {report['unfinished']} "
+                 f"unfinished; chosen: {chosen}"]
     wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
     p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
     lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")
@@ -411,17 +452,22 @@ def format_crowd(report: dict) -> list[str]:
     lines += ["", head, "-" * len(head)]
     lines += [f"{r['robot']:<12} {r['legs_served']:>5} {100 * r['busy_fraction']:>5.0f}% {r['queue_max']:>10} "
               f"{r['queue_mean']:>11.2f}" for r in pop["per_robot"]]
-    head = f"{'Visitor':<11} {'At':<12} {'Target':<18} {'Way':<7} {'Chose':<9} {'Arrive':>7} {'Wait':>7} " \
-           f"{'Trip':>7}  Outcome"
+    head = f"{'Visitor':<11} {'At':<12} {'Target':<18} {'Way':<7} {'Chose':<9} {'Arrive':>7} {'Shown':>6} " \
+           f"{'Patience':>8} {'Wait':>7} {'Trip':>7}  Outcome"
     lines += ["", head, "-" * len(head)]
+
+    def s(value: float | None) -> str:
+        return "-" if value is None else f"{value:.0f}"
+
     for v in pop["per_visitor"]:
-        wait_s = "-" if v["wait_s"] is None else f"{v['wait_s']:.0f}"
-        trip_s = "-" if v["trip_s"] is None else f"{v['trip_s']:.0f}"
+        again = f" (asked again {v['asked_again']}x)" if v.get("asked_again") else ""
         lines.append(f"{v['visitor']:<11} {v['robot']:<12} {v['target']:<18} {v['way']:<7} {v['intent']:<9} "
-                     f"{v['arrive_s']:>7.0f} {wait_s:>7} {trip_s:>7}  {v['outcome']}"
+                     f"{v['arrive_s']:>7.0f} {s(v.get('shown_wait_s')):>6} {s(v.get('patience_s')):>8} "
+                     f"{s(v['wait_s']):>7} {s(v['trip_s']):>7}  {v['outcome']}{again}"
                      + ("" if v["as_chosen"] else "  <- not as chosen"))
-    lines += ["", f"Collisions: {COLLISIONS_NOT_MEASURED}" if report["collisions"] is None else
-              f"Collisions (robot-robot): {report['collisions']}"]
+    lines += ["", "Collisions (robot-robot): not measured" if report["collisions"] is None else
+              f"Collisions (robot-robot): {report['collisions']} ({report['collisions_note']}); deadlocks "
+              f"reported: {report.get('deadlocks', 0)}"]
     lines.append(f"Verdict: {report['verdict']}" + "".join(f"\n  {p}" for p in report["problems"]))
     return lines
 
@@ -449,6 +495,10 @@ def format_tables(report: dict) -> str:
                      + ", ".join(f"{r} {n}" for r, n in sorted(legs["served_by"].items())) + ")")
         lines += [f"  two robots on {uid} {leg}: {', '.join(robots)}" for uid, leg, robots in legs["double_served"]]
         lines += [f"  nobody on {uid} {leg}" for uid, leg in legs["unserved"]]
+    contacts = report.get("contacts")
+    if contacts and "population" not in report:
+        lines.append("Robot-robot collisions: " + ("not measured" if contacts["collisions"] is None else
+                                                   f"{contacts['collisions']}, deadlocks {contacts['deadlocks']}"))
     for robot, n in report.get("rejected_goals", {}).items():
         lines.append(f"note: {robot}: {n} message(s) on {Topic.GOALS} were not goals (hostile input), not counted")
     for where, n in report.get("unreadable_messages", {}).items():

@@ -38,7 +38,12 @@ robot whose name sorts later *yields* (drives to the nearest reachable spot wher
 room to pass, then waits there facing it); the other waits for the way to open, and yields itself
 when the blocker has not moved for ``yield_timeout`` (it may have no room to yield). Every cycle
 re-tries the real goal, so either robot also re-routes when another way opens. Blocked by a robot
-without progress for ``robot_patience`` -> ABORTED, naming the robot (a deadlock).
+without progress for ``robot_patience`` -> ABORTED, naming the robot (a deadlock). A goal where
+another robot stands (parked at a meeting point, or at its screen where the visitor asked): the
+plan ends at the nearest free spot next to it, within that robot's disc + this robot's footprint
+(navfn's ``default_tolerance``, sized for it), and the goal is reached there (as base_local_planner
+checks the goal against the end of the global plan); re-planned as usual, so the robot goes on to
+the goal itself if the other leaves first.
 
 Time is passed in (sim seconds): :meth:`MoveBaseCore.step` is called at the controller
 frequency and returns the velocity command and, when the goal ends, its outcome.
@@ -215,6 +220,7 @@ class MoveBaseCore:
         self._unmarked: GridPlanner | None = None     # walls and obstacles, not robots (who blocks the way?)
         self.state = State.IDLE
         self.goal: Pose2D | None = None
+        self.target: tuple[float, float] | None = None   # where it stops: the goal, or next to a robot on it
         self.path: FollowedPath | None = None
         self.pose: Pose2D | None = None
         self.velocity: Twist2D = ZERO
@@ -249,6 +255,7 @@ class MoveBaseCore:
         if not goal.is_finite():
             raise NavGoalRejected(f"goal ({goal.x!r}, {goal.y!r}, {goal.yaw!r}) is not finite (m, m, rad)")
         self.goal = Pose2D(goal.x, goal.y, wrap_angle(goal.yaw))
+        self.target = (self.goal.x, self.goal.y)
         self.path = None
         self.state = State.PLANNING
         self._reset_goal_state(now)
@@ -352,22 +359,58 @@ class MoveBaseCore:
         assert self.goal is not None and self.pose is not None
         try:
             path = self.planner.plan((self.pose.x, self.pose.y), (self.goal.x, self.goal.y))
+            self.target = (self.goal.x, self.goal.y)
         except PlanningError as err:
-            self._plan_error = str(err)
-            blocked = self._blocking_robot()
-            if blocked is not None:
-                return self._blocked_by_robot(*blocked, now)
-            if self._permanent(self.goal):
-                return self._abort(f"Failed to find a valid plan: {err}")
-            if self._plan_fail_since is None:
-                self._plan_fail_since = now
-                self.log.warning(f"move_base: no plan ({err}); retrying for "
-                                 f"{self.config.planner_patience:g} s")
-            if now - self._plan_fail_since >= self.config.planner_patience:
-                return self._abort(f"Failed to find a valid plan. Even after executing recovery behaviors. "
-                                   f"({err})")
-            self.state = State.PLANNING
-            return StepResult(ZERO)
+            path = self._next_to_robot_on_goal()
+            if path is None:
+                return self._no_plan(err, now)
+        return self._new_path(path, now)
+
+    def _next_to_robot_on_goal(self) -> Path | None:
+        """A plan to the nearest free spot next to a robot standing on the goal (None: no robot there, or no such
+        spot): the spots just outside its mark, this robot's side first; :attr:`target` is then its end."""
+        assert self.goal is not None and self.pose is not None
+        g, res = self.goal, self.planner.grid.resolution
+        pad = self.planner.robot_radius + self.config.robot_mark_step + 2.0 * res
+        on_goal = [r for r in self._robots.values() if math.hypot(r.x - g.x, r.y - g.y) < r.radius + pad]
+        if not on_goal:
+            return None
+        occupant = min(on_goal, key=lambda r: math.hypot(r.x - g.x, r.y - g.y))
+        toward = math.atan2(self.pose.y - occupant.y, self.pose.x - occupant.x)
+        for k in (0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6, -6, 7, -7, 8):
+            a = toward + k * math.pi / 8.0
+            for extra in (0.0, 2.0 * res, 4.0 * res):
+                spot = (occupant.x + (occupant.radius + pad + extra) * math.cos(a),
+                        occupant.y + (occupant.radius + pad + extra) * math.sin(a))
+                try:
+                    path = self.planner.plan((self.pose.x, self.pose.y), spot)
+                except PlanningError:
+                    continue
+                end = (float(path.points[-1][0]), float(path.points[-1][1]))
+                if self.target != end:
+                    self.log.info(f"move_base: robot {occupant.name} stands at the goal; stopping next to it at "
+                                  f"({end[0]:.2f}, {end[1]:.2f})")
+                self.target = end
+                return path
+        return None
+
+    def _no_plan(self, err: PlanningError, now: float) -> StepResult:
+        assert self.goal is not None
+        self._plan_error = str(err)
+        blocked = self._blocking_robot()
+        if blocked is not None:
+            return self._blocked_by_robot(*blocked, now)
+        if self._permanent(self.goal):
+            return self._abort(f"Failed to find a valid plan: {err}")
+        if self._plan_fail_since is None:
+            self._plan_fail_since = now
+            self.log.warning(f"move_base: no plan ({err}); retrying for {self.config.planner_patience:g} s")
+        if now - self._plan_fail_since >= self.config.planner_patience:
+            return self._abort(f"Failed to find a valid plan. Even after executing recovery behaviors. ({err})")
+        self.state = State.PLANNING
+        return StepResult(ZERO)
+
+    def _new_path(self, path: Path, now: float) -> StepResult | None:
         self.plans += 1
         if self.path is not None:
             self.replans += 1
@@ -513,9 +556,9 @@ class MoveBaseCore:
             failed = self._plan(now)
             if failed is not None:
                 return failed
-        assert self.goal is not None and self.path is not None
+        assert self.goal is not None and self.path is not None and self.target is not None
         pose = self.pose
-        dist_goal = math.hypot(self.goal.x - pose.x, self.goal.y - pose.y)
+        dist_goal = math.hypot(self.target[0] - pose.x, self.target[1] - pose.y)
         if self.state is State.FOLLOWING and dist_goal <= self.config.xy_goal_tolerance:
             self.state = State.ROTATING
             self._progress_time = now

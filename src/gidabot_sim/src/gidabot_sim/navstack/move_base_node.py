@@ -249,7 +249,11 @@ class MoveBaseNode:
             if kind == "goal":
                 self._accept_goal(now)
             elif kind == "preempt":
-                if not self.server.is_new_goal_available() and self.server.is_active():
+                # only if it still stands now: the cancel of a goal a newer one already replaced (the goal and
+                # cancel topics are two connections, so it may come after the newer goal) must not stop the newer
+                # one (accept_new_goal clears the request, as move_base polls is_preempt_requested())
+                if not self.server.is_new_goal_available() and self.server.is_active() \
+                        and self.server.is_preempt_requested():
                     self.core.cancel()
                     self._command(ZERO)
                     self.server.set_preempted(MoveBaseResult(), "Goal cancelled")

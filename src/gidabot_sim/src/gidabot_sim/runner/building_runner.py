@@ -53,6 +53,7 @@ from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, MachinesError, ProcessError
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
+from gidabot_sim.world.mates import Mates
 from gidabot_sim.world.timeline import Clock, Timeline
 
 T = TypeVar("T")
@@ -243,6 +244,7 @@ class SimulatedBuilding:
         self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
         self.off: set[str] = set()               # robots whose machine is off (machine_off)
         self.timeline: Timeline | None = None
+        self.mates: Mates | None = None          # several robots on a floor: their shared poses (world/mates.py)
         self._history: list[tuple[float, float]] = []    # (wall, slowest floor's sim time), see clocks()
 
     def __enter__(self) -> SimulatedBuilding:
@@ -298,6 +300,9 @@ class SimulatedBuilding:
         self.start_wall = time.time() + self.start_delay
         self.timeline = Timeline.create(self.run_dir / "timeline", len(self.building.robots), self.speed,
                                         self.max_drift, self.peer_timeout, self.start_wall)
+        if any(len(self.building.robots_on(r.floor)) > 1 for r in self.building.robots):
+            # robots sharing a floor share its world: each simulator puts the others of its floor in its own
+            self.mates = Mates.create(self.run_dir / "mates", [r.home for r in self.building.robots])
         for robot in self.building.robots:
             check()
             if self.record:
@@ -380,6 +385,8 @@ class SimulatedBuilding:
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
             "relay_state_dir": str(self.run_dir / "relay" / robot),
         }
+        if self.mates is not None and len(self.building.robots_on(self.building.robot(robot).floor)) > 1:
+            args["sim_mates"] = str(self.mates.path)
         args.update(self.common_args)
         args.update(self.robot_args.get(robot, {}))
         return [f"{k}:={v}" for k, v in args.items()]
@@ -578,6 +585,9 @@ class SimulatedBuilding:
         if self.timeline is not None:
             self.timeline.close()
             self.timeline = None
+        if self.mates is not None:
+            self.mates.close()
+            self.mates = None
         for info in self.leftovers():   # a node whose roslaunch did not stop it (own session: own group)
             with contextlib.suppress(ProcessLookupError, PermissionError):
                 if info.pgid == info.pid:

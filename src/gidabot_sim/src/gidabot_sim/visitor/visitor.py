@@ -32,7 +32,9 @@ One visitor of a population (``gidabot demo --visitors K``; each node then runs 
 visitor, fed only the events of that visitor's trips) may also choose to cancel: at its start
 robot's screen, ``cancel_after_s`` after asking, it presses Cancel for its latest trip unless the
 visit is over; or never to turn up (``no_show``): it ignores ``WAITING_VISITOR`` away from its
-start floor, so the robot waiting at the meeting point gives up.
+start floor, so the robot waiting at the meeting point gives up. Before it confirms, the screen
+shows how long until the robots of each leg are there (``start(now, shown)``); one with a
+``patience_s`` does not confirm when a wait shown is longer: it leaves (``left``), by its choice.
 
 Time is passed in (sim seconds); :meth:`VisitorCore.step` returns the commands
 that are due, so tests need no clock.
@@ -41,8 +43,14 @@ that are due, so tests need no clock.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
+from gidabot_navigation.building.model import Building
+from gidabot_navigation.errors import GoalRejected
+from gidabot_navigation.guiding.assignment import AssignConfig
+from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.trips import RobotView, TripPlanner, WaitModel, preview_trip
 from gidabot_navigation.interface import (
     ACCEPTED,
     CANCEL,
@@ -94,6 +102,7 @@ class VisitorConfig:
     arrive_s: float = 0.0            # s after every robot is up (the node starts the visit then)
     cancel_after_s: float = -1.0     # >= 0: presses Cancel this long after asking, if the visit is not over
     no_show: bool = False            # never turns up at a meeting point on another floor (that robot times out)
+    patience_s: float = -1.0         # >= 0: does not confirm when a wait shown before confirming is longer
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -142,6 +151,8 @@ class VisitorCore:
     asked_at: float | None = None                              # when the visit started (the button pressed)
     goal_uids: list[str] = field(default_factory=list)         # this visitor's trips, oldest first
     cancel_sent: bool = False
+    left: bool = False                                         # did not confirm: a wait shown was too long
+    shown: tuple[float | None, ...] = ()                       # the waits shown before confirming (s, None unknown)
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
@@ -152,16 +163,23 @@ class VisitorCore:
         """This node's robot is where the visitor starts (the only one that starts the visit)."""
         return math.isclose(self.cfg.floor, self.cfg.start_floor) and self.cfg.start_robot in ("", self.cfg.robot)
 
-    def start(self, now: float) -> list[ButtonPress]:
-        """Begin the visit: only the start floor's node does something, and only once.
+    def start(self, now: float, shown: tuple[float | None, ...] = ()) -> list[ButtonPress]:
+        """Begin the visit: only the start floor's node does something, and only once. ``shown``: the waits (s)
+        the screen shows before the visitor confirms, one per leg (None: not known); with a ``patience_s``, a
+        longer one and the visitor does not confirm (:attr:`left`).
 
         (The visitor being *present* on a floor is not enough: it arrives on every floor of a
         tour, and a START_TOUR there would restart the tour.)
         """
         if self.started or not self.on_start_floor:
             return []
-        self.started, self.asked_at = True, now
+        self.started, self.asked_at, self.shown = True, now, tuple(shown)
         c = self.cfg
+        longest = max((w for w in shown if w is not None and math.isfinite(w)), default=0.0)
+        if c.patience_s >= 0 and longest > c.patience_s:
+            self.left, self.finished = True, True
+            self.outcome = f"left: shown a wait of {longest:.0f} s, more than the {c.patience_s:.0f} s it accepts"
+            return []
         if c.tour_file:
             cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
         elif c.goal_id:
@@ -316,3 +334,52 @@ class VisitorCore:
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]
         return [d.press for d in sorted(ready, key=lambda d: d.at)]
+
+
+class Screen:
+    """What a robot's screen shows a visitor before it confirms (as the GUI does, ``gidabot_gui.core.plans``):
+    the robot of each leg and how long until it is there, from every robot's broadcast queue and pose
+    (``/gidabot/pending``, ``/gidabot/status``), ranked as the robot will rank them
+    (:func:`~gidabot_navigation.guiding.trips.preview_trip`). Times: wall s (when each message was received)."""
+
+    def __init__(self, building: Building, offline_after: float = 5.0, planner: TripPlanner | None = None) -> None:
+        self.building = building
+        self.offline_after = offline_after
+        self.planner = planner or TripPlanner(building)
+        self.views: dict[str, RobotView] = {}
+        self.heard: dict[str, float] = {}
+        self.poses: dict[str, tuple[float, float]] = {}
+
+    def on_status(self, robot: str, now_wall: float, pose: tuple[float, float] | None) -> None:
+        found = self.building.find_robot(robot)
+        if found is None:
+            return
+        self.heard[robot] = now_wall
+        if pose is not None and all(math.isfinite(v) for v in pose):
+            self.poses[robot] = (float(pose[0]), float(pose[1]))
+            view = self.views.get(robot) or RobotView(found)
+            self.views[robot] = RobotView(found, view.queue, view.wait_new, self.poses[robot], view.heard)
+
+    def on_pending(self, robot: str, goals: Iterable[Trip], wait_new: float, now_wall: float) -> None:
+        found = self.building.find_robot(robot)
+        if found is None:
+            return
+        queue = []
+        for trip in goals:
+            try:
+                queue.append(validate_trip(self.building, trip))
+            except GoalRejected:
+                continue
+        wait = float(wait_new) if math.isfinite(wait_new) else 0.0
+        self.views[robot] = RobotView(found, tuple(queue), max(0.0, wait), self.poses.get(robot), now_wall)
+
+    def waits(self, robot: str, goal_id: str, way: str, now_wall: float) -> tuple[float | None, ...]:
+        """The waits (s) shown at ``robot``'s screen for a trip to ``goal_id`` by ``way``, one per leg (None: no
+        robot of that leg's floor is online)."""
+        origin, goal = self.building.find_robot(robot), self.building.find_location(goal_id)
+        if origin is None or goal is None:
+            return ()
+        pose = self.poses.get(robot, (origin.home.x, origin.home.y))
+        online = lambda r: now_wall - self.heard.get(r, -math.inf) <= self.offline_after  # noqa: E731
+        return tuple(p.wait_s for p in preview_trip(self.planner, WaitModel(), origin, pose, goal, way, self.views,
+                                                     online, now_wall, AssignConfig.helper_gain))

@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+import json
 import threading
+import time
 from collections import deque
 from dataclasses import replace
 
 import rospy
 
-from gidabot_msgs.msg import Goal, NavEvent, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError, TourError, TourNameError
+from gidabot_navigation.guiding.guiding_node import trip_from_msg
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, WAYS, Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
@@ -19,7 +22,7 @@ from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_navigation.tours.tour_file import tour_from_lines
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.visitor.population import plans_from_list
-from gidabot_sim.visitor.visitor import ButtonPress, VisitorConfig, VisitorCore
+from gidabot_sim.visitor.visitor import ButtonPress, Screen, VisitorConfig, VisitorCore
 
 
 def _skips_param(raw: object) -> tuple[tuple[int, int], ...]:
@@ -35,7 +38,10 @@ class VisitorNode:
     Subscribes:
       /gidabot/nav_events (gidabot_msgs/NavEvent)   every robot's events (relayed)
       /gidabot/goals (gidabot_msgs/Goal)            population only: which visitor each trip is for
-      /gidabot/status (gidabot_msgs/RobotStatus)    to start once every robot is up (then unsubscribed)
+      /gidabot/status (gidabot_msgs/RobotStatus)    to start once every robot is up (then unsubscribed, unless a
+                                                    visitor has a patience: the robots' poses for the screen)
+      /gidabot/pending (gidabot_msgs/PendingRequests) population with a patience: every robot's queue, for the
+                                                    waits the screen shows before a visitor confirms
       tour_store/catalog (gidabot_msgs/TourCatalog) tour mode: the tour's floors (stops on floors without robot);
                                                     the start robot starts once the tour is stored here
     Publishes:
@@ -58,8 +64,13 @@ class VisitorNode:
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
       ~population (list, [])      many visitors instead of one: their plans (gidabot_sim.visitor.population:
                                   visitor_id, arrive_s after every robot is up (sim s), robot, way, goal_id or
-                                  tour_file, cancel_after_s, no_show); ~start_floor, ~tour_file, ~goal_id, ~way
-                                  and ~skips are then not used
+                                  tour_file, cancel_after_s, no_show, patience_s); ~start_floor, ~tour_file,
+                                  ~goal_id, ~way and ~skips are then not used. A visitor with a patience sees
+                                  the waits of its trip's legs before confirming, as the GUI shows them, and
+                                  leaves instead when one is longer
+      ~record (str, "")           a JSON-lines file (the demo's monitor.jsonl) to append what the visitors chose at
+                                  the screen: ``{"kind": "visitor", "event": "asked" | "left", "visitor", "robot",
+                                  "shown": [s or null per leg], "patience_s", "sim", "wall"}``
     """
 
     def __init__(self) -> None:
@@ -88,7 +99,7 @@ class VisitorNode:
         self.cores = {p.visitor_id: VisitorCore(replace(
             self.cfg, start_floor=building.robot(p.robot).floor, start_robot=p.robot, way=p.way, goal_id=p.goal_id,
             tour_file=p.tour_file, skips=(), visitor_id=p.visitor_id, arrive_s=p.arrive_s,
-            cancel_after_s=p.cancel_after_s, no_show=p.no_show)) for p in population} \
+            cancel_after_s=p.cancel_after_s, no_show=p.no_show, patience_s=p.patience_s)) for p in population} \
             or {self.cfg.visitor_id: VisitorCore(self.cfg)}
         self.robots = {r.name for r in building.robots}
         self.start_delay = param_number("~start_delay", 2.0, strict=False)
@@ -103,11 +114,16 @@ class VisitorNode:
         # reads it there)
         self._tours_missing = {c.cfg.tour_file for c in self.cores.values() if c.cfg.tour_file}
         self._seq = 0
+        self._record = str(rospy.get_param("~record", ""))
+        self._first_stop: dict[str, str] = {}               # tour file -> the room of its first stop (the screen)
+        self.screen = Screen(building) if any(c.cfg.patience_s >= 0 for c in self.cores.values()) else None
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
         self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
         if population:
             rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
         rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=100)
+        if self.screen is not None:
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=50)
         self._status_sub = rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50)
         self._catalog_sub = None
         if self._tours_missing:
@@ -164,17 +180,28 @@ class VisitorNode:
                 for core in self.cores.values():
                     if core.cfg.tour_file == t.file_name:
                         core.on_tour(tuple(g.floor for g in tour.goals))
+                if tour.goals:
+                    self._first_stop[t.file_name] = tour.goals[0].room
                 self._tours_missing.discard(t.file_name)
+
+    def _on_pending(self, msg: PendingRequests) -> None:
+        goals = [trip_from_msg(g) for g in msg.goals[:256]]
+        with self._lock:
+            if self.screen is not None:
+                self.screen.on_pending(msg.robot, goals, msg.wait_new, time.time())
 
     def _on_status(self, msg: RobotStatus) -> None:
         with self._lock:
+            if self.screen is not None:
+                p = msg.nav_pose.position
+                self.screen.on_status(msg.robot, time.time(), (p.x, p.y))
             self._seen.add(msg.robot)
             if self._all_up_at is None and self.robots <= self._seen:
                 self._all_up_at = rospy.get_time()
 
     def _tick(self, _event: object) -> None:
         now = rospy.get_time()
-        if self._all_up_at is not None and self._status_sub is not None:
+        if self._all_up_at is not None and self._status_sub is not None and self.screen is None:
             self._status_sub.unregister()    # statuses are 4 x 2 Hz of sim time: only needed until all are up
             self._status_sub = None
         if not self._tours_missing and self._catalog_sub is not None:
@@ -185,13 +212,37 @@ class VisitorNode:
             for core in self.cores.values():
                 commands = core.step(now)
                 if (self._all_up_at is not None and not self._tours_missing and not core.started
-                        and now >= self._all_up_at + self.start_delay + core.cfg.arrive_s):
-                    commands = core.start(now) + commands
+                        and now >= self._all_up_at + self.start_delay + core.cfg.arrive_s and core.on_start_floor):
+                    shown = self._shown(core)
+                    commands = core.start(now, shown) + commands
                     if core.started:
-                        rospy.loginfo("visitor %s on %s: starting the visit", core.cfg.visitor_id, self.cfg.robot)
+                        rospy.loginfo("visitor %s on %s: %s (waits shown: %s)", core.cfg.visitor_id, self.cfg.robot,
+                                      core.outcome if core.left else "starting the visit", shown)
+                        self._write_record(core, now)
                 presses += [(core.cfg, cmd) for cmd in commands]
         for cfg, cmd in presses:
             self._publish(cfg, cmd)
+
+    def _shown(self, core: VisitorCore) -> tuple[float | None, ...]:
+        """The waits this robot's screen shows the visitor before it confirms (its trip's legs)."""
+        if self.screen is None or core.cfg.patience_s < 0:
+            return ()
+        goal = core.cfg.goal_id or self._first_stop.get(core.cfg.tour_file, "")
+        return self.screen.waits(self.cfg.robot, goal, core.cfg.way, time.time()) if goal else ()
+
+    def _write_record(self, core: VisitorCore, now: float) -> None:
+        """What the visitor chose at the screen, for the demo's statistics (one line, appended in one write)."""
+        if not self._record:
+            return
+        line = json.dumps({"kind": "visitor", "event": "left" if core.left else "asked", "wall": time.time(),
+                           "sim": now, "visitor": core.cfg.visitor_id, "robot": self.cfg.robot,
+                           "shown": [None if w is None else round(w, 1) for w in core.shown],
+                           "patience_s": core.cfg.patience_s, "detail": core.outcome if core.left else ""})
+        try:
+            with open(self._record, "a", encoding="utf-8") as out:
+                out.write(line + "\n")
+        except OSError as err:
+            rospy.logwarn("visitor on %s: cannot append to %s: %s", self.cfg.robot, self._record, err)
 
     def _publish(self, cfg: VisitorConfig, cmd: ButtonPress) -> None:
         self._seq += 1

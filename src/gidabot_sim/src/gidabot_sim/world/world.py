@@ -15,6 +15,13 @@ has a goal, :meth:`World.set_active`), neither moving ``DEADLOCK_PROGRESS`` for 
 sim seconds. Both are counted and reported as :class:`WorldEvent` (:meth:`World.take_events`).
 :meth:`World.seen_robots` tells which other robots a robot's laser sees (its obstacle layer).
 
+*Mates* (:meth:`World.add_mate`) are robots of the floor that another process simulates (each robot
+runs its own simulator on its own master; :mod:`gidabot_sim.world.mates` shares their poses): this
+world never moves them by its physics, it carries each along the velocity its simulator last wrote
+(:meth:`World.set_mate`) and otherwise treats it as any robot: its laser sees it, its robots collide
+with it (counted here when this world's robot is the one stopped; a contact where both robots drove
+counts in both worlds), deadlocks with it are watched. Pairs of two mates are their own worlds' business.
+
 Run-time obstacles (a person, a closed door) are :class:`~gidabot_navigation.building.planning.Circle`
 and :class:`~gidabot_navigation.building.planning.Rectangle` shapes rasterised into the solid
 mask: the laser sees them and robots collide with them.
@@ -152,6 +159,9 @@ class SimRobot:
     stalled: bool = False
     stalls: int = 0                    # number of times a move was refused
     active: bool = False               # its navigation has a goal (deadlock watch)
+    mate: bool = False                 # simulated by another process: moved by set_mate, never by this physics
+    mate_base: tuple[float, float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    #                                    x, y, yaw, vx, vy (map frame) at sim time t: a mate's last known motion
 
 
 @dataclass(frozen=True)
@@ -165,6 +175,7 @@ class WorldEvent:
 
 
 COLLISION = "collision"
+MATE_EXTRAPOLATION = 0.5      # sim s a mate is carried along its last velocity, at most (gidabot_sim.world.mates)
 DEADLOCK = "deadlock"
 DEADLOCK_RESOLVED = "deadlock_resolved"
 
@@ -229,6 +240,39 @@ class World:
             self.robots.pop()
             raise
         return index
+
+    def add_mate(self, spec: RobotSpec, pose: Pose2D) -> int:
+        """A robot of this floor simulated elsewhere (its own simulator), at ``pose``; returns its index. Not checked
+        against this world's robots: it is where its own world says."""
+        robot = SimRobot(spec=spec, pose=pose, battery=spec.battery.start, mate=True,
+                         mate_base=(pose.x, pose.y, pose.yaw, 0.0, 0.0, self.time))
+        self.robots.append(robot)
+        return len(self.robots) - 1
+
+    def set_mate(self, index: int, pose: Pose2D, vx: float, vy: float, t: float, active: bool) -> None:
+        """Mate ``index`` was at ``pose`` moving at (``vx``, ``vy``) m/s (map frame) at sim time ``t`` (its own
+        world's clock); from now on it is carried along that velocity, at most ``MATE_EXTRAPOLATION`` s away from
+        ``t``."""
+        robot = self.robot(index)
+        if not robot.mate:
+            raise ValueError(f"robot {robot.spec.name} is simulated here, not a mate")
+        values = (pose.x, pose.y, pose.yaw, vx, vy, t)
+        if not all(math.isfinite(v) for v in values):
+            return
+        robot.mate_base, robot.active = values, bool(active)
+        self._place_mate(robot, self.time)
+
+    @staticmethod
+    def _place_mate(robot: SimRobot, t: float) -> None:
+        x, y, yaw, vx, vy, t0 = robot.mate_base
+        dt = min(max(t - t0, -MATE_EXTRAPOLATION), MATE_EXTRAPOLATION)
+        robot.pose = Pose2D(x + vx * dt, y + vy * dt, yaw)
+        robot.vel = ZERO
+
+    @property
+    def own(self) -> list[int]:
+        """Indices of the robots this world simulates (not mates)."""
+        return [i for i, r in enumerate(self.robots) if not r.mate]
 
     def robot(self, index: int) -> SimRobot:
         if not 0 <= index < len(self.robots):
@@ -394,7 +438,10 @@ class World:
         """Advance every robot by one ``dt``."""
         t = self.start + (self.steps + 1) * self.dt
         for index, robot in enumerate(self.robots):
-            self._step_robot(index, robot, t)
+            if robot.mate:
+                self._place_mate(robot, t)
+            else:
+                self._step_robot(index, robot, t)
         self.steps += 1
         if len(self.robots) > 1:
             self._watch_pairs(t)
@@ -465,6 +512,8 @@ class World:
             a = robots[i]
             for j in range(i + 1, len(robots)):
                 b = robots[j]
+                if a.mate and b.mate:
+                    continue                       # watched by their own worlds
                 gap = math.hypot(a.pose.x - b.pose.x, a.pose.y - b.pose.y) - a.spec.radius - b.spec.radius
                 pair = (i, j)
                 if gap > CONTACT_RELEASE:

@@ -43,6 +43,7 @@ from gidabot_sim.ros.participant import own_time, synchronous_publisher
 from gidabot_sim.world.clock import MAX_SPEED, Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.lockstep import CONTROLLERS, Answer, Lockstep, Stepper
+from gidabot_sim.world.mates import Mates, MateState, mate_motion
 from gidabot_sim.world.timeline import Clock as TimelineClock
 from gidabot_sim.world.timeline import Timeline
 from gidabot_sim.world.world import (
@@ -57,6 +58,7 @@ from gidabot_sim.world.world import (
 
 MAX_EVENTS_PER_STEP = 200     # inputs applied per step (answers and commands always); a flood waits
 HEARTBEAT = 0.05              # wall s between two timeline writes while the world waits
+MATE_STALE = 5.0              # wall s: a mate whose simulator has not written for this long stands still
 IDLE_SLEEP = 0.01             # wall s an idle floor sleeps at least when ahead of its ceiling or of the other floors
 ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
 
@@ -100,6 +102,7 @@ class SimParams:
     seed: int | None
     diagnostics_period: float
     deadlock_time: float
+    mates: str
 
     @staticmethod
     def read() -> SimParams:
@@ -149,13 +152,13 @@ class SimParams:
             battery_rate=param_number("~battery_rate", 1.0, 0.0, 100.0),
             laser=laser, laser_z=param_number("~laser_z", 0.3, -5, 5, strict=False), battery=battery,
             seed=None if seed < 0 else seed, diagnostics_period=param_number("~diagnostics_period", 1.0, 0.0),
-            deadlock_time=param_number("~deadlock_time", 30.0, 0.0))
+            deadlock_time=param_number("~deadlock_time", 30.0, 0.0), mates=str(rospy.get_param("~mates", "")))
 
 
 class _RobotIO:
     """Topics of one simulated robot (prefix ``robot_<i>/`` when the floor has several)."""
 
-    def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams) -> None:
+    def __init__(self, node: SimNode, index: int, prefix: str, params: SimParams, seen: bool = False) -> None:
         self.index, self.prefix = index, prefix
         # the lockstep participants' inputs, by resolved name (as StepDone names them)
         self.odom_topic = rospy.resolve_name(prefix + Topic.ODOM)
@@ -169,7 +172,8 @@ class _RobotIO:
         self.truth = rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry, queue_size=5)
         self.scan = rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2)
         self.battery = rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)
-        self.seen = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2) if prefix else None
+        self.seen = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2) if prefix or seen \
+            else None
         rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.enqueue, callback_args=(Topic.CMD_VEL, index),
                          queue_size=50, tcp_nodelay=True)
         rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.enqueue,
@@ -234,7 +238,10 @@ class SimNode:
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1);
-      ``~deadlock_time`` (sim s, 30).
+      ``~deadlock_time`` (sim s, 30); ``~mates`` (path of the building's mates file, '' = none: the other robots
+        of this floor, each simulated by its own simulator on its own master, share the floor through it,
+        :mod:`gidabot_sim.world.mates`: this node writes its robot's motion there after each step and reads
+        theirs before each, into its world; ``robots_seen`` is then published for its robot too).
     Restart: the floor's time goes on from where it was (the timeline's slot; without one, ``~resume_at``,
       saved every ``~diagnostics_period``), never back; the robot restarts at its initial pose, obstacles
       are lost.
@@ -272,7 +279,9 @@ class SimNode:
         self.lock_events: queue.SimpleQueue = queue.SimpleQueue()   # cmd_vel and answers: always applied
         self.wake = threading.Event()
         multi = len(robots) > 1
-        self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params) for i in range(len(robots))]
+        self.mates, self.mate_slots, self.own_slots = self._open_mates(params, building, robots)
+        self.io = [_RobotIO(self, i, f"robot_{i}/" if multi else "", params, seen=bool(self.mate_slots))
+                   for i in range(len(robots))]
         # /clock is written in this thread, at once (a tiny message)
         self.clock_pub = synchronous_publisher(Topic.CLOCK, Clock)
         self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=20)
@@ -307,6 +316,49 @@ class SimNode:
         self._heartbeat = -math.inf
         self._diag = {"wall": wall, "sim": resume, "next": wall + params.diagnostics_period}
         self.scans = 0
+
+    def _open_mates(self, params: SimParams, building: Any, robots: list) -> tuple[Mates | None, dict[int, int],
+                                                                                 dict[int, int]]:
+        """The mates file, and the slots of the other robots of this floor (world index -> slot) and of this
+        node's own robots (world index -> slot): a slot per robot of the building, in its order."""
+        if not params.mates:
+            return None, {}, {}
+        mates = Mates.open(params.mates)
+        names = [r.name for r in building.robots]
+        if mates.slots != len(names):
+            mates.close()
+            raise SimConfigError(f"~mates: {params.mates} has {mates.slots} slots, the building {len(names)} robots")
+        own = {i: names.index(r.name) for i, r in enumerate(robots)}
+        slots = {}
+        for robot in building.robots_on(self.floor.id):
+            if robot.name in {r.name for r in robots}:
+                continue
+            slot = names.index(robot.name)
+            state = mates.read(slot)
+            spec = RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), params.laser, params.battery)
+            slots[self.world.add_mate(spec, state.pose if state.finite() else robot.home)] = slot
+        return mates, slots, own
+
+    def _read_mates(self, wall: float) -> None:
+        """The other robots of this floor, as their simulators last wrote them, into the world."""
+        if self.mates is None:
+            return
+        for index, slot in self.mate_slots.items():
+            state = self.mates.read(slot)
+            if state.finite():
+                pose, vx, vy, t, active = mate_motion(state, wall, MATE_STALE)
+                self.world.set_mate(index, pose, vx, vy, t if t >= 0 else self.world.time, active)
+
+    def _write_mates(self, wall: float) -> None:
+        """This node's robots' motion (map frame), for the simulators of the other robots of the floor."""
+        if self.mates is None:
+            return
+        for index, slot in self.own_slots.items():
+            r = self.world.robots[index]
+            c, s = math.cos(r.pose.yaw), math.sin(r.pose.yaw)
+            self.mates.write(slot, MateState(self.world.time, wall, r.pose.x, r.pose.y, r.pose.yaw,
+                                             r.vel.vx * c - r.vel.vy * s, r.vel.vx * s + r.vel.vy * c,
+                                             1.0 if r.active else 0.0))
 
     def _resume_time(self) -> float:
         """Sim time to start from: 0 for a new floor; where a restarted simulator's floor was (never earlier)."""
@@ -408,7 +460,7 @@ class SimNode:
         self.meta_pub.publish(self.map_msg.info)
         self._publish_obstacles()
         transforms = []
-        for io, robot in zip(self.io, self.world.robots, strict=True):
+        for io, robot in self._own():
             laser = robot.spec.laser
             transforms.append(ru.transform(io.frame["base_footprint"], io.frame["base_link"], Pose2D(0, 0, 0),
                                            self.world.time))
@@ -426,7 +478,7 @@ class SimNode:
         laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
         inputs = self.lockstep.inputs_due()           # a driving participant's odometry: at every step
         transforms = []
-        for io, robot in zip(self.io, self.world.robots, strict=True):
+        for io, robot in self._own():
             resting = self.world.at_rest(io.index)
             if ((rest_due if resting else odom_due) or io.odom_topic in inputs) and io.odom.get_num_connections():
                 self._publish_odom(io, robot, t)
@@ -478,6 +530,10 @@ class SimNode:
                          for j in self.world.seen_robots(io.index)]
         return msg
 
+    def _own(self) -> list[tuple[_RobotIO, Any]]:
+        """This node's robots (not its mates) with their topics."""
+        return [(io, self.world.robots[io.index]) for io in self.io]
+
     def _pairs(self) -> None:
         """Several robots: tell the world whose navigation drives (deadlock watch); log what it reports."""
         inputs = self.lockstep.inputs_due()
@@ -512,6 +568,7 @@ class SimNode:
     def _publish_stop(self, t: float, wall: float) -> None:
         """Everything of the stop the world just reached: sensors (the participants' inputs), then /clock."""
         self._publish_sensors()
+        self._write_mates(wall)
         if wall - self._clock_wall >= 1.0 / self.p.clock_rate_max:
             self.clock_pub.publish(Clock(clock=ru.stamp(t)))
             self.set_time(t)                 # this node's own ROS time, as the others see it (log lines)
@@ -520,12 +577,12 @@ class SimNode:
 
     def _idle(self) -> bool:
         """No robot moves or is commanded and no participant drives: a stop changes nothing but the time."""
-        return not self.lockstep.inputs_due() and all(self.world.at_rest(i) for i in range(len(self.world.robots)))
+        return not self.lockstep.inputs_due() and all(self.world.at_rest(io.index) for io in self.io)
 
     def _publish_missing_inputs(self, t: float) -> None:
         """A participant stopped being idle during this stop: its inputs for it, published now."""
         for topic in self.lockstep.missing_inputs(t):
-            for io, robot in zip(self.io, self.world.robots, strict=True):
+            for io, robot in self._own():
                 if topic == io.odom_topic:
                     self._publish_odom(io, robot, t)
 
@@ -557,20 +614,22 @@ class SimNode:
             "wall_time": f"{wall:.3f}", "achieved_factor": f"{achieved:.2f}", "behind_s": f"{s.behind(wall):.3f}",
             "wait_controllers_s": f"{s.waited['controllers']:.3f}", "wait_floors_s": f"{s.waited['floors']:.3f}",
             "wait_ceiling_s": f"{s.waited['ceiling']:.3f}", "steps": str(s.steps), "max_lead_s": f"{s.max_lead:.2f}",
-            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for r in self.world.robots)),
+            "obstacles": str(len(self.world.obstacles)), "stalls": str(sum(r.stalls for _io, r in self._own())),
             "laser_scans": str(self.scans),
         }
         for node, stats in self.lockstep.stats().items():
             values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
         for kind in (Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle", "step_done"):
             values[f"rejected_{kind}"] = str(self.log.counts.get(kind, 0))
-        for robot in self.world.robots:
+        for _io, robot in self._own():
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
         deadlocked = self.world.deadlocked
-        if len(self.io) > 1:
-            values["robot_collisions"] = str(self.world.robot_collisions)
-            values["robot_deadlocks"] = str(self.world.deadlocks)
-            values["deadlocked"] = ", ".join(f"{a}+{b}" for a, b in deadlocked)
+        # counted with one robot too (0: a floor world with one robot has nobody to collide with); with mates,
+        # the contacts in which this node's robot was stopped by another robot of the floor
+        values["robot_collisions"] = str(self.world.robot_collisions)
+        values["robot_deadlocks"] = str(self.world.deadlocks)
+        values["deadlocked"] = ", ".join(f"{a}+{b}" for a, b in deadlocked)
+        values["floor_robots"] = ",".join(r.spec.name for r in self.world.robots)
         absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)
         behind = s.behind(wall) - d.get("behind", 0.0) > 0.1 * span
         level = (DiagnosticStatus.ERROR if deadlocked else
@@ -580,7 +639,7 @@ class SimNode:
                                            if deadlocked else
                                            f"going on without {', '.join(absent)}" if absent else
                                            "behind its speed ceiling" if behind else "running"),
-                                  hardware_id=",".join(r.spec.name for r in self.world.robots),
+                                  hardware_id=",".join(r.spec.name for _io, r in self._own()),
                                   values=[KeyValue(k, v) for k, v in values.items()])
         msg = DiagnosticArray(status=[status])
         msg.header.stamp = ru.stamp(s.t)
@@ -605,6 +664,8 @@ class SimNode:
             guard.loop_stopped()
             if self.timeline is not None:
                 self.timeline.close()
+            if self.mates is not None:
+                self.mates.close()
 
     def _loop(self, guard: ExitGuard) -> None:
         s = self.stepper
@@ -629,8 +690,9 @@ class SimNode:
             peers = self.timeline.slowest_peer(self.p.timeline_slot, wall) if self.timeline is not None else None
             wait = s.check(wall, peers)
             if wait is None:
+                self._read_mates(wall)
                 self.world.advance_to(s.advance(wall))
-                if len(self.io) > 1:
+                if len(self.world.robots) > 1:
                     self._pairs()
                 self._publish_stop(s.t, wall)
                 self._diagnostics(wall)
@@ -642,6 +704,7 @@ class SimNode:
                 timeout = max(timeout, IDLE_SLEEP)
             if wall - self._heartbeat >= HEARTBEAT:
                 self._write_timeline(wall)
+                self._write_mates(wall)
             self._diagnostics(wall)
             self.wake.wait(max(0.0, timeout))
 
