@@ -51,6 +51,16 @@ def test_a_floor_behind_brings_the_ceiling_down_below_what_it_achieved_and_caps_
     assert gov.summary()["ceiling"] == 90.0
 
 
+def test_the_start_up_is_not_judged_a_floor_behind_before_the_tour_changes_nothing() -> None:
+    gov, floors = SpeedGovernor(start=50.0, patience=1), Floors()
+    gov.look(floors.clocks, floors.wall, active=False)
+    for _ in range(3):                  # every robot's nodes starting: the floors starved, far behind the ceiling
+        assert gov.look(floors.run({"A": 2, "B": 30}, behind={"A": 0.9, "B": 0.4}), floors.wall, active=False) is None
+    assert (gov.ceiling, gov.limit) == (50.0, 200.0)
+    # the tour starts: its first window, from the last look at the start-up, is judged on its own
+    assert gov.look(floors.run({"A": 50, "B": 50}, waited={"A": 0.2}), floors.wall, active=True) == 55.0
+
+
 def test_a_frozen_floor_brings_it_down_to_the_lowest_ceiling_and_bad_settings_are_refused() -> None:
     gov, floors = SpeedGovernor(start=50.0, low=5.0), Floors()
     gov.look(floors.clocks, floors.wall, active=True)

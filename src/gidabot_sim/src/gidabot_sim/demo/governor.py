@@ -12,8 +12,11 @@ second and sets every floor's ceiling to what it returns. Over each window of ``
   windows in a row: the ceiling is raised by ``raise_by``, up to the limit and ``high``;
 - otherwise it is held.
 
-Raising starts only once the tour runs (``active``): idle floors keep up with any ceiling, which says nothing
-about the floors while their robots drive.
+Both start only once the tour runs (``active``): idle floors keep up with any ceiling, which says nothing about
+the floors while their robots drive; and the start-up (every robot's nodes starting at once, a floor whose
+simulator is up before the others) starves the floors for a while, which says nothing about the tour either
+(the first bench demo at ``max`` backed off to the lowest ceiling on the start-up and held it for the whole
+tour). The first window starts when the tour does.
 """
 
 from __future__ import annotations
@@ -55,6 +58,10 @@ class SpeedGovernor:
         if self._since is None or set(self._since[1]) != set(clocks):
             self._since = (wall, dict(clocks))
             return None
+        if not active:                   # start-up: not judged (see the module docstring)
+            self._since = (wall, dict(clocks))
+            self._kept_up = 0
+            return None
         began, before = self._since
         span = wall - began
         if span < self.window:
@@ -67,7 +74,7 @@ class SpeedGovernor:
             self._kept_up = 0
             return self._set(max(self.low, min(self.back_off * slowest, self.limit)), wall)
         waited = max(clocks[r].wait_ceiling - before[r].wait_ceiling for r in clocks)
-        self._kept_up = self._kept_up + 1 if active and waited > 0 else 0
+        self._kept_up = self._kept_up + 1 if waited > 0 else 0
         if self._kept_up >= self.patience and self.ceiling < self.limit:
             self._kept_up = 0
             return self._set(min(self.ceiling * self.raise_by, self.limit, self.high), wall)
