@@ -39,10 +39,12 @@ def label(speed: float | str) -> str:
     return speed if isinstance(speed, str) else f"{speed:g}x"
 
 
-def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path) -> dict:
+def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path,
+            clock_rate: float | None = None) -> dict:
     """One demo run; its report (``gidabot demo --json``) with its exit status and CPU."""
     argv = [*DEMO, "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
-            "--json", "--cpu"] + (["--net", str(net)] if net is not None else [])
+            "--json", "--cpu"] + (["--net", str(net)] if net is not None else []) \
+        + (["--clock-rate", f"{clock_rate:g}"] if clock_rate is not None else [])
     began = time.monotonic()
     with open(log, "w", encoding="utf-8") as err:
         proc = subprocess.run(argv, stdout=subprocess.PIPE, stderr=err, text=True, check=False)
@@ -55,6 +57,9 @@ def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | Non
     folder = Path(report.get("run_folder", ""))
     if (folder / "cpu.json").exists():
         report["cpu"] = json.loads((folder / "cpu.json").read_text(encoding="utf-8")).get("tour", {})
+    if (folder / "run.json").exists():
+        run = json.loads((folder / "run.json").read_text(encoding="utf-8"))
+        report["governor"], report["clock_rate"] = run.get("governor"), run.get("clock_rate")
     return report
 
 
@@ -100,6 +105,9 @@ def summarise(report: dict, speed: float | str, robots: list[str], reference: di
         "rates": {r: {n.rsplit("/", 1)[-1]: v["rate_pct"] for kind in ("controllers", "guiding")
                       for n, v in f[kind].items()} for r, f in floors.items()},
         "max_drift_s": timing.get("max_drift_s"),
+        "clock_rate": report.get("clock_rate"),
+        "ceiling_held": (report.get("governor") or {}).get("ceiling"),
+        "ceiling_changes": len((report.get("governor") or {}).get("changes", [])),
         "cpu_cores": cpu.get("cores"),
         "cpu_ms_per_sim_s": round(1000.0 * cpu["cpu_s"] / sim_s, 1) if cpu.get("cpu_s") and sim_s > 0 else None,
         "cpu_per_kind_ms_per_sim_s": {k: round(1000.0 * v / sim_s, 2) for k, v in
@@ -137,7 +145,9 @@ def print_run(run: dict, robots: list[str]) -> None:
     name = label(run["speed"])
     print(f"{name:>5}: tour {run['completed']}/{run['goals']} goals, wall {run['wall_s']:.1f} s, "
           f"sim {run['sim_s']:.0f} s ({run['sim_to_wall']:.1f}x); {'DEGRADED' if run['degraded'] else 'not degraded'}; "
-          f"CPU {run['cpu_cores']} cores, {run['cpu_ms_per_sim_s']} ms per sim s", flush=True)
+          f"CPU {run['cpu_cores']} cores, {run['cpu_ms_per_sim_s']} ms per sim s; /clock {run['clock_rate']} Hz"
+          + ("" if run["ceiling_held"] is None else
+             f"; ceiling held {run['ceiling_held']}x after {run['ceiling_changes']} change(s)"), flush=True)
     floors = run["floors"]
     print("       floors (sim/wall, behind s): " + ", ".join(
         f"{r} {floors[r]['achieved_factor']}x {floors[r]['behind_s']}" for r in robots if r in floors)
@@ -180,6 +190,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
     ap.add_argument("--net", type=int, default=None, help="gidabot demo --net")
+    ap.add_argument("--clock-rate", type=float, default=None, metavar="HZ",
+                    help="gidabot demo --clock-rate (default: the demo's)")
     ap.add_argument("--out", type=Path, default=None, help="run folders (default: a new temporary folder)")
     args = ap.parse_args(argv)
     speeds = [parse_speed(s) for s in args.speeds.split(",") if s]
@@ -191,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     for speed in speeds:
         if not (args.json or args.markdown):
             print(f"running {args.tour.name} at {label(speed)} ...", flush=True)
-        report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log")
+        report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log", args.clock_rate)
         reports.append(report)
         runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None))
         if not (args.json or args.markdown):

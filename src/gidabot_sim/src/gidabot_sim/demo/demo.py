@@ -55,6 +55,11 @@ DEFAULT_SPEED = 20.0
 STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
 START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
 STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+# /clock messages per wall second at most (each floor's simulator; docs/demo.md, "Speed"): every node of a master
+# receives every one (about 0.6 % of a core per node at 100 Hz, more with timers); at 100 Hz they were half the
+# building's CPU at 50x (`bench demo`: 1.39 cores at 100 Hz, 1.12 at 50 Hz). At 50 Hz a /clock carries
+# speed / 50 sim s: 0.2 s at 10x, 1 s at 50x.
+CLOCK_WALL_HZ = 50.0
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
 LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -83,6 +88,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
                    help=f"ceiling of sim seconds per wall second, the same on every floor (default "
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
+    p.add_argument("--clock-rate", type=float, default=CLOCK_WALL_HZ, metavar="HZ",
+                   help=f"/clock messages per wall second at most, on every floor (default {CLOCK_WALL_HZ:g}: the "
+                        "CPU of the building's nodes receiving it against the sim-time resolution of their clocks)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
@@ -184,6 +192,8 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
+    if not (math.isfinite(args.clock_rate) and 1 <= args.clock_rate <= 1000):
+        raise DemoError(f"--clock-rate {args.clock_rate:g}: expected 1..1000 messages per wall second")
     if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
         raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
@@ -242,7 +252,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
                    "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
-                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}",
+                   "sim_clock_rate": f"{args.clock_rate:g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor, "visit_time": args.visit_time}
     if plans:
@@ -302,6 +313,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
         "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
+        "clock_rate": args.clock_rate,
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
