@@ -109,6 +109,7 @@ def summarise(report: dict, speed: float | str, robots: list[str], reference: di
         "ceiling_held": (report.get("governor") or {}).get("ceiling"),
         "ceiling_changes": len((report.get("governor") or {}).get("changes", [])),
         "cpu_cores": cpu.get("cores"),
+        "other_processes_cores": cpu.get("other_processes_cores"),
         "cpu_ms_per_sim_s": round(1000.0 * cpu["cpu_s"] / sim_s, 1) if cpu.get("cpu_s") and sim_s > 0 else None,
         "cpu_per_kind_ms_per_sim_s": {k: round(1000.0 * v / sim_s, 2) for k, v in
                                       (cpu.get("per_kind_cpu_s") or {}).items()} if sim_s > 0 else {},
@@ -145,7 +146,8 @@ def print_run(run: dict, robots: list[str]) -> None:
     name = label(run["speed"])
     print(f"{name:>5}: tour {run['completed']}/{run['goals']} goals, wall {run['wall_s']:.1f} s, "
           f"sim {run['sim_s']:.0f} s ({run['sim_to_wall']:.1f}x); {'DEGRADED' if run['degraded'] else 'not degraded'}; "
-          f"CPU {run['cpu_cores']} cores, {run['cpu_ms_per_sim_s']} ms per sim s; /clock {run['clock_rate']} Hz"
+          f"CPU {run['cpu_cores']} cores ({run['other_processes_cores']} beside it), {run['cpu_ms_per_sim_s']} ms per "
+          f"sim s; /clock {run['clock_rate']} Hz"
           + ("" if run["ceiling_held"] is None else
              f"; ceiling held {run['ceiling_held']}x after {run['ceiling_changes']} change(s)"), flush=True)
     floors = run["floors"]

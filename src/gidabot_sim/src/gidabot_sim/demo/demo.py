@@ -26,7 +26,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import TextIO
@@ -244,7 +244,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         last_arrival = max((p.arrive_s for p in plans), default=0.0)
         args.timeout = START_STOP_S + (last_arrival + SIM_S_PER_GOAL * stops) / min(speed, DEFAULT_SPEED)
 
-    wall_begin = time.time()
+    wall_begin, machine_begin = time.time(), machine_busy_s()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
     seed = run_dir / "seed_tours"
     shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
@@ -288,7 +288,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
-            _cpu_table(sim, wall_begin, tour_cpu[0] if tour_cpu else None, out)
+            _cpu_table(sim, wall_begin, machine_begin, tour_cpu[0] if tour_cpu else None, out)
     except (DemoError, ProcessError, OSError) as err:   # a process that cannot start, a full disk...
         failure = str(err)
         print(f"gidabot demo: {err}", file=sys.stderr)
@@ -390,10 +390,26 @@ def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTimin
     return ""
 
 
+def machine_busy_s() -> float | None:
+    """CPU seconds every core of this machine has been busy since boot (``/proc/stat``: all but idle and iowait),
+    None where there is no /proc/stat."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = f.readline().split()
+    except OSError:
+        return None
+    if not fields or fields[0] != "cpu":
+        return None
+    ticks = [int(v) for v in fields[1:9]]            # user nice system idle iowait irq softirq steal
+    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
+
+
 @dataclass
 class CpuSnapshot:
     wall: float
     rows: list[dict[str, object]]
+    machine_s: float | None = field(default_factory=machine_busy_s)   # the whole machine's busy CPU s so far
+    own_s: float = field(default_factory=lambda: sum(os.times()[:2]))  # this demo process's own CPU s so far
 
 
 def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = None) -> dict[str, float]:
@@ -406,24 +422,31 @@ def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = N
     return kinds
 
 
-def _cpu_table(sim: SimulatedBuilding, begin: float, tour_start: CpuSnapshot | None, out: TextIO) -> None:
+def _cpu_table(sim: SimulatedBuilding, begin: float, begin_machine: float | None, tour_start: CpuSnapshot | None,
+               out: TextIO) -> None:
     """Print and save (cpu.json) what each kind of process cost: start-up, then the tour alone."""
     end = CpuSnapshot(time.time(), sim.cpu_usage())
+    start = CpuSnapshot(begin, [], begin_machine, 0.0)
     if tour_start is None:
-        phases = [("whole run", begin, end.wall, end.rows, None)]
+        phases = [("whole run", start, end, end.rows, None)]
     else:
         first = {int(r["pid"]): float(r["cpu_s"]) for r in tour_start.rows}  # type: ignore[arg-type]
-        phases = [("start-up", begin, tour_start.wall, tour_start.rows, None),
-                  ("tour", tour_start.wall, end.wall, end.rows, first)]
+        phases = [("start-up", start, tour_start, tour_start.rows, None), ("tour", tour_start, end, end.rows, first)]
     saved: dict[str, object] = {"processes": end.rows}
-    for name, t0, t1, rows, before in phases:
+    for name, a, b, rows, before in phases:
+        t0, t1 = a.wall, b.wall
         wall = max(t1 - t0, 1e-9)
         kinds = sorted(_per_kind(rows, before).items(), key=lambda kv: -kv[1])
         total = sum(cpu for _, cpu in kinds)
+        # the whole machine over the same span: what the run's processes took, and what everything else did
+        machine = b.machine_s - a.machine_s if a.machine_s is not None and b.machine_s is not None else None
+        others = None if machine is None else max(0.0, machine - total - (b.own_s - a.own_s))
         saved[name] = {"wall_s": round(wall, 1), "cpu_s": round(total, 1), "cores": round(total / wall, 2),
+                       "other_processes_cores": None if others is None else round(others / wall, 2),
                        "per_kind_cpu_s": {k: round(v, 1) for k, v in kinds}}
+        beside = "" if others is None else f"; every other process of the machine: {others / wall:.2f} cores"
         print(f"\nCPU of the run's processes, {name}: {total:.0f} s in {wall:.0f} s of wall time "
-              f"({total / wall:.2f} of {os.cpu_count()} cores); per kind of process (all robots together):",
+              f"({total / wall:.2f} of {os.cpu_count()} cores{beside}); per kind of process (all robots together):",
               file=out)
         for kind, cpu in kinds:
             print(f"  {kind:<26} {cpu:7.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %  {cpu / wall:5.2f} cores",
