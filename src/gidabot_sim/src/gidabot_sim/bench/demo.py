@@ -99,6 +99,10 @@ def summarise(report: dict, speed: float | str, robots: list[str], reference: di
         "received": [rows[r]["received"] if r in rows else None for r in robots],
         "table5": {name: {"time_s": t, "distance_m": d} for name, (t, d) in table5(report).items()},
         "table5_max_delta_pct": max_delta_pct(table5(reference), table5(report)) if reference else 0.0,
+        # the tour's sim time against the first run's: the robots' reactions (messages between their nodes and
+        # masters, through the relays) take wall time, which is more sim time the faster the run
+        "sim_vs_first_pct": round(100.0 * (sim_s / float(reference["tour"]["sim_s"]) - 1.0), 2)
+        if reference and (reference.get("tour") or {}).get("sim_s") else 0.0,
         "floors": {r: {k: f.get(k) for k in ("achieved_factor", "behind_s", "behind_pct", "wait_controllers_s",
                                               "wait_floors_s")} for r, f in floors.items()},
         "lowest_rate_pct": min(rates) if rates else None,
@@ -145,7 +149,9 @@ def verdicts(runs: list[dict]) -> list[str]:
 def print_run(run: dict, robots: list[str]) -> None:
     name = label(run["speed"])
     print(f"{name:>5}: tour {run['completed']}/{run['goals']} goals, wall {run['wall_s']:.1f} s, "
-          f"sim {run['sim_s']:.0f} s ({run['sim_to_wall']:.1f}x); {'DEGRADED' if run['degraded'] else 'not degraded'}; "
+          f"sim {run['sim_s']:.0f} s ({run['sim_vs_first_pct']:+.1f} % against the first run; "
+          f"{run['sim_to_wall']:.1f}x); "
+          f"{'DEGRADED' if run['degraded'] else 'not degraded'}; "
           f"CPU {run['cpu_cores']} cores ({run['other_processes_cores']} beside it), {run['cpu_ms_per_sim_s']} ms per "
           f"sim s; /clock {run['clock_rate']} Hz"
           + ("" if run["ceiling_held"] is None else
