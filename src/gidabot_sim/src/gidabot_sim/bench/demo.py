@@ -175,8 +175,8 @@ def format_markdown(result: dict) -> str:
     lines = [f"`gidabot bench demo --seed {result['seed']}`, tour {result['tour']} (Table 3: goals processed by "
              f"{', '.join(robots)})", "",
              "| speed | tour wall (s) | sim (s) | sim vs first run | sim/wall | floors' sim/wall | "
-             "behind (s, worst floor) | lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | CPU ms per sim s | "
-             "cores: the run / other processes |",
+             "behind (s, worst floor) | lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | "
+             "CPU ms per sim s | cores: the run / other processes |",
              "|---|---:|---:|---:|---:|---|---:|---:|---|---|---:|---:|---:|"]
     for run in result["runs"]:
         floors = run["floors"]
@@ -185,8 +185,8 @@ def format_markdown(result: dict) -> str:
         speed = label(run["speed"]) + ("" if run.get("ceiling_held") is None else
                                        f" (ceiling held {run['ceiling_held']:g}x)")
         lines.append(f"| {speed} | {run['wall_s']:.1f} | {run['sim_s']:.0f} | "
-                     f"{run.get('sim_vs_first_pct', 0.0):+.1f} % | {run['sim_to_wall']:.1f} | {factors} | {behind:.2f} | {run['lowest_rate_pct']} | "
-                     f"{'yes' if run['degraded'] else 'no'} | {', '.join(str(n) for n in run['table3'])} | "
+                     f"{run.get('sim_vs_first_pct', 0.0):+.1f} % | {run['sim_to_wall']:.1f} | {factors} | {behind:.2f} | "
+                     f"{run['lowest_rate_pct']} | {'yes' if run['degraded'] else 'no'} | {', '.join(str(n) for n in run['table3'])} | "
                      f"{run['table5_max_delta_pct']:.2f} % | {run['cpu_ms_per_sim_s']} | "
                      f"{run.get('cpu_cores')} / {run.get('other_processes_cores')} |")
     lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
