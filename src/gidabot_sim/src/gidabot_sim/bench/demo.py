@@ -184,11 +184,12 @@ def format_markdown(result: dict) -> str:
         behind = max((floors[r]["behind_s"] for r in floors), default=0.0)
         speed = label(run["speed"]) + ("" if run.get("ceiling_held") is None else
                                        f" (ceiling held {run['ceiling_held']:g}x)")
-        lines.append(f"| {speed} | {run['wall_s']:.1f} | {run['sim_s']:.0f} | "
-                     f"{run.get('sim_vs_first_pct', 0.0):+.1f} % | {run['sim_to_wall']:.1f} | {factors} | {behind:.2f} | "
-                     f"{run['lowest_rate_pct']} | {'yes' if run['degraded'] else 'no'} | {', '.join(str(n) for n in run['table3'])} | "
-                     f"{run['table5_max_delta_pct']:.2f} % | {run['cpu_ms_per_sim_s']} | "
-                     f"{run.get('cpu_cores')} / {run.get('other_processes_cores')} |")
+        cells = [speed, f"{run['wall_s']:.1f}", f"{run['sim_s']:.0f}", f"{run.get('sim_vs_first_pct', 0.0):+.1f} %",
+                 f"{run['sim_to_wall']:.1f}", factors, f"{behind:.2f}", str(run["lowest_rate_pct"]),
+                 "yes" if run["degraded"] else "no", ", ".join(str(n) for n in run["table3"]),
+                 f"{run['table5_max_delta_pct']:.2f} %", str(run["cpu_ms_per_sim_s"]),
+                 f"{run.get('cpu_cores')} / {run.get('other_processes_cores')}"]
+        lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
     return "\n".join(lines)
 
