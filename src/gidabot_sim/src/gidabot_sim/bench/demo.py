@@ -82,7 +82,10 @@ def max_delta_pct(a: dict[str, tuple[float, float]], b: dict[str, tuple[float, f
     return round(worst, 2)
 
 
-def summarise(report: dict, speed: float | str, robots: list[str], reference: dict | None) -> dict:
+def summarise(report: dict, speed: float | str, robots: list[str], reference: dict | None,
+              same_speed: dict | None = None) -> dict:
+    """One run's row; ``reference``: the first run's report; ``same_speed``: an earlier run's at the same speed (the
+    same tour and seed again: reproducibility)."""
     tour = report.get("tour", {})
     timing = report.get("timing") or {}
     floors = timing.get("floors") or {}
@@ -99,6 +102,7 @@ def summarise(report: dict, speed: float | str, robots: list[str], reference: di
         "received": [rows[r]["received"] if r in rows else None for r in robots],
         "table5": {name: {"time_s": t, "distance_m": d} for name, (t, d) in table5(report).items()},
         "table5_max_delta_pct": max_delta_pct(table5(reference), table5(report)) if reference else 0.0,
+        "table5_vs_same_speed_pct": max_delta_pct(table5(same_speed), table5(report)) if same_speed else None,
         # the tour's sim time against the first run's: the robots' reactions (messages between their nodes and
         # masters, through the relays) take wall time, which is more sim time the faster the run
         "sim_vs_first_pct": round(100.0 * (sim_s / float(reference["tour"]["sim_s"]) - 1.0), 2)
@@ -135,6 +139,10 @@ def verdicts(runs: list[dict]) -> list[str]:
         if run["table3"] != first["table3"] or run["received"] != first["received"]:
             missed.append(f"{name}: Table 3 {run['received']}/{run['table3']} differs from the {label(first['speed'])} "
                           f"run's {first['received']}/{first['table3']}")
+        again = run.get("table5_vs_same_speed_pct")
+        if again is not None and again > TARGETS["table5_max_delta_pct"]:
+            missed.append(f"{name}: Table 5 differs by {again:.1f} % from the earlier {name} run with the same seed "
+                          f"(target <= {TARGETS['table5_max_delta_pct']:g} %)")
         if run["table5_max_delta_pct"] > TARGETS["table5_max_delta_pct"]:
             missed.append(f"{name}: Table 5 differs by {run['table5_max_delta_pct']:.1f} % from the "
                           f"{label(first['speed'])} run (target <= {TARGETS['table5_max_delta_pct']:g} %)")
@@ -164,7 +172,9 @@ def print_run(run: dict, robots: list[str]) -> None:
         f"{r}: " + ", ".join(f"{n} {v:.0f}" for n, v in rates.items()) for r, rates in run["rates"].items()))
     print(f"       Table 3 processed {run['table3']} (received {run['received']}); Table 5: "
           + ", ".join(f"{n} {v['time_s']:.1f} s {v['distance_m']:.1f} m" for n, v in run["table5"].items())
-          + f"; largest difference to the first run {run['table5_max_delta_pct']:.2f} %")
+          + f"; largest difference to the first run {run['table5_max_delta_pct']:.2f} %"
+          + ("" if run.get("table5_vs_same_speed_pct") is None else
+             f", to the earlier {name} run {run['table5_vs_same_speed_pct']:.2f} %"))
     for reason in run["reasons"]:
         print(f"       degraded: {reason}")
 
@@ -187,7 +197,10 @@ def format_markdown(result: dict) -> str:
         cells = [speed, f"{run['wall_s']:.1f}", f"{run['sim_s']:.0f}", f"{run.get('sim_vs_first_pct', 0.0):+.1f} %",
                  f"{run['sim_to_wall']:.1f}", factors, f"{behind:.2f}", str(run["lowest_rate_pct"]),
                  "yes" if run["degraded"] else "no", ", ".join(str(n) for n in run["table3"]),
-                 f"{run['table5_max_delta_pct']:.2f} %", str(run["cpu_ms_per_sim_s"]),
+                 f"{run['table5_max_delta_pct']:.2f} %" + ("" if run.get("table5_vs_same_speed_pct") is None else
+                                                          f" ({run['table5_vs_same_speed_pct']:.2f} % to the "
+                                                          f"earlier {label(run['speed'])} run)"),
+                 str(run["cpu_ms_per_sim_s"]),
                  f"{run.get('cpu_cores')} / {run.get('other_processes_cores')}"]
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
@@ -200,7 +213,9 @@ def main(argv: list[str] | None = None) -> int:
     out_format.add_argument("--json", action="store_true", help="print one JSON object")
     out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
     ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
-    ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
+    ap.add_argument("--speeds", default="10,20,50,max",
+                    help="speeds in order; the first is the reference; a speed given again is a reproducibility run "
+                         "(its Table 5 is also compared with the earlier run at that speed)")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
     ap.add_argument("--net", type=int, default=None, help="gidabot demo --net")
     ap.add_argument("--clock-rate", type=float, default=None, metavar="HZ",
@@ -218,7 +233,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"running {args.tour.name} at {label(speed)} ...", flush=True)
         report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log", args.clock_rate)
         reports.append(report)
-        runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None))
+        same = next((r for s, r in zip(speeds[:len(reports) - 1], reports[:-1], strict=True) if s == speed), None)
+        runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None, same))
         if not (args.json or args.markdown):
             print_run(runs[-1], robots)
     missed = verdicts(runs)
