@@ -36,6 +36,18 @@ def test_the_verdicts_name_every_missed_target() -> None:
     assert verdicts(runs[:2]) == ["50x: the tour took 31.0 s of wall time (target <= 30 s)"]
 
 
+def test_a_speed_run_again_is_compared_with_its_earlier_run() -> None:
+    ten = _report((200.0, 300.0), (7, 8), 150.0)
+    fifty = _report((200.0, 306.0), (7, 8), 29.0)
+    runs = [summarise(ten, 10.0, ROBOTS, None), summarise(fifty, 50.0, ROBOTS, ten),
+            summarise(_report((200.0, 300.0), (7, 8), 29.0), 50.0, ROBOTS, ten, fifty)]
+    assert runs[1]["table5_vs_same_speed_pct"] is None and runs[2]["table5_vs_same_speed_pct"] == 1.96
+    assert verdicts(runs) == []
+    runs.append(summarise(_report((200.0, 318.0), (7, 8), 29.0), 50.0, ROBOTS, ten, fifty))
+    assert verdicts(runs) == ["50x: Table 5 differs by 3.9 % from the earlier 50x run with the same seed "
+                              "(target <= 3 %)", "50x: Table 5 differs by 6.0 % from the 10x run (target <= 3 %)"]
+
+
 def test_the_markdown_table_has_one_row_per_run_and_the_verdict() -> None:
     ten = _report((200.0, 300.0), (7, 8), 150.0)
     runs = [summarise(ten, 10.0, ROBOTS, None), summarise(_report((200.0, 303.0), (7, 8), 29.0), 50.0, ROBOTS, ten)]

@@ -29,6 +29,8 @@ def test_bad_arguments_are_refused_before_anything_starts(tmp_path: Path, capsys
         (["--skip", "x"], "expected K:M"),
         (["--secret", str(tmp_path / "nope")], "not a file"),
         (["--net", "0"], "--net 0"),
+        (["--clock-rate", "0"], "--clock-rate 0: expected 1..1000"),
+        (["--clock-rate", "inf"], "--clock-rate inf"),
     ]
     for argv, expected in cases:
         assert demo.main([*argv, "--out", str(out)]) == demo.EXIT_USAGE, argv

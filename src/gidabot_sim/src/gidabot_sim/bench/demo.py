@@ -39,10 +39,12 @@ def label(speed: float | str) -> str:
     return speed if isinstance(speed, str) else f"{speed:g}x"
 
 
-def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path) -> dict:
+def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | None, log: Path,
+            clock_rate: float | None = None) -> dict:
     """One demo run; its report (``gidabot demo --json``) with its exit status and CPU."""
     argv = [*DEMO, "--tour", str(tour), "--speed", str(speed), "--seed", str(seed), "--out", str(out),
-            "--json", "--cpu"] + (["--net", str(net)] if net is not None else [])
+            "--json", "--cpu"] + (["--net", str(net)] if net is not None else []) \
+        + (["--clock-rate", f"{clock_rate:g}"] if clock_rate is not None else [])
     began = time.monotonic()
     with open(log, "w", encoding="utf-8") as err:
         proc = subprocess.run(argv, stdout=subprocess.PIPE, stderr=err, text=True, check=False)
@@ -55,6 +57,9 @@ def run_one(tour: Path, speed: float | str, seed: int, out: Path, net: int | Non
     folder = Path(report.get("run_folder", ""))
     if (folder / "cpu.json").exists():
         report["cpu"] = json.loads((folder / "cpu.json").read_text(encoding="utf-8")).get("tour", {})
+    if (folder / "run.json").exists():
+        run = json.loads((folder / "run.json").read_text(encoding="utf-8"))
+        report["governor"], report["clock_rate"] = run.get("governor"), run.get("clock_rate")
     return report
 
 
@@ -77,7 +82,10 @@ def max_delta_pct(a: dict[str, tuple[float, float]], b: dict[str, tuple[float, f
     return round(worst, 2)
 
 
-def summarise(report: dict, speed: float | str, robots: list[str], reference: dict | None) -> dict:
+def summarise(report: dict, speed: float | str, robots: list[str], reference: dict | None,
+              same_speed: dict | None = None) -> dict:
+    """One run's row; ``reference``: the first run's report; ``same_speed``: an earlier run's at the same speed (the
+    same tour and seed again: reproducibility)."""
     tour = report.get("tour", {})
     timing = report.get("timing") or {}
     floors = timing.get("floors") or {}
@@ -94,13 +102,22 @@ def summarise(report: dict, speed: float | str, robots: list[str], reference: di
         "received": [rows[r]["received"] if r in rows else None for r in robots],
         "table5": {name: {"time_s": t, "distance_m": d} for name, (t, d) in table5(report).items()},
         "table5_max_delta_pct": max_delta_pct(table5(reference), table5(report)) if reference else 0.0,
+        "table5_vs_same_speed_pct": max_delta_pct(table5(same_speed), table5(report)) if same_speed else None,
+        # the tour's sim time against the first run's: the robots' reactions (messages between their nodes and
+        # masters, through the relays) take wall time, which is more sim time the faster the run
+        "sim_vs_first_pct": round(100.0 * (sim_s / float(reference["tour"]["sim_s"]) - 1.0), 2)
+        if reference and (reference.get("tour") or {}).get("sim_s") else 0.0,
         "floors": {r: {k: f.get(k) for k in ("achieved_factor", "behind_s", "behind_pct", "wait_controllers_s",
                                               "wait_floors_s")} for r, f in floors.items()},
         "lowest_rate_pct": min(rates) if rates else None,
         "rates": {r: {n.rsplit("/", 1)[-1]: v["rate_pct"] for kind in ("controllers", "guiding")
                       for n, v in f[kind].items()} for r, f in floors.items()},
         "max_drift_s": timing.get("max_drift_s"),
+        "clock_rate": report.get("clock_rate"),
+        "ceiling_held": (report.get("governor") or {}).get("ceiling"),
+        "ceiling_changes": len((report.get("governor") or {}).get("changes", [])),
         "cpu_cores": cpu.get("cores"),
+        "other_processes_cores": cpu.get("other_processes_cores"),
         "cpu_ms_per_sim_s": round(1000.0 * cpu["cpu_s"] / sim_s, 1) if cpu.get("cpu_s") and sim_s > 0 else None,
         "cpu_per_kind_ms_per_sim_s": {k: round(1000.0 * v / sim_s, 2) for k, v in
                                       (cpu.get("per_kind_cpu_s") or {}).items()} if sim_s > 0 else {},
@@ -122,6 +139,10 @@ def verdicts(runs: list[dict]) -> list[str]:
         if run["table3"] != first["table3"] or run["received"] != first["received"]:
             missed.append(f"{name}: Table 3 {run['received']}/{run['table3']} differs from the {label(first['speed'])} "
                           f"run's {first['received']}/{first['table3']}")
+        again = run.get("table5_vs_same_speed_pct")
+        if again is not None and again > TARGETS["table5_max_delta_pct"]:
+            missed.append(f"{name}: Table 5 differs by {again:.1f} % from the earlier {name} run with the same seed "
+                          f"(target <= {TARGETS['table5_max_delta_pct']:g} %)")
         if run["table5_max_delta_pct"] > TARGETS["table5_max_delta_pct"]:
             missed.append(f"{name}: Table 5 differs by {run['table5_max_delta_pct']:.1f} % from the "
                           f"{label(first['speed'])} run (target <= {TARGETS['table5_max_delta_pct']:g} %)")
@@ -136,8 +157,13 @@ def verdicts(runs: list[dict]) -> list[str]:
 def print_run(run: dict, robots: list[str]) -> None:
     name = label(run["speed"])
     print(f"{name:>5}: tour {run['completed']}/{run['goals']} goals, wall {run['wall_s']:.1f} s, "
-          f"sim {run['sim_s']:.0f} s ({run['sim_to_wall']:.1f}x); {'DEGRADED' if run['degraded'] else 'not degraded'}; "
-          f"CPU {run['cpu_cores']} cores, {run['cpu_ms_per_sim_s']} ms per sim s", flush=True)
+          f"sim {run['sim_s']:.0f} s ({run['sim_vs_first_pct']:+.1f} % against the first run; "
+          f"{run['sim_to_wall']:.1f}x); "
+          f"{'DEGRADED' if run['degraded'] else 'not degraded'}; "
+          f"CPU {run['cpu_cores']} cores ({run['other_processes_cores']} beside it), {run['cpu_ms_per_sim_s']} ms per "
+          f"sim s; /clock {run['clock_rate']} Hz"
+          + ("" if run["ceiling_held"] is None else
+             f"; ceiling held {run['ceiling_held']}x after {run['ceiling_changes']} change(s)"), flush=True)
     floors = run["floors"]
     print("       floors (sim/wall, behind s): " + ", ".join(
         f"{r} {floors[r]['achieved_factor']}x {floors[r]['behind_s']}" for r in robots if r in floors)
@@ -146,7 +172,9 @@ def print_run(run: dict, robots: list[str]) -> None:
         f"{r}: " + ", ".join(f"{n} {v:.0f}" for n, v in rates.items()) for r, rates in run["rates"].items()))
     print(f"       Table 3 processed {run['table3']} (received {run['received']}); Table 5: "
           + ", ".join(f"{n} {v['time_s']:.1f} s {v['distance_m']:.1f} m" for n, v in run["table5"].items())
-          + f"; largest difference to the first run {run['table5_max_delta_pct']:.2f} %")
+          + f"; largest difference to the first run {run['table5_max_delta_pct']:.2f} %"
+          + ("" if run.get("table5_vs_same_speed_pct") is None else
+             f", to the earlier {name} run {run['table5_vs_same_speed_pct']:.2f} %"))
     for reason in run["reasons"]:
         print(f"       degraded: {reason}")
 
@@ -156,17 +184,25 @@ def format_markdown(result: dict) -> str:
     robots = result["robots"]
     lines = [f"`gidabot bench demo --seed {result['seed']}`, tour {result['tour']} (Table 3: goals processed by "
              f"{', '.join(robots)})", "",
-             "| speed | tour wall (s) | sim (s) | sim/wall | floors' sim/wall | behind (s, worst floor) | "
-             "lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | CPU ms per sim s |",
-             "|---|---:|---:|---:|---|---:|---:|---|---|---:|---:|"]
+             "| speed | tour wall (s) | sim (s) | sim vs first run | sim/wall | floors' sim/wall | "
+             "behind (s, worst floor) | lowest rate (% of nominal) | degraded | Table 3 | Table 5 vs first run | "
+             "CPU ms per sim s | cores: the run / other processes |",
+             "|---|---:|---:|---:|---:|---|---:|---:|---|---|---:|---:|---:|"]
     for run in result["runs"]:
         floors = run["floors"]
         factors = " / ".join(f"{floors[r]['achieved_factor']:.0f}" for r in robots if r in floors)
         behind = max((floors[r]["behind_s"] for r in floors), default=0.0)
-        lines.append(f"| {label(run['speed'])} | {run['wall_s']:.1f} | {run['sim_s']:.0f} | {run['sim_to_wall']:.1f} | "
-                     f"{factors} | {behind:.2f} | {run['lowest_rate_pct']} | {'yes' if run['degraded'] else 'no'} | "
-                     f"{', '.join(str(n) for n in run['table3'])} | {run['table5_max_delta_pct']:.2f} % | "
-                     f"{run['cpu_ms_per_sim_s']} |")
+        speed = label(run["speed"]) + ("" if run.get("ceiling_held") is None else
+                                       f" (ceiling held {run['ceiling_held']:g}x)")
+        cells = [speed, f"{run['wall_s']:.1f}", f"{run['sim_s']:.0f}", f"{run.get('sim_vs_first_pct', 0.0):+.1f} %",
+                 f"{run['sim_to_wall']:.1f}", factors, f"{behind:.2f}", str(run["lowest_rate_pct"]),
+                 "yes" if run["degraded"] else "no", ", ".join(str(n) for n in run["table3"]),
+                 f"{run['table5_max_delta_pct']:.2f} %" + ("" if run.get("table5_vs_same_speed_pct") is None else
+                                                          f" ({run['table5_vs_same_speed_pct']:.2f} % to the "
+                                                          f"earlier {label(run['speed'])} run)"),
+                 str(run["cpu_ms_per_sim_s"]),
+                 f"{run.get('cpu_cores')} / {run.get('other_processes_cores')}"]
+        lines.append("| " + " | ".join(cells) + " |")
     lines += ["", "PASS" if result["pass"] else "FAIL: " + "; ".join(result["missed"])]
     return "\n".join(lines)
 
@@ -177,9 +213,13 @@ def main(argv: list[str] | None = None) -> int:
     out_format.add_argument("--json", action="store_true", help="print one JSON object")
     out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
     ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
-    ap.add_argument("--speeds", default="10,20,50,max", help="speeds in order; the first is the reference")
+    ap.add_argument("--speeds", default="10,20,50,max",
+                    help="speeds in order; the first is the reference; a speed given again is a reproducibility run "
+                         "(its Table 5 is also compared with the earlier run at that speed)")
     ap.add_argument("--seed", type=int, default=1, help="noise seed of every run (default 1)")
     ap.add_argument("--net", type=int, default=None, help="gidabot demo --net")
+    ap.add_argument("--clock-rate", type=float, default=None, metavar="HZ",
+                    help="gidabot demo --clock-rate (default: the demo's)")
     ap.add_argument("--out", type=Path, default=None, help="run folders (default: a new temporary folder)")
     args = ap.parse_args(argv)
     speeds = [parse_speed(s) for s in args.speeds.split(",") if s]
@@ -191,9 +231,10 @@ def main(argv: list[str] | None = None) -> int:
     for speed in speeds:
         if not (args.json or args.markdown):
             print(f"running {args.tour.name} at {label(speed)} ...", flush=True)
-        report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log")
+        report = run_one(args.tour, speed, args.seed, out, args.net, out / f"demo-{speed}.log", args.clock_rate)
         reports.append(report)
-        runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None))
+        same = next((r for s, r in zip(speeds[:len(reports) - 1], reports[:-1], strict=True) if s == speed), None)
+        runs.append(summarise(report, speed, robots, reports[0] if len(reports) > 1 else None, same))
         if not (args.json or args.markdown):
             print_run(runs[-1], robots)
     missed = verdicts(runs)

@@ -26,7 +26,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import TextIO
@@ -55,6 +55,11 @@ DEFAULT_SPEED = 20.0
 STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
 START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
 STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+# /clock messages per wall second at most (each floor's simulator; docs/demo.md, "Speed"): every node of a master
+# receives every one (about 0.6 % of a core per node at 100 Hz, more with timers); at 100 Hz they were half the
+# building's CPU at 50x (`bench demo`: 1.39 cores at 100 Hz, 1.12 at 50 Hz). At 50 Hz a /clock carries
+# speed / 50 sim s: 0.2 s at 10x, 1 s at 50x.
+CLOCK_WALL_HZ = 50.0
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
 LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -87,6 +92,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
                    help=f"ceiling of sim seconds per wall second, the same on every floor (default "
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
+    p.add_argument("--clock-rate", type=float, default=CLOCK_WALL_HZ, metavar="HZ",
+                   help=f"/clock messages per wall second at most, on every floor (default {CLOCK_WALL_HZ:g}: the "
+                        "CPU of the building's nodes receiving it against the sim-time resolution of their clocks)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
@@ -201,6 +209,8 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
+    if not (math.isfinite(args.clock_rate) and 1 <= args.clock_rate <= 1000):
+        raise DemoError(f"--clock-rate {args.clock_rate:g}: expected 1..1000 messages per wall second")
     if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
         raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
@@ -252,7 +262,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         last_arrival = max((p.arrive_s for p in plans), default=0.0)
         args.timeout = START_STOP_S + (last_arrival + SIM_S_PER_GOAL * stops) / min(speed, DEFAULT_SPEED)
 
-    wall_begin = time.time()
+    wall_begin, machine_begin = time.time(), machine_busy_s()
     run_dir = args.out.resolve() / f"{datetime.now():%Y%m%d-%H%M%S}-{label}"
     seed = run_dir / "seed_tours"
     shutil.copytree(resource("tours"), seed, dirs_exist_ok=True)
@@ -260,7 +270,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         shutil.copy(args.tour, seed / tour_name)
     launch_args = {"gui_fullscreen": "false",
                    "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
-                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
+                   "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}",
+                   "sim_clock_rate": f"{args.clock_rate:g}"}
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor, "visit_time": args.visit_time}
     if plans:
@@ -299,7 +310,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
-            _cpu_table(sim, wall_begin, tour_cpu[0] if tour_cpu else None, out)
+            _cpu_table(sim, wall_begin, machine_begin, tour_cpu[0] if tour_cpu else None, out)
     except (DemoError, ProcessError, OSError) as err:   # a process that cannot start, a full disk...
         failure = str(err)
         print(f"gidabot demo: {err}", file=sys.stderr)
@@ -324,6 +335,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
         "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
+        "clock_rate": args.clock_rate,
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
@@ -400,10 +412,26 @@ def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTimin
     return ""
 
 
+def machine_busy_s() -> float | None:
+    """CPU seconds every core of this machine has been busy since boot (``/proc/stat``: all but idle and iowait),
+    None where there is no /proc/stat."""
+    try:
+        with open("/proc/stat", encoding="ascii") as f:
+            fields = f.readline().split()
+    except OSError:
+        return None
+    if not fields or fields[0] != "cpu":
+        return None
+    ticks = [int(v) for v in fields[1:9]]            # user nice system idle iowait irq softirq steal
+    return (sum(ticks) - ticks[3] - ticks[4]) / os.sysconf("SC_CLK_TCK")
+
+
 @dataclass
 class CpuSnapshot:
     wall: float
     rows: list[dict[str, object]]
+    machine_s: float | None = field(default_factory=machine_busy_s)   # the whole machine's busy CPU s so far
+    own_s: float = field(default_factory=lambda: sum(os.times()[:2]))  # this demo process's own CPU s so far
 
 
 def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = None) -> dict[str, float]:
@@ -416,24 +444,31 @@ def _per_kind(rows: list[dict[str, object]], before: dict[int, float] | None = N
     return kinds
 
 
-def _cpu_table(sim: SimulatedBuilding, begin: float, tour_start: CpuSnapshot | None, out: TextIO) -> None:
+def _cpu_table(sim: SimulatedBuilding, begin: float, begin_machine: float | None, tour_start: CpuSnapshot | None,
+               out: TextIO) -> None:
     """Print and save (cpu.json) what each kind of process cost: start-up, then the tour alone."""
     end = CpuSnapshot(time.time(), sim.cpu_usage())
+    start = CpuSnapshot(begin, [], begin_machine, 0.0)
     if tour_start is None:
-        phases = [("whole run", begin, end.wall, end.rows, None)]
+        phases = [("whole run", start, end, end.rows, None)]
     else:
         first = {int(r["pid"]): float(r["cpu_s"]) for r in tour_start.rows}  # type: ignore[arg-type]
-        phases = [("start-up", begin, tour_start.wall, tour_start.rows, None),
-                  ("tour", tour_start.wall, end.wall, end.rows, first)]
+        phases = [("start-up", start, tour_start, tour_start.rows, None), ("tour", tour_start, end, end.rows, first)]
     saved: dict[str, object] = {"processes": end.rows}
-    for name, t0, t1, rows, before in phases:
+    for name, a, b, rows, before in phases:
+        t0, t1 = a.wall, b.wall
         wall = max(t1 - t0, 1e-9)
         kinds = sorted(_per_kind(rows, before).items(), key=lambda kv: -kv[1])
         total = sum(cpu for _, cpu in kinds)
+        # the whole machine over the same span: what the run's processes took, and what everything else did
+        machine = b.machine_s - a.machine_s if a.machine_s is not None and b.machine_s is not None else None
+        others = None if machine is None else max(0.0, machine - total - (b.own_s - a.own_s))
         saved[name] = {"wall_s": round(wall, 1), "cpu_s": round(total, 1), "cores": round(total / wall, 2),
+                       "other_processes_cores": None if others is None else round(others / wall, 2),
                        "per_kind_cpu_s": {k: round(v, 1) for k, v in kinds}}
+        beside = "" if others is None else f"; every other process of the machine: {others / wall:.2f} cores"
         print(f"\nCPU of the run's processes, {name}: {total:.0f} s in {wall:.0f} s of wall time "
-              f"({total / wall:.2f} of {os.cpu_count()} cores); per kind of process (all robots together):",
+              f"({total / wall:.2f} of {os.cpu_count()} cores{beside}); per kind of process (all robots together):",
               file=out)
         for kind, cpu in kinds:
             print(f"  {kind:<26} {cpu:7.1f} s  {100 * cpu / max(total, 1e-9):5.1f} %  {cpu / wall:5.2f} cores",

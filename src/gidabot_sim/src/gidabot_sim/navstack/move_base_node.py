@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import queue
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -40,6 +41,8 @@ from gidabot_sim.ros.participant import StepAnswers, own_time, synchronous_publi
 from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Limits, Twist2D
 from gidabot_sim.world.world import obstacle_shape
+
+SELF_CONNECT_TIMEOUT = 10.0     # wall s: the action server's subscriber to this node's own goal topic
 
 
 def path_msg(path: Path, goal_yaw: float, spacing: float, t: float) -> PathMsg:
@@ -158,10 +161,24 @@ class MoveBaseNode:
                          lambda msg: self._event("obstacles", msg), queue_size=10)
         rospy.Subscriber(str(rospy.get_param("~robots_topic", Topic.ROBOTS_SEEN)), ObstacleArray,
                          lambda msg: self._event("robots", msg), queue_size=10)
-        rospy.Subscriber(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, self._on_simple_goal, queue_size=2)
         rospy.Service(Service.MAKE_PLAN, GetPlan, self._make_plan)
         rospy.Service(Service.CLEAR_COSTMAPS, Empty, self._clear_costmaps)
         self.server.start()
+        self._await_own_goal_topic()
+        rospy.Subscriber(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, self._on_simple_goal, queue_size=2)
+
+    def _await_own_goal_topic(self) -> None:
+        """A simple goal is re-published on this node's own action goal topic; rospy connects the action server's
+        subscriber to it asynchronously, tens of milliseconds after start: a simple goal re-published before is
+        lost. So ``move_base_simple/goal`` is subscribed only once that connection is up (at most
+        ``SELF_CONNECT_TIMEOUT`` wall seconds, then with a warning)."""
+        deadline = time.monotonic() + SELF_CONNECT_TIMEOUT
+        while self.action_goal_pub.get_num_connections() < 1:
+            if rospy.is_shutdown() or time.monotonic() > deadline:
+                rospy.logwarn(f"move_base: the action server did not hear its own goal topic within "
+                              f"{SELF_CONNECT_TIMEOUT:g} s: a simple goal sent now may be lost")
+                return
+            time.sleep(0.01)
 
     # -- callbacks: copy or enqueue ---------------------------------------------------
     def _event(self, kind: str, msg: Any = None) -> None:
