@@ -17,12 +17,12 @@ from __future__ import annotations
 
 import math
 import mmap
-import os
 import struct
 from dataclasses import dataclass
 from pathlib import Path
 
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.world.slots import SlotFile
 
 MAGIC = b"GBTLINE1"
 HEADER = struct.Struct("<8sII3d")            # magic, slots, pad, ceiling, max_drift, peer_timeout
@@ -30,8 +30,6 @@ FIELDS = ("sim", "wall", "behind", "wait_controllers", "wait_floors", "wait_ceil
           "max_lead", "pid")
 SLOT = struct.Struct("<Q" + "d" * len(FIELDS))
 SIM_AND_WALL = struct.Struct("<2d")           # the first two fields of a slot
-MAX_SLOTS = 64
-READ_TRIES = 100
 
 
 @dataclass(frozen=True)
@@ -50,11 +48,13 @@ class Clock:
     pid: float = 0.0
 
 
-class Timeline:
+class Timeline(SlotFile):
     """A timeline file mapped in memory; :meth:`create` (the runner) or :meth:`open` (a simulator)."""
 
+    MAGIC, HEADER, FIELDS, SLOT, WHAT = MAGIC, HEADER, FIELDS, SLOT, "timeline"
+
     def __init__(self, path: Path, fd: int, mem: mmap.mmap, slots: int, peer_timeout: float) -> None:
-        self.path, self._fd, self._mem, self.slots = path, fd, mem, slots
+        super().__init__(path, fd, mem, slots)
         self._peer_timeout = peer_timeout       # fixed when the timeline is created
 
     @classmethod
@@ -62,15 +62,10 @@ class Timeline:
                peer_timeout: float = 5.0, start_wall: float = 0.0) -> Timeline:
         """A new timeline of ``slots`` floors, each at sim time 0 with its heartbeat at ``start_wall`` (a floor
         that has not started yet counts as live until ``peer_timeout`` after it)."""
-        if not 1 <= slots <= MAX_SLOTS:
-            raise SimConfigError(f"timeline slots: {slots!r} must be 1..{MAX_SLOTS}")
         if not (math.isfinite(peer_timeout) and peer_timeout > 0):
             raise SimConfigError(f"peer_timeout: {peer_timeout!r} must be > 0 wall seconds")
-        path = Path(path)
-        size = HEADER.size + slots * SLOT.size
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o644)
-        os.ftruncate(fd, size)
-        timeline = cls(path, fd, mmap.mmap(fd, size), slots, float(peer_timeout))
+        path, fd, mem = cls._map_new(path, slots)
+        timeline = cls(path, fd, mem, slots, float(peer_timeout))
         HEADER.pack_into(timeline._mem, 0, MAGIC, slots, 0, 0.0, 0.0, peer_timeout)
         timeline.set_ceiling(ceiling)
         timeline.set_max_drift(max_drift)
@@ -80,35 +75,8 @@ class Timeline:
 
     @classmethod
     def open(cls, path: Path) -> Timeline:
-        path = Path(path)
-        try:
-            fd = os.open(path, os.O_RDWR)
-        except OSError as err:
-            raise SimConfigError(f"timeline {path}: cannot open ({err.strerror})") from err
-        try:
-            size = os.fstat(fd).st_size
-            if size < HEADER.size:
-                raise SimConfigError(f"timeline {path}: {size} bytes is too short for a timeline")
-            mem = mmap.mmap(fd, size)
-            magic, slots, _pad, _ceiling, _drift, peer_timeout = HEADER.unpack_from(mem, 0)
-            if magic != MAGIC or not 1 <= slots <= MAX_SLOTS or size != HEADER.size + slots * SLOT.size:
-                mem.close()
-                raise SimConfigError(f"timeline {path}: not a timeline file (magic {magic!r}, {slots} slots, "
-                                     f"{size} bytes)")
-        except BaseException:
-            os.close(fd)
-            raise
-        return cls(path, fd, mem, slots, float(peer_timeout))
-
-    def close(self) -> None:
-        self._mem.close()
-        os.close(self._fd)
-
-    def __enter__(self) -> Timeline:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+        path, fd, mem, header = cls._map_existing(path)
+        return cls(path, fd, mem, header[1], float(header[5]))
 
     # -- header ------------------------------------------------------------------------------
     def _header(self) -> tuple:
@@ -140,28 +108,13 @@ class Timeline:
         return self._peer_timeout
 
     # -- slots -------------------------------------------------------------------------------
-    def _offset(self, slot: int) -> int:
-        if not 0 <= slot < self.slots:
-            raise SimConfigError(f"timeline slot {slot!r}: expected 0..{self.slots - 1}")
-        return HEADER.size + slot * SLOT.size
-
     def write(self, slot: int, clock: Clock) -> None:
         """Publish ``clock`` in ``slot`` (only its floor's simulator writes it)."""
-        off = self._offset(slot)
-        seq = struct.unpack_from("<Q", self._mem, off)[0]
-        struct.pack_into("<Q", self._mem, off, seq | 1)                  # odd: being written
-        SLOT.pack_into(self._mem, off, seq | 1, *(float(getattr(clock, f)) for f in FIELDS))
-        struct.pack_into("<Q", self._mem, off, (seq | 1) + 1)            # even again: complete
+        self._write_fields(slot, clock)
 
     def read(self, slot: int) -> Clock:
-        """The slot's latest complete write; if its writer stays in the middle of one (stopped, preempted, died
-        there), the fields as they are: each is a whole double of one write or the next."""
-        off = self._offset(slot)
-        for _ in range(READ_TRIES):
-            seq, *values = SLOT.unpack_from(self._mem, off)
-            if seq % 2 == 0 and struct.unpack_from("<Q", self._mem, off)[0] == seq:
-                break
-        return Clock(**dict(zip(FIELDS, values, strict=True)))
+        """The slot's latest complete write (see :meth:`SlotFile._read_fields`)."""
+        return Clock(**self._read_fields(slot))
 
     def clocks(self) -> list[Clock]:
         return [self.read(slot) for slot in range(self.slots)]
