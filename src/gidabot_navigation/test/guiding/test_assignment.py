@@ -272,17 +272,22 @@ def test_chosen_robot_cut_off_after_the_commit_acts_late_but_alone(faculty6) -> 
     check_invariant(bus)
 
 
-def test_a_robot_that_goes_offline_just_after_it_was_proposed_a_leg_still_has_time_to_answer(faculty) -> None:
-    """The quick chaos run (seed 4): a 4.7 s cut between Tartalo and Kbot healed; the visitor asked at Tartalo
-    for floor 1 at once. Kbot, last heard 4.8 s before, was proposed the goal leg; 0.25 s later it counted as
-    offline (5 s without status) and Tartalo gave the trip up (PARTNER_OFFLINE) although Kbot's status and its
-    ACCEPTED arrived 0.5 s after the proposal. It now has the usual answer_timeout (3 s)."""
+def kbot_cut_then_proposed_a_leg(faculty) -> tuple[Bus, str]:
+    """Kbot cut off for 4.8 s (still online), then a visitor asks at Tartalo for floor 1: Kbot is proposed the leg."""
     bus = Bus(faculty, auto_move=False)
     bus.status_all()
     bus.down.add("Kbot")
     bus.tick(wall_dt=4.8)
     bus.request("Tartalo", "101")
-    uid = the_trip(bus)
+    return bus, the_trip(bus)
+
+
+def test_a_robot_that_goes_offline_just_after_it_was_proposed_a_leg_still_has_time_to_answer(faculty) -> None:
+    """The quick chaos run (seed 4): a 4.7 s cut between Tartalo and Kbot healed; the visitor asked at Tartalo
+    for floor 1 at once. Kbot, last heard 4.8 s before, was proposed the goal leg; 0.25 s later it counted as
+    offline (5 s without status) and Tartalo gave the trip up (PARTNER_OFFLINE) although Kbot's status and its
+    ACCEPTED arrived 0.5 s after the proposal. It now has the usual answer_timeout (3 s)."""
+    bus, uid = kbot_cut_then_proposed_a_leg(faculty)
     assert (newest(bus, uid).goal_robot, newest(bus, uid).goal_state) == ("Kbot", LEG_PROPOSED)
     bus.tick(wall_dt=0.25)                                    # Kbot: no status for 5.05 s
     assert PARTNER_OFFLINE not in bus.phases("Tartalo", uid) and newest(bus, uid).goal_robot == "Kbot"
@@ -296,12 +301,7 @@ def test_a_robot_that_goes_offline_just_after_it_was_proposed_a_leg_still_has_ti
 
 
 def test_a_robot_still_offline_when_its_time_to_answer_is_over_is_passed_over(faculty) -> None:
-    bus = Bus(faculty, auto_move=False)
-    bus.status_all()
-    bus.down.add("Kbot")
-    bus.tick(wall_dt=4.8)
-    bus.request("Tartalo", "101")
-    uid = the_trip(bus)
+    bus, uid = kbot_cut_then_proposed_a_leg(faculty)
     bus.tick(wall_dt=3.0)
     off = bus.last("Tartalo", PARTNER_OFFLINE)
     assert off.goal_uid == uid and "Kbot is offline" in off.detail and "no status for 8 s" in off.detail
