@@ -92,6 +92,7 @@ def test_stop_kills_nodes_left_behind_by_their_launcher(tmp_path: Path) -> None:
     """A node whose parent is gone (roslaunch killed) is still found and stopped by its process group."""
     sim = br.SimulatedBuilding(REPO / "maps" / "faculty", tmp_path / "run", record=False)
     code = ("import signal, subprocess, sys, time\n"
+            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"   # obeys SIGINT, as roslaunch does, also
             "c = subprocess.Popen([sys.executable, '-c', "
             "'import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); time.sleep(120)'], "
             "start_new_session=True)\nprint(c.pid, flush=True)\ntime.sleep(120)\n")
