@@ -91,8 +91,9 @@ def test_process_tree_finds_children_in_their_own_sessions() -> None:
 def test_stop_kills_nodes_left_behind_by_their_launcher(tmp_path: Path) -> None:
     """A node whose parent is gone (roslaunch killed) is still found and stopped by its process group."""
     sim = br.SimulatedBuilding(REPO / "maps" / "faculty", tmp_path / "run", record=False)
+    # the parent obeys SIGINT as roslaunch does, also when this test runs with SIGINT ignored (nohup ... &)
     code = ("import signal, subprocess, sys, time\n"
-            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"   # obeys SIGINT, as roslaunch does, also
+            "signal.signal(signal.SIGINT, signal.default_int_handler)\n"
             "c = subprocess.Popen([sys.executable, '-c', "
             "'import signal, time; signal.signal(signal.SIGINT, signal.SIG_IGN); time.sleep(120)'], "
             "start_new_session=True)\nprint(c.pid, flush=True)\ntime.sleep(120)\n")
