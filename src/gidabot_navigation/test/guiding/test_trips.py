@@ -107,6 +107,16 @@ def test_lengths_are_cached(faculty) -> None:
     assert p.leg_length(0, (30.0, 12.0), (-100.0, 12.0)) == math.inf
 
 
+def test_warm_up_makes_every_floors_planner_and_no_search(faculty) -> None:
+    trips = TripPlanner(faculty)
+    trips.warm_up()
+    assert sorted(trips._planners) == sorted(f.id for f in faculty.floors)
+    assert trips.plans == 0
+    before = dict(trips._planners)
+    trips.leg_length(faculty.floors[0].id, (5.0, 5.0), (6.0, 7.0))
+    assert trips._planners == before                    # the first leg uses the planner made at start-up
+
+
 def test_no_connector_is_a_clear_error(faculty, planner) -> None:
     from gidabot_navigation.building.model import Building
 

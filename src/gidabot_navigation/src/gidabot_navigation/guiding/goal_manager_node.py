@@ -147,6 +147,7 @@ class GoalManagerNode:
         self.params = params
         building = load_building(params.building)
         self.core = GoalManagerCore(building, params.cfg, RosLog(), time.monotonic())
+        self.core.planner.warm_up()         # not at the first tour step, while the floors wait for the CPU
         self.robot = self.core.me
         self.store = StateFile(Path(params.state_dir) / f"{Node.GOAL_MANAGER}.json", Node.GOAL_MANAGER, self.robot,
                                RosLog(), max_age=params.state_max_age) if params.state_dir else None

@@ -61,6 +61,11 @@ STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), u
 # speed / 50 sim s: 0.2 s at 10x, 1 s at 50x.
 CLOCK_WALL_HZ = 50.0
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
+# wall s from every robot being up to the visit's start (the visitor's ~start_delay, in sim s at the speed): the
+# start-up's last processes keep both cores of a 2-core machine busy for a second or two after the last robot
+# reports (measured with /proc/stat); a tour starting then starts with its floors starved, and at 50x its first
+# seconds cost more time behind the ceiling than the rest of the tour (and --speed max backed off on them)
+START_SETTLE_WALL_S = 3.0
 LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 MAX_TOUR_STOPS = 8        # --visitors: the longest tour a visitor may take
@@ -272,12 +277,13 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                    "status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
                    "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}",
                    "sim_clock_rate": f"{args.clock_rate:g}"}
+    start_delay = round(START_SETTLE_WALL_S * speed, 3)
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
-               "start_floor": start_floor, "visit_time": args.visit_time}
+               "start_floor": start_floor, "visit_time": args.visit_time, "start_delay": start_delay}
     if plans:
         # what each visitor chose at the screen (asked, or left: a wait shown was too long) goes to the monitor's file
         visitor = {"population": [p.to_dict() for p in plans], "visit_time": args.visit_time,
-                   "record": str(run_dir / "monitor.jsonl")}
+                   "record": str(run_dir / "monitor.jsonl"), "start_delay": start_delay}
     what = f"tour {tour_name}" if tour_name else f"goal {args.goal}"
     if plans:
         patience = "any wait" if args.patience is None else f"{args.patience[0]:g}-{args.patience[1]:g} s"

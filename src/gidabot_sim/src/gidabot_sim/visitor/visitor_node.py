@@ -117,6 +117,8 @@ class VisitorNode:
         self._record = str(rospy.get_param("~record", ""))
         self._first_stop: dict[str, str] = {}               # tour file -> the room of its first stop (the screen)
         self.screen = Screen(building) if any(c.cfg.patience_s >= 0 for c in self.cores.values()) else None
+        if self.screen is not None:
+            self.screen.planner.warm_up()   # not at the first visitor's screen, while the floors wait for the CPU
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
         self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
         if population:
