@@ -63,8 +63,8 @@ CLOCK_WALL_HZ = 50.0
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the rates above and the default --timeout assume
 # wall s from every robot being up to the visit's start (the visitor's ~start_delay, in sim s at the speed): the
 # start-up's last processes keep both cores of a 2-core machine busy for a second or two after the last robot
-# reports (measured with /proc/stat); a tour starting then starts with its floors starved, and at 50x its first
-# seconds cost more time behind the ceiling than the rest of the tour (and --speed max backed off on them)
+# reports (measured with /proc/stat); a tour starting then starts with its floors starved (one --speed max run:
+# 0.1 s behind its ceiling in the tour's first 1.4 s, of 0.22 s in the whole tour, and it backed off on them)
 START_SETTLE_WALL_S = 3.0
 LOOK_PERIOD = 0.2         # wall s between two looks at the floors' clocks
 EXIT_OK, EXIT_FAILED, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130

@@ -60,10 +60,11 @@ class VisitorNode:
       ~retry (float, 30 s), ~retry_for (float, 1800 s): a request of this visitor refused with
                                   PARTNER_OFFLINE is asked again after ~retry, for at most ~retry_for
       ~visit_time (float, 60 s)   time spent at a tour stop on a floor without robot (sim time)
-      ~start_delay (float, 2.0 s) after every robot reported status (sim time)
+      ~start_delay (float, 2.0 s) after every robot reported status (sim time): when the visit starts (the demo:
+                                  3 s of wall time at its speed)
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
       ~population (list, [])      many visitors instead of one: their plans (gidabot_sim.visitor.population:
-                                  visitor_id, arrive_s after every robot is up (sim s), robot, way, goal_id or
+                                  visitor_id, arrive_s after ~start_delay (sim s), robot, way, goal_id or
                                   tour_file, cancel_after_s, no_show, patience_s); ~start_floor, ~tour_file,
                                   ~goal_id, ~way and ~skips are then not used. A visitor with a patience sees
                                   the waits of its trip's legs before confirming, as the GUI shows them, and
