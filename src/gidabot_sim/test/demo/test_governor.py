@@ -162,3 +162,21 @@ def test_the_whole_tour_keeps_its_time_behind_below_the_degraded_mark() -> None:
     assert keep_up(gov, floors, 1, behind=0.01) == [] and gov.back_offs == 1       # 160 ms against 147: 13 ms
     assert keep_up(gov, floors, 1, behind=0.03) == [59.29] and gov.back_offs == 2  # 190 against 154: 36 ms
     assert keep_up(gov, floors, 5) == [] and gov.ceiling == 59.29                  # back within it (28 s: 196)
+
+
+def test_a_back_off_that_does_not_make_the_stalls_rarer_is_undone_and_that_ceiling_held() -> None:
+    gov, floors = SpeedGovernor(start=50.0, patience=1, settle=0.0, calm=1000.0, run_budget=0.5, helps=0.75), \
+        Floors()
+    gov.look(floors.clocks, floors.wall, active=True)
+    # a burst at 50x: 100 ms in a second, over the budget (75 ms): backed off
+    assert keep_up(gov, floors, 1, behind=0.1) == [45.0]
+    # 20 ms per second at 45x: the budget is spent after 4 s; 2 % per second against 10 %: it helped, go on
+    assert keep_up(gov, floors, 3, behind=0.02) == []
+    assert keep_up(gov, floors, 1, behind=0.02) == [40.5]
+    # the same 20 ms per second at 40.5x: slower did not help; back to 45x, held for the rest of the run
+    assert keep_up(gov, floors, 3, behind=0.02) == []
+    assert keep_up(gov, floors, 1, behind=0.02) == [45.0] and gov.flat_at == 45.0 and gov.limit == 45.0
+    assert keep_up(gov, floors, 20, behind=0.02) == [] and gov.ceiling == 45.0
+    assert gov.summary()["flat_at"] == 45.0
+    # a floor that cannot keep up at all still brings it down
+    assert gov.look(floors.run({"A": 20, "B": 45}, behind={"A": 0.5}), floors.wall, active=True) == 22.5
