@@ -28,6 +28,14 @@ def test_the_tour_is_measured_between_its_first_goal_and_its_end_and_the_largest
     assert timing.factors({"A": Clock(50.0, 103.0), "B": Clock(99.0, 97.0)}, 103.0) == {"A": 20.0, "B": 0.0}
 
 
+def test_lateness_pending_at_the_tours_start_and_made_up_later_is_no_time_behind() -> None:
+    timing = RunTiming(["A"])
+    timing.look({"A": Clock(10.0, 100.0, behind=0.004)}, 100.0, tour_started=True)   # 4 ms late, within the slack
+    timing.look({"A": Clock(40.0, 101.5, behind=0.002)}, 101.5, tour_started=True)   # made up, 2 ms late now
+    a = timing.summary()["floors"]["A"]
+    assert a["behind_s"] == 0.0 and a["behind_pct"] == 0.0
+
+
 def _diag(t: float, name: str, **values: object) -> report.DiagSample:
     return report.DiagSample(t, name, tuple((k, v if isinstance(v, str) else json.dumps(v)) for k, v in values.items()))
 

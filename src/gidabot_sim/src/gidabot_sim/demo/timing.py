@@ -56,12 +56,15 @@ class RunTiming:
                 if a is None or b is None:
                     continue
                 sim = b.sim - a.sim
+                # the clocks' behind includes lateness not yet re-anchored, which the floor may still make up:
+                # lateness pending at the tour's start and made up later is no time behind (never below 0)
+                behind = max(0.0, b.behind - a.behind)
                 floors[robot] = {
                     "sim_start": round(a.sim, 2), "sim_end": round(b.sim, 2), "sim_s": round(sim, 2),
                     "wall_s": round(wall, 2),
                     "achieved_factor": round(sim / wall, 2) if wall > 0 else 0.0,
-                    "behind_s": round(b.behind - a.behind, 3),
-                    "behind_pct": round(100.0 * (b.behind - a.behind) / wall, 2) if wall > 0 else 0.0,
+                    "behind_s": round(behind, 3),
+                    "behind_pct": round(100.0 * behind / wall, 2) if wall > 0 else 0.0,
                     "wait_controllers_s": round(b.wait_controllers - a.wait_controllers, 3),
                     "wait_floors_s": round(b.wait_floors - a.wait_floors, 3),
                     "wait_ceiling_s": round(b.wait_ceiling - a.wait_ceiling, 3),
