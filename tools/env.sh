@@ -13,6 +13,10 @@ source "$GIDABOT_ROOT/devel/setup.bash"
 [ "$_gidabot_nounset" = 1 ] && set -u
 unset _gidabot_nounset
 export PATH="$GIDABOT_ROOT/.venv/bin:$GIDABOT_ROOT/bin:$PATH"
-export PYTHONDONTWRITEBYTECODE=1
+# every node is a new Python process: compiled modules are kept (outside the source tree) instead of
+# compiling ours again at each start; `time python -c "import rospy, gidabot_navigation.relay.end_node,
+# gidabot_navigation.guiding.goal_manager_node"`: 0.42 s of CPU without the cache, 0.36 s with it (medians of 5)
+unset PYTHONDONTWRITEBYTECODE
+export PYTHONPYCACHEPREFIX="$GIDABOT_ROOT/.pycache"
 export ROSCONSOLE_STDOUT_LINE_BUFFERED=1
 export ROS_HOME="${ROS_HOME:-$GIDABOT_ROOT/.ros}"

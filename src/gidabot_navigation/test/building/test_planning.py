@@ -254,3 +254,56 @@ def test_closing_the_faculty_corridor_cuts_the_floor(faculty) -> None:
     planner.add_obstacle("closed", Rectangle(45.0, 12.0, 0.2, 3.4))   # across the 3 m corridor
     with pytest.raises(PlanningError, match="not reachable"):
         planner.plan((west.x, west.y), east)
+
+
+def _shortcut_one_by_one(cells: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The string pulling of GridPlanner._shortcut, one line and one vertex at a time (the reference)."""
+    w = weights[cells[:, 0], cells[:, 1]].astype(np.float64)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]))])
+
+    def ok(i: int, k: int) -> bool:
+        a, b = cells[i], cells[k]
+        span = math.hypot(int(b[0]) - int(a[0]), int(b[1]) - int(a[1]))
+        n = max(2, 2 * math.ceil(span))
+        t = (np.arange(n) + 0.5) / n
+        rows = np.rint(a[0] + (int(b[0]) - int(a[0])) * t).astype(np.intp)
+        cols = np.rint(a[1] + (int(b[1]) - int(a[1])) * t).astype(np.intp)
+        cost = float(weights[rows, cols].astype(np.float64).sum()) / n * span
+        return cost <= (cum[k] - cum[i]) * (1.0 + 1e-3)
+
+    keep, i, last = [0], 0, len(cells) - 1
+    while i < last:
+        best, j = i + 1, min(i + 4, last)
+        while ok(i, j):
+            best = j
+            if j == last:
+                break
+            j = min(j + 4, last)
+        if best == i + 1:
+            best = next((k for k in range(min(i + 3, last), i + 1, -1) if ok(i, k)), i + 1)
+        keep.append(best)
+        i = best
+    return cells[keep]
+
+
+def test_the_batched_string_pulling_keeps_the_vertices_the_one_by_one_search_keeps(faculty) -> None:
+    """_shortcut judges many candidate lines per numpy pass; the path must be the one a search trying one
+    line at a time finds, on every faculty floor between every pair of places (long corridors included)."""
+    import pyastar2d
+
+    checked = 0
+    for floor in faculty.floors:
+        planner = GridPlanner(floor.map, faculty.robots_on(floor.id)[0].radius)
+        places = [loc.pose for loc in faculty.locations_on(floor.id)][::3]
+        places += [c.meeting[floor.id] for c in faculty.connectors if floor.id in c.meeting]
+        for a in places:
+            for b in places:
+                if a == b:
+                    continue
+                start, goal, w = planner._endpoints((a.x, a.y), (b.x, b.y))
+                if start == goal:
+                    continue
+                cells = np.asarray(pyastar2d.astar_path(w, start, goal, allow_diagonal=False))
+                assert np.array_equal(planner._shortcut(cells, w), _shortcut_one_by_one(cells, w))
+                checked += 1
+    assert checked > 100

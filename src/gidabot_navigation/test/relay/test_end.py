@@ -369,6 +369,25 @@ def test_states_are_coalesced_per_publisher_and_resent_on_reconnect(tmp_path) ->
     assert sorted(w.payloads("b", S)[n:]) == [b"other", b"s19"]
 
 
+def test_a_due_coalesced_state_is_sent_by_the_next_tick_so_the_loop_never_spins(tmp_path) -> None:
+    """The node's loop waits ``next_tick_in()`` and then ticks when it is 0: that tick must send the
+    state that made it 0, or the loop would wake at once, again and again (it once did, for up to
+    half a heartbeat after every coalesced state)."""
+    w, _, _, clock = pair(tmp_path, state_rate=10.0, heartbeat=0.5)
+    w.connect()
+    nav = global_name(Node.MULTIROBOT_NAVIGATION)
+    w.local("a", S, b"first", callerid=nav)              # sent at once
+    clock.t += 0.01
+    w.local("a", S, b"second", callerid=nav)             # within 0.1 s: coalesced
+    assert w.payloads("b", S) == [b"first"]
+    assert w.a.next_tick_in() == pytest.approx(0.09)
+    clock.t += 0.09
+    assert w.a.next_tick_in() == 0.0
+    w.tick()
+    assert w.payloads("b", S) == [b"first", b"second"]
+    assert w.a.next_tick_in() == pytest.approx(0.25)      # nothing due before the next heartbeat check
+
+
 def test_states_published_while_down_arrive_as_latest_only(tmp_path) -> None:
     w, _, _, clock = pair(tmp_path)
     for i in range(5):

@@ -449,10 +449,14 @@ class RelayEndNode:
                     self._handle(key, mask)
                 now = time.monotonic()
                 self._check_connect_timeouts(now)
-                if now >= next_tick:
-                    next_tick = now + self.params.heartbeat / 2
-                    with self.lock:
+                housekeeping = now >= next_tick
+                with self.lock:
+                    # the core's own schedule too (a coalesced state due): the select above waited
+                    # for it, so skipping it here would make the next select return at once (a spin)
+                    if housekeeping or self.core.next_tick_in() <= 0:
                         self._apply(self.core.tick())
+                if housekeeping:
+                    next_tick = now + self.params.heartbeat / 2
                     self._update_hold(now)
                     self._prune_relay_connections()
                 self._deliver()
