@@ -472,3 +472,14 @@ def test_two_visitors_at_one_robot_are_guided_in_turn(faculty) -> None:
     bus.finish_move("Kbot")
     bus.pump()
     assert bus.phases("Kbot", bob)[-1] == GOAL_REACHED and bus.queue_of("Kbot") == []
+
+
+def test_the_freshest_time_is_the_odometrys_when_it_is_ahead_of_the_ros_time() -> None:
+    from gidabot_navigation.guiding.navigation import MAX_ODOM_LEAD_S, freshest_time
+
+    assert freshest_time(100.0, None) == 100.0
+    assert freshest_time(100.0, 101.1) == 101.1               # a coarse /clock: the step's stamp is fresher
+    assert freshest_time(100.0, 99.0) == 100.0                # older odometry never takes time back
+    assert freshest_time(100.0, 100.0 + MAX_ODOM_LEAD_S + 1) == 100.0    # an implausible stamp is not trusted
+    assert freshest_time(100.0, float("nan")) == 100.0
+    assert freshest_time(100.0, float("inf")) == 100.0

@@ -108,6 +108,25 @@ class Stage(enum.Enum):
     HANDOVER = "handover"        # start floor: at the connector with the visitor, the goal leg not committed yet
 
 
+# odometry stamped further ahead of the ROS time than this is not trusted as the time (s)
+MAX_ODOM_LEAD_S = 10.0
+
+
+def freshest_time(ros_now: float, odom_stamp: float | None) -> float:
+    """The ROS time (s) the core is told of: the odometry's stamp when it is ahead of ``ros_now`` by at most
+    :data:`MAX_ODOM_LEAD_S`, else ``ros_now``.
+
+    On a robot the two agree. In simulation ``ros_now`` comes from ``/clock``, which ticks every
+    speed / clock rate sim s (1.2 s at 60x and 50 Hz), while the simulator stamps the odometry at every step
+    (0.1 s): an ON_THE_WAY stamped with the ``/clock`` time is on average half a tick early, and a guiding leg
+    (Table 5: from its ON_THE_WAY to move_base's result, which move_base stamps at its step) half a tick too
+    long, more the faster the run.
+    """
+    if odom_stamp is not None and math.isfinite(odom_stamp) and 0.0 < odom_stamp - ros_now <= MAX_ODOM_LEAD_S:
+        return odom_stamp
+    return ros_now
+
+
 STATE_OF_STAGE = {Stage.PICKUP: STATE_TO_MEETING, Stage.GUIDING: STATE_GUIDING, Stage.TO_MEETING: STATE_TO_MEETING,
                   Stage.WAITING: STATE_WAITING, Stage.HANDOVER: STATE_WAITING}
 

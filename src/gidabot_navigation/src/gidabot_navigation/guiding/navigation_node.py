@@ -47,6 +47,7 @@ from gidabot_navigation.guiding.navigation import (
     SUCCEEDED,
     NavigationConfig,
     NavigationCore,
+    freshest_time,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
@@ -118,7 +119,9 @@ class NavigationNode:
       - ``visitor/command`` (gidabot_msgs/VisitorCommand): CONTINUE at the meeting point (goal_uid of
         the trip, or "").
       - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped), ``odom`` (nav_msgs/Odometry),
-        ``battery`` (sensor_msgs/BatteryState): for the status.
+        ``battery`` (sensor_msgs/BatteryState): for the status; the odometry's stamp is also the time of
+        the events when it is ahead of the ROS time (``navigation.freshest_time``: a simulated ``/clock``
+        ticks more coarsely than the simulator's steps).
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog): which tour step is the last.
 
     Published topics (events: the last ``~replay_window`` s are sent again to a late subscriber):
@@ -171,6 +174,7 @@ class NavigationNode:
         self._pending_uids: tuple[str, ...] | None = None
         self._latest_pose: tuple[float, float, float] | None = None
         self._latest_odom: tuple[float, float] | None = None
+        self._latest_odom_stamp: float | None = None        # ROS s
         self._latest_battery: float | None = None
         self.events_pub = ReplayPublisher(Topic.NAV_EVENTS, NavEvent, queue_size=200, window=params.replay_window)
         self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=params.replay_window)
@@ -221,6 +225,7 @@ class NavigationNode:
 
     def _on_odom(self, msg: Odometry) -> None:
         self._latest_odom = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
+        self._latest_odom_stamp = msg.header.stamp.to_sec()
 
     def _on_battery(self, msg: BatteryState) -> None:
         self._latest_battery = msg.percentage
@@ -269,6 +274,7 @@ class NavigationNode:
                 kind, msg = "", None
             now_ros, now_wall = rospy.get_time(), time.monotonic()
             self.loop.tick(now_ros, now_wall)
+            now_ros = freshest_time(now_ros, self._latest_odom_stamp)     # events stamped with the odometry's time
             self._apply_latest()
             self.core.on_move_base_available(self._server_up(), now_ros)
             if kind:
