@@ -126,6 +126,18 @@ def test_guiding_intervals_and_length() -> None:
     assert report.path_length(poses + [report.PoseSample(13, float("nan"), 0.0)]) == pytest.approx(12.0)
 
 
+def test_guiding_starts_when_move_base_took_the_legs_goal() -> None:
+    """The guiding node decides (ON_THE_WAY) and move_base takes the goal a little later in wall time: at high
+    speeds that latency is sim time no robot spent guiding. A goal taken before the ON_THE_WAY (the pickup's),
+    after the leg, or implausibly late (a goal sent again after a restart) does not move the start."""
+    ev = [report.EventSample(10, "R", "a", Phase.ON_THE_WAY), report.EventSample(40, "R", "a", Phase.GOAL_REACHED),
+          report.EventSample(50, "R", "b", Phase.ON_THE_WAY), report.EventSample(80, "R", "b", Phase.GO_TO_FLOOR),
+          report.EventSample(90, "R", "c", Phase.ON_THE_WAY), report.EventSample(95, "R", "c", Phase.GOAL_REACHED)]
+    starts = [2.0, 11.2, 20.0, 50.0 + report.MAX_GOAL_START_LAG + 1, 96.0]
+    assert report.guiding_intervals(ev, starts) == [(11.2, 40), (50, 80), (90, 95)]
+    assert report.guiding_intervals(ev) == [(10, 40), (50, 80), (90, 95)]      # bags without current_goal
+
+
 def test_missing_run_folder(tmp_path: Path, capsys) -> None:
     assert report.main([str(tmp_path)]) == 1
     assert "run.json: cannot read" in capsys.readouterr().err

@@ -23,7 +23,8 @@ bags themselves. Printed (``--json``: the same as one JSON object):
   A robot's events (Table 5, completions) are the ones its own guiding nodes published
   (bags without publisher information: every event naming the robot);
 * per robot, time, distance and mean velocity while guiding the visitor (paper
-  Table 5): from the robot's ``ON_THE_WAY`` event to the end of that leg, with the
+  Table 5): from the robot's ``ON_THE_WAY`` event (or, if later, from when its move_base took
+  that leg's goal: ``move_base/current_goal``) to the end of that leg, with the
   distance integrated over the robot's own localisation (``/amcl_pose`` of its bag:
   a sample every 0.1 m, whatever the sim speed; bags without it: the robot's
   ``/gidabot/poses``); and the tour total;
@@ -46,11 +47,12 @@ bags themselves. Printed (``--json``: the same as one JSON object):
 from __future__ import annotations
 
 import argparse
+import bisect
 import json
 import math
 import re
 import sys
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -91,6 +93,7 @@ LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED
             PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
 TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
 MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
+MAX_GOAL_START_LAG = 5.0      # sim s: a move_base goal taken later than this after an ON_THE_WAY is not its leg's
 MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
 
 
@@ -153,6 +156,7 @@ class RobotRecord:
     rejected_goals: int = 0                                      # messages on /gidabot/goals that are no goal
     diagnostics: list[DiagSample] = field(default_factory=list)  # its floor's timing statuses, time-ordered
     assignments: set[tuple[str, str, str, int]] = field(default_factory=set)  # (goal uid, leg, robot, state)
+    goal_starts: list[float] = field(default_factory=list)  # when its move_base took each goal (current_goal)
 
     @property
     def track(self) -> list[PoseSample]:
@@ -171,14 +175,21 @@ class RobotRow:
     mean_velocity_mps: float
 
 
-def guiding_intervals(events: Iterable[EventSample]) -> list[tuple[float, float]]:
-    """[start, end] sim-time intervals while the robot was guiding the visitor."""
+def guiding_intervals(events: Iterable[EventSample], goal_starts: Sequence[float] = ()) -> list[tuple[float, float]]:
+    """[start, end] sim-time intervals while the robot was guiding the visitor: from its ON_THE_WAY, or from
+    when its move_base took the goal of that leg (``goal_starts``: the stamps of ``move_base/current_goal``,
+    time-ordered) if that was later, within :data:`MAX_GOAL_START_LAG` of it, to the end of the leg. The guiding
+    node decides and move_base starts a little later in wall time; at 50x and more, those milliseconds are
+    tenths of simulated seconds per leg, which no robot ever spent guiding."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
     for ev in sorted(events, key=lambda e: e.t):
         if ev.phase == ON_THE_WAY and start is None:
             start = ev.t
         elif ev.phase in LEG_ENDS and start is not None:
+            k = bisect.bisect_left(goal_starts, start)
+            if k < len(goal_starts) and goal_starts[k] <= min(ev.t, start + MAX_GOAL_START_LAG):
+                start = goal_starts[k]
             intervals.append((start, ev.t))
             start = None
     return intervals
@@ -197,7 +208,7 @@ def path_length(poses: list[PoseSample], intervals: list[tuple[float, float]] | 
 
 
 def robot_row(rec: RobotRecord) -> RobotRow:
-    intervals = guiding_intervals(rec.events)
+    intervals = guiding_intervals(rec.events, rec.goal_starts)
     time_s = sum(e - s for s, e in intervals)
     dist = path_length(rec.track, intervals)
     processed = len(rec.accepted & rec.navigated)
@@ -654,7 +665,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
         with AnyReader([path]) as reader:
             wanted = [c for c in reader.connections
                       if c.topic in (Topic.GOALS, Topic.NAV_EVENTS, Topic.POSES, global_name(Topic.AMCL_POSE),
-                                     Topic.DIAGNOSTICS)]
+                                     Topic.DIAGNOSTICS, global_name(Topic.MOVE_BASE_CURRENT_GOAL))]
             for conn, t_ns, raw in reader.messages(connections=wanted):
                 try:
                     msg = reader.deserialize(raw, conn.msgtype)
@@ -676,6 +687,8 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     t = _stamp(msg, t_ns)
                     rec.diagnostics.extend(DiagSample(t, st.name, tuple((kv.key, kv.value) for kv in st.values))
                                            for st in msg.status if st.name.startswith(TIMING_STATUSES))
+                elif conn.topic == global_name(Topic.MOVE_BASE_CURRENT_GOAL):
+                    rec.goal_starts.append(_stamp(msg, t_ns))
                 elif conn.topic == global_name(Topic.AMCL_POSE):
                     p = msg.pose.pose.position
                     rec.local_poses.append(PoseSample(_stamp(msg, t_ns), p.x, p.y))
@@ -697,6 +710,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
     rec.poses = sorted(set(rec.poses), key=lambda p: p.t)
     rec.local_poses = sorted(set(rec.local_poses), key=lambda p: p.t)
     rec.diagnostics = sorted(set(rec.diagnostics), key=lambda d: d.t)
+    rec.goal_starts = sorted(set(rec.goal_starts))
     return rec
 
 
@@ -769,7 +783,7 @@ def plot_paths(folder: Path, run: dict, records: list[RobotRecord]) -> list[Path
             if rec.floor != floor.id or not track:
                 continue
             colour = colours[i % len(colours)]
-            intervals = guiding_intervals(rec.events)
+            intervals = guiding_intervals(rec.events, rec.goal_starts)
             for guiding, part in _split(track, intervals):
                 uv = [floor.transform.to_pixel(p.x, p.y) for p in part]
                 ax.plot([u for u, _ in uv], [v for _, v in uv], "-" if guiding else "--", color=colour,

@@ -61,10 +61,11 @@ T = TypeVar("T")
 # GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
 RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
 RECORDER_OVERLAP = 5.0   # wall s the old recorder of a restarted master goes on after a newer one records
-# what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands
-# and the floor's /diagnostics (its simulator's timing, its controllers' and guiding loops' rates)
+# what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands, the robot's
+# localisation, when its move_base took each goal (Table 5's legs start then) and the floor's /diagnostics
+# (its simulator's timing, its controllers' and guiding loops' rates)
 RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
-                   Topic.DIAGNOSTICS)
+                   global_name(Topic.MOVE_BASE_CURRENT_GOAL), Topic.DIAGNOSTICS)
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
