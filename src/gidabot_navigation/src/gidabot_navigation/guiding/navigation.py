@@ -62,6 +62,7 @@ from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, 
 from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
+    DEFAULT_LANGUAGE,
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
@@ -637,9 +638,9 @@ class NavigationCore:
         return conn.meeting.get(self.floor) if conn is not None else None
 
     def _connector_name(self, trip: Trip) -> str:
-        """The English name of the trip's lift or staircase (details are English), else its id."""
+        """The name of the trip's lift or staircase in the default language (details are English), else its id."""
         conn = self.building.find_connector(trip.connector)
-        return conn.name("en") if conn is not None else trip.connector
+        return conn.name(DEFAULT_LANGUAGE) if conn is not None else trip.connector
 
     def _where(self, leg: Leg) -> str:
         """Where the robot is going now: the connector of a start leg, else the goal."""
