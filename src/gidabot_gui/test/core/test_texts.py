@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from gidabot_gui.core.flow import Notice
@@ -80,15 +82,37 @@ def test_stops_on_a_floor_without_robot(faculty3, locale_dir, ev, language) -> N
     e = ev(Phase.NO_ROBOT_ON_FLOOR, "u", "g", way="stairs", target_floor=2.0, connector="stairs_west",
            location_id="223", tour_file=tour.file_name, tour_step=4, assignee="MariSorgin")
     t = texts.notice(Notice("NO_ROBOT_ON_FLOOR", e, goal_id="223", tour_file=tour.file_name, tour_step=4))
-    for part in ("(223)", "(274)", "MariSorgin", faculty3.floor(3).names[language]):
+    stairs = f"({faculty3.find_connector('stairs_west').names[language]})"
+    for part in ("(223)", "(274)", "MariSorgin", faculty3.floor(3).names[language], stairs):
         assert part in t.body, (part, t.body)
-    assert "{" not in t.body + t.speech and "MariSorgin" in t.speech
+    assert "{" not in t.body + t.speech and "MariSorgin" in t.speech and stairs in t.speech
     e = ev(Phase.TOUR_FINISHED, "u", "g", way="lift", target_floor=2.0, connector="lift", location_id="223",
            tour_file=ends.file_name, tour_step=1)
     t = texts.notice(Notice("TOUR_FINISHED", e, goal_id="223", tour_file=ends.file_name, tour_step=1))
     assert "(223)" in t.body and "(274)" in t.body and "{" not in t.body
+    assert f"({faculty3.find_connector('lift').names[language]})" in t.body
     if language == "en":
         assert t.title == "The tour ends there" and "Goodbye" in t.body and "lift" in t.body
+
+
+@pytest.mark.parametrize("connector", ["stairs_west", "stairs_east", "lift"])
+@pytest.mark.parametrize("language", ["eu", "en", "es"])
+def test_no_robot_on_floor_names_the_lift_or_staircase(faculty3, locale_dir, ev, language, connector) -> None:
+    """Sent alone to a floor without robot, the visitor reads and hears which lift or staircase to take, by its name
+    in the visitor's language; an event without connector falls back to the way alone."""
+    conn = faculty3.find_connector(connector)
+    texts = Texts(Translator(language, locale_dir), faculty3, "Kbot")
+    e = ev(Phase.NO_ROBOT_ON_FLOOR, "u", "g", way=conn.kind, target_floor=2.0, connector=connector, location_id="223")
+    t = texts.notice(Notice("NO_ROBOT_ON_FLOOR", e, goal_id="223"))
+    name = f"({conn.names[language]})"
+    assert name in t.body and name in t.speech, (name, t.body)
+    assert "(223)" in t.body and faculty3.floor(2).names[language] in t.body and "{" not in t.body + t.speech
+    if language == "en":
+        assert f"Go there by the {conn.kind} {name} and look for the place on your own: " in t.body
+    t = texts.notice(Notice("NO_ROBOT_ON_FLOOR", replace(e, connector=""), goal_id="223"))
+    assert name not in t.body and "(223)" in t.body and "{" not in t.body + t.speech
+    if language == "en":
+        assert f"Go there by the {conn.kind} and look for the place on your own: " in t.body
 
 
 def test_confirmation_names_who_serves_each_leg(faculty6, locale_dir) -> None:

@@ -183,6 +183,14 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
      "robots[0].home: (30, 12) is at pixel (504, -168) of the blueprint floor0.png, outside its 1200x432 pixels"),
     ("no robot at all", lambda d: d.update(robots=[]),
      "robots: []: a building needs at least one robot"),
+    ("no location at all", lambda d: d.update(locations=[]),
+     "locations: []: a building needs at least one location"),
+    ("building id with a '/'", lambda d: d.update(id="faculty/old"),
+     "id: 'faculty/old' must be 1-32 letters, digits, '_', '.', '-' starting with a letter or digit"),
+    ("location id with a trailing newline", lambda d: _loc(d, "101").update(id="101\n"),
+     "locations[*].id: '101\\n' must be a string of letters, digits"),
+    ("robot name with a trailing newline", lambda d: d["robots"][1].update(name="Kbot\n"),
+     "robots[1].name: 'Kbot\\n' must start with a letter"),
     ("blueprint_transform with the wrong scale", lambda d: d["floors"][3]["blueprint_transform"].update(scale=32.0),
      "connectors[2].meeting[3].pose: (67.6, 12) is at pixel (2187, 24) of the blueprint floor3.png, outside its "
      "1200x432 pixels"),
@@ -279,6 +287,39 @@ def test_a_floor_that_does_not_load_is_one_problem(faculty_copy: Path, change) -
     with pytest.raises(BuildingError) as info:
         load_building(faculty_copy)
     assert [p.message for p in info.value.problems[1:]] == ["unknown floor 7 (floors: 0, 1, 2, 3)"]
+
+
+@pytest.mark.parametrize("bad_id", ["faculty/old", "../faculty", "..", ".", "", " ", "fac ulty", " faculty",
+                                    "faculty\n", "faculty\t", "-faculty", "F" * 33, 42, None, ["faculty"]],
+                         ids=lambda v: repr(v) if len(repr(v)) < 20 else f"{len(v)} characters")
+def test_building_id_must_be_a_short_identifier(faculty_copy: Path, bad_id: object) -> None:
+    """The building id has the rule of location and connector ids: no '/', no whitespace, not '.' or '..', not
+    empty; one problem naming the file, the key and the value."""
+    _edit(faculty_copy, lambda d: d.update(id=bad_id))
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    [problem] = info.value.problems
+    assert (problem.file, problem.where) == (str(faculty_copy / "building.yaml"), "id")
+    assert problem.message == (f"{bad_id!r} must be 1-32 letters, digits, '_', '.', '-' starting with a letter or "
+                               "digit (a short identifier: no '/', no spaces)")
+
+
+@pytest.mark.parametrize("good_id", ["faculty", "faculty6", "0", "eu.ehu_informatika-2", "F" * 32])
+def test_building_ids_that_are_short_identifiers_load(faculty_copy: Path, good_id: str) -> None:
+    _edit(faculty_copy, lambda d: d.update(id=good_id))
+    assert load_building(faculty_copy).id == good_id
+
+
+@pytest.mark.parametrize("key, message", [
+    ("locations", "[]: a building needs at least one location (no visitor or tour has anywhere to go without one)"),
+    ("robots", "[]: a building needs at least one robot (every node runs as one of them)"),
+], ids=["locations", "robots"])
+def test_a_building_without_locations_or_robots(faculty_copy: Path, key: str, message: str) -> None:
+    """An empty list of locations or robots is one problem naming the file and the key (nothing else breaks)."""
+    _edit(faculty_copy, lambda d: d.update({key: []}))
+    with pytest.raises(BuildingError) as info:
+        load_building(faculty_copy)
+    assert [str(p) for p in info.value.problems] == [f"{faculty_copy / 'building.yaml'}: {key}: {message}"]
 
 
 def test_yaml_keys_given_twice() -> None:

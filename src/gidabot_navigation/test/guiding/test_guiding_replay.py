@@ -133,7 +133,9 @@ def test_a_single_target_on_a_floor_without_robot_leaves_nothing_anywhere(facult
     bus.request("Tartalo", "223")
     [uid] = {g.uid for g in bus.goals}
     assert bus.phases("Tartalo", uid) == [ACCEPTED, ON_THE_WAY, NO_ROBOT_ON_FLOOR]
-    assert bus.last("Tartalo", NO_ROBOT_ON_FLOOR).detail.endswith("find 223 yourself")
+    ev = bus.last("Tartalo", NO_ROBOT_ON_FLOOR)
+    name = faculty3.find_connector(ev.connector).name("en")        # the lift or staircase the trip goes by
+    assert ev.detail == f"no robot serves floor 2: take the {ev.way} ({name}) to floor 2 and find 223 yourself"
     assert nothing_left(bus)
 
 

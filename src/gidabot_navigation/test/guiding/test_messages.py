@@ -44,6 +44,8 @@ HOSTILE = [
     ("huge goal id", {"goal_id": "9" * 5000}, "too_long"),
     ("control chars", {"visitor_id": "a\x00b"}, "text"),
     ("uid with spaces", {"uid": "a b"}, "text"),
+    ("uid ending in a newline", {"uid": "u1\n"}, "text"),
+    ("goal id ending in a newline", {"goal_id": "305\n"}, "text"),
     ("empty uid", {"uid": ""}, "empty"),
     ("non-string", {"uid": 5}, "type"),
     ("bad way", {"way": "teleport"}, "way"),

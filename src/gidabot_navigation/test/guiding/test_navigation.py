@@ -149,15 +149,23 @@ def test_start_floor_guides_to_the_connector_then_sends_the_visitor_up(faculty) 
     assert n.leg is None
 
 
-def test_no_robot_on_the_goal_floor(faculty) -> None:
+@pytest.mark.parametrize("connector, way, name", [("stairs_west", "stairs", "West staircase"),
+                                                   ("stairs_east", "stairs", "East staircase"),
+                                                   ("lift", "lift", "Lift")])
+def test_no_robot_on_the_goal_floor(faculty, connector: str, way: str, name: str) -> None:
+    """The visitor is sent alone, told which lift or staircase to take (its English name: details are English)."""
     no_mari = Building(faculty.id, faculty.name, faculty.path, faculty.floors, faculty.locations,
                        faculty.connectors, faculty.robots[:3])
+    assert faculty.find_connector(connector).name("en") == name
     n = nav(no_mari, "Tartalo")
-    t = trip(no_mari, "Tartalo", "301", "Tartalo/v/1")
+    t = replace(trip(no_mari, "Tartalo", "301", "Tartalo/v/1", connector=connector), way=way)
     acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    meet = faculty.find_connector(connector).meeting[0.0]
+    assert (moves(acts)[0].x, moves(acts)[0].y) == (meet.x, meet.y)
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 5.0, 0.0)
     [ev] = evs(acts)
-    assert ev.phase == NO_ROBOT_ON_FLOOR and ev.target_floor == 3.0 and "find 301 yourself" in ev.detail
+    assert (ev.phase, ev.target_floor, ev.way, ev.connector) == (NO_ROBOT_ON_FLOOR, 3.0, way, connector)
+    assert ev.detail == f"no robot serves floor 3: take the {way} ({name}) to floor 3 and find 301 yourself"
 
 
 def goal_floor_leg(faculty, **cfg):

@@ -25,7 +25,7 @@ from gidabot_navigation.tours.tour_file import MAX_FILE_NAME, TOUR_SUFFIX, TourG
 MAX_FAILURES = 5
 LOCKOUT = 30.0          # s
 MAX_PASSWORD = 256      # characters; longer input is refused without hashing
-_SHA256_RE = re.compile(r"^[0-9a-f]{64}$")
+_SHA256_RE = re.compile(r"^[0-9a-f]{64}\Z")
 
 
 def sha256_hex(password: str) -> str:

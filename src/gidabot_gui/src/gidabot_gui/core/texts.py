@@ -142,21 +142,28 @@ class Texts:
             places.append(name if floor == first else t_floor(name, self.floor(floor)))
         return places, None
 
-    def _go_alone(self, n: Notice, way: str) -> tuple[str, str]:
-        """(text, speech) sending the visitor to a floor without robot, and on."""
+    def _go_alone(self, n: Notice, way: str, connector: str) -> tuple[str, str]:
+        """(text, speech) sending the visitor to a floor without robot by the lift or staircase ``connector`` (its
+        name; "" if unknown), and on."""
         t = self.tr
         ev = n.event
         target = ev.target_floor if ev is not None else math.nan
         places, nxt = self._alone(n)
         first = t._("No robot serves this floor: {floor}.").format(floor=self.floor(target))
+        lift = way == WAY_LIFT
         if len(places) > 1:
-            go = (t._("Go there by the lift and look for these places on your own: {places}.") if way == WAY_LIFT
-                  else t._("Go there by the stairs and look for these places on your own: {places}.")).format(
-                places="; ".join(places))
+            go = (t._("Go there by the lift ({connector}) and look for these places on your own: {places}.") if lift
+                  else t._("Go there by the stairs ({connector}) and look for these places on your own: {places}."))
+            if not connector:
+                go = (t._("Go there by the lift and look for these places on your own: {places}.") if lift else
+                      t._("Go there by the stairs and look for these places on your own: {places}."))
         else:
-            go = (t._("Go there by the lift and look for the place on your own: {place}.") if way == WAY_LIFT else
-                  t._("Go there by the stairs and look for the place on your own: {place}.")).format(
-                place=places[0] if places else "-")
+            go = (t._("Go there by the lift ({connector}) and look for the place on your own: {place}.") if lift else
+                  t._("Go there by the stairs ({connector}) and look for the place on your own: {place}."))
+            if not connector:
+                go = (t._("Go there by the lift and look for the place on your own: {place}.") if lift else
+                      t._("Go there by the stairs and look for the place on your own: {place}."))
+        go = go.format(connector=connector, places="; ".join(places), place=places[0] if places else "-")
         lines = [f"{first} {go}"]
         if nxt is not None:
             robot = ev.assignee if ev is not None else ""
@@ -247,7 +254,7 @@ class Texts:
             return PopupText(title, body, speech, "success")
         if kind == "TOUR_FINISHED" and ev is not None and finite(ev.target_floor) \
                 and not self.building.has_robot(ev.target_floor):
-            body, speech = self._go_alone(n, way)       # the tour ends on floors without robot
+            body, speech = self._go_alone(n, way, connector)       # the tour ends on floors without robot
             return PopupText(t._("The tour ends there"), body, speech, "success")
         if kind == "TOUR_FINISHED":
             here = t._("This is: {place}.").format(place=goal) if goal else ""
@@ -262,7 +269,7 @@ class Texts:
             return PopupText(t._("Sorry, I cannot get there"), f"{body}\n\n{ask}",
                              t._("Sorry, I cannot help you: the way is blocked."), "error")
         if kind == "NO_ROBOT_ON_FLOOR":
-            body, speech = self._go_alone(n, way)
+            body, speech = self._go_alone(n, way, connector)
             return PopupText(t._("No guide on that floor"), body, speech, "warning")
         if kind == "CANCELLED_HERE":
             ready = t._("I am ready for a new destination.")

@@ -27,8 +27,10 @@ DRIVE_TYPES = ("differential", "synchro")
 DEFAULT_RELAY_PORT = 11411       # a robot's first relay link port (building file key relay_port)
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
 FLOOR_TOLERANCE = 1e-3
-_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$")
-_ROBOT_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}$")
+# ids of the building, its locations and connectors; robot names (they name ROS nodes). \Z, not $: "$" would
+# also match before a trailing newline ("faculty\n")
+_ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}\Z")
+_ROBOT_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]{0,31}\Z")
 
 
 def format_floor(floor: float) -> str:
@@ -353,12 +355,19 @@ def load_building(path: str | Path) -> Building:
         raise BuildingError([Problem(str(path), "file", f"not valid YAML: {err}")]) from err
     doc = chk.mapping(doc, "(top level)")
     chk.keys(doc, "", ("id", "name", "floors", "locations", "connectors", "robots"))
-    building_id = chk.text(doc.get("id", "x"), "id") or ""
+    building_id = doc.get("id", "x")
+    if not isinstance(building_id, str) or not _ID_RE.match(building_id):
+        chk.problem("id", f"{_show(building_id)} must be 1-32 letters, digits, '_', '.', '-' starting with a letter "
+                          "or digit (a short identifier: no '/', no spaces)")
+        building_id = ""
     building_name = chk.text(doc.get("name", "x"), "name") or ""
 
     floors, unusable = _load_floors(chk, doc.get("floors", []))
     by_floor = _Floors({f.id: f for f in floors}, unusable)
     locations = _load_locations(chk, doc.get("locations", []), by_floor)
+    if doc.get("locations") == []:
+        chk.problem("locations", "[]: a building needs at least one location (no visitor or tour has anywhere "
+                                 "to go without one)")
     connectors = _load_connectors(chk, doc.get("connectors", []), by_floor, {loc.id for loc in locations})
     robots = _load_robots(chk, doc.get("robots", []), by_floor)
     if doc.get("robots") == []:

@@ -61,8 +61,8 @@ PHASE_OF_REASON = {REASON_VISITOR: CANCELLED_ELSEWHERE, REASON_UNREACHABLE: UNRE
 MAX_UID = 160
 MAX_ID = 64          # robot, visitor, location, connector ids
 MAX_DETAIL = 400
-_UID_RE = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
-_ID_RE = re.compile(r"^[A-Za-z0-9_.:@+-]{1,64}$")
+_UID_RE = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}\Z")
+_ID_RE = re.compile(r"^[A-Za-z0-9_.:@+-]{1,64}\Z")
 START_ROBOT = "robot"     # Goal.start_id when the trip starts at the robot's pose
 POSE_TOLERANCE = 1.0      # m: a goal_pose this far from its location's pose means the buildings differ
 

@@ -62,6 +62,7 @@ from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, 
 from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
+    DEFAULT_LANGUAGE,
     GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
@@ -531,8 +532,9 @@ class NavigationCore:
                                     detail=f"no robot serves floor {floor}: the visitor finds {trip.goal_id} "
                                            "and the tour's last stops alone; the tour ends there")]
             return [self._event(NO_ROBOT_ON_FLOOR, trip, now_ros,
-                                detail=f"no robot serves floor {floor}: go there by the {trip.way} and find "
-                                       f"{trip.goal_id} yourself")]
+                                detail=f"no robot serves floor {floor}: take the {trip.way} "
+                                       f"({self._connector_name(trip)}) to floor {floor} and find {trip.goal_id} "
+                                       "yourself")]
         if trip.goal_state != LEG_COMMITTED:
             if leg.arrived_at is None:
                 leg.arrived_at = now_ros
@@ -653,6 +655,11 @@ class NavigationCore:
     def _meeting(self, trip: Trip) -> Pose2D | None:
         conn = self.building.find_connector(trip.connector)
         return conn.meeting.get(self.floor) if conn is not None else None
+
+    def _connector_name(self, trip: Trip) -> str:
+        """The name of the trip's lift or staircase in the default language (details are English), else its id."""
+        conn = self.building.find_connector(trip.connector)
+        return conn.name(DEFAULT_LANGUAGE) if conn is not None else trip.connector
 
     def _where(self, leg: Leg) -> str:
         """Where the robot is going now: the connector of a start leg, else the goal."""

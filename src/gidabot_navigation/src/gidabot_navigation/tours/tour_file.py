@@ -40,8 +40,8 @@ MAX_GOALS = 100
 MAX_DESCRIPTION = 200            # characters
 MAX_NAME = 80                    # characters of the display name
 MAX_FILE_NAME = 64               # bytes
-_FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$")
-_ROOM_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}$")
+_FILE_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*\Z")
+_ROOM_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}\Z")
 _HEADER_RE = re.compile(rf"^{HEADER}(?:\s*:(.*))?$")
 _RESERVED = {"con", "prn", "aux", "nul", "com1", "com2", "com3", "com4", "lpt1", "lpt2", "lpt3"}
 

@@ -597,7 +597,7 @@ def _stamp(msg: object, fallback_ns: int) -> float:
     return fallback_ns * 1e-9
 
 
-_UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}$")
+_UID = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}\Z")
 GOAL_MANAGER, NAVIGATION = GUIDING_CALLERIDS
 
 

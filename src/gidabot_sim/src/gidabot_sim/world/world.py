@@ -62,7 +62,7 @@ CONTACT_RELEASE = 0.05      # m: two robots in contact part when their gap excee
 DEADLOCK_NEAR = 1.0         # m: gap between two robots' discs below which they may block each other
 DEADLOCK_PROGRESS = 0.5     # m: a robot that moved this far since the pair met has made progress
 MAX_EVENTS = 100            # world events kept until taken (the oldest are dropped)
-OBSTACLE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-/]{1,64}$")
+OBSTACLE_ID_RE = re.compile(r"^[A-Za-z0-9_.\-/]{1,64}\Z")
 
 
 @dataclass(frozen=True)
