@@ -13,6 +13,12 @@ bags of the partial run.
     bin/gidabot demo --goal 305 --way lift             # one target
     bin/gidabot demo --gui                             # open each robot's GUI too
     bin/gidabot demo --visitors 20 --seed 1            # many visitors at random robots (issue 18)
+    bin/gidabot demo --speed max --trace               # which processes use the CPU while the floors fall behind
+
+``--trace``: every look at the floors' clocks (every 0.2 s of wall time) also samples every process's CPU into
+trace.jsonl in the run folder; at the end the demo prints which processes used the CPU while the floors fell
+behind their ceiling (gidabot_sim.demo.trace, kept in run.json under "trace"). The sampling itself costs CPU (it
+reads /proc for every process of the run five times a second), printed too.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ from gidabot_sim.demo.crowd import UNFINISHED, Crowd
 from gidabot_sim.demo.governor import SpeedGovernor
 from gidabot_sim.demo.progress import Progress, Visit
 from gidabot_sim.demo.timing import RunTiming
+from gidabot_sim.demo.trace import TRACE_FILE, TraceWriter, format_summary, load, summarize
 from gidabot_sim.errors import DemoError, ProcessError, SimConfigError
 from gidabot_sim.runner.building_runner import RUNS, SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address
@@ -116,6 +123,11 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="print the final report as one JSON object on stdout (progress goes to stderr)")
     p.add_argument("--cpu", action="store_true",
                    help="print the CPU seconds each process of the run used (also written to cpu.json)")
+    p.add_argument("--trace", action="store_true",
+                   help=f"every look at the floors' clocks ({LOOK_PERIOD:g} s of wall time) also samples every "
+                        f"process's CPU into {TRACE_FILE} in the run folder; at the end the demo prints which "
+                        "processes used the CPU while the floors fell behind (gidabot_sim.demo.trace; run.json: "
+                        "trace); the sampling itself costs CPU, printed too")
     p.add_argument("--net", type=int, default=None, metavar="N",
                    help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
     p.add_argument("--machines", action="store_true",
@@ -309,10 +321,12 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
+    trace: TraceWriter | None = None    # --trace
     try:
+        trace = TraceWriter(run_dir / TRACE_FILE) if args.trace else None
         sim.start(cancelled=lambda: bool(stop))
         failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
-                          tour_cpu if args.cpu else None)
+                          tour_cpu if args.cpu else None, trace)
         if not stop and progress.finished:
             time.sleep(2.0)  # the last poses and events reach the recorders
         if args.cpu:
@@ -321,6 +335,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         failure = str(err)
         print(f"gidabot demo: {err}", file=sys.stderr)
     finally:
+        if trace is not None:
+            trace.close()
         stop_begin = time.time()
         sim.stop()
         print(f"stopped every process in {time.time() - stop_begin:.1f} s"
@@ -345,6 +361,7 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
+    run["trace"] = _trace_summary(trace, timing) if trace is not None else None
     if plans:
         run.update(visitors=len(plans), population=[p.to_dict() for p in plans])
     (run_dir / "run.json").write_text(json.dumps(run, indent=2), encoding="utf-8")
@@ -353,6 +370,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     print(f"\nOutcome: {outcome}; {run['completed']} of {total} {counted} sim {run['sim_s']:.0f} s, "
           f"wall {run['wall_s']:.0f} s, sim/wall {ratio:.1f}x; whole demo {total_wall:.0f} s wall "
           f"(start-up and shut-down included)\n", file=out, flush=True)
+    if run["trace"] is not None:
+        print("\n".join(format_summary(run["trace"])) + "\n", file=out, flush=True)
     code = EXIT_FAILED
     if all((run_dir / f"{r.name}.bag").exists() for r in building.robots):
         code = report.main([str(run_dir)] + (["--json"] if args.json else []))
@@ -362,6 +381,19 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     if stop:
         return EXIT_INTERRUPTED
     return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
+
+
+def _trace_summary(trace: TraceWriter, timing: RunTiming) -> dict | None:
+    """``--trace``: the trace summarised over the tour (its first goal to its end, or the last look at the clocks),
+    the whole trace if the tour never started; None if the trace cannot be read (said on stderr)."""
+    try:
+        samples = load(trace.path)
+    except OSError as err:
+        print(f"gidabot demo: {err}", file=sys.stderr)
+        return None
+    if timing.first_wall is None:
+        return summarize(samples)
+    return summarize(samples, start_wall=timing.first_wall, end_wall=timing.latest_wall)
 
 
 def clocks_line(timing: RunTiming) -> str:
@@ -376,9 +408,10 @@ def clocks_line(timing: RunTiming) -> str:
 
 def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTiming, governor: SpeedGovernor | None,
             args: argparse.Namespace, wall_begin: float, out: TextIO, stop: Signals,
-            tour_cpu: list[CpuSnapshot] | None = None) -> str:
+            tour_cpu: list[CpuSnapshot] | None = None, trace: TraceWriter | None = None) -> str:
     """Show progress until the visit ends, a process dies, the timeout, or a signal. Returns a failure or "".
-    ``governor`` (``--speed max``): sets every floor's ceiling from the floors' clocks."""
+    ``governor`` (``--speed max``): sets every floor's ceiling from the floors' clocks; ``trace`` (``--trace``):
+    gets the clocks and every process's CPU at every look."""
     assert sim.monitor_file is not None
     shown = ""
     deadline = wall_begin + args.timeout
@@ -391,6 +424,9 @@ def _follow(sim: SimulatedBuilding, progress: Progress | Crowd, timing: RunTimin
                 ceiling = governor.look(clocks, now, bool(progress.goals)) if governor else None
                 if ceiling is not None:
                     sim.set_ceiling(ceiling)
+                if trace is not None:
+                    cost_from = time.process_time()    # reading /proc is the trace's cost too
+                    trace.sample(now, clocks, sim.cpu_usage(), cost_from)
                 next_look = time.monotonic() + LOOK_PERIOD
             line = feed.readline()
             if line:
