@@ -225,14 +225,22 @@ class Overlay(QWidget):
         if self.wide:
             self.card.setGeometry(QRect(margin, margin, w - 2 * margin, h - 2 * margin))
             return
-        cw = min(w - 2 * margin, self.theme.px(640))
         lay = self.card.layout()
         for label in (self.title, self.body, self.note_text):
             label.updateGeometry()
         lay.invalidate()
         lay.activate()
-        ch = lay.totalHeightForWidth(cw) if lay.hasHeightForWidth() else lay.totalSizeHint().height()
-        ch = min(max(ch, lay.totalMinimumSize().height()), h - 2 * margin)
+
+        def height_for(width: int) -> int:
+            need = lay.totalHeightForWidth(width) if lay.hasHeightForWidth() else lay.totalSizeHint().height()
+            return max(need, lay.totalMinimumSize().height())
+
+        cw = min(w - 2 * margin, self.theme.px(640))
+        ch = height_for(cw)
+        if ch > h - 2 * margin:             # a long text (a language's longer words): the whole width before cutting
+            cw = w - 2 * margin
+            ch = height_for(cw)
+        ch = min(ch, h - 2 * margin)
         self.card.setGeometry(QRect((w - cw) // 2, (h - ch) // 2, cw, ch))
 
     def resizeEvent(self, _ev: object) -> None:  # noqa: N802 - Qt naming
