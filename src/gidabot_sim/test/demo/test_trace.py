@@ -80,6 +80,7 @@ def test_a_stall_window_is_attributed_to_the_processes_that_burst_in_it(tmp_path
     assert summary["wall_s"] == pytest.approx(1.0)
     assert (summary["stalls"], summary["stall_ms"], summary["stall_wall_s"], summary["behind_ms"]) == \
         (1, 30.0, 0.2, 32.0)       # the 1 ms windows are no stall (min_stall_ms 5)
+    assert summary["net_behind_ms"] == 32.0
     [top] = summary["top"]
     assert (top["at_s"], top["span_s"], top["growth_ms"], top["floor"]) == (0.4, 0.2, 30.0, "Kbot")
     assert top["processes"] == [{"process": "Kbot/goal_manager", "cpu_ms": 180.0},
@@ -212,3 +213,11 @@ def test_demo_accepts_trace() -> None:
     assert demo.parse_args(["--trace"]).trace is True
     assert demo.parse_args([]).trace is False
     assert "--trace" in demo.__doc__ and "trace.jsonl" in demo.__doc__
+
+
+def test_lateness_made_up_later_counts_in_the_windows_not_in_the_net(tmp_path: Path) -> None:
+    """A floor late by 30 ms that then makes it up (no sleep before its next steps): a stall window, net 0."""
+    looks = [({"Kbot": b}, {GM: 1.0 + 0.01 * i}) for i, b in enumerate([0.0, 0.0, 0.030, 0.010, 0.0])]
+    summary = summarize(load(write_trace(tmp_path / "trace.jsonl", looks)))
+    assert (summary["stalls"], summary["stall_ms"], summary["net_behind_ms"]) == (1, 30.0, 0.0)
+    assert any("net over the span" in line for line in format_summary(summary))

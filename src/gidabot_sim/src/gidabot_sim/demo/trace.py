@@ -243,7 +243,9 @@ def summarize(trace: Trace | Sequence[Sample | Mapping[str, object]], start_wall
     Keys: ``start_wall``, ``end_wall`` (s since the epoch, None without windows) and ``wall_s`` of the windows
     counted; ``samples``, ``skipped_lines``, ``windows``; ``min_stall_ms``; ``stalls`` (windows in which a floor's
     time behind grew by at least ``min_stall_ms``), ``stall_ms`` (their growth together), ``stall_wall_s`` (their
-    wall time); ``behind_ms`` (growth in every window, stalls or not); ``cores`` per kind of process (``stall`` /
+    wall time); ``behind_ms`` (growth in every window, stalls or not); ``net_behind_ms`` (the largest growth of a
+    floor's time behind from the first counted sample to the last: a floor makes up a short lateness, world/clock.py's
+    slack, by not sleeping, so this is less than the growth in the windows); ``cores`` per kind of process (``stall`` /
     ``other``: its CPU in cores during the stall windows / during the other windows; ``all``: every process),
     largest during the stalls first; ``top``: the ``top`` largest stall windows, largest first (``at_s``: wall s
     from the start to the window's beginning, ``span_s``, ``growth_ms``, ``floor``, ``processes``: the
@@ -285,12 +287,17 @@ def summarize(trace: Trace | Sequence[Sample | Mapping[str, object]], start_wall
     largest = sorted(stalls, key=lambda iw: (-iw[1].growth, iw[1].begin))[:max(0, top)]
     trace_cpu = sum(w.trace_cpu_s for _, w in counted)
     wall_s = sum(w.span for _, w in counted)
+    net = 0.0                      # the worst floor's time behind, last counted sample minus first
+    if counted:
+        first, last = samples[counted[0][0]], samples[counted[-1][0] + 1]
+        net = max((last.floors[f][1] - first.floors[f][1] for f in first.floors if f in last.floors), default=0.0)
     return {
         "start_wall": counted[0][1].begin if counted else None, "end_wall": counted[-1][1].end if counted else None,
         "wall_s": round(wall_s, 3), "samples": len(samples), "skipped_lines": skipped, "windows": len(counted),
         "min_stall_ms": min_stall_ms, "stalls": len(stalls),
         "stall_ms": round(1000.0 * sum(w.growth for _, w in stalls), 1), "stall_wall_s": round(stall_wall, 3),
         "behind_ms": round(1000.0 * sum(w.growth for _, w in counted), 1),
+        "net_behind_ms": round(1000.0 * max(0.0, net), 1),
         "cores": {kind: {"stall": cores(s, stall_wall), "other": cores(o, other_wall)} for kind, (s, o) in kinds},
         "top": [{"at_s": round(w.begin - start, 3) if start is not None else 0.0, "span_s": round(w.span, 3),
                  "growth_ms": round(1000.0 * w.growth, 1), "floor": w.floor, "processes": _busiest(w.cpu),
@@ -317,7 +324,8 @@ def format_summary(summary: Mapping[str, Any], min_cores: float = 0.01) -> list[
     lines = [head,
              f"  stalls: {summary['stalls']} {windows} in which a floor's time behind its ceiling grew by >= "
              f"{summary['min_stall_ms']:g} ms, {summary['stall_ms']:.0f} ms in all (of {summary['behind_ms']:.0f} ms "
-             f"behind in all the windows)",
+             f"behind in all the windows; net over the span, the worst floor's: {summary['net_behind_ms']:.0f} ms, "
+             f"a floor makes up a lateness of a few tens of ms by not sleeping before its next steps)",
              f"  CPU per kind of process (all robots), cores: during the stalls ({stall_wall:.1f} s) / the other "
              f"windows ({other_wall:.1f} s)"]
     for kind, c in summary["cores"].items():
