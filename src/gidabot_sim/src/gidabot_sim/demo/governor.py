@@ -52,11 +52,14 @@ held it for the whole tour). The demo starts the visit a few seconds after every
 ``/proc/stat``), and the first window starts ``settle`` seconds after the tour does, past the burst of the
 tour's first hand-off (the report still counts the floors' time behind over the whole tour).
 
-What this cannot do: on this 2-core machine the floors' time behind comes mostly from stalls of 30-60 ms when
-two of the robots' own processes (relay ends, goal managers) burst on both cores at a hand-off; they hardly
-depend on the speed, so backing off on them makes the run slower without making them rarer (docs/demo.md:
-before ``helps``, a quiet afternoon's bench held 36.45x and another 32.81x, where its 50x run was not degraded,
-and beside ``make test`` the lowest ceiling).
+What this cannot do: on this 2-core machine the floors' time behind comes mostly from short stalls when the
+robots' own processes burst at a tour step (``gidabot demo --trace``: goal managers used twice their usual CPU
+in the stall windows, docs/demo.md); they hardly depend on the speed, so backing off on them makes the run
+slower without making them rarer (docs/demo.md: before ``helps``, a quiet afternoon's bench held 36.45x and
+another 32.81x, where its 50x run was not degraded, and beside ``make test`` the lowest ceiling). Those of the
+tour's first seconds spend much of ``run_budget`` early, and no raise comes until the judged time has grown
+past them: in a 30 s tour that can hold a ceiling below what the floors sustain for most of the run (one max run
+held 45x for 20 s while its floors waited for the ceiling, docs/demo.md).
 """
 
 from __future__ import annotations
