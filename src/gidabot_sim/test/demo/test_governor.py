@@ -180,3 +180,17 @@ def test_a_back_off_that_does_not_make_the_stalls_rarer_is_undone_and_that_ceili
     assert gov.summary()["flat_at"] == 45.0
     # a floor that cannot keep up at all still brings it down
     assert gov.look(floors.run({"A": 20, "B": 45}, behind={"A": 0.5}), floors.wall, active=True) == 22.5
+
+
+def test_a_back_off_from_a_ceiling_the_floors_fell_short_of_is_never_undone() -> None:
+    """Raised past what the floors compute (they make 80 % of it): the stalls there depend on the speed, even when
+    the first second after the back-off does not show it; that back-off stays (a run held 88.57x this way)."""
+    gov, floors = SpeedGovernor(start=88.0, patience=1, settle=0.0, calm=1000.0, run_budget=0.5, helps=0.75,
+                                keep_up=0.7), Floors()
+    gov.look(floors.clocks, floors.wall, active=True)
+    # 70.4x achieved of 88x (80 %: above keep_up), 100 ms behind in the second: over the budget
+    assert gov.look(floors.run({"A": 70.4, "B": 70.4}, behind={"A": 0.1}), floors.wall, active=True) == 79.2
+    # the lateness still shows in the next second: backed off again, never undone to 88x
+    assert gov.look(floors.run({"A": 70.4, "B": 70.4}, behind={"A": 0.1}), floors.wall, active=True) == 71.28
+    assert gov.flat_at is None
+    # where the floors kept pace (the test above: 45x achieved of 45x), the same rates undo the back-off

@@ -29,9 +29,13 @@ per wall second and sets every floor's ceiling to what it returns. Over each win
   the ceiling is raised only while the time behind since judging started leaves half of that within
   ``run_budget``;
 - a back-off for the budget (either) that did not make the floors' time behind per second fall below ``helps``
-  times what it was at the ceiling it left is undone: the stalls do not depend on the speed there (two of the
-  robots' own processes bursting on both cores at a hand-off, see below), going slower only makes the run
-  slower, so that ceiling is held for the rest of the run (``flat_at``) unless a floor cannot keep up at all;
+  times what it was at the ceiling it left, where the floors had otherwise kept pace with it (the slowest
+  achieved at least ``paced`` of it since the change before), is undone: the stalls do not depend on the speed
+  there (the robots' own processes bursting at a tour step, see below), going slower only makes the run slower,
+  so that ceiling is held for the rest of the run (``flat_at``) unless a floor cannot keep up at all. Where the
+  floors fell short of the ceiling itself they were at the edge of what they can compute, and slower does help
+  even when the next second does not show it yet (a run raised to 88.57x, floors at about 75x, held 88.57x this
+  way and ended degraded, 1.2 % behind);
 - a window never takes the ceiling below ``max_drop`` times what it was (a floor starved for a second says the
   machine was busy then, not how busy it stays);
 - every floor kept up, the budget is not half spent and one of them waited for the ceiling (it held the floor
@@ -87,6 +91,7 @@ class SpeedGovernor:
     max_drop: float = 0.5        # a window takes the ceiling down to no less than this share of it
     run_budget: float = 0.007    # share of the tour's wall time the floors may be behind in all (degraded: 1 %)
     helps: float = 0.75          # a back-off helped when the floors' time behind per second fell below this share
+    paced: float = 0.95          # the floors kept pace with a ceiling: the slowest achieved this share of it
     ceiling: float = field(init=False)
     limit: float = field(init=False)
     changes: list[tuple[float, float]] = field(default_factory=list)   # (wall, new ceiling)
@@ -100,7 +105,8 @@ class SpeedGovernor:
     _backed_off: tuple[float, int] | None = None                        # (wall, back-offs so far) while limited
     _tour: tuple[float, dict[str, Clock]] | None = None                 # the first judged window's start
     _excess: float | None = None        # wall s behind over the tour's budget at the last back-off for it
-    _left: tuple[float, float] | None = None    # the ceiling the last back-off left, and its rate of time behind
+    _left: tuple[float, float, bool] | None = None  # the last back-off: the ceiling left, its rate of time behind,
+                                                    # whether the floors kept pace with it (``paced``) meanwhile
 
     def __post_init__(self) -> None:
         if not (0 < self.low <= self.start <= self.high and math.isfinite(self.high)):
@@ -108,10 +114,10 @@ class SpeedGovernor:
         if not (self.window > 0 and 0 < self.keep_up < 1 and 0 < self.budget < 1 and self.horizon > 0
                 and 0 < self.back_off < 1 < self.raise_by and self.patience >= 1 and self.settle >= 0
                 and self.calm > 0 and 0 < self.max_drop <= self.back_off and self.budget <= self.run_budget < 1
-                and 0 < self.helps <= 1):
+                and 0 < self.helps <= 1 and 0 < self.paced <= 1):
             raise ValueError("window > 0, 0 < keep_up < 1, 0 < budget < 1, horizon > 0, 0 < back_off < 1 < raise_by, "
                              "patience >= 1, settle >= 0, calm > 0, 0 < max_drop <= back_off, "
-                             "budget <= run_budget < 1, 0 < helps <= 1")
+                             "budget <= run_budget < 1, 0 < helps <= 1, 0 < paced <= 1")
         self.ceiling, self.limit = float(self.start), float(self.high)
 
     def look(self, clocks: dict[str, Clock], wall: float, active: bool) -> float | None:
@@ -152,11 +158,13 @@ class SpeedGovernor:
                 self._excess = excess
             rate = spent / (wall - epoch_wall)                       # wall s behind per wall s at this ceiling
             left = self._left
-            if left is not None and wall - epoch_wall >= self.window and rate >= self.helps * left[1]:
-                # the last back-off did not make the stalls rarer: here they do not depend on the speed
+            if left is not None and left[2] and wall - epoch_wall >= self.window and rate >= self.helps * left[1]:
+                # the last back-off did not make the stalls rarer, and the floors kept pace with the ceiling it
+                # left between them: here the stalls do not depend on the speed
                 self.flat_at, self._backed_off, self.limit = left[0], None, left[0]
                 return self._set(left[0], wall, clocks)
-            self._left = (self.ceiling, rate)
+            pace = min((clocks[r].sim - epoch[r].sim) for r in clocks if r in epoch) / (wall - epoch_wall)
+            self._left = (self.ceiling, rate, pace >= self.paced * self.ceiling)
             return self._back_off(self.back_off * self.ceiling, wall, clocks)
         if self._backed_off is not None and spent <= allowed / 2 and self.flat_at is None:
             since, count = self._backed_off
