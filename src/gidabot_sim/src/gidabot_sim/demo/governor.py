@@ -34,8 +34,8 @@ per wall second and sets every floor's ceiling to what it returns. Over each win
   there (the robots' own processes bursting at a tour step, see below), going slower only makes the run slower,
   so that ceiling is held for the rest of the run (``flat_at``) unless a floor cannot keep up at all. Where the
   floors fell short of the ceiling itself they were at the edge of what they can compute, and slower does help
-  even when the next second does not show it yet (a run raised to 88.57x, floors at about 75x, held 88.57x this
-  way and ended degraded, 1.2 % behind);
+  even when the next second does not show it yet (a run raised to 88.57x, above the 73.1x a fixed 100x ceiling
+  achieved, held 88.57x this way and ended degraded, 1.2 % behind);
 - a window never takes the ceiling below ``max_drop`` times what it was (a floor starved for a second says the
   machine was busy then, not how busy it stays);
 - every floor kept up, the budget is not half spent and one of them waited for the ceiling (it held the floor
