@@ -225,7 +225,7 @@ class FloorView(QWidget):
         p.drawPolygon(heading_polygon(wx, wy, radius, angle))
         # name tag above (below when too close to the top)
         f = QFont(FONT_FAMILY)
-        f.setPixelSize(self.theme.font_small)
+        f.setPixelSize(self.theme.font("small"))
         f.setBold(True)
         fm = QFontMetrics(f)
         tw, th = fm.horizontalAdvance(r.label) + 14, fm.height() + 6

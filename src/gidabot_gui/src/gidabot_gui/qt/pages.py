@@ -68,7 +68,7 @@ class RowDelegate(QStyledItemDelegate):
         base = QFont(option.font)
         if badge:
             bf = QFont(base)
-            bf.setPixelSize(t.font_small)
+            bf.setPixelSize(t.font("small"))
             bf.setBold(True)
             fm = QFontMetrics(bf)
             bw = max(fm.horizontalAdvance(badge) + t.px(16), t.px(44))
@@ -86,7 +86,7 @@ class RowDelegate(QStyledItemDelegate):
         right = r.right() - t.px(12)
         if side:
             sf = QFont(base)
-            sf.setPixelSize(t.font_small)
+            sf.setPixelSize(t.font("small"))
             sw = min(QFontMetrics(sf).horizontalAdvance(side) + 4, int(r.width() * 0.4))
             srect = QRect(right - sw, r.top(), sw, r.height())
             f, ok = fit_font(sf, srect, side, WRAP | int(Qt.AlignRight | Qt.AlignVCenter), 2)
@@ -98,7 +98,7 @@ class RowDelegate(QStyledItemDelegate):
             right -= sw + t.px(12)
         main = index.data(MAIN) or ""
         mf = QFont(base)
-        mf.setPixelSize(t.font_base)
+        mf.setPixelSize(t.font("base"))
         mf.setBold(state == "current")
         mrect = QRect(x, r.top() + 2, max(10, right - x), r.height() - 4)
         f, ok = fit_font(mf, mrect, main, WRAP | int(Qt.AlignLeft | Qt.AlignVCenter), 2)

@@ -16,6 +16,7 @@ from PyQt5.QtGui import QBrush, QColor, QIcon, QPainter, QPainterPath, QPen, QPi
 
 FONT_FAMILY = "DejaVu Sans"
 TOUCH = 60          # px, minimum height of a touch target at the reference size
+FONT_SIZES = {"small": 15, "base": 18, "big": 22, "title": 27}   # px of text at the reference size
 
 BG = "#F3F0E8"
 SURFACE = "#FFFFFF"
@@ -47,28 +48,17 @@ class Theme:
     def px(self, value: float) -> int:
         return int(round(value * self.scale))
 
-    @property
-    def font_base(self) -> int:
-        return self.px(18)
-
-    @property
-    def font_small(self) -> int:
-        return self.px(15)
-
-    @property
-    def font_big(self) -> int:
-        return self.px(22)
-
-    @property
-    def font_title(self) -> int:
-        return self.px(27)
+    def font(self, size: str) -> int:
+        """The pixel size of text of ``size``: one of ``FONT_SIZES`` (small, base, big, title)."""
+        return self.px(FONT_SIZES[size])
 
     @property
     def touch(self) -> int:
         return self.px(TOUCH)
 
     def style_sheet(self) -> str:
-        f, fs, fb, ft, r = self.font_base, self.font_small, self.font_big, self.font_title, self.px(10)
+        f, fs, fb, ft = (self.font(size) for size in ("base", "small", "big", "title"))
+        r = self.px(10)
         return f"""
 QWidget {{ font-family: "{FONT_FAMILY}"; font-size: {f}px; color: {TEXT}; }}
 QWidget#root, QStackedWidget#pages, QWidget#page {{ background: {BG}; }}

@@ -52,7 +52,24 @@ def fit_font(font: QFont, rect: QRect, text: str, flags: int, max_lines: int = 3
         size -= 1
 
 
-class WrapButton(QPushButton):
+class PaintedText:
+    """The text of a widget that paints it itself (the style draws no label): a new text lays the widget out
+    again, repaints it and is its accessible name."""
+
+    _text: str
+
+    def setText(self, text: str) -> None:  # noqa: N802 - Qt naming
+        if text != self._text:
+            self._text = text
+            self.setAccessibleName(text)    # type: ignore[attr-defined]
+            self.updateGeometry()           # type: ignore[attr-defined]
+            self.update()                   # type: ignore[attr-defined]
+
+    def text(self) -> str:
+        return self._text
+
+
+class WrapButton(PaintedText, QPushButton):
     """A push button whose label wraps onto several lines and shrinks to fit.
 
     ``role`` selects the style (``primary``, ``danger``, ``nav``, ``chip``, ``header``,
@@ -83,20 +100,6 @@ class WrapButton(QPushButton):
         self.setSizePolicy(QSizePolicy.Preferred, QSizePolicy.Fixed)
         self.setMinimumHeight(min_height)
         self.setAccessibleName(text)
-
-    # QPushButton.text() is used by Qt itself; keep ours separate so the style draws no label
-    def label(self) -> str:
-        return self._text
-
-    def setText(self, text: str) -> None:  # noqa: N802 - Qt naming
-        if text != self._text:
-            self._text = text
-            self.setAccessibleName(text)
-            self.updateGeometry()
-            self.update()
-
-    def text(self) -> str:
-        return self._text
 
     def set_min_height(self, h: int) -> None:
         self.min_height = h
@@ -196,7 +199,7 @@ def equalize_fonts(buttons: list[WrapButton], floor: int = 0) -> None:
                 b.update()
 
 
-class FitLabel(QWidget):
+class FitLabel(PaintedText, QWidget):
     """A label that wraps and shrinks its text to fit its rectangle (``clipped`` if it cannot)."""
 
     def __init__(self, text: str = "", size: str = "base", bold: bool = False, color: str = "",
@@ -215,15 +218,6 @@ class FitLabel(QWidget):
         self._fit: tuple[QFont, bool] = (QFont(), True)
         self.setSizePolicy(QSizePolicy.Expanding, QSizePolicy.Preferred)
 
-    def setText(self, text: str) -> None:  # noqa: N802 - Qt naming
-        if text != self._text:
-            self._text = text
-            self.updateGeometry()
-            self.update()
-
-    def text(self) -> str:
-        return self._text
-
     def set_theme(self, theme: Theme) -> None:
         self.theme = theme
         self.updateGeometry()
@@ -231,9 +225,7 @@ class FitLabel(QWidget):
 
     def _font(self) -> QFont:
         f = QFont(self.font())
-        px = {"small": self.theme.font_small, "base": self.theme.font_base, "big": self.theme.font_big,
-              "title": self.theme.font_title}[self.size_role]
-        f.setPixelSize(px)
+        f.setPixelSize(self.theme.font(self.size_role))
         f.setBold(self.bold)
         return f
 
