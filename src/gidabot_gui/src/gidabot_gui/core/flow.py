@@ -59,6 +59,16 @@ class Mode(Enum):
     TOUR = "tour"
 
 
+class LocalNotice(Enum):
+    """What this screen tells the visitor on its own, with no NavEvent behind it."""
+
+    NO_ANSWER = "no_answer"      # no event answered a request within the request timeout
+    BUSY = "busy"                # a trip runs at this screen: finish or cancel it first
+
+
+NoticeKind = Phase | LocalNotice   # what a pop-up is about: a NavEvent's phase, or the screen's own notice
+
+
 @dataclass
 class ScreenTrip:
     """A trip as this screen follows it (not the guiding nodes' Trip: what the visitor here does in it)."""
@@ -90,13 +100,13 @@ class TourProgress:
 class Notice:
     """Something to tell the visitor: a NavEvent of this robot, or a local outcome.
 
-    ``kind`` is a :class:`Phase` name (``ON_THE_WAY``...) or ``NO_ANSWER``, ``BUSY``.
+    ``kind``: the :class:`Phase` of the event, or a :class:`LocalNotice`.
     ``modal``: a pop-up (with speech); otherwise a banner line only.
     ``actions``: buttons of the pop-up: ``ok``, ``continue``, ``cancel``, ``choose_stop``.
     ``adopt_language``: the trip's visitor arrives from another robot; show their language.
     """
 
-    kind: str
+    kind: NoticeKind
     event: NavEventData | None = None
     modal: bool = True
     actions: tuple[str, ...] = ("ok",)
@@ -321,13 +331,13 @@ class VisitorFlow:
                 Activity.PENDING, Activity.QUEUED):
             trip.activity, trip.helper, trip.since = Activity.HANDED, ev.assignee, now
             self._focus_on(trip)
-            return Notice(Phase.ASSIGNED.name, ev, actions=("ok", "cancel"), goal_id=trip.goal_id,
+            return Notice(Phase.ASSIGNED, ev, actions=("ok", "cancel"), goal_id=trip.goal_id,
                           tour_file=trip.tour_file, tour_step=trip.tour_step)
         alone = self._alone.get(ev.tour_file) if ev.tour_file else None
         if ev.leg == LEG_GOAL and alone is not None and alone.tour_step < ev.tour_step:
             del self._alone[ev.tour_file]
             told = replace(alone, assignee=ev.assignee)
-            return Notice(Phase.NO_ROBOT_ON_FLOOR.name, told, goal_id=alone.location_id, tour_file=alone.tour_file,
+            return Notice(Phase.NO_ROBOT_ON_FLOOR, told, goal_id=alone.location_id, tour_file=alone.tour_file,
                           tour_step=alone.tour_step, modal=not self.busy, final=True)
         return None
 
@@ -343,7 +353,7 @@ class VisitorFlow:
         if ev.phase in FINAL_PHASES:
             was_current = trip is self.current
             del self.trips[trip.uid]
-            return Notice(Phase(ev.phase).name, ev, goal_id=trip.goal_id, tour_file=trip.tour_file,
+            return Notice(Phase(ev.phase), ev, goal_id=trip.goal_id, tour_file=trip.tour_file,
                           tour_step=trip.tour_step, modal=was_current or not self.busy, final=True)
         return None
 
@@ -372,9 +382,8 @@ class VisitorFlow:
         return self.tour
 
     def _handle(self, phase: Phase, ev: NavEventData, trip: ScreenTrip | None) -> Notice | None:
-        def notice(kind: Phase | str, **kw: object) -> Notice:
-            name = kind.name if isinstance(kind, Phase) else kind
-            return Notice(name, ev, goal_id=trip.goal_id if trip else ev.location_id,
+        def notice(kind: Phase, **kw: object) -> Notice:
+            return Notice(kind, ev, goal_id=trip.goal_id if trip else ev.location_id,
                           tour_file=trip.tour_file if trip else ev.tour_file,
                           tour_step=trip.tour_step if trip else ev.tour_step, **kw)  # type: ignore[arg-type]
 
@@ -441,7 +450,7 @@ class VisitorFlow:
             self.trips.pop("")
             if pend.tour_file and self.tour is not None and pend.tour_step <= 0:
                 self.tour = None
-            return Notice("NO_ANSWER", None, goal_id=pend.goal_id, tour_file=pend.tour_file,
+            return Notice(LocalNotice.NO_ANSWER, None, goal_id=pend.goal_id, tour_file=pend.tour_file,
                           tour_step=pend.tour_step, final=True)
         return None
 
