@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from gidabot_navigation.building.model import Building, Robot
 from gidabot_navigation.errors import GoalRejected
-from gidabot_navigation.guiding.messages import Trip, validate_trip
+from gidabot_navigation.guiding.messages import CommandData, Trip, validate_trip
 from gidabot_navigation.guiding.trips import RobotView, TripPlanner
 from gidabot_navigation.tours.tour_file import Tour as TourFile
 
@@ -134,6 +135,16 @@ class TourEdit:
     floor: float
     goal_lines: tuple[str, ...]
     deleted: bool = False
+
+
+class Outputs(Protocol):
+    """Where the GUI's messages go (the ROS adapter's publishers; a recorder in tests)."""
+
+    def send_command(self, cmd: CommandData) -> None: ...
+
+    def send_initial_pose(self, pose: InitialPose) -> None: ...
+
+    def send_tour_edit(self, edit: TourEdit) -> None: ...
 
 
 # ---------------------------------------------------------------- fleet

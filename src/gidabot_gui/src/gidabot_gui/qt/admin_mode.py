@@ -4,30 +4,61 @@ Admin mode exists only when the node was given a password hash (``GuiConfig.admi
 The Admin button asks for the password (wrong ones refused, repeated ones locked out by
 :class:`~gidabot_gui.core.admin.PasswordCheck`); Lock leaves admin mode. Set location:
 press the robot's position on this floor's blueprint, drag towards where it faces, Apply
-publishes ``initialpose`` (:func:`~gidabot_gui.core.admin.pose_from_drag`).
+publishes ``initialpose`` (:func:`~gidabot_gui.core.admin.pose_from_drag`). What it needs of
+the window is :class:`AdminScreen`.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import Protocol, runtime_checkable
 
-from gidabot_gui.core.admin import pose_from_drag
+from gidabot_gui.core.admin import PasswordCheck, pose_from_drag
 from gidabot_gui.core.i18n import format_number
-from gidabot_gui.core.model import InitialPose
+from gidabot_gui.core.model import Fleet, InitialPose
 from gidabot_gui.qt.editor import PasswordPanel
 from gidabot_gui.qt.overlay import CardSpec
+from gidabot_gui.qt.screen import Services
+from gidabot_navigation.building.model import Floor
 
-if TYPE_CHECKING:
-    from gidabot_gui.qt.window import MainWindow
+
+@runtime_checkable
+class AdminScreen(Services, Protocol):
+    """What admin mode needs of the screen (:class:`~gidabot_gui.qt.window.MainWindow` is one)."""
+
+    fleet: Fleet
+    log: Callable[[str], None]
+
+    def push_popup(self, name: str, build: Callable[[], CardSpec], pressed: Callable[[str], None]) -> None:
+        """Show a card over the one on screen (:meth:`pop_popup` brings that back)."""
+
+    def pop_popup(self) -> None: ...
+
+    def rebuild_popup(self) -> None:
+        """Build the card on screen again (its builder's answer changed)."""
+
+    def show_message(self, name: str, title: Callable[[], str], body: Callable[[], str], tone: str) -> None:
+        """A pop-up with OK that closes by itself."""
+
+    def set_location_mode(self, on: bool) -> None:
+        """This robot's floor page (shown first) taking a pose dragged on its blueprint, or back to normal."""
+
+    def changed(self) -> None:
+        """Admin mode was entered or left: bring what is shown up to date."""
 
 
 class AdminController:
-    """Admin password, Lock and Set location (see the module docstring)."""
+    """Admin password, Lock and Set location of robot ``robot`` on its ``floor`` (see the module docstring).
 
-    def __init__(self, screen: MainWindow) -> None:
+    ``check`` is None when there is no admin mode at all.
+    """
+
+    def __init__(self, screen: AdminScreen, check: PasswordCheck | None, robot: str, floor: Floor) -> None:
         self.screen = screen
-        self.check = screen.config.admin           # None: no admin mode at all
+        self.check = check
+        self.robot = robot
+        self.floor = floor
         self.unlocked = False
         self.pending_pose: InitialPose | None = None
         self.password_panel: PasswordPanel | None = None
@@ -56,50 +87,48 @@ class AdminController:
 
         def submitted(password: str) -> None:
             if check.check(password, s.clock()):
-                s.overlay.pop_card()
+                s.pop_popup()
                 self.unlock()
             else:
                 s.log("gui: wrong administrator password")
                 state["wrong"] = True
                 panel.field.clear()
-                s.overlay.retranslate()
+                s.rebuild_popup()
 
         panel.submitted.connect(submitted)
-        panel.back.connect(s.overlay.pop_card)
-        s.overlay.push_card("password", build, lambda _k: s.overlay.pop_card())
+        panel.back.connect(s.pop_popup)
+        s.push_popup("password", build, lambda _k: s.pop_popup())
         self.password_panel = panel
 
     def unlock(self) -> None:
         if self.check is None:
             return
         self.unlocked = True
-        self.screen.update_header()
+        self.screen.changed()
 
     def lock(self) -> None:
         self.unlocked = False
         self._stop_set_location()
-        self.screen.update_header()
+        self.screen.changed()
 
     # ------------------------------------------------------------------ Set location
     def start_set_location(self) -> None:
         if not self.unlocked:
             return
-        s = self.screen
-        s.show_home()
         self.pending_pose = None
-        s.floor_pages[s.robot.floor].start_set_location()
+        self.screen.set_location_mode(True)
 
     def pose_dragged(self, u0: float, v0: float, u1: float, v1: float) -> None:
+        """A press at (u0, v0) dragged to (u1, v1), blueprint pixels: the pose Apply will send."""
         if not self.unlocked:
             return
-        s = self.screen
-        floor = s.building.floor(s.robot.floor)
-        live = s.fleet.robots[s.robot.name]
+        live = self.screen.fleet.robots[self.robot]
         default_yaw = live.pose[2] if live.pose is not None else 0.0
-        self.pending_pose = pose_from_drag(floor.transform, floor.id, (u0, v0), (u1, v1),
+        self.pending_pose = pose_from_drag(self.floor.transform, self.floor.id, (u0, v0), (u1, v1),
                                            default_yaw=default_yaw)
 
     def set_location_done(self, apply: bool) -> None:
+        """Apply (``apply``) or Cancel of Set location."""
         s = self.screen
         pose = self.pending_pose
         self._stop_set_location()
@@ -112,6 +141,5 @@ class AdminController:
                                deg=int(round(math.degrees(pose.yaw)))), "success")
 
     def _stop_set_location(self) -> None:
-        s = self.screen
         self.pending_pose = None
-        s.floor_pages[s.robot.floor].stop_set_location()
+        self.screen.set_location_mode(False)

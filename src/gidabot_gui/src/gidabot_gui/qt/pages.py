@@ -264,21 +264,15 @@ class FloorPage(Page):
         self.grid.font_floor = theme.px(15)
         self.grid._relayout()
 
-    def start_set_location(self) -> None:
-        """Admin: the whole page for the map, a bar with the instructions, Apply and Cancel."""
-        self.setbar.show()
-        self.under.hide()
-        self.scroll.hide()
-        self.main_row.setStretch(1, 0)
+    def set_setting_location(self, on: bool) -> None:
+        """Admin's Set location (``on``): the whole page for the map, a bar with the instructions, Apply (once a
+        pose was dragged) and Cancel; else the legend and the location buttons."""
+        self.setbar.setVisible(on)
+        self.under.setVisible(not on)
+        self.scroll.setVisible(not on)
+        self.main_row.setStretch(1, 0 if on else 8)
         self.apply_btn.setEnabled(False)
-        self.view.set_setting_pose(True)
-
-    def stop_set_location(self) -> None:
-        self.setbar.hide()
-        self.under.show()
-        self.scroll.show()
-        self.main_row.setStretch(1, 8)
-        self.view.set_setting_pose(False)
+        self.view.set_setting_pose(on)
 
     def _dragged(self, u0: float, v0: float, u1: float, v1: float) -> None:
         self.apply_btn.setEnabled(True)

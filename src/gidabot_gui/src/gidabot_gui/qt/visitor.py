@@ -4,25 +4,29 @@ A destination is tapped (a floor page, Offices, search): confirmation with the w
 then the way when floors change, then REQUEST. A tour is started, continued, or a later
 stop chosen. Continue and Cancel (bottom bar or pop-up). Every NavEvent of this robot
 becomes a pop-up and speech. Decisions are the ROS-free
-:class:`~gidabot_gui.core.flow.VisitorFlow`'s; this part asks the visitor and shows its notices.
+:class:`~gidabot_gui.core.flow.VisitorFlow`'s; this part asks the visitor and shows its notices,
+through what :class:`VisitorScreen` offers of the window.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Protocol, runtime_checkable
 
 from gidabot_gui.core.flow import LocalNotice, Mode, Notice, NoticeKind, VisitorFlow
+from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_gui.core.places import nearest_place
 from gidabot_gui.core.plans import plan_request, tour_waits, tour_ways
+from gidabot_gui.core.texts import Texts
 from gidabot_gui.errors import GuiError
 from gidabot_gui.qt.editor import SearchPanel
 from gidabot_gui.qt.overlay import Button, CardSpec
+from gidabot_gui.qt.screen import Popups, Services
+from gidabot_gui.qt.speech import Speaker
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
 from gidabot_navigation.interface import LANGUAGES, WAY_LIFT, WAY_STAIRS, Phase
 
-if TYPE_CHECKING:
-    from gidabot_gui.qt.window import MainWindow
+EVENT_POPUP = "event:"      # the pop-ups of notices are named event:<kind name>, e.g. event:WAITING_VISITOR
 
 NOTICE_ICONS: dict[NoticeKind, str] = {
     Phase.ON_THE_WAY: "walk", Phase.GO_TO_FLOOR: "stairs", Phase.WAITING_VISITOR: "robot",
@@ -34,24 +38,67 @@ NOTICE_ICONS: dict[NoticeKind, str] = {
 }
 
 
-class VisitorController:
-    """The visitor flow of one screen (see the module docstring)."""
+def notice_popup(kind: NoticeKind) -> str:
+    """The name of the pop-up showing a notice of ``kind``."""
+    return f"{EVENT_POPUP}{kind.name}"
 
-    def __init__(self, screen: MainWindow) -> None:
+
+@runtime_checkable
+class VisitorScreen(Services, Popups, Protocol):
+    """What the visitor's part needs of the screen (:class:`~gidabot_gui.qt.window.MainWindow` is one)."""
+
+    texts: Texts
+    fleet: Fleet
+    speaker: Speaker
+    log: Callable[[str], None]
+
+    @property
+    def popup(self) -> str:
+        """The name of the pop-up on screen ("" when none)."""
+
+    def tour(self, file_name: str) -> TourInfo | None:
+        """The tour of the catalog with this file name."""
+
+    def show_home(self) -> None:
+        """The page of this robot's floor."""
+
+    def show_tours(self) -> None:
+        """The Guided Tour page."""
+
+    def select_tour_stop(self, file_name: str, step: int) -> None:
+        """Select this tour and its stop ``step`` (0-based) on the Guided Tour page."""
+
+    def set_search_query(self, text: str) -> None:
+        """What the Offices page lists: the places matching ``text``."""
+
+    def changed(self) -> None:
+        """The flow changed: bring what is shown up to date."""
+
+
+class VisitorController:
+    """The visitor flow of one screen (see the module docstring).
+
+    ``info_popup_seconds``, ``final_popup_seconds``: how long informative and outcome pop-ups stay.
+    """
+
+    def __init__(self, screen: VisitorScreen, flow: VisitorFlow, info_popup_seconds: float = 15.0,
+                 final_popup_seconds: float = 30.0) -> None:
         self.screen = screen
-        config = screen.config
-        self.flow = VisitorFlow(screen.building, config.robot, config.visitor_id, config.request_timeout)
+        self.flow = flow
+        self.info_popup_seconds = info_popup_seconds
+        self.final_popup_seconds = final_popup_seconds
         self.banner = ""                  # non-modal notice (GOING_TO_MEETING)
         self.current_notice: Notice | None = None
         self.search_panel: SearchPanel | None = None
 
     # ------------------------------------------------------------------ commands
     def _start_id(self) -> str:
-        s = self.screen
-        live = s.fleet.robots[s.robot.name]
+        """The place nearest to this robot (where a trip requested now starts), "" when its pose is unknown."""
+        flow = self.flow
+        live = self.screen.fleet.robots[flow.robot]
         if live.pose is None:
             return ""
-        place = nearest_place(s.building, s.robot.floor, live.pose[0], live.pose[1])
+        place = nearest_place(flow.building, flow.floor, live.pose[0], live.pose[1])
         return place.id if place is not None else ""
 
     def _send(self, cmd: CommandData | None) -> None:
@@ -59,35 +106,50 @@ class VisitorController:
             self.screen.outputs.send_command(cmd)
             self.screen.changed()
 
-    def pick_destination(self, goal_id: str) -> None:
-        """The visitor tapped a destination: confirmation with the waits, then the way, then REQUEST."""
+    def _start(self, what: str, make: Callable[[str, float, str], CommandData]) -> None:
+        """Close the pop-up and send ``make(language, now, start_id)``: the trip the visitor confirmed. The flow
+        refusing it (a trip runs) is logged and told as BUSY."""
         s = self.screen
-        if s.building.find_location(goal_id) is None:
-            return
-        if self.flow.busy:
+        s.close_popup()
+        try:
+            cmd = make(s.tr.language, s.clock(), self._start_id())
+        except GuiError as err:
+            s.log(f"gui: {what} refused: {err}")
             self.show_notice(Notice(LocalNotice.BUSY))
             return
-        self.flow.set_mode(Mode.SINGLE)
-        s.update_header()
+        self._send(cmd)
+
+    def pick_destination(self, goal_id: str) -> None:
+        """The visitor tapped a destination: confirmation with the waits, then the way, then REQUEST."""
+        s, flow = self.screen, self.flow
+        if flow.building.find_location(goal_id) is None:
+            return
+        if flow.busy:
+            self.show_notice(Notice(LocalNotice.BUSY))
+            return
+        flow.set_mode(Mode.SINGLE)
+        s.changed()
 
         def build() -> CardSpec:
-            plan = plan_request(s.fleet, s.robot.name, goal_id, s.clock())
-            text = s.texts.confirm(plan)
+            text = s.texts.confirm(plan_request(s.fleet, flow.robot, goal_id, s.clock()))
             t = s.tr
             return CardSpec(text.title, text.body, "action", "pin",
                             [Button("go", t._("Guide me"), "primary", "play"), Button("back", t._("Back"))])
 
+        def request(way: str) -> None:
+            self._start("request", lambda lang, now, at: flow.request(goal_id, way, lang, now, at))
+
         def pressed(key: str) -> None:
             if key != "go":
-                s.overlay.close_card()
+                s.close_popup()
                 return
-            plan = plan_request(s.fleet, s.robot.name, goal_id, s.clock())
+            plan = plan_request(s.fleet, flow.robot, goal_id, s.clock())
             if plan.changes_floor and len(plan.ways) > 1:
-                self._ask_way(lambda way: self._request(goal_id, way), plan.ways)
+                self._ask_way(request, plan.ways)
             else:
-                self._request(goal_id, plan.ways[0] if plan.ways else "")
+                request(plan.ways[0] if plan.ways else "")
 
-        s.overlay.show_card("confirm", build, pressed)
+        s.show_popup("confirm", build, pressed)
 
     def _ask_way(self, then: Callable[[str], None], ways: tuple[str, ...]) -> None:
         s = self.screen
@@ -107,63 +169,46 @@ class VisitorController:
             if key in (WAY_STAIRS, WAY_LIFT):
                 then(key)
             else:
-                s.overlay.close_card()
+                s.close_popup()
 
-        s.overlay.show_card("way", build, pressed)
-
-    def _request(self, goal_id: str, way: str) -> None:
-        s = self.screen
-        s.overlay.close_card()
-        try:
-            cmd = self.flow.request(goal_id, way, s.tr.language, s.clock(), self._start_id())
-        except GuiError as err:
-            s.log(f"gui: request refused: {err}")
-            self.show_notice(Notice(LocalNotice.BUSY))
-            return
-        self._send(cmd)
+        s.show_popup("way", build, pressed)
 
     def start_tour(self, file_name: str) -> None:
-        s = self.screen
+        """The visitor chose to start a tour: confirmation with the waits, then the way, then START_TOUR."""
+        s, flow = self.screen, self.flow
         tour = s.tour(file_name)
         if tour is None:
             return
-        if not self.flow.can_start_tour():
+        if not flow.can_start_tour():
             self.show_notice(Notice(LocalNotice.BUSY))
             return
-        self.flow.set_mode(Mode.TOUR)
-        s.update_header()
+        flow.set_mode(Mode.TOUR)
+        s.changed()
 
         def build() -> CardSpec:
-            text = s.texts.confirm_tour(tour, tour_waits(s.fleet, s.robot.name, tour, s.clock()))
+            text = s.texts.confirm_tour(tour, tour_waits(s.fleet, flow.robot, tour, s.clock()))
             t = s.tr
             return CardSpec(text.title, text.body, "action", "route",
                             [Button("go", t._("Start the tour"), "primary", "play"), Button("back", t._("Back"))])
 
         def go(way: str) -> None:
-            s.overlay.close_card()
-            try:
-                cmd = self.flow.start_tour(tour, way, s.tr.language, s.clock(), self._start_id())
-            except GuiError as err:
-                s.log(f"gui: tour refused: {err}")
-                self.show_notice(Notice(LocalNotice.BUSY))
-                return
-            self._send(cmd)
+            self._start("tour", lambda lang, now, at: flow.start_tour(tour, way, lang, now, at))
 
         def pressed(key: str) -> None:
             if key != "go":
-                s.overlay.close_card()
+                s.close_popup()
                 return
-            ways = tour_ways(s.building, s.robot.floor, tour)
+            ways = tour_ways(flow.building, flow.floor, tour)
             if len(ways) > 1:
                 self._ask_way(go, ways)
             else:
                 go(ways[0] if ways else "")
 
-        s.overlay.show_card("confirm_tour", build, pressed)
+        s.show_popup("confirm_tour", build, pressed)
 
     def press_continue(self, goal_uid: str | None) -> None:
         s = self.screen
-        s.overlay.close_card()
+        s.close_popup()
         s.speaker.stop()
         self._send(self.flow.continue_(s.tr.language, s.clock(), goal_uid))
 
@@ -176,25 +221,25 @@ class VisitorController:
 
     def press_cancel(self) -> None:
         s = self.screen
-        s.overlay.close_card()
+        s.close_popup()
         s.speaker.stop()
         self._send(self.flow.cancel(s.tr.language, s.clock()))
 
     def toggle_mode(self) -> None:
+        """The mode button: one destination (this floor's page) or a guided tour (the Guided Tour page)."""
         s = self.screen
         if self.flow.mode is Mode.SINGLE:
             self.flow.set_mode(Mode.TOUR)
-            s.show_page("tours")
+            s.show_tours()
         else:
             self.flow.set_mode(Mode.SINGLE)
             s.show_home()
-        s.update_header()
         s.changed()
 
-    def show_search(self) -> None:
+    def show_search(self, query: str) -> None:
+        """The search panel, starting from ``query``; what is typed there is kept for the Offices page."""
         s = self.screen
-        offices = s.offices
-        panel = SearchPanel(s.tr, s.building, s.theme, offices.query)
+        panel = SearchPanel(s.tr, self.flow.building, s.theme, query)
 
         def build() -> CardSpec:
             panel.retranslate()
@@ -202,18 +247,17 @@ class VisitorController:
                             extra=panel, wide=True)
 
         def chosen(goal_id: str) -> None:
-            offices.set_query(panel.field.text())
-            s.overlay.close_card()
+            closed()
             self.pick_destination(goal_id)
 
         def closed() -> None:
-            offices.set_query(panel.field.text())
-            s.overlay.close_card()
+            s.set_search_query(panel.field.text())
+            s.close_popup()
 
         panel.chosen.connect(chosen)
         panel.closed.connect(closed)
         self.search_panel = panel
-        s.overlay.show_card("search", build, lambda _k: closed())
+        s.show_popup("search", build, lambda _k: closed())
         panel.field.setFocus()
 
     # ------------------------------------------------------------------ what the guiding nodes say
@@ -228,29 +272,29 @@ class VisitorController:
             self.show_notice(notice)
 
     def show_notice(self, notice: Notice) -> None:
+        """A notice as a pop-up, spoken (modal ones), or as the banner of the info line."""
         s = self.screen
         if notice.adopt_language in LANGUAGES and notice.adopt_language != s.tr.language:
             s.tr.set_language(notice.adopt_language)
         if not notice.modal:
             self.banner = s.texts.notice(notice).title if notice.kind is Phase.GOING_TO_MEETING else ""
-            s.mark_dirty()
+            s.changed()
             return
         self.banner = ""
         self.current_notice = notice
         if notice.kind is Phase.TOUR_STEP_DONE and notice.tour_file:
-            s.tours_page.select(notice.tour_file)
-            s.tours_page.select_stop(notice.tour_step + 1)
+            s.select_tour_stop(notice.tour_file, notice.tour_step + 1)
         goal_uid = notice.event.goal_uid if notice.event is not None else ""
 
         def build() -> CardSpec:
             text = s.texts.notice(notice)
             t = s.tr
+            # Cancel of a trip on the way stays in the bottom bar
             shown = [a for a in notice.actions if not (a == "cancel" and notice.kind is Phase.ON_THE_WAY)]
             labels = {"ok": (t._("OK"), "primary" if len(shown) == 1 else "", "check"),
                       "continue": (t._("Continue"), "primary", "play"),
                       "cancel": (t._("Cancel"), "danger", "close"),
                       "choose_stop": (t._("Choose a stop"), "", "route")}
-            # Cancel of a trip on the way stays in the bottom bar
             buttons = [Button(a, *labels[a]) for a in shown if a in labels]
             return CardSpec(text.title, text.body, text.tone, NOTICE_ICONS.get(notice.kind, "info"), buttons,
                             note=text.note, note_icon="walk" if text.note else "")
@@ -261,22 +305,22 @@ class VisitorController:
             elif key == "cancel":
                 self.press_cancel()
             elif key == "choose_stop":
-                s.overlay.close_card()
-                s.show_page("tours")
+                s.close_popup()
+                s.show_tours()
             else:
-                s.overlay.close_card()
+                s.close_popup()
 
         final = notice.final or notice.kind is LocalNotice.BUSY
         auto = 0.0 if "continue" in notice.actions else (
-            s.config.final_popup_seconds if final else s.config.info_popup_seconds)
-        s.overlay.show_card(f"event:{notice.kind.name}", build, pressed, auto_close=auto)
+            self.final_popup_seconds if final else self.info_popup_seconds)
+        s.show_popup(notice_popup(notice.kind), build, pressed, auto_close=auto)
         speech = s.texts.notice(notice).speech
         if speech:
             s.speaker.say(speech, s.tr.language)
-        s.mark_dirty()
+        s.changed()
 
     def say_again(self, language: str) -> None:
-        """The language was just switched: say the pop-up of an event on screen again, in ``language``."""
-        ov = self.screen.overlay
-        if self.current_notice is not None and ov.showing and ov.name.startswith("event:"):
-            self.screen.speaker.say(self.screen.texts.notice(self.current_notice).speech, language)
+        """The language was just switched: say the pop-up of a notice on screen again, in ``language``."""
+        s = self.screen
+        if self.current_notice is not None and s.popup.startswith(EVENT_POPUP):
+            s.speaker.say(s.texts.notice(self.current_notice).speech, language)

@@ -16,6 +16,11 @@ the tour catalog and what is shown of them. Its parts, each with one job:
 - :class:`~gidabot_gui.qt.tour_editing.TourEditController`: the tour editor, deleting tours
   and the tour store's answers.
 
+Each part sees the window only through a Protocol of what it needs
+(:class:`~gidabot_gui.qt.visitor.VisitorScreen`, :class:`~gidabot_gui.qt.admin_mode.AdminScreen`,
+:class:`~gidabot_gui.qt.tour_editing.TourEditScreen`): a few services (translator, texts, fleet,
+outputs, clock) and operations on the screen (pop-ups, pages, refresh), which this window offers.
+
 Decisions are made by the ROS-free core (:mod:`gidabot_gui.core`).
 """
 
@@ -24,7 +29,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 from PyQt5.QtCore import Qt, QTimer
 from PyQt5.QtWidgets import (
@@ -38,17 +43,16 @@ from PyQt5.QtWidgets import (
 )
 
 from gidabot_gui.core.admin import PasswordCheck
-from gidabot_gui.core.flow import Mode
+from gidabot_gui.core.flow import Mode, VisitorFlow
 from gidabot_gui.core.i18n import LANGUAGE_NAMES, Translator
 from gidabot_gui.core.inbox import Drained, Inbox
 from gidabot_gui.core.model import (
     EditResultData,
     Fleet,
-    InitialPose,
+    Outputs,
     PendingData,
     PoseData,
     RobotStatusData,
-    TourEdit,
     TourInfo,
 )
 from gidabot_gui.core.status_texts import here_line, mark_label, robot_card, trip_line
@@ -63,21 +67,11 @@ from gidabot_gui.qt.tour_editing import TourEditController
 from gidabot_gui.qt.visitor import VisitorController
 from gidabot_gui.qt.widgets import FitLabel, WrapButton, equalize_fonts
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.guiding.messages import NavEventData
 from gidabot_navigation.interface import LANGUAGES
 
 STATE_COLORS = {"idle": "#2E7D32", "guiding": OTHER_ROBOT, "to_meeting": OTHER_ROBOT, "waiting": ACCENT,
                 "returning": OTHER_ROBOT, "error": DANGER}
-
-
-class Outputs(Protocol):
-    """Where the GUI's messages go (the ROS adapter's publishers; a recorder in tests)."""
-
-    def send_command(self, cmd: CommandData) -> None: ...
-
-    def send_initial_pose(self, pose: InitialPose) -> None: ...
-
-    def send_tour_edit(self, edit: TourEdit) -> None: ...
 
 
 class NavBar(QFrame):
@@ -130,9 +124,11 @@ class MainWindow(QWidget):
         self._dirty = True
         self.setWindowTitle(f"GidaBot - {self.robot.name}")
         self._build()
-        self.visitor = VisitorController(self)
-        self.admin = AdminController(self)
-        self.tour_editing = TourEditController(self)
+        flow = VisitorFlow(building, config.robot, config.visitor_id, config.request_timeout)
+        self.visitor = VisitorController(self, flow, config.info_popup_seconds, config.final_popup_seconds)
+        self.admin = AdminController(self, config.admin, config.robot, building.floor(self.robot.floor))
+        self.tour_editing = TourEditController(self, building, config.robot, config.visitor_id)
+        self._inputs = self._input_handlers()
         self._wire()
         self.show_home()
         tr.on_change(lambda _lang: self.retranslate())
@@ -228,7 +224,7 @@ class MainWindow(QWidget):
             page.pose_set.connect(admin.pose_dragged)
             page.set_location_done.connect(admin.set_location_done)
         self.offices.destination.connect(visitor.pick_destination)
-        self.offices.search_requested.connect(visitor.show_search)
+        self.offices.search_requested.connect(lambda: visitor.show_search(self.offices.query))
         self.tours_page.start.connect(visitor.start_tour)
         self.tours_page.continue_.connect(lambda: visitor.press_continue(None))
         self.tours_page.skip.connect(visitor.skip_to)
@@ -257,9 +253,52 @@ class MainWindow(QWidget):
         """The page of this robot's floor."""
         self.show_page(f"floor:{self.building.floor(self.robot.floor).label}")
 
+    def show_tours(self) -> None:
+        self.show_page("tours")
+
     @property
     def current_page(self) -> str:
         return self.page_keys[self.pages.currentIndex()]
+
+    def select_tour_stop(self, file_name: str, step: int) -> None:
+        """Select this tour and its stop ``step`` (0-based) on the Guided Tour page."""
+        self.tours_page.select(file_name)
+        self.tours_page.select_stop(step)
+
+    def set_search_query(self, text: str) -> None:
+        self.offices.set_query(text)
+
+    def set_location_mode(self, on: bool) -> None:
+        """Admin's Set location on this robot's floor page (shown first), or back to the normal page."""
+        if on:
+            self.show_home()
+        self.floor_pages[self.robot.floor].set_setting_location(on)
+
+    @property
+    def admin_unlocked(self) -> bool:
+        return self.admin.unlocked
+
+    # ================================================================== pop-ups (the overlay)
+    @property
+    def popup(self) -> str:
+        """The name of the pop-up on screen ("" when none)."""
+        return self.overlay.name if self.overlay.showing else ""
+
+    def show_popup(self, name: str, build: Callable[[], CardSpec], pressed: Callable[[str], None],
+                   auto_close: float = 0.0) -> None:
+        self.overlay.show_card(name, build, pressed, auto_close=auto_close)
+
+    def push_popup(self, name: str, build: Callable[[], CardSpec], pressed: Callable[[str], None]) -> None:
+        self.overlay.push_card(name, build, pressed)
+
+    def pop_popup(self) -> None:
+        self.overlay.pop_card()
+
+    def close_popup(self) -> None:
+        self.overlay.close_card()
+
+    def rebuild_popup(self) -> None:
+        self.overlay.retranslate()
 
     def show_message(self, name: str, title: Callable[[], str], body: Callable[[], str], tone: str) -> None:
         """A pop-up with an OK button that closes by itself after ``final_popup_seconds``."""
@@ -267,8 +306,7 @@ class MainWindow(QWidget):
             return CardSpec(title(), body(), tone, "check" if tone == "success" else "warning",
                             [Button("ok", self.tr._("OK"), "primary", "check")])
 
-        self.overlay.show_card(name, build, lambda _k: self.overlay.close_card(),
-                               auto_close=self.config.final_popup_seconds)
+        self.show_popup(name, build, lambda _k: self.close_popup(), auto_close=self.config.final_popup_seconds)
 
     # ================================================================== look
     def apply_theme(self, theme: Theme) -> None:
@@ -356,13 +394,20 @@ class MainWindow(QWidget):
         self.overlay.push_card("language", build, pressed)
 
     # ================================================================== inputs
+    def _input_handlers(self) -> dict[str, tuple[type, Callable[[Any, float], object]]]:
+        """Each kind of input record: its type and what takes it (record, wall time now)."""
+        return {
+            "status": (RobotStatusData, self.fleet.update_status),
+            "pose": (PoseData, self.fleet.update_pose),
+            "pending": (PendingData, self._pending),
+            "catalog": (list, lambda tours, _now: self.set_tours(tours)),
+            "nav_event": (NavEventData, self.visitor.on_event),
+            "edit_result": (EditResultData, lambda res, _now: self.tour_editing.on_result(res)),
+        }
+
     def feed(self, kind: str, record: Any) -> None:
         """Handle one record at once (tests; the inbox path calls the same)."""
-        now = self.clock()
-        if kind in ("status", "pose", "pending", "catalog"):
-            self._state(kind, record, now)
-        else:
-            self._event(kind, record, now)
+        self._take(kind, record, self.clock())
         self.refresh()
 
     def drain(self) -> None:
@@ -370,38 +415,26 @@ class MainWindow(QWidget):
         if not batch:
             return
         now = self.clock()
-        for kind, record in batch.states:
-            self._state(kind, record, now)
-        for kind, record in batch.events:
-            self._event(kind, record, now)
+        for kind, record in (*batch.states, *batch.events):
+            self._take(kind, record, now)
         if batch.dropped:
             self.log(f"gui: {batch.dropped} events dropped (inbox full)")
         self.refresh()
 
-    def _state(self, kind: str, record: Any, now: float) -> None:
-        if kind == "status":
-            assert isinstance(record, RobotStatusData)
-            self.fleet.update_status(record, now)
-        elif kind == "pose":
-            assert isinstance(record, PoseData)
-            self.fleet.update_pose(record, now)
-        elif kind == "pending":
-            assert isinstance(record, PendingData)
-            self.fleet.update_pending(record, now)
-            if self.overlay.name in ("confirm", "confirm_tour"):
-                self.overlay.retranslate()     # waits changed while the visitor reads them
-        elif kind == "catalog":
-            self.set_tours(record)
+    def _take(self, kind: str, record: Any, now: float) -> None:
+        handler = self._inputs.get(kind)
+        if handler is None:
+            self.log(f"gui: input of unknown kind {kind!r} ignored")
+            return
+        cls, take = handler
+        assert isinstance(record, cls), (kind, record)
+        take(record, now)
         self.mark_dirty()
 
-    def _event(self, kind: str, record: Any, now: float) -> None:
-        if kind == "nav_event":
-            assert isinstance(record, NavEventData)
-            self.visitor.on_event(record, now)
-        elif kind == "edit_result":
-            assert isinstance(record, EditResultData)
-            self.tour_editing.on_result(record)
-        self.mark_dirty()
+    def _pending(self, record: PendingData, now: float) -> None:
+        self.fleet.update_pending(record, now)
+        if self.overlay.name in ("confirm", "confirm_tour"):
+            self.overlay.retranslate()     # waits changed while the visitor reads them
 
     def tick(self) -> None:
         now = self.clock()
