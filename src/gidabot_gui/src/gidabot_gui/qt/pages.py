@@ -388,23 +388,11 @@ class ToursPage(Page):
         self.busy = False
         lay = QVBoxLayout(self)
         lists = QHBoxLayout()
-        left = QVBoxLayout()
-        self.tours_title = FitLabel(size="base", bold=True, max_lines=1)
-        left.addWidget(self.tours_title)
-        self.tour_delegate = RowDelegate(self)
-        self.tour_list = make_list(self.tour_delegate)
-        self.tour_list.currentRowChanged.connect(lambda _r: self._show_stops())
-        left.addWidget(self.tour_list, 1)
+        left, self.tours_title, self.tour_list = self._column(self._show_stops)
         self.no_tours = FitLabel(size="base", color=MUTED, align=int(Qt.AlignCenter), max_lines=3)
         left.addWidget(self.no_tours, 1)
         lists.addLayout(left, 5)
-        right = QVBoxLayout()
-        self.stops_title = FitLabel(size="base", bold=True, max_lines=1)
-        right.addWidget(self.stops_title)
-        self.stop_delegate = RowDelegate(self)
-        self.stop_list = make_list(self.stop_delegate)
-        self.stop_list.currentRowChanged.connect(lambda _r: self.update_buttons())
-        right.addWidget(self.stop_list, 1)
+        right, self.stops_title, self.stop_list = self._column(self.update_buttons)
         lists.addLayout(right, 8)
         lay.addLayout(lists, 1)
         buttons = QHBoxLayout()
@@ -433,6 +421,16 @@ class ToursPage(Page):
         self.admin_row.hide()
         lay.addWidget(self.admin_row)
         self.retranslate()
+
+    def _column(self, on_row: Callable[[], None]) -> tuple[QVBoxLayout, FitLabel, QListWidget]:
+        """A column of the page: a title over a list; ``on_row()`` when the list's current row changes."""
+        column = QVBoxLayout()
+        title = FitLabel(size="base", bold=True, max_lines=1)
+        column.addWidget(title)
+        lst = make_list(RowDelegate(self))
+        lst.currentRowChanged.connect(lambda _r: on_row())
+        column.addWidget(lst, 1)
+        return column, title, lst
 
     # ------------------------------------------------------------------ data
     def set_tours(self, tours: list) -> None:

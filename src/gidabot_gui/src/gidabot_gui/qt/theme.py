@@ -127,6 +127,11 @@ def _pen(color: str, width: float) -> QPen:
     return pen
 
 
+def _poly(s: float, *points: tuple[float, float]) -> QPolygonF:
+    """The polygon through ``points`` given as fractions of the side ``s`` of an icon."""
+    return QPolygonF([QPointF(s * x, s * y) for x, y in points])
+
+
 def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 - one drawing per icon
     """Draw icon ``name`` in a square of side ``s``."""
     w = s / 12.0
@@ -176,26 +181,21 @@ def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 -
             p.drawArc(shackle.translated(s * 0.16, -s * 0.02), 20 * 16, 160 * 16)
             p.drawLine(QPointF(s * 0.46, s * 0.33), QPointF(s * 0.46, s * 0.46))
     elif name == "stairs":
-        pts = [QPointF(s * 0.08, s * 0.88), QPointF(s * 0.3, s * 0.88), QPointF(s * 0.3, s * 0.66),
-               QPointF(s * 0.52, s * 0.66), QPointF(s * 0.52, s * 0.44), QPointF(s * 0.74, s * 0.44),
-               QPointF(s * 0.74, s * 0.22), QPointF(s * 0.94, s * 0.22)]
         p.setPen(_pen(color, w * 1.2))
-        p.drawPolyline(QPolygonF(pts))
+        p.drawPolyline(_poly(s, (0.08, 0.88), (0.3, 0.88), (0.3, 0.66), (0.52, 0.66), (0.52, 0.44), (0.74, 0.44),
+                             (0.74, 0.22), (0.94, 0.22)))
     elif name == "lift":
         p.drawRoundedRect(QRectF(s * 0.16, s * 0.08, s * 0.68, s * 0.84), s * 0.08, s * 0.08)
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.5, s * 0.18), QPointF(s * 0.68, s * 0.42),
-                                 QPointF(s * 0.32, s * 0.42)]))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.5, s * 0.82), QPointF(s * 0.68, s * 0.58),
-                                 QPointF(s * 0.32, s * 0.58)]))
+        p.drawPolygon(_poly(s, (0.5, 0.18), (0.68, 0.42), (0.32, 0.42)))
+        p.drawPolygon(_poly(s, (0.5, 0.82), (0.68, 0.58), (0.32, 0.58)))
     elif name == "robot":
         p.setBrush(QBrush(c))
         p.setPen(Qt.NoPen)
         p.drawEllipse(QPointF(s * 0.5, s * 0.5), s * 0.36, s * 0.36)
         p.setBrush(QBrush(QColor("#FFFFFF")))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.74, s * 0.5), QPointF(s * 0.4, s * 0.3),
-                                 QPointF(s * 0.4, s * 0.7)]))
+        p.drawPolygon(_poly(s, (0.74, 0.5), (0.4, 0.3), (0.4, 0.7)))
     elif name == "search":
         p.setPen(_pen(color, w * 1.2))
         p.drawEllipse(QPointF(s * 0.42, s * 0.42), s * 0.26, s * 0.26)
@@ -207,27 +207,22 @@ def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 -
     elif name == "play":
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.28, s * 0.16), QPointF(s * 0.84, s * 0.5),
-                                 QPointF(s * 0.28, s * 0.84)]))
+        p.drawPolygon(_poly(s, (0.28, 0.16), (0.84, 0.5), (0.28, 0.84)))
     elif name == "restart":
         p.setPen(_pen(color, w * 1.1))
         p.drawArc(QRectF(s * 0.18, s * 0.18, s * 0.64, s * 0.64), 60 * 16, 280 * 16)
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.56, s * 0.04), QPointF(s * 0.8, s * 0.2),
-                                 QPointF(s * 0.54, s * 0.32)]))
+        p.drawPolygon(_poly(s, (0.56, 0.04), (0.8, 0.2), (0.54, 0.32)))
     elif name == "skip":
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.14, s * 0.2), QPointF(s * 0.5, s * 0.5),
-                                 QPointF(s * 0.14, s * 0.8)]))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.46, s * 0.2), QPointF(s * 0.82, s * 0.5),
-                                 QPointF(s * 0.46, s * 0.8)]))
+        p.drawPolygon(_poly(s, (0.14, 0.2), (0.5, 0.5), (0.14, 0.8)))
+        p.drawPolygon(_poly(s, (0.46, 0.2), (0.82, 0.5), (0.46, 0.8)))
         p.drawRect(QRectF(s * 0.8, s * 0.2, s * 0.08, s * 0.6))
     elif name == "check":
         p.setPen(_pen(color, w * 1.4))
-        p.drawPolyline(QPolygonF([QPointF(s * 0.16, s * 0.52), QPointF(s * 0.4, s * 0.76),
-                                  QPointF(s * 0.86, s * 0.26)]))
+        p.drawPolyline(_poly(s, (0.16, 0.52), (0.4, 0.76), (0.86, 0.26)))
     elif name == "target":
         p.drawEllipse(QPointF(s * 0.5, s * 0.5), s * 0.3, s * 0.3)
         for a, b in (((0.5, 0.04), (0.5, 0.26)), ((0.5, 0.74), (0.5, 0.96)), ((0.04, 0.5), (0.26, 0.5)),
@@ -246,13 +241,10 @@ def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 -
     elif name == "trash":
         p.drawLine(QPointF(s * 0.14, s * 0.22), QPointF(s * 0.86, s * 0.22))
         p.drawLine(QPointF(s * 0.38, s * 0.1), QPointF(s * 0.62, s * 0.1))
-        p.drawPolyline(QPolygonF([QPointF(s * 0.22, s * 0.3), QPointF(s * 0.28, s * 0.92),
-                                  QPointF(s * 0.72, s * 0.92), QPointF(s * 0.78, s * 0.3)]))
+        p.drawPolyline(_poly(s, (0.22, 0.3), (0.28, 0.92), (0.72, 0.92), (0.78, 0.3)))
     elif name == "pencil":
         p.setPen(_pen(color, w * 1.1))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.68, s * 0.1), QPointF(s * 0.9, s * 0.32),
-                                 QPointF(s * 0.34, s * 0.88), QPointF(s * 0.1, s * 0.9),
-                                 QPointF(s * 0.12, s * 0.66)]))
+        p.drawPolygon(_poly(s, (0.68, 0.1), (0.9, 0.32), (0.34, 0.88), (0.1, 0.9), (0.12, 0.66)))
     elif name in ("up", "down"):
         y0, y1 = (0.8, 0.2) if name == "up" else (0.2, 0.8)
         p.setPen(_pen(color, w * 1.3))
@@ -274,8 +266,7 @@ def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 -
         p.setBrush(QBrush(c))
         p.drawEllipse(QPointF(s * 0.5, s * 0.3), w * 0.8, w * 0.8)
     elif name == "warning":
-        p.drawPolygon(QPolygonF([QPointF(s * 0.5, s * 0.08), QPointF(s * 0.94, s * 0.88),
-                                 QPointF(s * 0.06, s * 0.88)]))
+        p.drawPolygon(_poly(s, (0.5, 0.08), (0.94, 0.88), (0.06, 0.88)))
         p.drawLine(QPointF(s * 0.5, s * 0.36), QPointF(s * 0.5, s * 0.62))
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
@@ -287,25 +278,21 @@ def _draw(name: str, p: QPainter, color: str, s: float) -> None:  # noqa: C901 -
         p.drawEllipse(QPointF(s * 0.22, s * 0.2), s * 0.08, s * 0.08)
         p.setPen(_pen(color, w * 0.9))
         p.drawLine(QPointF(s * 0.22, s * 0.3), QPointF(s * 0.22, s * 0.58))
-        p.drawPolyline(QPolygonF([QPointF(s * 0.1, s * 0.86), QPointF(s * 0.22, s * 0.58),
-                                  QPointF(s * 0.32, s * 0.86)]))
-        p.drawPolyline(QPolygonF([QPointF(s * 0.1, s * 0.5), QPointF(s * 0.22, s * 0.36),
-                                  QPointF(s * 0.34, s * 0.48)]))
+        p.drawPolyline(_poly(s, (0.1, 0.86), (0.22, 0.58), (0.32, 0.86)))
+        p.drawPolyline(_poly(s, (0.1, 0.5), (0.22, 0.36), (0.34, 0.48)))
         p.setPen(Qt.NoPen)
         p.drawRoundedRect(QRectF(s * 0.5, s * 0.46, s * 0.36, s * 0.34), s * 0.06, s * 0.06)
         p.drawEllipse(QPointF(s * 0.58, s * 0.84), s * 0.05, s * 0.05)
         p.drawEllipse(QPointF(s * 0.78, s * 0.84), s * 0.05, s * 0.05)
         p.drawRect(QRectF(s * 0.64, s * 0.3, s * 0.08, s * 0.16))
         p.setBrush(QBrush(QColor(ACCENT)))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.98, s * 0.3), QPointF(s * 0.86, s * 0.2),
-                                 QPointF(s * 0.86, s * 0.4)]))
+        p.drawPolygon(_poly(s, (0.98, 0.3), (0.86, 0.2), (0.86, 0.4)))
     elif name == "flag":
         p.setPen(_pen(color, w * 1.1))
         p.drawLine(QPointF(s * 0.22, s * 0.1), QPointF(s * 0.22, s * 0.92))
         p.setPen(Qt.NoPen)
         p.setBrush(QBrush(c))
-        p.drawPolygon(QPolygonF([QPointF(s * 0.26, s * 0.12), QPointF(s * 0.86, s * 0.3),
-                                 QPointF(s * 0.26, s * 0.5)]))
+        p.drawPolygon(_poly(s, (0.26, 0.12), (0.86, 0.3), (0.26, 0.5)))
     else:
         raise KeyError(f"unknown icon {name!r}")
 

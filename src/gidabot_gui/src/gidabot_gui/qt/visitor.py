@@ -16,8 +16,8 @@ from typing import Protocol, runtime_checkable
 from gidabot_gui.core.flow import LocalNotice, Mode, Notice, NoticeKind, VisitorFlow
 from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_gui.core.places import nearest_place
-from gidabot_gui.core.plans import plan_request, tour_waits, tour_ways
-from gidabot_gui.core.texts import Texts
+from gidabot_gui.core.plans import RequestPlan, plan_request, tour_waits, tour_ways
+from gidabot_gui.core.texts import PopupText, Texts
 from gidabot_gui.errors import GuiError
 from gidabot_gui.qt.editor import SearchPanel
 from gidabot_gui.qt.overlay import Button, CardSpec
@@ -127,29 +127,53 @@ class VisitorController:
         if flow.busy:
             self.show_notice(Notice(LocalNotice.BUSY))
             return
-        flow.set_mode(Mode.SINGLE)
+
+        def plan() -> RequestPlan:
+            return plan_request(s.fleet, flow.robot, goal_id, s.clock())
+
+        self._confirm("confirm", Mode.SINGLE, lambda: s.texts.confirm(plan()), "pin", lambda: s.tr._("Guide me"),
+                      lambda: plan().ways,
+                      lambda way: self._start("request",
+                                              lambda lang, now, at: flow.request(goal_id, way, lang, now, at)))
+
+    def start_tour(self, file_name: str) -> None:
+        """The visitor chose to start a tour: confirmation with the waits, then the way, then START_TOUR."""
+        s, flow = self.screen, self.flow
+        tour = s.tour(file_name)
+        if tour is None:
+            return
+        if not flow.can_start_tour():
+            self.show_notice(Notice(LocalNotice.BUSY))
+            return
+        self._confirm("confirm_tour", Mode.TOUR,
+                      lambda: s.texts.confirm_tour(tour, tour_waits(s.fleet, flow.robot, tour, s.clock())), "route",
+                      lambda: s.tr._("Start the tour"), lambda: tour_ways(flow.building, flow.floor, tour),
+                      lambda way: self._start("tour", lambda lang, now, at: flow.start_tour(tour, way, lang, now, at)))
+
+    def _confirm(self, name: str, mode: Mode, text: Callable[[], PopupText], icon: str, go_label: Callable[[], str],
+                 ways: Callable[[], tuple[str, ...]], go: Callable[[str], None]) -> None:
+        """In ``mode``, the pop-up ``name`` confirming a trip (``text``: what it is and the waits, built at each
+        showing); its go button asks the way when ``ways`` offers a choice, then calls ``go(way)``."""
+        s = self.screen
+        self.flow.set_mode(mode)
         s.changed()
 
         def build() -> CardSpec:
-            text = s.texts.confirm(plan_request(s.fleet, flow.robot, goal_id, s.clock()))
-            t = s.tr
-            return CardSpec(text.title, text.body, "action", "pin",
-                            [Button("go", t._("Guide me"), "primary", "play"), Button("back", t._("Back"))])
-
-        def request(way: str) -> None:
-            self._start("request", lambda lang, now, at: flow.request(goal_id, way, lang, now, at))
+            shown = text()
+            return CardSpec(shown.title, shown.body, "action", icon,
+                            [Button("go", go_label(), "primary", "play"), Button("back", s.tr._("Back"))])
 
         def pressed(key: str) -> None:
             if key != "go":
                 s.close_popup()
                 return
-            plan = plan_request(s.fleet, flow.robot, goal_id, s.clock())
-            if plan.changes_floor and len(plan.ways) > 1:
-                self._ask_way(request, plan.ways)
+            choice = ways()
+            if len(choice) > 1:
+                self._ask_way(go, choice)
             else:
-                request(plan.ways[0] if plan.ways else "")
+                go(choice[0] if choice else "")
 
-        s.show_popup("confirm", build, pressed)
+        s.show_popup(name, build, pressed)
 
     def _ask_way(self, then: Callable[[str], None], ways: tuple[str, ...]) -> None:
         s = self.screen
@@ -172,39 +196,6 @@ class VisitorController:
                 s.close_popup()
 
         s.show_popup("way", build, pressed)
-
-    def start_tour(self, file_name: str) -> None:
-        """The visitor chose to start a tour: confirmation with the waits, then the way, then START_TOUR."""
-        s, flow = self.screen, self.flow
-        tour = s.tour(file_name)
-        if tour is None:
-            return
-        if not flow.can_start_tour():
-            self.show_notice(Notice(LocalNotice.BUSY))
-            return
-        flow.set_mode(Mode.TOUR)
-        s.changed()
-
-        def build() -> CardSpec:
-            text = s.texts.confirm_tour(tour, tour_waits(s.fleet, flow.robot, tour, s.clock()))
-            t = s.tr
-            return CardSpec(text.title, text.body, "action", "route",
-                            [Button("go", t._("Start the tour"), "primary", "play"), Button("back", t._("Back"))])
-
-        def go(way: str) -> None:
-            self._start("tour", lambda lang, now, at: flow.start_tour(tour, way, lang, now, at))
-
-        def pressed(key: str) -> None:
-            if key != "go":
-                s.close_popup()
-                return
-            ways = tour_ways(flow.building, flow.floor, tour)
-            if len(ways) > 1:
-                self._ask_way(go, ways)
-            else:
-                go(ways[0] if ways else "")
-
-        s.show_popup("confirm_tour", build, pressed)
 
     def press_continue(self, goal_uid: str | None) -> None:
         s = self.screen
