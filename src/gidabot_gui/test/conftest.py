@@ -11,11 +11,12 @@ import shutil
 import subprocess
 import sys
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import pytest
+from gui_fakes import RecordingOutputs
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("XDG_RUNTIME_DIR", f"/tmp/gidabot-gui-xdg-{os.getuid()}")
@@ -77,24 +78,6 @@ class Clock:
 
     def __call__(self) -> float:
         return self.t
-
-
-@dataclass
-class RecordingOutputs:
-    """Records what the GUI would publish."""
-
-    commands: list = field(default_factory=list)
-    poses: list = field(default_factory=list)
-    edits: list = field(default_factory=list)
-
-    def send_command(self, cmd: Any) -> None:
-        self.commands.append(cmd)
-
-    def send_initial_pose(self, pose: Any) -> None:
-        self.poses.append(pose)
-
-    def send_tour_edit(self, edit: Any) -> None:
-        self.edits.append(edit)
 
 
 @dataclass

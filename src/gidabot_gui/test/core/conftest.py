@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 
 import pytest
+from gui_fakes import nav_event
 
 from gidabot_gui.core.model import RobotStatusData, TourInfo
 from gidabot_navigation.guiding.messages import NavEventData
-from gidabot_navigation.interface import Phase
 
 
 @pytest.fixture
@@ -33,9 +32,4 @@ def status() -> Callable[..., RobotStatusData]:
 @pytest.fixture
 def ev() -> Callable[..., NavEventData]:
     """A NavEvent of ``robot``; the fields a test leaves out are unknown (NaN floors, no language)."""
-    def make(phase: Phase, uid: str, goal_uid: str = "", robot: str = "Kbot", **kw: object) -> NavEventData:
-        fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}
-        return NavEventData(uid=uid, robot=robot, phase=int(phase), goal_uid=goal_uid,
-                            **fields)  # type: ignore[arg-type]
-
-    return make
+    return nav_event

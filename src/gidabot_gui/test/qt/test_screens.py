@@ -7,14 +7,12 @@ directory with GIDABOT_SCREENSHOT_DIR): each page in the three languages at
 
 from __future__ import annotations
 
-import math
-
 import pytest
+from gui_fakes import nav_event as make_event
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
 from gidabot_gui.core.model import PendingData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData
 from gidabot_navigation.interface import Phase
 
 LANGS = ("en", "eu", "es")
@@ -95,9 +93,7 @@ def test_pages_in_every_language_at_1280x800(make_gui, faculty, text_problems, l
 
 def nav_event(gui, phase: Phase, goal_uid: str, robot: str = "Kbot", **kw) -> None:
     gui._n = getattr(gui, "_n", 0) + 1
-    fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}      # unknown unless given
-    gui.window.feed("nav_event", NavEventData(uid=f"{robot}/event/{gui._n}", robot=robot, phase=int(phase),
-                                              goal_uid=goal_uid, **fields))
+    gui.window.feed("nav_event", make_event(phase, f"{robot}/event/{gui._n}", goal_uid, robot, **kw))
     gui.process()
 
 

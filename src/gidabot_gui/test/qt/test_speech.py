@@ -6,22 +6,11 @@ import shutil
 import time
 
 import pytest
-from PyQt5.QtCore import QEventLoop, QTimer
+from gui_fakes import wait_until
 
 from gidabot_gui.qt.speech import VOICES, EspeakSpeaker, NullSpeaker
 
 pytestmark = pytest.mark.skipif(shutil.which("espeak-ng") is None, reason="espeak-ng is not installed")
-
-
-def wait(app, cond, timeout: float) -> bool:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if cond():
-            return True
-        loop = QEventLoop()
-        QTimer.singleShot(20, loop.quit)
-        loop.exec_()
-    return cond()
 
 
 def test_espeak_speaks_without_blocking_and_interrupts(qapp) -> None:
@@ -34,7 +23,7 @@ def test_espeak_speaks_without_blocking_and_interrupts(qapp) -> None:
     assert first is not None and sp.busy()
     sp.say("Hola, soy Kbot.", "es")                   # a new sentence stops the one being spoken
     assert sp.proc is not first
-    assert wait(qapp, lambda: not sp.busy(), 10.0)
+    assert wait_until(qapp, lambda: not sp.busy(), 10.0)
     assert sp.spoken == 2 and sp.failed == 0 and not logs
 
 

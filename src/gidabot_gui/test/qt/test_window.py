@@ -9,11 +9,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from gui_fakes import nav_event
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
 from gidabot_gui.core.model import EditResultData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData
 from gidabot_navigation.interface import Cmd, Phase
 
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",
@@ -27,10 +27,29 @@ def event(gui, phase: Phase, goal_uid: str, robot: str = "Kbot", **kw) -> None:
     gui.clock.t += 0.5
     n = getattr(gui, "_ev", 0) + 1
     gui._ev = n
-    fields = {"floor": math.nan, "language": "", "target_floor": math.nan, **kw}      # unknown unless given
-    gui.window.feed("nav_event", NavEventData(uid=f"{robot}/event/{n}", robot=robot, phase=int(phase),
-                                              goal_uid=goal_uid, **fields))
+    gui.window.feed("nav_event", nav_event(phase, f"{robot}/event/{n}", goal_uid, robot, **kw))
     gui.process()
+
+
+@pytest.fixture
+def idle_gui(make_gui, faculty):
+    """A screen of ``robot`` with every robot idle at home (and ``tours`` in the catalog)."""
+    def make(robot: str = "Kbot", tours: tuple | list = (), **kw):
+        gui = make_gui(robot, **kw)
+        gui.feed_all_status(faculty)
+        if tours:
+            gui.window.feed("catalog", list(tours))
+        return gui
+
+    return make
+
+
+def continued(gui):
+    """Press Continue on the pop-up: the CONTINUE command it sent."""
+    gui.press("continue")
+    cmd = gui.out.commands[-1]
+    assert cmd.command == Cmd.CONTINUE
+    return cmd
 
 
 def test_destination_on_another_floor_by_the_stairs_then_cancel(make_gui, faculty) -> None:
@@ -72,18 +91,16 @@ def test_destination_on_another_floor_by_the_stairs_then_cancel(make_gui, facult
     assert w.overlay.title.text() == "Trip cancelled"
 
 
-def test_lift_or_stairs_only_asked_when_floors_change(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
-    gui.feed_all_status(faculty)
+def test_lift_or_stairs_only_asked_when_floors_change(idle_gui) -> None:
+    gui = idle_gui("Kbot")
     gui.click(gui.window.floor_pages[1].buttons["103"])           # Dean's Office, same floor
     gui.press("go")
     (cmd,) = gui.out.commands
     assert (cmd.goal_id, cmd.way) == ("103", "")
 
 
-def test_go_to_floor_and_the_robot_upstairs(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
-    gui.feed_all_status(faculty)
+def test_go_to_floor_and_the_robot_upstairs(idle_gui) -> None:
+    gui = idle_gui("Kbot")
     gui.window.visitor.pick_destination("223")
     gui.press("go")
     gui.press("lift")
@@ -96,8 +113,7 @@ def test_go_to_floor_and_the_robot_upstairs(make_gui, faculty) -> None:
     assert "Galtxagorri will wait for you there" in w.overlay.body.text()
     assert not w.cancel_btn.isVisible()                            # the trip goes on upstairs
 
-    up = make_gui("Galtxagorri", language="en")
-    up.feed_all_status(faculty)
+    up = idle_gui("Galtxagorri", language="en")
     event(up, Phase.GOING_TO_MEETING, uid, robot="Galtxagorri", connector="lift", location_id="lift",
           language="es")
     assert not up.window.overlay.showing
@@ -107,16 +123,13 @@ def test_go_to_floor_and_the_robot_upstairs(make_gui, faculty) -> None:
     assert up.window.overlay.name == "event:WAITING_VISITOR"
     assert "Pulsa Continuar cuando estés aquí." in up.window.overlay.body.text()
     assert up.speaker.said[-1][1] == "es"
-    up.press("continue")
-    cmd = up.out.commands[-1]
-    assert (cmd.command, cmd.goal_uid, cmd.language) == (Cmd.CONTINUE, uid, "es")
+    cmd = continued(up)
+    assert (cmd.goal_uid, cmd.language) == (uid, "es")
 
 
-def test_tour_start_step_skip(make_gui, faculty) -> None:
-    gui = make_gui("Tartalo")
+def test_tour_start_step_skip(idle_gui) -> None:
+    gui = idle_gui("Tartalo", tours=[LONG, TOUR])
     w = gui.window
-    gui.feed_all_status(faculty)
-    w.feed("catalog", [LONG, TOUR])
     gui.nav("tours")
     page = w.tours_page
     gui.click_row(page.tour_list, 1)
@@ -151,24 +164,20 @@ def test_tour_start_step_skip(make_gui, faculty) -> None:
     assert page.stop_list.item(3).data(Qt.UserRole + 4) == "current"
 
 
-def test_tour_continue_from_the_popup(make_gui, faculty) -> None:
-    gui = make_gui("Tartalo")
-    gui.feed_all_status(faculty)
-    gui.window.feed("catalog", [TOUR])
+def test_tour_continue_from_the_popup(idle_gui) -> None:
+    gui = idle_gui("Tartalo", tours=[TOUR])
     gui.window.visitor.start_tour("real_world.tour")
     gui.press("go")
     gui.press("stairs")
     g0 = "Tartalo/gui-test/1"
     event(gui, Phase.TOUR_STEP_DONE, g0, robot="Tartalo", tour_file="real_world.tour", tour_step=0)
-    gui.press("continue")
-    cmd = gui.out.commands[-1]
-    assert (cmd.command, cmd.goal_uid, cmd.tour_file) == (Cmd.CONTINUE, g0, "real_world.tour")
+    cmd = continued(gui)
+    assert (cmd.goal_uid, cmd.tour_file) == (g0, "real_world.tour")
 
 
-def test_switch_language_changes_everything_at_once(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
+def test_switch_language_changes_everything_at_once(idle_gui) -> None:
+    gui = idle_gui("Kbot")
     w = gui.window
-    gui.feed_all_status(faculty)
     w.visitor.pick_destination("223")
     gui.press("go")
     gui.press("stairs")
@@ -198,10 +207,9 @@ def test_switch_language_changes_everything_at_once(make_gui, faculty) -> None:
     assert "Second floor" in w.overlay.body.text()                    # re-translated on screen
 
 
-def test_offline_robot_shows_last_known_position(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
+def test_offline_robot_shows_last_known_position(idle_gui, faculty) -> None:
+    gui = idle_gui("Kbot")
     w = gui.window
-    gui.feed_all_status(faculty)
     w.feed("status", RobotStatusData("Tartalo", 0, 9.0, 11.4, 0.0, 0.3, -0.2, 0.15, "guiding", 2, "x", 300.0))
     gui.nav("info")
     card = w.info_page.cards["Tartalo"]
@@ -239,10 +247,9 @@ def type_text(gui, keyboard, text: str) -> None:
         gui.click(keyboard.space_key if key == " " else keyboard.keys[key])
 
 
-def test_admin_password_then_set_location(make_gui, faculty) -> None:
-    gui = make_gui("Kbot", admin_password="robot42")
+def test_admin_password_then_set_location(idle_gui, faculty) -> None:
+    gui = idle_gui("Kbot", admin_password="robot42")
     w = gui.window
-    gui.feed_all_status(faculty)
     assert w.admin_btn.isVisible() and not w.set_location_btn.isVisible()
     gui.click(w.admin_btn)
     panel = w.admin.password_panel
@@ -277,7 +284,7 @@ def test_admin_password_then_set_location(make_gui, faculty) -> None:
     assert not w.admin.unlocked and not w.set_location_btn.isVisible()
 
 
-def test_admin_creates_edits_and_deletes_tours(make_gui, faculty) -> None:
+def test_admin_creates_edits_and_deletes_tours(make_gui) -> None:
     gui = make_gui("Kbot", admin_password="robot42")
     w = gui.window
     w.feed("catalog", [TOUR])
@@ -329,10 +336,9 @@ def test_admin_creates_edits_and_deletes_tours(make_gui, faculty) -> None:
     assert edit.deleted and edit.file_name == "real_world.tour"
 
 
-def test_search_offices_and_pick(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
+def test_search_offices_and_pick(idle_gui, faculty) -> None:
+    gui = idle_gui("Kbot")
     w = gui.window
-    gui.feed_all_status(faculty)
     gui.nav("offices")
     offices = w.offices
     assert offices.list.count() == len(faculty.locations)
@@ -351,9 +357,8 @@ def test_search_offices_and_pick(make_gui, faculty) -> None:
     assert [loc.id for loc in offices.matches("22")][:2] == ["022", "223"]
 
 
-def test_busy_robot_refuses_a_second_destination(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
-    gui.feed_all_status(faculty)
+def test_busy_robot_refuses_a_second_destination(idle_gui) -> None:
+    gui = idle_gui("Kbot")
     gui.window.visitor.pick_destination("103")
     gui.press("go")
     gui.window.visitor.pick_destination("104")
@@ -372,9 +377,8 @@ def test_mode_button_follows_the_mode(make_gui) -> None:
     assert w.current_page == "floor:1"
 
 
-def test_tap_a_room_on_the_blueprint(make_gui, faculty) -> None:
-    gui = make_gui("Kbot")
-    gui.feed_all_status(faculty)
+def test_tap_a_room_on_the_blueprint(idle_gui, faculty) -> None:
+    gui = idle_gui("Kbot")
     gui.nav("floor:2")
     view = gui.window.floor_pages[2].view
     m = view.mapping()
