@@ -1,7 +1,7 @@
 """The pages of the main window: one per floor, Offices, Guided Tour, Information.
 
 Pages only show what the window gives them and emit what the visitor chose;
-the decisions are in the window (controller) and the ROS-free core.
+the decisions are in the window's parts (visitor, admin mode, tour editing) and the ROS-free core.
 """
 
 from __future__ import annotations
