@@ -32,6 +32,7 @@ from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import PlanningError, Problem
 
 WALL_COST = 1000.0    # a wall cell on the way, in free cells: the way found crosses as few as it can
+ZONE_COST = 100.0     # a keep-out cell: drawn over free space, so the way crosses a zone before a wall
 
 
 def reachability_problems(building: Building) -> list[Problem]:
@@ -42,7 +43,7 @@ def reachability_problems(building: Building) -> list[Problem]:
         floor = building.floor(robot.floor)
         key = (floor.id, robot.radius)
         if key not in planners:
-            planners[key] = GridPlanner(floor.map, robot.radius)
+            planners[key] = GridPlanner(floor.map, robot.radius, keep_out=floor.keep_out_zones)
         problems += _robot_problems(building, floor, robot, planners[key])
     return problems
 
@@ -60,41 +61,46 @@ def _robot_problems(building: Building, floor: Floor, robot: Robot, planner: Gri
     try:
         reachable = planner.reachable_mask(home)
     except PlanningError as err:
-        return [Problem(source, f"robot {robot.name}", f"home {err}")]
+        return [Problem(source, f"robot {robot.name}", f"home {err}", floor.id, ((home[0], home[1], "place"),))]
     problems = []
     for what, pose in _places(building, floor):
         try:
             planner.check_reachable(home, (pose.x, pose.y))
         except PlanningError as err:
-            why = _where_blocked(planner, reachable, home, (pose.x, pose.y), str(err))
+            why, marks = _where_blocked(planner, reachable, home, (pose.x, pose.y), str(err))
             problems.append(Problem(source, what, f"({pose.x:g}, {pose.y:g}) on floor {format_floor(floor.id)} "
                                                   f"is not reachable by {robot.name} (radius {robot.radius:g} m) "
-                                                  f"from its home ({robot.home.x:g}, {robot.home.y:g}): {why}"))
+                                                  f"from its home ({robot.home.x:g}, {robot.home.y:g}): {why}",
+                                    floor.id, ((pose.x, pose.y, "place"), *marks)))
     return problems
 
 
 def _where_blocked(planner: GridPlanner, reachable: np.ndarray, home: tuple[float, float],
-                   goal: tuple[float, float], error: str) -> str:
+                   goal: tuple[float, float], error: str) -> tuple[str, tuple[tuple[float, float, str], ...]]:
+    """Why the way to ``goal`` is blocked, and the points that show it (where it closes and the last point
+    reached, or the narrowest point)."""
     grid = planner.grid
     try:
         target = planner.goal_cell(*goal)
     except PlanningError as err:             # inside a wall, or against one with no room around
-        return str(err)
+        return str(err), ()
     start = grid.world_to_cell(*home)
     if not reachable[start]:                 # the home is in the inscribed zone: start from where it escapes to
         start = _closest(reachable, start)
     if start is None:
-        return error
+        return error, ()
     labels, _ = ndimage.label(~planner.lethal)
     if labels[start] != labels[target]:
-        last, wall = _closed_at(planner.lethal, reachable, start, target)
+        last, wall = _closed_at(planner.lethal, planner.keep_out_cells, reachable, start, target)
         (lx, ly), (wx, wy) = grid.cell_to_world(*last), grid.cell_to_world(*wall)
-        return (f"walled off (no free way at all): the way closes at ({wx:.2f}, {wy:.2f}) (a closed door or a "
-                f"wall without its gap?); the last point the robot reaches on it is ({lx:.2f}, {ly:.2f})")
+        zone = planner.keep_out_at(wx, wy)
+        what = f"keep-out zone {zone}" if zone is not None else "a closed door or a wall without its gap?"
+        return (f"walled off (no free way at all): the way closes at ({wx:.2f}, {wy:.2f}) ({what}); the last point "
+                f"the robot reaches on it is ({lx:.2f}, {ly:.2f})", ((wx, wy, "closed"), (lx, ly, "reached")))
     clearance, cell = _bottleneck(planner.static_distance, start, target, planner.robot_radius)
     x, y = grid.cell_to_world(*cell)
     return (f"the way is too narrow: at ({x:.2f}, {y:.2f}) the robot's centre keeps at most {clearance:.2f} m "
-            f"from the walls, it needs {planner.robot_radius:g} m (its radius)")
+            f"from the walls, it needs {planner.robot_radius:g} m (its radius)", ((x, y, "narrow"),))
 
 
 def _closest(mask: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
@@ -105,11 +111,12 @@ def _closest(mask: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
     return int(rows[k]), int(cols[k])
 
 
-def _closed_at(lethal: np.ndarray, reachable: np.ndarray, start: tuple[int, int],
+def _closed_at(lethal: np.ndarray, zones: np.ndarray, reachable: np.ndarray, start: tuple[int, int],
                target: tuple[int, int]) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the way through the fewest wall cells leaves what the robot reaches: (last reachable
-    cell, first wall cell). Crossing a wall (or unknown space) cell costs as much as 1000 free ones."""
-    weights = np.where(lethal, WALL_COST, 1.0).astype(np.float32)
+    cell, first wall cell). Crossing a wall (or unknown space) cell costs as much as 1000 free ones, a keep-out
+    zone's as much as 100."""
+    weights = np.where(lethal, np.where(zones, ZONE_COST, WALL_COST), 1.0).astype(np.float32)
     path = pyastar2d.astar_path(weights, start, target, allow_diagonal=False)
     out = int(np.argmin(reachable[path[:, 0], path[:, 1]]))        # the first cell not reached
     closed = int(np.argmax(lethal[path[:, 0], path[:, 1]]))         # the first wall cell
