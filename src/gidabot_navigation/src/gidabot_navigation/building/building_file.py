@@ -110,7 +110,10 @@ def plain(value: object) -> object:
 
 def to_yaml(value: object, kind: str | None = None) -> object:
     """A plain value made ready to insert: mappings as :class:`CommentedMap` in the documented order of ``kind``
-    (their children by :data:`CHILD_KIND`), lists of scalars (and of such lists: a polygon) in flow style."""
+    (their children by :data:`CHILD_KIND`), lists of scalars (and of such lists: a polygon) in flow style. A value
+    already in that form (from the document) is returned as it is."""
+    if isinstance(value, (CommentedMap, CommentedSeq)):
+        return value
     if isinstance(value, Mapping):
         out = CommentedMap()
         order = KEY_ORDER.get(kind or "", ())
@@ -120,7 +123,7 @@ def to_yaml(value: object, kind: str | None = None) -> object:
         return out
     if isinstance(value, (list, tuple)):
         seq = CommentedSeq(to_yaml(v, kind) for v in value)
-        if all(not isinstance(v, (Mapping, list, tuple)) for v in value) or all(
+        if value and all(not isinstance(v, (Mapping, list, tuple)) for v in value) or value and all(
                 isinstance(v, (list, tuple)) and all(not isinstance(x, (Mapping, list, tuple)) for x in v)
                 for v in value):
             seq.fa.set_flow_style()

@@ -35,17 +35,35 @@ WALL_COST = 1000.0    # a wall cell on the way, in free cells: the way found cro
 ZONE_COST = 100.0     # a keep-out cell: drawn over free space, so the way crosses a zone before a wall
 
 
-def reachability_problems(building: Building) -> list[Problem]:
-    """Every place on a robot's floor that the robot cannot reach from its home, one problem each."""
-    planners: dict[tuple[float, float], GridPlanner] = {}
+def reachability_problems(building: Building, planners: PlannerCache | None = None) -> list[Problem]:
+    """Every place on a robot's floor that the robot cannot reach from its home, one problem each.
+
+    ``planners``: a cache of costmaps kept between calls (the building editor checks after every change; a
+    costmap is made again only for a new map, radius or keep-out zones)."""
+    cache = planners if planners is not None else PlannerCache()
     problems: list[Problem] = []
     for robot in building.robots:
         floor = building.floor(robot.floor)
-        key = (floor.id, robot.radius)
-        if key not in planners:
-            planners[key] = GridPlanner(floor.map, robot.radius, keep_out=floor.keep_out_zones)
-        problems += _robot_problems(building, floor, robot, planners[key])
+        problems += _robot_problems(building, floor, robot, cache.planner(floor, robot.radius))
     return problems
+
+
+class PlannerCache:
+    """Planners by (map, radius, keep-out zones): one costmap per floor and robot size."""
+
+    def __init__(self, size: int = 32) -> None:
+        self.size = size
+        self._planners: dict[tuple, tuple[object, GridPlanner]] = {}
+
+    def planner(self, floor: Floor, radius: float) -> GridPlanner:
+        zones = floor.keep_out_zones
+        key = (id(floor.map), radius, tuple((k, z.points) for k, z in zones.items()))
+        if key not in self._planners:
+            while len(self._planners) >= self.size:
+                self._planners.pop(next(iter(self._planners)))
+            # the map is kept with its planner: its id() stays its own while the entry lives
+            self._planners[key] = (floor.map, GridPlanner(floor.map, radius, keep_out=zones))
+        return self._planners[key][1]
 
 
 def _places(building: Building, floor: Floor) -> list[tuple[str, Pose2D]]:
