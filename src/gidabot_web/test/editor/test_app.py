@@ -1,0 +1,197 @@
+"""The editor's web server: the token, the session, CSRF and same origin on every change, nothing changed by a GET,
+files of the building folder only; edits, undo, alignment, live checks and saving (drafts) through the API."""
+
+from __future__ import annotations
+
+import asyncio
+import shutil
+from collections.abc import Awaitable, Callable
+from pathlib import Path
+
+import pytest
+import yaml
+from aiohttp.test_utils import TestClient, TestServer
+
+from gidabot_navigation.building.geometry import BlueprintTransform
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import BuildingError
+from gidabot_web.editor.app import CSRF_HEADER, SESSION_COOKIE, TOKEN_HEADER, EditorServer
+from gidabot_web.editor.preview import Preview
+
+REPO = Path(__file__).resolve().parents[4]
+TOKEN = "t" * 43
+
+
+@pytest.fixture
+def faculty_dir(tmp_path: Path) -> Path:
+    dest = tmp_path / "faculty"
+    shutil.copytree(REPO / "maps" / "faculty", dest)
+    return dest
+
+
+@pytest.fixture
+def maps_only(tmp_path: Path) -> Path:
+    dest = tmp_path / "lab"
+    dest.mkdir()
+    for f in (REPO / "maps" / "faculty").iterdir():
+        if f.name != "building.yaml":
+            shutil.copy(f, dest / f.name)
+    return dest
+
+
+class Page:
+    """A client that behaves as the editor's page: same origin, the session cookie, the CSRF token."""
+
+    def __init__(self, client: TestClient) -> None:
+        self.client = client
+        self.origin = str(client.make_url("")).rstrip("/")
+        self.csrf = ""
+
+    async def login(self) -> None:
+        r = await self.client.post("/api/session", headers={TOKEN_HEADER: TOKEN, "Origin": self.origin})
+        assert r.status == 200, await r.text()
+        self.csrf = (await r.json())["csrf"]
+
+    async def post(self, path: str, body: dict, **headers: str) -> tuple[int, dict]:
+        h = {"Origin": self.origin, CSRF_HEADER: self.csrf, **headers}
+        r = await self.client.post(path, json=body, headers={k: v for k, v in h.items() if v is not None})
+        return r.status, await r.json()
+
+    async def get(self, path: str) -> tuple[int, dict]:
+        r = await self.client.get(path)
+        return r.status, await r.json()
+
+    async def checked(self, revision: int | None = None) -> dict:
+        """The state once the live check of the current revision is in."""
+        for _ in range(200):
+            _, state = await self.get("/api/state")
+            check = state["check"]
+            if check is not None and check["revision"] == state["revision"]:
+                return state
+            await asyncio.sleep(0.05)
+        raise AssertionError("no check of the current revision")
+
+
+def run(directory: Path, test: Callable[[Page, EditorServer], Awaitable[None]]) -> None:
+    async def main() -> None:
+        server = EditorServer(directory, token=TOKEN, preview=Preview(tours_dir=REPO / "tours"))
+        async with TestClient(TestServer(server.app, host="127.0.0.1")) as client:
+            await test(Page(client), server)
+    asyncio.run(main())
+
+
+def test_every_read_and_change_needs_the_session_from_the_token(faculty_dir: Path) -> None:
+    async def test(page: Page, server: EditorServer) -> None:
+        c = page.client
+        assert (await c.get("/")).status == 200                                   # the page itself is public
+        assert (await c.get("/static/editor.js")).status == 200
+        for path in ("/api/state", "/api/session", "/files/floor0.png", "/api/tours"):
+            assert (await c.get(path)).status == 401, path
+        r = await c.post("/api/session", headers={TOKEN_HEADER: "wrong", "Origin": page.origin})
+        assert r.status == 401
+        r = await c.post("/api/session", headers={TOKEN_HEADER: TOKEN, "Origin": "http://evil.example"})
+        assert r.status == 403
+        await page.login()
+        assert SESSION_COOKIE in {cookie.key for cookie in c.session.cookie_jar}
+        status, state = await page.get("/api/state")
+        assert status == 200 and state["doc"]["id"] == "faculty"
+        r = await c.get("/")
+        for header in ("Content-Security-Policy", "X-Frame-Options", "X-Content-Type-Options", "Referrer-Policy"):
+            assert header in r.headers
+        assert "'unsafe-inline'" not in r.headers["Content-Security-Policy"]
+    run(faculty_dir, test)
+
+
+def test_changes_need_same_origin_csrf_and_json_and_a_get_changes_nothing(faculty_dir: Path) -> None:
+    edit = {"edits": [{"op": "set", "path": ["name"], "value": "Changed"}], "label": "rename"}
+
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        assert (await page.post("/api/edit", edit, Origin="http://evil.example"))[0] == 403
+        assert (await page.post("/api/edit", edit, Origin=None))[0] == 403          # neither Origin nor Referer
+        assert (await page.post("/api/edit", edit, **{CSRF_HEADER: "nope"}))[0] == 403
+        r = await page.client.post("/api/edit", data="name=x", headers={"Origin": page.origin, CSRF_HEADER: page.csrf,
+                                                                        "Content-Type": "text/plain"})
+        assert r.status == 400
+        for path in ("/api/edit", "/api/undo", "/api/save", "/api/preview/start"):
+            assert (await page.client.get(path)).status == 405, path
+        assert server.document.revision == 0 and server.document.plain()["name"] != "Changed"
+        status, answer = await page.post("/api/edit", edit, Origin=None, Referer=page.origin + "/")
+        assert status == 200 and answer["revision"] == 1 and answer["undo"] == "rename"
+        assert server.document.plain()["name"] == "Changed"
+    run(faculty_dir, test)
+
+
+def test_files_are_images_of_the_folder_only(faculty_dir: Path) -> None:
+    (faculty_dir / "secret.txt").write_text("secret")
+    (faculty_dir / "link.png").symlink_to(faculty_dir / "floor0.png")
+
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        r = await page.client.get("/files/floor0.png")
+        assert r.status == 200 and r.headers["Content-Type"] == "image/png"
+        r = await page.client.get("/files/floor0.pgm")                          # a map image, as PNG for browsers
+        assert r.status == 200 and (await r.read()).startswith(b"\x89PNG")
+        for name in ("secret.txt", "link.png", "..%2Fbuilding.yaml", "%2Fetc%2Fpasswd", "building.yaml", "nothing.png"):
+            assert (await page.client.get(f"/files/{name}")).status == 404, name
+        bad = {"edits": [{"op": "set", "path": ["floors", 0, "blueprint"], "value": "../../etc/passwd"}]}
+        status, answer = await page.post("/api/edit", bad)
+        assert status == 400 and "not a file of the building folder" in answer["message"]
+    run(faculty_dir, test)
+
+
+def test_live_checks_save_and_drafts(faculty_dir: Path) -> None:
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        state = await page.checked()
+        assert state["check"]["accepted"] and state["check"]["problems"] == []
+        into_wall = {"edits": [{"op": "set", "path": ["locations", 2, "pose"], "value": [19.0, 10.4, 0.0]}],
+                     "label": "move 005"}
+        await page.post("/api/edit", into_wall)
+        state = await page.checked()
+        [problem] = state["check"]["problems"]
+        assert not state["check"]["accepted"] and "inside a wall" in problem["message"]
+        status, answer = await page.post("/api/save", {})
+        assert status == 409 and "not saved: the checks reject this building" in answer["message"]
+        assert "draft" not in (faculty_dir / "building.yaml").read_text()
+        status, answer = await page.post("/api/save", {"draft": True})
+        assert status == 200 and answer["draft"] and answer["backup"]
+        assert "draft: true" in (faculty_dir / "building.yaml").read_text()
+        with pytest.raises(BuildingError, match="draft"):
+            load_building(faculty_dir)
+        await page.post("/api/undo", {})                  # the draft mark
+        await page.post("/api/undo", {})                  # the move
+        state = await page.checked()
+        assert state["check"]["accepted"]
+        status, answer = await page.post("/api/save", {})
+        assert status == 200 and not answer["draft"]
+        original = (REPO / "maps" / "faculty" / "building.yaml").read_bytes()
+        assert (faculty_dir / "building.yaml").read_bytes() == original            # undone and saved: unchanged
+        assert len(load_building(faculty_dir).locations) == 56
+    run(faculty_dir, test)
+
+
+def test_a_new_building_aligned_by_two_point_pairs(maps_only: Path) -> None:
+    truth = BlueprintTransform(16.0, 24.0, 408.0)
+
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        _, state = await page.get("/api/state")
+        assert [f["map"]["image"] for f in state["floors"]] == [f"floor{i}.pgm" for i in range(4)]
+        assert state["files"]["maps"] == [f"floor{i}.yaml" for i in range(4)]
+        pairs = [[[x, y], list(truth.to_pixel(x, y))] for x, y in ((3.0, 7.5), (69.0, 16.5))]
+        status, answer = await page.post("/api/align/blueprint", {"floor": 1, "pairs": pairs})
+        assert status == 200 and answer["transform"] == {"scale": 16.0, "origin_px": [24.0, 408.0]}
+        assert answer["max_px"] < 0.01
+        status, answer = await page.post("/api/align/blueprint", {"floor": 1, "pairs": pairs[:1]})
+        assert status == 400 and "click at least 2 matching points" in answer["message"]
+        status, answer = await page.post("/api/align/floor", {"floor": 1, "reference": 0,
+                                                              "pairs": [[[1, 1], [1, 1]], [[9, 2], [9, 2]]]})
+        assert status == 200 and answer["aligned_to"] == {"floor": 0, "pose": [0.0, 0.0, 0.0]}
+        assert server.document.plain()["floors"][1]["aligned_to"] == {"floor": 0, "pose": [0.0, 0.0, 0.0]}
+        status, answer = await page.post("/api/save", {})
+        assert status == 409                             # no place, no robot yet
+        status, answer = await page.post("/api/save", {"draft": True})
+        assert status == 200 and answer["draft"] and not answer["backup"]
+        assert yaml.safe_load((maps_only / "building.yaml").read_text())["draft"] is True
+    run(maps_only, test)
