@@ -187,6 +187,9 @@
 
   function draw() {
     const canvas = $("map");
+    const split = S.mode === "align" || S.mode === "floors";
+    $("other-view").hidden = !split;            // first: the map's size depends on it
+    $("align-panel").hidden = !split;
     sizeCanvas(canvas);
     const ctx = canvas.getContext("2d");
     ctx.setTransform(1, 0, 0, 1, 0, 0);
@@ -388,11 +391,8 @@
 
   // the second view: the blueprint (align) or the other floor's map (align floors)
   function drawOther() {
-    const wrap = $("other-view"), canvas = $("other");
-    const on = S.mode === "align" || S.mode === "floors";
-    wrap.hidden = !on;
-    $("align-panel").hidden = !on;
-    if (!on) return;
+    const canvas = $("other");
+    if (S.mode !== "align" && S.mode !== "floors") return;
     sizeCanvas(canvas);
     const ctx = canvas.getContext("2d");
     ctx.setTransform(1, 0, 0, 1, 0, 0);
@@ -488,7 +488,7 @@
       li.className = i === S.floor ? "on" : "";
       li.dataset.index = i;
       li.addEventListener("click", () => { S.floor = i; S.selected = S.selected && S.selected.list === "zones" ? null
-        : S.selected; S.pairs = []; S.pending = null; renderSide(); draw(); });
+        : S.selected; S.pairs = []; S.pending = null; S.fitNote = ""; renderSide(); draw(); });
       return li;
     }));
     renderFloorForm();
