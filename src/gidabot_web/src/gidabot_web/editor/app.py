@@ -27,6 +27,7 @@ import argparse
 import asyncio
 import contextlib
 import hmac
+import importlib.resources
 import io
 import ipaddress
 import json
@@ -50,7 +51,7 @@ from gidabot_web.editor.document import BuildingDocument, folder_file, folder_im
 from gidabot_web.editor.preview import FEATURED, Preview, fitting_tours
 from gidabot_web.errors import EditError, PreviewError, Refused
 
-STATIC = Path(__file__).resolve().parent / "static"
+STATIC = importlib.resources.files("gidabot_web.editor") / "static"    # package data (devel and install space)
 STATIC_FILES = {"index.html": "text/html; charset=utf-8", "editor.js": "text/javascript; charset=utf-8",
                 "editor.css": "text/css; charset=utf-8", "favicon.svg": "image/svg+xml"}
 IMAGE_TYPES = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".gif": "image/gif",
