@@ -319,12 +319,16 @@ class EditorServer:
         doc = self.document
         return {"revision": doc.revision, "undo": doc.can_undo(), "redo": doc.can_redo()}
 
-    async def _edit(self, body: dict) -> dict:
+    def _apply(self, edits: object, label: str) -> dict:
+        """Apply ``edits`` as one change (400 with the reason when they cannot be); the new revision."""
         try:
-            self.document.apply(body.get("edits"), str(body.get("label", "change")))  # type: ignore[arg-type]
+            self.document.apply(edits, label)  # type: ignore[arg-type]
         except EditError as err:
             raise Refused(400, "edit", str(err)) from err
         return self._after_change()
+
+    async def _edit(self, body: dict) -> dict:
+        return self._apply(body.get("edits"), str(body.get("label", "change")))
 
     async def _undo(self, _body: dict) -> dict:
         label = self.document.undo()
@@ -352,12 +356,9 @@ class EditorServer:
         value: dict = {"scale": round(t.scale, 4), "origin_px": [round(t.origin_u, 2), round(t.origin_v, 2)]}
         if abs(t.rotation) > 1e-5:
             value["rotation"] = round(t.rotation, 5)
-        try:
-            self.document.apply([{"op": "set", "path": ["floors", index, "blueprint_transform"], "value": value}],
-                                f"align the blueprint of floor {index + 1}")
-        except EditError as err:
-            raise Refused(400, "edit", str(err)) from err
-        return {**self._after_change(), "transform": value, "residuals_px": [round(r, 2) for r in fit.residuals_px],
+        done = self._apply([{"op": "set", "path": ["floors", index, "blueprint_transform"], "value": value}],
+                           f"align the blueprint of floor {index + 1}")
+        return {**done, "transform": value, "residuals_px": [round(r, 2) for r in fit.residuals_px],
                 "rms_px": round(fit.rms_px, 2), "max_px": round(fit.max_px, 2)}
 
     async def _align_floor(self, body: dict) -> dict:
@@ -372,12 +373,9 @@ class EditorServer:
             raise Refused(400, "alignment", str(err)) from err
         ref_id = self.document.plain()["floors"][ref].get("id")
         value = {"floor": ref_id, "pose": [round(fit.pose.x, 3), round(fit.pose.y, 3), round(fit.pose.yaw, 4)]}
-        try:
-            self.document.apply([{"op": "set", "path": ["floors", index, "aligned_to"], "value": value}],
-                                f"align floor {index + 1} to floor {ref + 1}")
-        except EditError as err:
-            raise Refused(400, "edit", str(err)) from err
-        return {**self._after_change(), "aligned_to": value, "residuals_m": [round(r, 3) for r in fit.residuals_m],
+        done = self._apply([{"op": "set", "path": ["floors", index, "aligned_to"], "value": value}],
+                           f"align floor {index + 1} to floor {ref + 1}")
+        return {**done, "aligned_to": value, "residuals_m": [round(r, 3) for r in fit.residuals_m],
                 "rms_m": round(fit.rms_m, 3), "max_m": round(fit.max_m, 3), "scale": round(fit.scale, 4)}
 
     async def _save(self, body: dict) -> dict:
