@@ -255,8 +255,9 @@ class EditorServer:
         """The document and everything the page draws; ``?since=<revision>``: only what changes without an edit
         (the check, the preview) when the document is still at that revision."""
         doc = self.document
+        preview = await asyncio.to_thread(self.preview.poll)       # a run that ended is stopped here: seconds
         out: dict = {"revision": doc.revision, "check": self.check.to_json() if self.check else None,
-                     "preview": self.preview.poll().to_json(), "undo": doc.can_undo(), "redo": doc.can_redo(),
+                     "preview": preview.to_json(), "undo": doc.can_undo(), "redo": doc.can_redo(),
                      "dirty": doc.dirty, "saved_exists": doc.path.exists()}
         if request.query.get("since") != str(doc.revision):
             out.update(doc=doc.plain(), folder=self.directory.name, floors=self._floor_info(doc.plain()),
@@ -412,11 +413,11 @@ class EditorServer:
                                     tour if isinstance(tour, str) else FEATURED)
         except PreviewError as err:
             raise Refused(400, "preview", str(err)) from err
-        return {"preview": self.preview.poll().to_json()}
+        return {"preview": (await asyncio.to_thread(self.preview.poll)).to_json()}
 
     async def _preview_stop(self, _body: dict) -> dict:
         await asyncio.to_thread(self.preview.stop)
-        return {"preview": self.preview.poll().to_json()}
+        return {"preview": (await asyncio.to_thread(self.preview.poll)).to_json()}
 
 
 # -- helpers ---------------------------------------------------------------------------------------------------

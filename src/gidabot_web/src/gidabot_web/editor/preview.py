@@ -23,6 +23,7 @@ import re
 import shutil
 import sys
 import tempfile
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,7 +46,7 @@ READER = "poses"
 
 @dataclass
 class PreviewState:
-    state: str                                  # idle, starting, running, finished, failed, stopped
+    state: str                                  # idle, starting, running, stopping, finished, failed, stopped
     message: str = ""                           # the demo's last progress line, or why it failed
     robots: dict[str, dict] = field(default_factory=dict)   # name -> floor, x, y, yaw, stamp
     tour: str = ""
@@ -148,7 +149,8 @@ def fitting_tours(building: Building, tours_dir: Path | None) -> list[str]:
 
 
 class Preview:
-    """At most one preview run at a time (see the module docstring). ``speed``: the demo's ``--speed``."""
+    """At most one preview run at a time (see the module docstring). ``speed``: the demo's ``--speed``. Its methods
+    may be called from several threads (the editor's server runs them off its event loop: stopping takes seconds)."""
 
     def __init__(self, tours_dir: Path | None = None, speed: str = "20", python: str = sys.executable) -> None:
         self.tours_dir = tours_dir
@@ -159,6 +161,8 @@ class Preview:
         self._started = 0.0
         self._tour = ""
         self._final: PreviewState | None = None
+        self._lock = threading.RLock()
+        self._busy = "starting"                    # what holds the lock: starting, stopping
 
     @property
     def running(self) -> bool:
@@ -166,8 +170,13 @@ class Preview:
 
     def start(self, data: dict, directory: Path, tour: str = FEATURED) -> None:
         """Start the demo on ``data`` (the plain document of ``directory``): it must pass the model's checks."""
+        self._busy = "starting"
+        with self._lock:
+            self._start(data, directory, tour)
+
+    def _start(self, data: dict, directory: Path, tour: str) -> None:
         if self._procs is not None:
-            self.stop()
+            self._stop()
         try:
             building = building_from_doc(data, directory / "building.yaml", allow_draft=True)
         except BuildingError as err:
@@ -209,7 +218,16 @@ class Preview:
                                    f"_out:={self._dir / POSES_FILE}"], env)
 
     def poll(self) -> PreviewState:
-        """Where the preview is: its state, the demo's last line, the robots' latest poses."""
+        """Where the preview is: its state, the demo's last line, the robots' latest poses (at once: while it is
+        being started or stopped, only that)."""
+        if not self._lock.acquire(blocking=False):
+            return PreviewState(self._busy, f"{self._busy}…", {}, self._tour)
+        try:
+            return self._poll()
+        finally:
+            self._lock.release()
+
+    def _poll(self) -> PreviewState:
         if self._final is not None:
             return self._final
         if self._procs is None or self._dir is None:
@@ -223,12 +241,17 @@ class Preview:
             return PreviewState(state, message, robots, self._tour, elapsed)
         code = self._procs.get(DEMO).popen.returncode
         final = PreviewState("finished" if code == 0 else "failed", message, robots, self._tour, elapsed)
-        self.stop()
+        self._stop()
         self._final = final
         return final
 
     def stop(self) -> None:
         """Stop the demo and the pose reader (by process group) and remove the preview's directory."""
+        self._busy = "stopping"
+        with self._lock:
+            self._stop()
+
+    def _stop(self) -> None:
         procs, directory = self._procs, self._dir
         self._procs, self._dir = None, None
         if procs is not None:

@@ -451,7 +451,8 @@
     $("preview-state").textContent = p.state === "idle" ? "not running" :
       `${p.state}${p.tour ? ` (${p.tour})` : ""}, ${p.elapsed} s${robots ? `, ${robots} robots` : ""}: ${p.message || ""}`;
     const running = p.state === "running" || p.state === "starting";
-    $("preview-start").disabled = running; $("preview-stop").disabled = !running;
+    $("preview-start").disabled = running || p.state === "stopping";
+    $("preview-stop").disabled = !running;
   }
 
   function goTo(p) {
