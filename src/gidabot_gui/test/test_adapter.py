@@ -25,7 +25,7 @@ from gidabot_gui.gui_node import (
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.guiding.messages import CommandData
-from gidabot_navigation.interface import Cmd
+from gidabot_navigation.interface import Cmd, Phase
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -101,10 +101,11 @@ def test_receiver_filters_converts_and_survives_hostile_input() -> None:
     r = Receiver("Kbot", inbox, logs.append)
     r.status(status_msg("Kbot", 1, 30.0))
     ev = NavEvent()
-    ev.uid, ev.robot, ev.phase, ev.goal_uid = "Tartalo/event/1", "Tartalo", 1, "x"
+    ev.uid, ev.robot, ev.phase, ev.goal_uid = "Tartalo/event/1", "Tartalo", Phase.ON_THE_WAY, "x"
     r.nav_event(ev)                                            # another robot's event: not for this screen
     ev2 = NavEvent()
-    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid, ev2.location_id = "Kbot/event/1", "Kbot", 5, "y", "z" * 10_000
+    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid = "Kbot/event/1", "Kbot", Phase.WAITING_VISITOR, "y"
+    ev2.location_id = "z" * 10_000
     r.nav_event(ev2)
     hostile = status_msg("K\x00bot" * 1000, float("nan"), float("inf"))
     r.status(hostile)

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass, field, replace
-from enum import Enum
+from enum import Enum, StrEnum
 
 from gidabot_gui.core.model import TourInfo, clip
 from gidabot_gui.errors import GuiError
@@ -86,17 +86,24 @@ class TourProgress:
     last_done: int = -1
 
 
+class Outcome(StrEnum):
+    """What the screen tells the visitor that no NavEvent said."""
+
+    NO_ANSWER = "no_answer"      # a request got no answer in time
+    BUSY = "busy"                # a trip is running here: finish or cancel it first
+
+
 @dataclass(frozen=True)
 class Notice:
     """Something to tell the visitor: a NavEvent of this robot, or a local outcome.
 
-    ``kind`` is a :class:`Phase` name (``ON_THE_WAY``...) or ``NO_ANSWER``, ``BUSY``.
+    ``kind`` is the event's :class:`Phase` or an :class:`Outcome`; :attr:`name` names it (``ON_THE_WAY``).
     ``modal``: a pop-up (with speech); otherwise a banner line only.
     ``actions``: buttons of the pop-up: ``ok``, ``continue``, ``cancel``, ``choose_stop``.
     ``adopt_language``: the trip's visitor arrives from another robot; show their language.
     """
 
-    kind: str
+    kind: Phase | Outcome
     event: NavEventData | None = None
     modal: bool = True
     actions: tuple[str, ...] = ("ok",)
@@ -105,6 +112,10 @@ class Notice:
     tour_step: int = -1
     adopt_language: str = ""
     final: bool = False          # the trip is over at this screen
+
+    @property
+    def name(self) -> str:
+        return self.kind.name
 
 
 class VisitorFlow:
@@ -321,13 +332,13 @@ class VisitorFlow:
                 Activity.PENDING, Activity.QUEUED):
             trip.activity, trip.helper, trip.since = Activity.HANDED, ev.assignee, now
             self._focus_on(trip)
-            return Notice(Phase.ASSIGNED.name, ev, actions=("ok", "cancel"), goal_id=trip.goal_id,
+            return Notice(Phase.ASSIGNED, ev, actions=("ok", "cancel"), goal_id=trip.goal_id,
                           tour_file=trip.tour_file, tour_step=trip.tour_step)
         alone = self._alone.get(ev.tour_file) if ev.tour_file else None
         if ev.leg == LEG_GOAL and alone is not None and alone.tour_step < ev.tour_step:
             del self._alone[ev.tour_file]
             told = replace(alone, assignee=ev.assignee)
-            return Notice(Phase.NO_ROBOT_ON_FLOOR.name, told, goal_id=alone.location_id, tour_file=alone.tour_file,
+            return Notice(Phase.NO_ROBOT_ON_FLOOR, told, goal_id=alone.location_id, tour_file=alone.tour_file,
                           tour_step=alone.tour_step, modal=not self.busy, final=True)
         return None
 
@@ -343,7 +354,7 @@ class VisitorFlow:
         if ev.phase in FINAL_PHASES:
             was_current = trip is self.current
             del self.trips[trip.uid]
-            return Notice(Phase(ev.phase).name, ev, goal_id=trip.goal_id, tour_file=trip.tour_file,
+            return Notice(Phase(ev.phase), ev, goal_id=trip.goal_id, tour_file=trip.tour_file,
                           tour_step=trip.tour_step, modal=was_current or not self.busy, final=True)
         return None
 
@@ -372,9 +383,8 @@ class VisitorFlow:
         return self.tour
 
     def _handle(self, phase: Phase, ev: NavEventData, trip: ScreenTrip | None) -> Notice | None:
-        def notice(kind: Phase | str, **kw: object) -> Notice:
-            name = kind.name if isinstance(kind, Phase) else kind
-            return Notice(name, ev, goal_id=trip.goal_id if trip else ev.location_id,
+        def notice(kind: Phase, **kw: object) -> Notice:
+            return Notice(kind, ev, goal_id=trip.goal_id if trip else ev.location_id,
                           tour_file=trip.tour_file if trip else ev.tour_file,
                           tour_step=trip.tour_step if trip else ev.tour_step, **kw)  # type: ignore[arg-type]
 
@@ -441,7 +451,7 @@ class VisitorFlow:
             self.trips.pop("")
             if pend.tour_file and self.tour is not None and pend.tour_step <= 0:
                 self.tour = None
-            return Notice("NO_ANSWER", None, goal_id=pend.goal_id, tour_file=pend.tour_file,
+            return Notice(Outcome.NO_ANSWER, None, goal_id=pend.goal_id, tour_file=pend.tour_file,
                           tour_step=pend.tour_step, final=True)
         return None
 

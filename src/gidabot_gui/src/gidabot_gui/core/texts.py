@@ -12,14 +12,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from gidabot_gui.core.flow import Notice
+from gidabot_gui.core.flow import Notice, Outcome
 from gidabot_gui.core.i18n import N_, Translator
 from gidabot_gui.core.model import TourInfo, finite
 from gidabot_gui.core.places import floor_name, place_name
 from gidabot_gui.core.plans import RequestPlan, RobotWait
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import NavEventData
-from gidabot_navigation.interface import LEG_GOAL, WAY_LIFT
+from gidabot_navigation.interface import LEG_GOAL, WAY_LIFT, Phase, RobotState
 
 
 @dataclass(frozen=True)
@@ -32,12 +32,12 @@ class PopupText:
 
 
 STATE_LABELS = {
-    "idle": N_("Ready"),
-    "guiding": N_("Guiding a visitor"),
-    "to_meeting": N_("Going to meet a visitor"),
-    "waiting": N_("Waiting for a visitor"),
-    "returning": N_("Going back home"),
-    "error": N_("Navigation problem"),
+    RobotState.IDLE: N_("Ready"),
+    RobotState.GUIDING: N_("Guiding a visitor"),
+    RobotState.TO_MEETING: N_("Going to meet a visitor"),
+    RobotState.WAITING: N_("Waiting for a visitor"),
+    RobotState.RETURNING: N_("Going back home"),
+    RobotState.ERROR: N_("Navigation problem"),
 }
 
 
@@ -199,7 +199,7 @@ class Texts:
         connector = self.place(ev.connector) if ev is not None and ev.connector else ""
         way = ev.way if ev is not None else ""
         kind = n.kind
-        if kind == "ON_THE_WAY":
+        if kind is Phase.ON_THE_WAY:
             behind = t._("Please walk behind me, not in front of me or beside me: I need to see the way clear.")
             lines = [t._("Destination: {place}.").format(place=goal)] if goal else []
             loc = self.building.find_location(n.goal_id)
@@ -210,13 +210,13 @@ class Texts:
                 speech.append(t._("Destination: {place}.").format(place=spoken_goal))
             speech.append(t._("Please walk behind me."))
             return PopupText(t._("Follow me"), "\n".join(lines), " ".join(speech), "info", note=behind)
-        if kind == "ASSIGNED":
+        if kind is Phase.ASSIGNED:
             robot = ev.assignee if ev is not None else ""
             coming = t._("{robot} will guide you: it is coming here ({wait}).").format(
                 robot=robot, wait=self.minutes(ev.eta if ev is not None else None))
             stay = t._("Please wait by this screen.")
             return PopupText(t._("A guide is coming"), f"{coming}\n\n{stay}", f"{coming} {stay}", "info")
-        if kind == "GO_TO_FLOOR":
+        if kind is Phase.GO_TO_FLOOR:
             floor = self.floor(target)
             robot = self._other(ev)
             go = (t._("Take the lift ({connector}) to: {floor}.") if way == WAY_LIFT else
@@ -227,7 +227,7 @@ class Texts:
             wait = (t._("{robot} will wait for you there and guide you on.").format(robot=robot) if robot else
                     t._("Nobody can guide you there: find the place on your own."))
             return PopupText(t._("Please change floors"), f"{go}\n\n{wait}", f"{go} {wait}", "action")
-        if kind == "WAITING_VISITOR":
+        if kind is Phase.WAITING_VISITOR:
             hello = t._("Hello, I am {robot}.").format(robot=self.robot)
             lines = [hello]
             if goal:
@@ -235,77 +235,77 @@ class Texts:
             press = t._("Press Continue when you are here.")
             lines.append(press)
             return PopupText(t._("Welcome!"), "\n\n".join(lines), f"{hello} {press}", "action")
-        if kind == "GOING_TO_MEETING":
+        if kind is Phase.GOING_TO_MEETING:
             where = connector or goal
             text = (t._("I am going to meet a visitor at: {place}.").format(place=where) if where else
                     t._("I am going to meet a visitor."))
             return PopupText(text, "", "", "info")
-        if kind == "GOAL_REACHED":
+        if kind is Phase.GOAL_REACHED:
             here = t._("This is: {place}.").format(place=goal) if goal else ""
             thanks = t._("Thank you for your visit!")
             return PopupText(t._("You have arrived"), "\n\n".join(x for x in (here, thanks) if x),
                              " ".join(x for x in (t._("You have arrived."), thanks) if x), "success")
-        if kind == "TOUR_STEP_DONE":
+        if kind is Phase.TOUR_STEP_DONE:
             title, nxt = self._tour_stop(n)
             here = t._("This is: {place}.").format(place=goal) if goal else ""
             press = t._("Press Continue to go on, or choose another stop from the list.")
             body = "\n\n".join(x for x in (here, nxt, press) if x)
             speech = " ".join(x for x in (here.replace(f" ({n.goal_id})", ""), press) if x)
             return PopupText(title, body, speech, "success")
-        if kind == "TOUR_FINISHED" and ev is not None and finite(ev.target_floor) \
+        if kind is Phase.TOUR_FINISHED and ev is not None and finite(ev.target_floor) \
                 and not self.building.has_robot(ev.target_floor):
             body, speech = self._go_alone(n, way, connector)       # the tour ends on floors without robot
             return PopupText(t._("The tour ends there"), body, speech, "success")
-        if kind == "TOUR_FINISHED":
+        if kind is Phase.TOUR_FINISHED:
             here = t._("This is: {place}.").format(place=goal) if goal else ""
             thanks = t._("Thank you for your visit!")
             return PopupText(t._("The tour is over"), "\n\n".join(x for x in (here, thanks) if x),
                              " ".join((t._("The tour is over."), thanks)), "success")
-        if kind == "UNREACHABLE":
+        if kind is Phase.UNREACHABLE:
             body = (t._("The way to {place} is blocked, so I cannot help you with this destination.")
                     .format(place=goal) if goal else
                     t._("The way is blocked, so I cannot help you with this destination."))
             ask = t._("Please ask the staff of the building.")
             return PopupText(t._("Sorry, I cannot get there"), f"{body}\n\n{ask}",
                              t._("Sorry, I cannot help you: the way is blocked."), "error")
-        if kind == "NO_ROBOT_ON_FLOOR":
+        if kind is Phase.NO_ROBOT_ON_FLOOR:
             body, speech = self._go_alone(n, way, connector)
             return PopupText(t._("No guide on that floor"), body, speech, "warning")
-        if kind == "CANCELLED_HERE":
+        if kind is Phase.CANCELLED_HERE:
             ready = t._("I am ready for a new destination.")
             spoken = t._("Trip cancelled.")
             return PopupText(t._("Trip cancelled"), ready, f"{spoken} {ready}", "info")
-        if kind == "CANCELLED_ELSEWHERE":
+        if kind is Phase.CANCELLED_ELSEWHERE:
             body = t._("The trip was cancelled at another robot.")
             return PopupText(t._("Trip cancelled"), body, body, "warning")
-        if kind == "TIMEOUT":
+        if kind is Phase.TIMEOUT:
             body = t._("Nobody pressed Continue in time, so the request was dropped.")
             return PopupText(t._("Request dropped"), body, body, "warning")
-        if kind == "PARTNER_OFFLINE":
+        if kind is Phase.PARTNER_OFFLINE:
             robot = self._other(ev)
             body = (t._("{robot} cannot be reached right now, so the trip was stopped.").format(robot=robot)
                     if robot else t._("Another robot cannot be reached right now, so the trip was stopped."))
             again = t._("Please try again later.")
             return PopupText(t._("A guide is not available"), f"{body}\n\n{again}", f"{body} {again}", "error")
-        if kind == "PARTNER_LOST":
+        if kind is Phase.PARTNER_LOST:
             robot = self._other(ev)
             body = (t._("{robot} cannot be reached right now. The trip waits for it: please wait a moment.")
                     .format(robot=robot) if robot else
                     t._("Another robot cannot be reached right now. The trip waits for it: please wait a moment."))
             return PopupText(t._("Please wait"), body, body, "warning")
-        if kind == "PARTNER_BACK":
+        if kind is Phase.PARTNER_BACK:
             robot = self._other(ev)
             body = (t._("{robot} is back. The trip goes on.").format(robot=robot) if robot else
                     t._("The other robot is back. The trip goes on."))
             return PopupText(t._("The trip goes on"), body, body, "success")
-        if kind == "REJECTED":
+        if kind is Phase.REJECTED:
             body = t._("Please choose another destination.")
             spoken = t._("Sorry, I cannot take this request.")
             return PopupText(t._("Sorry, I cannot take this request"), body, f"{spoken} {body}", "error")
-        if kind == "NO_ANSWER":
+        if kind is Outcome.NO_ANSWER:
             body = t._("The guiding system did not answer. Please try again in a moment.")
             return PopupText(t._("No answer"), body, body, "error")
-        if kind == "BUSY":
+        if kind is Outcome.BUSY:
             body = t._("Finish or cancel the current trip first.")
             return PopupText(t._("A trip is running"), body, body, "warning")
         return PopupText(t._("Information"), "", "", "info")

@@ -12,24 +12,24 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from gidabot_gui.core.flow import Mode, Notice, VisitorFlow
+from gidabot_gui.core.flow import Mode, Notice, Outcome, VisitorFlow
 from gidabot_gui.core.places import nearest_place
 from gidabot_gui.core.plans import plan_request, tour_waits, tour_ways
 from gidabot_gui.errors import GuiError
 from gidabot_gui.qt.editor import SearchPanel
 from gidabot_gui.qt.overlay import Button, CardSpec
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
-from gidabot_navigation.interface import LANGUAGES, WAY_LIFT, WAY_STAIRS
+from gidabot_navigation.interface import LANGUAGES, WAY_LIFT, WAY_STAIRS, Phase
 
 if TYPE_CHECKING:
     from gidabot_gui.qt.window import MainWindow
 
 EVENT_ICONS = {
-    "ON_THE_WAY": "walk", "GO_TO_FLOOR": "stairs", "WAITING_VISITOR": "robot", "GOAL_REACHED": "flag",
-    "TOUR_STEP_DONE": "flag", "TOUR_FINISHED": "check", "UNREACHABLE": "warning", "NO_ROBOT_ON_FLOOR": "warning",
-    "CANCELLED_HERE": "close", "CANCELLED_ELSEWHERE": "close", "TIMEOUT": "warning", "PARTNER_OFFLINE": "warning",
-    "REJECTED": "warning", "NO_ANSWER": "warning", "BUSY": "info", "PARTNER_LOST": "warning",
-    "PARTNER_BACK": "check",
+    Phase.ON_THE_WAY: "walk", Phase.GO_TO_FLOOR: "stairs", Phase.WAITING_VISITOR: "robot", Phase.GOAL_REACHED: "flag",
+    Phase.TOUR_STEP_DONE: "flag", Phase.TOUR_FINISHED: "check", Phase.UNREACHABLE: "warning",
+    Phase.NO_ROBOT_ON_FLOOR: "warning", Phase.CANCELLED_HERE: "close", Phase.CANCELLED_ELSEWHERE: "close",
+    Phase.TIMEOUT: "warning", Phase.PARTNER_OFFLINE: "warning", Phase.REJECTED: "warning",
+    Outcome.NO_ANSWER: "warning", Outcome.BUSY: "info", Phase.PARTNER_LOST: "warning", Phase.PARTNER_BACK: "check",
 }
 
 
@@ -64,7 +64,7 @@ class VisitorController:
         if s.building.find_location(goal_id) is None:
             return
         if self.flow.busy:
-            self.show_notice(Notice("BUSY"))
+            self.show_notice(Notice(Outcome.BUSY))
             return
         self.flow.set_mode(Mode.SINGLE)
         s.update_header()
@@ -117,7 +117,7 @@ class VisitorController:
             cmd = self.flow.request(goal_id, way, s.tr.language, s.clock(), self._start_id())
         except GuiError as err:
             s.log(f"gui: request refused: {err}")
-            self.show_notice(Notice("BUSY"))
+            self.show_notice(Notice(Outcome.BUSY))
             return
         self._send(cmd)
 
@@ -127,7 +127,7 @@ class VisitorController:
         if tour is None:
             return
         if not self.flow.can_start_tour():
-            self.show_notice(Notice("BUSY"))
+            self.show_notice(Notice(Outcome.BUSY))
             return
         self.flow.set_mode(Mode.TOUR)
         s.update_header()
@@ -144,7 +144,7 @@ class VisitorController:
                 cmd = self.flow.start_tour(tour, way, s.tr.language, s.clock(), self._start_id())
             except GuiError as err:
                 s.log(f"gui: tour refused: {err}")
-                self.show_notice(Notice("BUSY"))
+                self.show_notice(Notice(Outcome.BUSY))
                 return
             self._send(cmd)
 
@@ -231,12 +231,12 @@ class VisitorController:
         if notice.adopt_language in LANGUAGES and notice.adopt_language != s.tr.language:
             s.tr.set_language(notice.adopt_language)
         if not notice.modal:
-            self.banner = s.texts.notice(notice).title if notice.kind == "GOING_TO_MEETING" else ""
+            self.banner = s.texts.notice(notice).title if notice.kind is Phase.GOING_TO_MEETING else ""
             s.mark_dirty()
             return
         self.banner = ""
         self.current_notice = notice
-        if notice.kind == "TOUR_STEP_DONE" and notice.tour_file:
+        if notice.kind is Phase.TOUR_STEP_DONE and notice.tour_file:
             s.tours_page.select(notice.tour_file)
             s.tours_page.select_stop(notice.tour_step + 1)
         goal_uid = notice.event.goal_uid if notice.event is not None else ""
@@ -244,7 +244,7 @@ class VisitorController:
         def build() -> CardSpec:
             text = s.texts.notice(notice)
             t = s.tr
-            shown = [a for a in notice.actions if not (a == "cancel" and notice.kind == "ON_THE_WAY")]
+            shown = [a for a in notice.actions if not (a == "cancel" and notice.kind is Phase.ON_THE_WAY)]
             labels = {"ok": (t._("OK"), "primary" if len(shown) == 1 else "", "check"),
                       "continue": (t._("Continue"), "primary", "play"),
                       "cancel": (t._("Cancel"), "danger", "close"),
@@ -265,10 +265,10 @@ class VisitorController:
             else:
                 s.overlay.close_card()
 
-        final = notice.final or notice.kind in ("BUSY",)
+        final = notice.final or notice.kind is Outcome.BUSY
         auto = 0.0 if "continue" in notice.actions else (
             s.config.final_popup_seconds if final else s.config.info_popup_seconds)
-        s.overlay.show_card(f"event:{notice.kind}", build, pressed, auto_close=auto)
+        s.overlay.show_card(f"event:{notice.name}", build, pressed, auto_close=auto)
         speech = s.texts.notice(notice).speech
         if speech:
             s.speaker.say(speech, s.tr.language)

@@ -64,10 +64,10 @@ from gidabot_gui.qt.visitor import VisitorController
 from gidabot_gui.qt.widgets import FitLabel, WrapButton, equalize_fonts
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import CommandData, NavEventData
-from gidabot_navigation.interface import LANGUAGES
+from gidabot_navigation.interface import LANGUAGES, RobotState
 
-STATE_COLORS = {"idle": "#2E7D32", "guiding": OTHER_ROBOT, "to_meeting": OTHER_ROBOT, "waiting": ACCENT,
-                "returning": OTHER_ROBOT, "error": DANGER}
+STATE_COLORS = {RobotState.IDLE: "#2E7D32", RobotState.GUIDING: OTHER_ROBOT, RobotState.TO_MEETING: OTHER_ROBOT,
+                RobotState.WAITING: ACCENT, RobotState.RETURNING: OTHER_ROBOT, RobotState.ERROR: DANGER}
 
 
 class Outputs(Protocol):

@@ -24,11 +24,7 @@ from dataclasses import dataclass, replace
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, TourNameError
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCELLED_ELSEWHERE,
     COMMAND_NAMES,
-    DECLINED,
     DEFAULT_LANGUAGE,
     FINAL_PHASES,
     LANGUAGES,
@@ -39,7 +35,6 @@ from gidabot_navigation.interface import (
     LEG_STATE_NAMES,
     LEG_STATES,
     LEGS,
-    PARTNER_OFFLINE,
     PHASE_NAMES,
     REASON_ADMIN,
     REASON_OFFLINE,
@@ -47,15 +42,15 @@ from gidabot_navigation.interface import (
     REASON_UNREACHABLE,
     REASON_VISITOR,
     REASONS,
-    TIMEOUT,
-    UNREACHABLE,
     WAYS,
+    Phase,
 )
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
-PHASE_OF_REASON = {REASON_VISITOR: CANCELLED_ELSEWHERE, REASON_UNREACHABLE: UNREACHABLE,
-                   REASON_TIMEOUT: TIMEOUT, REASON_OFFLINE: PARTNER_OFFLINE, REASON_ADMIN: CANCELLED_ELSEWHERE}
+PHASE_OF_REASON = {REASON_VISITOR: Phase.CANCELLED_ELSEWHERE, REASON_UNREACHABLE: Phase.UNREACHABLE,
+                   REASON_TIMEOUT: Phase.TIMEOUT, REASON_OFFLINE: Phase.PARTNER_OFFLINE,
+                   REASON_ADMIN: Phase.CANCELLED_ELSEWHERE}
 
 # -- limits of untrusted text -------------------------------------------------------
 MAX_UID = 160
@@ -547,9 +542,9 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
     assignee = _text(event.assignee, "event assignee", MAX_ID, _ID_RE)
     if assignee and building.find_robot(assignee) is None:
         raise GoalRejected("robot", f"event assignee {show(assignee)} is not a robot of building {building.id}")
-    if event.phase in (ACCEPTED, DECLINED, ASSIGNED) and (not goal_uid or not event.leg):
+    if event.phase in (Phase.ACCEPTED, Phase.DECLINED, Phase.ASSIGNED) and (not goal_uid or not event.leg):
         raise GoalRejected("leg", f"a {PHASE_NAMES[event.phase]} event needs a goal_uid and a leg")
-    if event.phase == ASSIGNED and not assignee:
+    if event.phase == Phase.ASSIGNED and not assignee:
         raise GoalRejected("assignment", "an assigned event needs an assignee")
     eta = event.eta if isinstance(event.eta, (int, float)) and math.isfinite(event.eta) and event.eta >= 0 else 0.0
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,

@@ -50,7 +50,7 @@ from gidabot_navigation.guiding.navigation import (
     freshest_time,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
-from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
+from gidabot_navigation.interface import Cmd, Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
@@ -215,7 +215,7 @@ class NavigationNode:
         self._enqueue(msg.robot, "status")
 
     def _on_command(self, msg: VisitorCommand) -> None:
-        if msg.command == CONTINUE:
+        if msg.command == Cmd.CONTINUE:
             self._enqueue((msg.goal_uid, command_key(msg.uid, msg.header.stamp.to_sec())), "continue")
 
     # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
