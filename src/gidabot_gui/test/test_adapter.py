@@ -12,20 +12,13 @@ from geometry_msgs.msg import Pose
 from PyQt5.QtCore import QEventLoop, QTimer
 
 from gidabot_gui.core.inbox import Inbox
-from gidabot_gui.core.model import InitialPose, TourEdit
-from gidabot_gui.gui_node import (
-    INITIAL_COVARIANCE,
-    Receiver,
-    catalog_from_msg,
-    command_to_msg,
-    initial_pose_to_msg,
-    tour_edit_to_msg,
-    tour_from_msg,
-)
+from gidabot_gui.core.model import InitialPose, TourEdit, tour_info
+from gidabot_gui.gui_node import INITIAL_COVARIANCE, Receiver, catalog_tours, initial_pose_to_msg
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.guiding.messages import CommandData
 from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.ros.convert import command_to_msg, tour_from_msg, tour_to_msg
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -45,25 +38,23 @@ def status_msg(robot: str, floor: float, x: float, y: float = 12.0, yaw: float =
 
 
 def test_outgoing_messages() -> None:
-    import rospy
-
-    stamp = rospy.Time(12, 5)
-    cmd = CommandData(uid="Kbot/gui/cmd/3", visitor_id="gui", command=int(Cmd.SKIP), language="eu", goal_id="104",
-                      goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs")
-    m = command_to_msg(cmd, stamp)
+    cmd = CommandData(uid="Kbot/gui/cmd/3", visitor_id="gui", command=Cmd.SKIP, language="eu", goal_id="104",
+                      goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs", stamp=12.5)
+    m = command_to_msg(cmd)
     assert (m.command, m.goal_id, m.tour_step, m.tour_file, m.goal_uid, m.language, m.visitor_id, m.uid) == (
-        4, "104", 3, "real_world.tour", "Tartalo/gui/1", "eu", "gui", "Kbot/gui/cmd/3")
-    assert m.header.stamp == stamp
-    p = initial_pose_to_msg(InitialPose(1.0, 20.0, 12.5, math.pi / 2), stamp)
+        Cmd.SKIP, "104", 3, "real_world.tour", "Tartalo/gui/1", "eu", "gui", "Kbot/gui/cmd/3")
+    assert m.header.stamp.to_sec() == 12.5
+    p = initial_pose_to_msg(InitialPose(1.0, 20.0, 12.5, math.pi / 2), 12.5)
     assert p.header.frame_id == "map" and (p.pose.pose.position.x, p.pose.pose.position.y) == (20.0, 12.5)
+    assert p.header.stamp.to_sec() == 12.5
     o = p.pose.pose.orientation
     assert quaternion_to_yaw(o.x, o.y, o.z, o.w) == pytest.approx(math.pi / 2)
     assert (p.pose.covariance[0], p.pose.covariance[7], p.pose.covariance[35]) == INITIAL_COVARIANCE
-    t = tour_edit_to_msg(TourEdit("Kbot/gui/tour-edit/1", "open_day.tour", "Open day", "en", 1.0,
-                                  ("1, 101, Secretary's Office",)), "Kbot", stamp)
-    assert (t.file_name, t.tour_name, t.floor, t.deleted, t.uid, t.editor_robot) == (
-        "open_day.tour", "Open day", 1.0, False, "Kbot/gui/tour-edit/1", "Kbot")
-    assert t.tour_goals_info == ["1, 101, Secretary's Office"]
+    edit = TourEdit("Kbot/gui/tour-edit/1", "open_day.tour", "Open day", "en", 1.0, ("1, 101, Secretary's Office",))
+    t = tour_to_msg(edit.message("Kbot", 12.5))
+    assert (t.file_name, t.tour_name, t.floor, t.deleted, t.uid, t.editor_robot, t.origin_robot, t.language) == (
+        "open_day.tour", "Open day", 1.0, False, "Kbot/gui/tour-edit/1", "Kbot", "Kbot", "en")
+    assert t.tour_goals_info == ["1, 101, Secretary's Office"] and t.header.stamp.to_sec() == 12.5
 
 
 def test_catalog_skips_malformed_tours() -> None:
@@ -73,7 +64,7 @@ def test_catalog_skips_malformed_tours() -> None:
     bad.file_name, bad.tour_goals_info = "b.tour", ["nan, 014, x"]
     cat = TourCatalog()
     cat.tours = [good, bad]
-    (info,) = catalog_from_msg(cat)
+    (info,) = catalog_tours(cat)
     assert info.goals == ((0.0, "014", "Computer Technicians 1"), (1.0, "101", "Secretary's Office, main desk"))
 
 
@@ -89,7 +80,7 @@ def test_catalog_goal_lines_are_read_like_a_tour_file(lines: list[str], ok: bool
     """One parser for files, the store and the GUI (issue 19.2): what the store accepts, the GUI shows."""
     t = Tour()
     t.file_name, t.tour_name, t.language, t.tour_goals_info = "a.tour", "A", "en", lines
-    info = tour_from_msg(t)
+    info = tour_info(tour_from_msg(t))
     assert (info is not None) == ok
     if ok:
         assert info.goals[0] == (0.0, "014", "Lab")

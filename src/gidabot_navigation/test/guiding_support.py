@@ -31,10 +31,10 @@ from gidabot_navigation.guiding.messages import (
     Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.guiding.tour_mode import CatalogEntry
 from gidabot_navigation.guiding.trips import TripPlanner
 from gidabot_navigation.interface import Cmd, Phase
 from gidabot_navigation.tours.tour_file import parse_tour
+from gidabot_navigation.tours.tour_store import TourMessage
 
 _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
 
@@ -62,12 +62,12 @@ class ListLog:
         self.lines.append(("error", msg))
 
 
-def catalog_of(building: Building, *paths) -> list[CatalogEntry]:
-    """Catalog entries of tour files (pathlib paths)."""
+def catalog_of(building: Building, *paths) -> list[TourMessage]:
+    """The catalog's tours of tour files (pathlib paths)."""
     entries = []
     for p in paths:
         tour = parse_tour(p.read_bytes(), p.name, building)
-        entries.append(CatalogEntry(p.name, tour.name, tuple(tour.goal_lines())))
+        entries.append(TourMessage(file_name=p.name, tour_name=tour.name, tour_goals_info=tuple(tour.goal_lines())))
     return entries
 
 
@@ -87,7 +87,7 @@ class Bus:
 
     def __init__(self, building: Building, robots: list[str] | None = None, navigation: bool = True,
                  auto_move: bool = True, continue_timeout: float = 300.0, partner_timeout: float = 120.0,
-                 catalog: list[CatalogEntry] | None = None) -> None:
+                 catalog: list[TourMessage] | None = None) -> None:
         self.building = building
         self.now_ros = 100.0
         self.now_wall = 1000.0

@@ -7,8 +7,8 @@ from collections.abc import Callable
 
 import pytest
 
-from gidabot_gui.core.model import RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_gui.core.model import TourInfo
+from gidabot_navigation.guiding.messages import NavEventData, RobotStatusData
 from gidabot_navigation.interface import Phase, RobotState
 
 

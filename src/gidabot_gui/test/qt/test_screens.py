@@ -13,8 +13,8 @@ import pytest
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.core.model import PendingData, RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_gui.core.model import TourInfo
+from gidabot_navigation.guiding.messages import NavEventData, PendingData, RobotStatusData
 from gidabot_navigation.interface import Phase
 
 LANGS = ("en", "eu", "es")

@@ -180,6 +180,13 @@ def test_robots_never_heard_are_online_only_at_start(faculty) -> None:
     assert events(request(gm, "301", now_wall=56.0), Phase.PARTNER_OFFLINE)
 
 
+def test_what_a_restart_must_still_publish_is_all_but_a_refusal(faculty) -> None:
+    gm = core(faculty)
+    assert gm.durable(request(gm, "999")) == []      # a refusal changes no state
+    made = request(gm, "001")
+    assert goals(made) and gm.durable(made) == made
+
+
 def test_bad_requests_are_rejected_with_a_reason(faculty) -> None:
     gm = core(faculty)
     assert events(request(gm, "999"), Phase.REJECTED)[0].detail == "unknown goal '999'"

@@ -12,6 +12,7 @@ from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import (
     CancelData,
+    CommandData,
     MoveTo,
     NavEventData,
     SendCancel,
@@ -20,7 +21,7 @@ from gidabot_navigation.guiding.messages import (
     Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, PREEMPTED, SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Phase, RobotState
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Phase, RobotState
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"
 
@@ -164,6 +165,18 @@ def test_goal_floor_meets_the_visitor_and_guides_on_continue(faculty) -> None:
     assert phases(acts) == [Phase.ON_THE_WAY] and moves(acts)[0].x == t.goal_x
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 30.0, 0.0)
     assert phases(acts) == [Phase.GOAL_REACHED]
+
+
+def test_of_the_visitor_commands_only_a_continue_is_the_navigation_s(faculty) -> None:
+    n, t, move = goal_floor_leg(faculty)
+    n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 0.0)
+    for cmd in (Cmd.REQUEST, Cmd.CANCEL, Cmd.START_TOUR, Cmd.SKIP):
+        assert n.on_command(CommandData(command=cmd, uid=f"Lamia/v/cmd/{cmd}", goal_uid=t.uid), 11.0, 0.0) == []
+    press = CommandData(command=Cmd.CONTINUE, uid="Lamia/v/cmd/9", goal_uid=t.uid, stamp=11.5)
+    acts = n.on_command(press, 12.0, 0.0)
+    assert phases(acts) == [Phase.ON_THE_WAY]
+    assert n.on_command(press, 13.0, 0.0) == [] and n.stats["duplicate_commands"] == 1     # the same press again
+    assert n.durable(acts) == [a for a in acts if isinstance(a, SendEvent)]               # not the MoveTo
 
 
 def test_continue_before_arrival_goes_on_at_once(faculty) -> None:

@@ -11,10 +11,11 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from gidabot_gui.core.admin import TourDraft, delete_edit
-from gidabot_gui.core.model import EditResultData, TourEdit
+from gidabot_gui.core.model import TourEdit
 from gidabot_gui.errors import TourEditError
 from gidabot_gui.qt.editor import TourEditor
 from gidabot_gui.qt.overlay import Button, CardSpec
+from gidabot_navigation.tours.tour_store import EditResultData
 
 if TYPE_CHECKING:
     from gidabot_gui.qt.window import MainWindow

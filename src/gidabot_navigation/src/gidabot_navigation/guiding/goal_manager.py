@@ -45,6 +45,7 @@ from gidabot_navigation.guiding.messages import (
     CommandData,
     Counters,
     NavEventData,
+    PendingData,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -65,7 +66,7 @@ from gidabot_navigation.guiding.state import (
     trip_from_dict,
     trip_to_dict,
 )
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits, next_robot_stop
+from gidabot_navigation.guiding.tour_mode import TourBook, TourWait, TourWaits, next_robot_stop
 from gidabot_navigation.guiding.trips import (
     Candidate,
     HeadProgress,
@@ -95,6 +96,7 @@ from gidabot_navigation.interface import (
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.tour_file import MAX_GOALS
+from gidabot_navigation.tours.tour_store import TourMessage
 
 PROGRESS_PHASES = (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING, Phase.WAITING_VISITOR)
 
@@ -115,18 +117,6 @@ class GoalManagerConfig:
     catalog_wait: float = 10.0
     wait: WaitModel = field(default_factory=WaitModel)
     assign: AssignConfig = field(default_factory=AssignConfig)
-
-
-@dataclass(frozen=True)
-class PendingSnapshot:
-    """The content of this robot's /gidabot/pending."""
-
-    robot: str
-    floor: float
-    goals: tuple[Trip, ...]
-    eta: tuple[float, ...]     # s from now until each goal is finished by this robot
-    wait_new: float            # s before this robot could start a new request
-    stamp: float               # s, ROS time of the estimate
 
 
 class GoalManagerCore:
@@ -210,7 +200,7 @@ class GoalManagerCore:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = (float(x), float(y), float(yaw))
 
-    def on_catalog(self, entries: Iterable[CatalogEntry], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
+    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
         """The tour store's catalog changed; the tour commands that waited for the first one are carried out."""
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
@@ -520,6 +510,12 @@ class GoalManagerCore:
         return actions
 
     # ------------------------------------------------------------------ restarts
+    @staticmethod
+    def durable(actions: list[Action]) -> list[Action]:
+        """The actions a restarted node must still publish (kept with the state until published): all but the
+        REJECTED answers, which change no state."""
+        return [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
+
     def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
         """What a restarted goal manager needs (JSON-able): the queue, the ``remember`` most recent
         handled uids of each kind, the own navigation's progress, releases and the tour steps waiting."""
@@ -574,7 +570,7 @@ class GoalManagerCore:
         self.version += 1
 
     # ------------------------------------------------------------------ outputs
-    def pending(self, now_ros: float) -> PendingSnapshot:
+    def pending(self, now_ros: float) -> PendingData:
         """The pending list with the wait estimate (s) for /gidabot/pending."""
         head = None
         if self.queue and self.queue[0].uid in self._phase:
@@ -583,7 +579,8 @@ class GoalManagerCore:
         pos = (self.pose[0], self.pose[1]) if self.pose else None
         eta = estimate_queue(self.planner, self.cfg.wait, self.robot, pos, self.queue, head, self._releases,
                              now_ros).eta
-        return PendingSnapshot(self.me, self.robot.floor, tuple(self.queue), eta, eta[-1] if eta else 0.0, now_ros)
+        return PendingData(self.me, self.robot.floor, len(self.queue), eta[-1] if eta else 0.0, tuple(self.queue),
+                           tuple(eta), now_ros)
 
     # ------------------------------------------------------------------ requests
     def _issue(self, goal_id: str, way: str, language: str, visitor_id: str, tour_file: str, tour_step: int,

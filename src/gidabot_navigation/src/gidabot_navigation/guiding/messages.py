@@ -1,10 +1,11 @@
 """Plain-Python forms of the guiding messages and their validation (ROS-free).
 
 The guiding cores (:mod:`~gidabot_navigation.guiding.goal_manager`,
-:mod:`~gidabot_navigation.guiding.navigation`) never see a ROS message: the adapters
-convert ``gidabot_msgs`` messages into the dataclasses below
+:mod:`~gidabot_navigation.guiding.navigation`) and the GUI never see a ROS message:
+:mod:`gidabot_navigation.ros.convert` turns ``gidabot_msgs`` messages into the dataclasses below
 (:class:`Trip` = Goal, :class:`NavEventData` = NavEvent, :class:`CancelData` = Cancel,
-:class:`CommandData` = VisitorCommand) and back. Everything that comes from outside
+:class:`CommandData` = VisitorCommand, :class:`PendingData` = PendingRequests,
+:class:`RobotStatusData` = RobotStatus, :class:`PoseData` = NavPose) and back. Everything that comes from outside
 (another robot, the GUI) is untrusted and goes through :func:`validate_trip`,
 :func:`validate_cancel`, :func:`validate_event` or :func:`validate_command` first:
 they raise :class:`~gidabot_navigation.errors.GoalRejected` naming the bad value.
@@ -204,6 +205,52 @@ class CommandData:
         return command_key(self.uid, self.stamp)
 
 
+@dataclass(frozen=True)
+class PendingData:
+    """A gidabot_msgs/PendingRequests: one robot's queue, head first, and its waits."""
+
+    robot: str
+    floor: float
+    num: int                       # requests in the queue (as many as ``goals`` when sent)
+    wait_new: float                # s before this robot could start a new request
+    goals: tuple[Trip, ...] = ()
+    eta: tuple[float, ...] = ()    # s from ``stamp`` until each goal is finished by this robot
+    stamp: float = 0.0             # s, ROS time of the estimate
+
+
+@dataclass(frozen=True)
+class RobotStatusData:
+    """A gidabot_msgs/RobotStatus: one robot's state, pose (its floor's map frame) and load."""
+
+    robot: str
+    floor: float
+    x: float
+    y: float
+    yaw: float
+    linear: float                  # m/s
+    angular: float                 # rad/s
+    battery: float                 # 0..1 (the navigation's -1: unknown)
+    state: str                     # a RobotState (as received: untrusted)
+    pending: int
+    current_goal_uid: str = ""
+    busy_for: float = 0.0          # s until the queue is empty
+    stamp: float = 0.0
+    frame_id: str = ""
+
+
+@dataclass(frozen=True)
+class PoseData:
+    """A gidabot_msgs/NavPose: one robot's pose in its floor's map frame."""
+
+    robot: str
+    floor: float
+    x: float
+    y: float
+    yaw: float
+    stamp: float = 0.0
+    frame_id: str = ""
+
+
 def command_key(uid: object, stamp: object) -> str:
     """The de-duplication key of a visitor command ("" = none: a command without uid is never a duplicate)."""
     if not isinstance(uid, str) or not uid:
@@ -270,7 +317,7 @@ class UidMaker:
     def __init__(self, robot: str, tag: str, boot: str | None = None) -> None:
         self.robot = robot
         self.tag = tag
-        self.boot = boot if boot is not None else _base36(time.time_ns() // 1_000_000)
+        self.boot = boot if boot is not None else base36(time.time_ns() // 1_000_000)
         self._n = 0
 
     def _next(self) -> str:
@@ -287,7 +334,8 @@ class UidMaker:
         return f"{self.robot}/{visitor_id}/{self._next()}"
 
 
-def _base36(number: int) -> str:
+def base36(number: int) -> str:
+    """``number`` (>= 0) in base 36: a short tag, e.g. of the wall clock at start."""
     digits = "0123456789abcdefghijklmnopqrstuvwxyz"
     out = ""
     while True:

@@ -46,9 +46,11 @@ from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
+    CommandData,
     Counters,
     MoveTo,
     NavEventData,
+    RobotStatusData,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -59,7 +61,7 @@ from gidabot_navigation.guiding.messages import (
     validate_event,
 )
 from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, next_robot_stop
+from gidabot_navigation.guiding.tour_mode import TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
     DEFAULT_LANGUAGE,
@@ -71,10 +73,12 @@ from gidabot_navigation.interface import (
     REASON_TIMEOUT,
     REASON_UNREACHABLE,
     RELEASE_PHASES,
+    Cmd,
     Phase,
     RobotState,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.tours.tour_store import TourMessage
 
 # move_base (actionlib) terminal states, as the adapter names them
 SUCCEEDED = "succeeded"
@@ -154,25 +158,6 @@ class Leg:
     resend: bool = False                # resumed after a restart: send the move_base goal again
 
 
-@dataclass(frozen=True)
-class StatusSnapshot:
-    """The content of this robot's RobotStatus."""
-
-    robot: str
-    floor: float
-    x: float
-    y: float
-    yaw: float
-    pose_known: bool
-    linear: float
-    angular: float
-    battery: float          # 0..1, -1 unknown
-    state: str
-    pending: int
-    current_goal_uid: str
-    busy_for: float
-
-
 class NavigationCore:
     """Runs the head of this robot's pending list (Algorithm 1)."""
 
@@ -229,7 +214,7 @@ class NavigationCore:
         if isinstance(robot, str) and self.building.find_robot(robot) is not None:
             self.liveness.heard(robot, now_wall)
 
-    def on_catalog(self, entries: Iterable[CatalogEntry]) -> None:
+    def on_catalog(self, entries: Iterable[TourMessage]) -> None:
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
 
@@ -282,6 +267,12 @@ class NavigationCore:
         actions = self._stop(leg)
         self._finish(leg.trip)
         return actions + self._advance(now_ros, now_wall)
+
+    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        """A visitor command at this robot: a Continue (:meth:`on_continue`); the others are the goal manager's."""
+        if cmd.command != Cmd.CONTINUE:
+            return []
+        return self.on_continue(cmd.goal_uid, now_ros, now_wall, key=cmd.key)
 
     def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "") -> list[Action]:
         """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here).
@@ -364,6 +355,12 @@ class NavigationCore:
         return actions + self._advance(now_ros, now_wall)
 
     # ------------------------------------------------------------------ restarts
+    @staticmethod
+    def durable(actions: list[Action]) -> list[Action]:
+        """The actions a restarted node must still carry out (kept with the state until published): the events
+        and cancels; move_base goals follow from the state again."""
+        return [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
+
     def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
         """What a restarted navigation needs (JSON-able): the running leg, the handled uids, releases."""
         leg = self.leg
@@ -424,7 +421,7 @@ class NavigationCore:
             self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
 
     # ------------------------------------------------------------------ outputs
-    def status(self, now_ros: float) -> StatusSnapshot:
+    def status(self, now_ros: float) -> RobotStatusData:
         pose = self.pose or self.robot.home
         leg = self.leg
         if not self.available:
@@ -435,9 +432,8 @@ class NavigationCore:
             state = STATE_OF_STAGE[leg.stage]
         pending = sum(1 for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled)
         busy = max(0.0, self._eta_last - max(0.0, now_ros - self._eta_at)) if pending else 0.0
-        return StatusSnapshot(self.me, self.floor, pose.x, pose.y, pose.yaw, self.pose is not None, self.linear,
-                              self.angular, self.battery, state, min(pending, 255), leg.trip.uid if leg else "",
-                              round(busy, 1))
+        return RobotStatusData(self.me, self.floor, pose.x, pose.y, pose.yaw, self.linear, self.angular, self.battery,
+                               state, min(pending, 255), leg.trip.uid if leg else "", round(busy, 1), now_ros)
 
     # ------------------------------------------------------------------ the state machine
     def _advance(self, now_ros: float, now_wall: float) -> list[Action]:
