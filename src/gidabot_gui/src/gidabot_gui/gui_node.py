@@ -64,8 +64,7 @@ class Receiver:
     Messages that cannot be converted are counted and logged (throttled), never raised.
     """
 
-    def __init__(self, robot: str, inbox: Inbox, log: Callable[[str], None]) -> None:
-        self.robot = robot
+    def __init__(self, inbox: Inbox, log: Callable[[str], None]) -> None:
         self.inbox = inbox
         self.log = log
         self.bad = 0
@@ -94,8 +93,6 @@ class Receiver:
             self.inbox.put_state("pending", rec.robot, rec)
 
     def nav_event(self, m: gidabot_msgs.NavEvent) -> None:
-        if m.robot != self.robot:
-            return                      # only this robot's events become pop-ups
         rec = self._convert("nav_event", lambda m: bounded(convert.event_from_msg(m)), m)
         if rec is not None:
             self.inbox.put_event("nav_event", rec)
@@ -157,8 +154,9 @@ class GuiNode:
       - ``/gidabot/poses`` (gidabot_msgs/NavPose): live robot positions on the floor tabs.
       - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): pending requests and waits (``wait_new``, s)
         shown before a request is confirmed and in the Information tab.
-      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): the events whose ``robot`` is this robot become
-        pop-ups and speech.
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): this robot's events become pop-ups and speech, and
+        those of another robot of the floor that comes for a visitor waiting at this screen
+        (:class:`~gidabot_gui.core.flow.VisitorFlow` picks them).
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the Guided Tour tab.
       - ``tour_store/edit_result`` (gidabot_msgs/TourEditResult): outcome of admin tour edits.
 
@@ -183,7 +181,7 @@ class GuiNode:
 
     def __init__(self, params: Params, inbox: Inbox) -> None:
         self.params = params
-        self.receiver = Receiver(params.robot, inbox, lambda m: rospy.logwarn_throttle(10.0, m))
+        self.receiver = Receiver(inbox, lambda m: rospy.logwarn_throttle(10.0, m))
         # a guiding node that connects late (starting, or respawned) still gets the commands of the last
         # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
         # request the visitor was told got no answer is never acted on later.
