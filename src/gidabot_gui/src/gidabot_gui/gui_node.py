@@ -33,7 +33,7 @@ from gidabot_navigation.guiding.messages import CommandData, base36
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros import convert
 from gidabot_navigation.ros.node_main import start_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import ReplayPublisher
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
@@ -77,35 +77,37 @@ class Receiver:
             self.log(f"gui: unusable {what} message ignored ({err}); {self.bad} so far")
             return None
 
-    def status(self, m: gidabot_msgs.RobotStatus) -> None:
-        rec = self._convert("status", lambda m: bounded(convert.status_from_msg(m)), m)
+    def _state(self, kind: str, from_msg: Callable[[Any], Any], msg: Any) -> None:
+        """A robot's latest state (status, pose, pending list): only the newest per robot is kept."""
+        rec = self._convert(kind, lambda m: bounded(from_msg(m)), msg)
         if rec is not None:
-            self.inbox.put_state("status", rec.robot, rec)
+            self.inbox.put_state(kind, rec.robot, rec)
+
+    def _event(self, kind: str, from_msg: Callable[[Any], Any], msg: Any) -> None:
+        """An event (NavEvent, edit result): every one, in order."""
+        rec = self._convert(kind, lambda m: bounded(from_msg(m)), msg)
+        if rec is not None:
+            self.inbox.put_event(kind, rec)
+
+    def status(self, m: gidabot_msgs.RobotStatus) -> None:
+        self._state("status", convert.status_from_msg, m)
 
     def pose(self, m: gidabot_msgs.NavPose) -> None:
-        rec = self._convert("pose", lambda m: bounded(convert.pose_from_msg(m)), m)
-        if rec is not None:
-            self.inbox.put_state("pose", rec.robot, rec)
+        self._state("pose", convert.pose_from_msg, m)
 
     def pending(self, m: gidabot_msgs.PendingRequests) -> None:
-        rec = self._convert("pending", lambda m: bounded(convert.pending_from_msg(m)), m)
-        if rec is not None:
-            self.inbox.put_state("pending", rec.robot, rec)
+        self._state("pending", convert.pending_from_msg, m)
 
     def nav_event(self, m: gidabot_msgs.NavEvent) -> None:
-        rec = self._convert("nav_event", lambda m: bounded(convert.event_from_msg(m)), m)
-        if rec is not None:
-            self.inbox.put_event("nav_event", rec)
-
-    def catalog(self, m: gidabot_msgs.TourCatalog) -> None:
-        rec = self._convert("catalog", catalog_tours, m)
-        if rec is not None:
-            self.inbox.put_state("catalog", "", rec)
+        self._event("nav_event", convert.event_from_msg, m)
 
     def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
-        rec = self._convert("edit_result", lambda m: bounded(convert.edit_result_from_msg(m)), m)
-        if rec is not None:
-            self.inbox.put_event("edit_result", rec)
+        self._event("edit_result", convert.edit_result_from_msg, m)
+
+    def catalog(self, m: gidabot_msgs.TourCatalog) -> None:
+        tours = self._convert("catalog", catalog_tours, m)
+        if tours is not None:
+            self.inbox.put_state("catalog", "", tours)
 
 
 # ---------------------------------------------------------------------- parameters
@@ -128,8 +130,7 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = param_text("~building", required=True)
-        robot = param_text("~robot", required=True)
+        building, robot = robot_params()
         language = check_language(param_text("~language", "en"))
         sink = param_text("~speech_sink", "auto")
         if sink not in ("auto", "device", "null"):

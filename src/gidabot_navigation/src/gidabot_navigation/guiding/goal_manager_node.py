@@ -25,11 +25,11 @@ from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros import convert
-from gidabot_navigation.ros.adapter import Inbox, diagnostics, from_relay
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -49,8 +49,7 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = param_text("~building", required=True)
-        robot = param_text("~robot", required=True)
+        building, robot = robot_params()
         wait = WaitModel(speed_factor=param_number("~speed_factor", WaitModel.speed_factor),
                          stairs_s_per_floor=param_number("~stairs_s_per_floor", WaitModel.stairs_s_per_floor,
                                                          strict=False),
@@ -177,19 +176,12 @@ class GoalManagerNode:
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the state is saved and the
-        guard told the loop has stopped (only then does it close the topics)."""
-        guard.set_wake(lambda: self._enqueue(None, ""))
-        try:
-            self._loop(guard)
-        finally:
-            if self.store is not None:
-                self.store.flush(self.core.state, force=True)
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the state is saved."""
+        run_loop(guard, self.spin_once, LOOP_PERIOD, lambda: self.inbox.put(""), self._save)
 
-    def _loop(self, guard: ExitGuard) -> None:
-        while not rospy.is_shutdown() and not guard.requested:
-            self.spin_once(LOOP_PERIOD)
+    def _save(self) -> None:
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
 
     def spin_once(self, timeout: float) -> None:
         """One turn of the loop: at most one input (waiting up to ``timeout`` wall s, less when the pending list
@@ -236,12 +228,8 @@ class GoalManagerNode:
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Publish ``actions``, saving the state with the durable ones as the outbox first (StateFile.commit: what
-        changes nothing writes nothing)."""
-        if self.store is None:
-            self.execute(actions)
-        else:
-            self.store.commit(self.core.state, actions, self.core.durable(actions), self.execute, changed)
+        """Publish ``actions``, the state saved first with the durable ones (a restart publishes them again)."""
+        carry_out(self.store, self.core.state, actions, self.core.durable(actions), self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:

@@ -40,11 +40,11 @@ from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default
 from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros import convert
-from gidabot_navigation.ros.adapter import Inbox, diagnostics, from_relay, sender
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay, sender
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -74,13 +74,14 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        cfg = NavigationConfig(robot=param_text("~robot", required=True),
+        building, robot = robot_params()
+        cfg = NavigationConfig(robot=robot,
                                continue_timeout=param_number("~continue_timeout", 300.0),
                                partner_timeout=param_number("~partner_timeout", 120.0),
                                offline_after=param_number("~offline_after", 5.0),
                                pickup_distance=param_number("~pickup_distance", 1.5),
                                nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
-        return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
+        return Params(building, cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
                       param_text("~goal_manager", global_name(Node.GOAL_MANAGER), required=True),
@@ -231,21 +232,15 @@ class NavigationNode:
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the running move_base goal
-        is cancelled, the state saved and the guard told the loop has stopped (it then closes the topics)."""
-        guard.set_wake(lambda: self._enqueue(None, ""))
-        try:
-            self._loop(guard)
-        finally:
-            if self._active is not None:
-                self._cancel(self._active[0])
-            if self.store is not None:
-                self.store.flush(self.core.state, force=True)
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the running move_base goal is cancelled and the
+        state saved."""
+        run_loop(guard, self.spin_once, LOOP_PERIOD, lambda: self.inbox.put(""), self._stop)
 
-    def _loop(self, guard: ExitGuard) -> None:
-        while not rospy.is_shutdown() and not guard.requested:
-            self.spin_once(LOOP_PERIOD)
+    def _stop(self) -> None:
+        if self._active is not None:
+            self._cancel(self._active[0])
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
 
     def spin_once(self, timeout: float) -> None:
         """One turn of the loop: a status if the last is a wall second old, at most one input (waiting up to
@@ -307,12 +302,8 @@ class NavigationNode:
         return kind in DURABLE_INPUTS
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Save the state (the durable actions as the outbox) when it may have changed, then carry the
-        actions out; once published, save again without them."""
-        if self.store is None:
-            self.execute(actions)
-        else:
-            self.store.commit(self.core.state, actions, self.core.durable(actions), self.execute, changed)
+        """Publish ``actions``, the state saved first with the durable ones (a restart publishes them again)."""
+        carry_out(self.store, self.core.state, actions, self.core.durable(actions), self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:

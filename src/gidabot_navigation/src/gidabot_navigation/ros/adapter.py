@@ -1,5 +1,5 @@
 """What the ROS adapters of gidabot_navigation's nodes share: who sent a message, the bounded inbox their
-callbacks fill, and their diagnostics.
+callbacks fill, carrying out a core's actions with its state kept, and their diagnostics.
 
 A callback copies or enqueues and returns (:class:`Inbox`); the node's one loop takes the inputs out and
 hands them to its core. The sender of a message is the callerid in its connection header: a relay end's
@@ -9,10 +9,13 @@ name means the message came from another robot (:func:`from_relay`).
 from __future__ import annotations
 
 import queue
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
+from gidabot_navigation.guiding.messages import Action
+from gidabot_navigation.guiding.state import StateFile
 from gidabot_navigation.interface import is_relay_end
 from gidabot_navigation.ros.convert import ros_time
 
@@ -51,6 +54,16 @@ class Inbox:
 
     def __len__(self) -> int:
         return self._queue.qsize()
+
+
+def carry_out(store: StateFile | None, state: Callable[[], dict[str, Any]], actions: list[Action],
+              durable: list[Action], execute: Callable[[list[Action]], None], changed: bool) -> None:
+    """Carry out a core's ``actions`` (``execute``); with a ``store``, ``state()`` is saved first with the
+    ``durable`` ones as its outbox, and when the input ``changed`` it (:meth:`StateFile.commit`)."""
+    if store is None:
+        execute(actions)
+    else:
+        store.commit(state, actions, durable, execute, changed)
 
 
 def diagnostics(name: str, robot: str, values: Mapping[str, object], warn: bool, message: str,

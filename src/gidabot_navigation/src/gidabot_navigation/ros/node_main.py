@@ -1,8 +1,8 @@
-"""How the guiding, tour and GUI nodes start: :func:`start_node` (the exit guard installed before
+"""How the guiding, tour and GUI nodes start and run: :func:`start_node` (the exit guard installed before
 ``init_node``, for a prompt exit on SIGINT/SIGTERM, master frozen or not: docs/interfaces.md; then the node
-found again after a master restart) and :func:`run_node` (the ``main()`` of the guiding and tour nodes: a
+found again after a master restart), :func:`run_node` (the ``main()`` of the guiding and tour nodes: a
 fatal log line and exit status 1 when the node cannot start, a bad parameter or file; then the node's loop
-and the guard's spin, the shutdown running in the guard's thread)."""
+and the guard's spin, the shutdown running in the guard's thread) and :func:`run_loop` (their loop)."""
 
 from __future__ import annotations
 
@@ -31,6 +31,22 @@ def start_node(name: str, argv: list[str] | None = None) -> ExitGuard:
     rospy.init_node(name, argv=argv if argv is not None else sys.argv, disable_signals=True)
     keep_registered()    # found again after its master restarts
     return guard
+
+
+def run_loop(guard: ExitGuard, spin_once: Callable[[float], None], period: float, wake: Callable[[], None],
+             finish: Callable[[], None]) -> None:
+    """A node's loop: ``spin_once(period)`` (one input, or none within ``period`` wall s) until shutdown or the
+    guard's signal, which calls ``wake`` (an input that ends the wait at once); then ``finish()`` (save, close)
+    and the guard told the loop has stopped (only then does it close the topics)."""
+    guard.set_wake(wake)
+    try:
+        while not rospy.is_shutdown() and not guard.requested:
+            spin_once(period)
+    finally:
+        try:
+            finish()
+        finally:
+            guard.loop_stopped()
 
 
 def run_node(name: str, make: Callable[[], N], started: Callable[[N], str], argv: list[str] | None = None) -> int:

@@ -26,8 +26,8 @@ from gidabot_navigation.ros import convert
 from gidabot_navigation.ros.adapter import Inbox, diagnostics, sender
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.tours.tour_store import (
     NS,
     EditResultData,
@@ -53,8 +53,7 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = param_text("~building", required=True)
-        robot = param_text("~robot", required=True)
+        building, robot = robot_params()
         ros_home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
         tours_dir = param_text("~tours_dir", "") or os.path.join(ros_home, "gidabot", robot, "tours")
         language = param_text("~default_language", DEFAULT_LANGUAGE)
@@ -160,15 +159,8 @@ class TourStoreNode:
 
     # -- the loop that owns the store ---------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the store is closed and the
-        guard told the loop has stopped (it then closes the topics)."""
-        guard.set_wake(lambda: self.inbox.put(""))
-        try:
-            while not rospy.is_shutdown() and not guard.requested:
-                self.spin_once(0.2)
-        finally:
-            self.store.close()
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the store is closed."""
+        run_loop(guard, self.spin_once, 0.2, lambda: self.inbox.put(""), self.store.close)
 
     def spin_once(self, timeout: float) -> None:
         """One turn of the loop: at most one message (waiting up to ``timeout`` wall s, less when the index is
