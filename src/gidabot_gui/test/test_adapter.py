@@ -77,7 +77,7 @@ def test_catalog_skips_malformed_tours() -> None:
     (["0, 014"], False),
 ])
 def test_catalog_goal_lines_are_read_like_a_tour_file(lines: list[str], ok: bool) -> None:
-    """One parser for files, the store and the GUI (issue 19.2): what the store accepts, the GUI shows."""
+    """One parser for files, the store and the GUI: what the store accepts, the GUI shows."""
     t = Tour()
     t.file_name, t.tour_name, t.language, t.tour_goals_info = "a.tour", "A", "en", lines
     info = tour_info(tour_from_msg(t))

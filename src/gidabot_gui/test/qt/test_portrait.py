@@ -1,5 +1,5 @@
-"""A portrait plan (a tall, narrow building: tower.py) uses the floor tab's space at 800x480 and 1280x800
-(issue 19.3): it is turned a quarter turn, and taps, robots and Set location still land where they should.
+"""A portrait plan (a tall, narrow building: tower.py) uses the floor tab's space at 800x480 and 1280x800:
+it is turned a quarter turn, and taps, robots and Set location still land where they should.
 
 Saves docs/screenshots/floor0-portrait-<size>.png.
 """

@@ -75,7 +75,7 @@ def test_tour_started_on_another_floor(faculty) -> None:
     assert bus.goals[0].origin_robot == "Galtxagorri" and bus.goals[0].goal_floor == 0.0
 
 
-# ------------------------------------------------------------------- floors without robot (issue 19.1)
+# ------------------------------------------------------------------- floors without robot
 
 def test_a_tour_goes_on_past_a_floor_without_robot(faculty3) -> None:
     """maps/faculty3 has no robot on floor 2: Table 4's stops 223 and 274 are found alone. Kbot sends the

@@ -1,4 +1,4 @@
-"""Guiding across restarts of its nodes (issue 9): state kept in a file, replayed messages ignored."""
+"""Guiding across restarts of its nodes: state kept in a file, replayed messages ignored."""
 
 from __future__ import annotations
 
@@ -245,7 +245,7 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1
 
 
-# ---------------------------------------------------------------- when the state is written (issue 19.7)
+# ---------------------------------------------------------------- when the state is written
 class _Monotonic:
     def __init__(self) -> None:
         self.t = 0.0

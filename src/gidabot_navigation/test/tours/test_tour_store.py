@@ -222,7 +222,7 @@ def test_own_messages_round_trip(store, faculty, tmp_path) -> None:
     other.close()
 
 
-# ---------------------------------------------------------------- tours as people write them (issue 19.2)
+# ---------------------------------------------------------------- tours as people write them
 VARIANT_GOALS = [" 0 ,014,  Computer Technicians 1 ", "1.0,101,Secretary's Office\t", "3.00 , 305 , RSAIT Lab"]
 VARIANTS = [  # the same tour as VISIT_TEXT, written by a text editor or a phone
     VISIT_TEXT.replace(b"\n", b"\r\n"),
