@@ -26,6 +26,7 @@ from editor_browser import GIDABOT, EditorPage, EditorProcess, wait_for
 
 import gidabot_sim.runner.procs as procs_mod
 from gidabot_navigation.building.geometry import BlueprintTransform
+from gidabot_web.editor.preview import Run
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
@@ -286,7 +287,7 @@ def test_the_preview_shows_the_robots_of_the_simulated_building(tmp_path: Path) 
             page.floor(0)
             page.shot(screenshots() / "editor-preview.png")
         page.press("preview-stop")
-        wait_for(lambda: page.state()["preview"]["state"] == "stopped", 90, "the preview to stop")
+        wait_for(lambda: page.state()["preview"]["state"] == Run.STOPPED, 90, "the preview to stop")
     finally:
         if page is not None:
             page.close()
@@ -301,3 +302,35 @@ def _cmdline(proc: Path) -> str:
         return (proc / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
     except OSError:
         return ""
+
+
+@pytest.mark.timeout(300)
+def test_an_unreachable_place_is_shown_where_the_way_closes(tmp_path: Path) -> None:
+    """The faculty with a closed door across floor 2's corridor: the places beyond it are listed as not reachable;
+    a click on one shows its floor, the place in red and where the way closes."""
+    from building_support import paint
+
+    lab = tmp_path / "faculty"
+    shutil.copytree(FACULTY, lab)
+    paint(lab, 2, 50.0, 50.2, 10.0, 14.0)
+    editor = EditorProcess(lab, tmp_path / "editor.log")
+    page = None
+    try:
+        page = EditorPage(editor.url)
+        problems = page.state()["check"]["problems"]
+        assert page.status().startswith(f"✗ {len(problems)} problem(s)")
+        by_place = {p["where"]: p for p in problems}
+        assert [m[2] for m in by_place["location 231"]["marks"]] == ["place", "closed", "reached"]
+        item = next(li for li in page.driver.find_elements("css selector", "#problems li")
+                    if li.text.startswith("location 231:"))
+        assert "walled off (no free way at all): the way closes at (50." in item.text
+        item.click()
+        state = page.state()
+        assert state["floor"] == 2 and state["selected"]["list"] == "locations"
+        assert state["doc"]["locations"][state["selected"]["index"]]["id"] == "231"
+        if screenshots():
+            page.shot(screenshots() / "editor-unreachable.png")
+    finally:
+        if page is not None:
+            page.close()
+        assert editor.stop() == 0

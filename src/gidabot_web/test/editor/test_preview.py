@@ -11,7 +11,7 @@ import yaml
 
 from gidabot_navigation.building.model import load_building
 from gidabot_web.editor.document import BuildingDocument
-from gidabot_web.editor.preview import FEATURED, PoseBook, Preview, fitting_tours, preview_copy, tour_text
+from gidabot_web.editor.preview import FEATURED, PoseBook, Preview, Run, fitting_tours, preview_copy, tour_text
 from gidabot_web.errors import PreviewError
 
 REPO = Path(__file__).resolve().parents[4]
@@ -66,4 +66,4 @@ def test_a_preview_needs_a_building_without_problems(tmp_path: Path) -> None:
     data["locations"][0]["pose"] = [19.0, 10.4, 0.0]
     with pytest.raises(PreviewError, match="fix them before a preview"):
         Preview(tours_dir=REPO / "tours").start(data, FACULTY)
-    assert Preview().poll().state == "idle"
+    assert Preview().poll().state == Run.IDLE

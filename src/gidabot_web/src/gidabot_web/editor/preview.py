@@ -44,9 +44,21 @@ DEMO = "demo"
 READER = "poses"
 
 
+class Run:
+    """What a preview is doing (``PreviewState.state``; the page shows it)."""
+
+    IDLE = "idle"              # none was started
+    STARTING = "starting"      # the demo runs, no robot's pose is known yet
+    RUNNING = "running"        # the robots' poses come in
+    STOPPING = "stopping"
+    FINISHED = "finished"      # the demo completed its tour
+    FAILED = "failed"          # the demo ended with an error
+    STOPPED = "stopped"        # stopped before the end
+
+
 @dataclass
 class PreviewState:
-    state: str                                  # idle, starting, running, stopping, finished, failed, stopped
+    state: str                                  # one of Run
     message: str = ""                           # the demo's last progress line, or why it failed
     robots: dict[str, dict] = field(default_factory=dict)   # name -> floor, x, y, yaw, stamp
     tour: str = ""
@@ -162,7 +174,7 @@ class Preview:
         self._tour = ""
         self._final: PreviewState | None = None
         self._lock = threading.RLock()
-        self._busy = "starting"                    # what holds the lock: starting, stopping
+        self._busy = Run.STARTING                  # what holds the lock: starting, stopping
 
     @property
     def running(self) -> bool:
@@ -170,7 +182,7 @@ class Preview:
 
     def start(self, data: dict, directory: Path, tour: str = FEATURED) -> None:
         """Start the demo on ``data`` (the plain document of ``directory``): it must pass the model's checks."""
-        self._busy = "starting"
+        self._busy = Run.STARTING
         with self._lock:
             self._start(data, directory, tour)
 
@@ -231,23 +243,23 @@ class Preview:
         if self._final is not None:
             return self._final
         if self._procs is None or self._dir is None:
-            return PreviewState("idle")
+            return PreviewState(Run.IDLE)
         elapsed = time.monotonic() - self._started
         message = _last_line(self._dir / "logs" / f"{DEMO}.log")
         robots = _read_poses(self._dir / POSES_FILE)
         if self._procs.alive(DEMO):
             self._start_reader()
-            state = "running" if robots else "starting"
+            state = Run.RUNNING if robots else Run.STARTING
             return PreviewState(state, message, robots, self._tour, elapsed)
         code = self._procs.get(DEMO).popen.returncode
-        final = PreviewState("finished" if code == 0 else "failed", message, robots, self._tour, elapsed)
+        final = PreviewState(Run.FINISHED if code == 0 else Run.FAILED, message, robots, self._tour, elapsed)
         self._stop()
         self._final = final
         return final
 
     def stop(self) -> None:
         """Stop the demo and the pose reader (by process group) and remove the preview's directory."""
-        self._busy = "stopping"
+        self._busy = Run.STOPPING
         with self._lock:
             self._stop()
 
@@ -260,7 +272,7 @@ class Preview:
         if directory is not None:
             shutil.rmtree(directory, ignore_errors=True)
         if self._final is None and procs is not None:
-            self._final = PreviewState("stopped", "stopped", {}, self._tour, time.monotonic() - self._started)
+            self._final = PreviewState(Run.STOPPED, "stopped", {}, self._tour, time.monotonic() - self._started)
 
 
 def _last_line(path: Path, size: int = 4096) -> str:

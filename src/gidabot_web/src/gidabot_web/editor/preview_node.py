@@ -14,8 +14,8 @@ from pathlib import Path
 import rospy
 
 from gidabot_msgs.msg import NavPose
-from gidabot_navigation.guiding.guiding_node import yaw_of
 from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.ros.convert import yaw_of
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_web.editor.preview import PoseBook
