@@ -99,6 +99,10 @@ def test_every_read_and_change_needs_the_session_from_the_token(faculty_dir: Pat
         for header in ("Content-Security-Policy", "X-Frame-Options", "X-Content-Type-Options", "Referrer-Policy"):
             assert header in r.headers
         assert "'unsafe-inline'" not in r.headers["Content-Security-Policy"]
+        for host in ("evil.example", "evil.example:8765", "127.0.0.1.nip.io"):     # DNS rebinding
+            r = await c.get("/api/state", headers={"Host": host})
+            assert r.status == 403 and (await r.json())["error"] == "host", host
+        assert (await c.get("/api/state", headers={"Host": "localhost:1"})).status == 200
     run(faculty_dir, test)
 
 
