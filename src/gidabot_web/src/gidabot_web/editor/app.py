@@ -289,12 +289,17 @@ class EditorServer:
         return out
 
     async def _tours(self, _request: web.Request) -> web.StreamResponse:
-        tours: list[str] = []
-        with contextlib.suppress(BuildingError):
-            building = building_from_doc(self.document.plain(), self.document.path, allow_draft=True,
-                                         files=self.checker.files)
-            tours = fitting_tours(building, self.preview.tours_dir)
-        return web.json_response({"tours": [FEATURED, *tours]})
+        """The tours a preview can run: the featured places', and the tour files that fit the building."""
+        data, path = self.document.plain(), self.document.path
+
+        def fitting() -> list[str]:
+            try:
+                building = building_from_doc(data, path, allow_draft=True)
+            except BuildingError:
+                return []
+            return fitting_tours(building, self.preview.tours_dir)
+
+        return web.json_response({"tours": [FEATURED, *await asyncio.to_thread(fitting)]})
 
     async def _file(self, request: web.Request) -> web.StreamResponse:
         name = request.match_info["name"]
