@@ -95,6 +95,8 @@ def test_every_read_and_change_needs_the_session_from_the_token(faculty_dir: Pat
         assert SESSION_COOKIE in {cookie.key for cookie in c.session.cookie_jar}
         status, state = await page.get("/api/state")
         assert status == 200 and state["doc"]["id"] == "faculty"
+        assert (await page.get("/api/tours"))[1] == {"tours": ["featured", "long_tour.tour", "paper_example.tour",
+                                                               "real_world.tour"]}
         r = await c.get("/")
         for header in ("Content-Security-Policy", "X-Frame-Options", "X-Content-Type-Options", "Referrer-Policy"):
             assert header in r.headers
