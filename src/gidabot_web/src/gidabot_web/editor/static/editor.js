@@ -481,6 +481,17 @@
 
   // ------------------------------------------------------------------ side panel
   function renderSide() {
+    // the forms are made again: the field that had the focus (Tab after a change) gets it back
+    const active = document.activeElement;
+    const focus = active && active.name && active.form ? [active.form.id, active.name] : null;
+    renderPanels();
+    if (focus) {
+      const again = document.querySelector(`#${focus[0]} [name="${focus[1]}"]`);
+      if (again) again.focus();
+    }
+  }
+
+  function renderPanels() {
     // floors
     const ul = $("floors");
     ul.replaceChildren(...floors().map((f, i) => {
