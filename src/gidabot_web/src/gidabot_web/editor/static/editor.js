@@ -608,6 +608,8 @@
       rows.push(li);
     });
     ul.replaceChildren(...rows);
+    const on = ul.querySelector("li.on");
+    if (on) on.scrollIntoView({block: "nearest"});
     const row = $("item-add-row");
     row.replaceChildren();
     if (S.tab === "locations") row.append(button("Add place (click on the map)", () => setMode("place")));
