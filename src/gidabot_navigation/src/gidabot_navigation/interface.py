@@ -32,7 +32,7 @@ class Node:
     AMCL = "amcl"
     # what runs the simulated building, never on a robot
     VISITOR = "visitor"                # the simulated visitor (one per floor)
-    MONITOR = "gidabot_monitor"        # the demo's progress monitor (anonymous: rospy appends a suffix)
+    MONITOR = "monitor"                # the demo's progress monitor (anonymous: rospy appends a suffix)
     CHAOS_PROBE = "chaos_probe"
 
 
@@ -42,6 +42,9 @@ GUIDING_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION)
 def global_name(node: str) -> str:
     """The global name of node ``node``: what subscribers see as the callerid of its messages."""
     return "/" + node
+
+
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # the callerids of a robot's guiding nodes
 
 
 # -- relay ends ---------------------------------------------------------------------------------
@@ -193,6 +196,11 @@ RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
 # phases of a robot serving a leg (multirobot_navigation): only the robot the leg is assigned to sends them
 SERVING_PHASES = frozenset({ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR,
                             NO_ROBOT_ON_FLOOR, TOUR_STEP_DONE, TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK})
+# phases by which a robot says it brought the visitor to the trip's goal (a tour's stop, or its last)
+GOAL_REACHED_PHASES = frozenset({GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED})
+# phases after which a visitor's trip counts as done: its goal reached, or the visitor sent alone to a floor
+# without robot (NO_ROBOT_ON_FLOOR: they find the place there)
+TRIP_DONE_PHASES = GOAL_REACHED_PHASES | {NO_ROBOT_ON_FLOOR}
 
 
 def phase_name(phase: int) -> str:
