@@ -11,7 +11,8 @@ import pytest
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import Trip
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, global_name, relay_end_name
-from gidabot_sim.demo.progress import Progress, Visit, stops_done
+from gidabot_sim.demo.progress import Progress, Visit
+from gidabot_sim.report.visits import stops_done
 
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
 TOUR = "long_tour.tour"

@@ -52,14 +52,12 @@ from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
 from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, MachinesError, ProcessError
 from gidabot_sim.runner.machines import Machines
+from gidabot_sim.runner.proc_info import ProcInfo, process_tree, read_proc
 from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
 from gidabot_sim.world.mates import Mates
 from gidabot_sim.world.timeline import Clock, Timeline
 
 T = TypeVar("T")
-# where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
-# GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
-RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
 RECORDER_OVERLAP = 5.0   # wall s the old recorder of a restarted master goes on after a newer one records
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands, the robot's
 # localisation, when its move_base took each goal (Table 5's legs start then) and the floor's /diagnostics
@@ -71,6 +69,20 @@ RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_C
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
 MACHINE_MASTER_PORT = 11311   # every robot's master on a machine of its own: the standard port
 CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
+# Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
+# time (2 Hz status, 5 Hz poses by default): at 20x that would be 40 + 100 messages per wall second per
+# robot, every one of them handled by three relay ends and the recorder on each master (they cost more
+# CPU than the rest of the building together). The relays forward at most 10 per second anyway; Table 5
+# distances come from each robot's own /amcl_pose (a sample every 0.1 m), not from /gidabot/poses.
+STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
+STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+
+
+def state_rate_args(speed: float) -> dict[str, str]:
+    """The launch arguments of guiding's state topics at ``speed`` (sim s per wall s): their defaults, slowed
+    down in sim time so that their wall-time rates stay at most STATUS_WALL_HZ and POSE_WALL_HZ."""
+    return {"status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
+            "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
 
 
 def node_executable(package: str, name: str) -> str:
@@ -129,68 +141,6 @@ def obsolete_recorders(retired: dict[str, tuple[str, int]], bags: dict[str, list
         if started and now - min(started) >= overlap:
             out.append(name)
     return out
-
-
-@dataclass(frozen=True)
-class ProcInfo:
-    """One process, from ``/proc/<pid>/stat`` and its command line."""
-
-    pid: int
-    ppid: int
-    pgid: int
-    start: int              # start time (clock ticks since boot): tells a reused pid apart
-    cpu_s: float            # user + system CPU seconds so far
-    argv: tuple[str, ...]
-
-    @property
-    def label(self) -> str:
-        """The ROS node name (``__name:=``), else the program's name."""
-        argv = self.argv
-        for arg in argv:
-            if arg.startswith("__name:="):
-                return arg.split(":=", 1)[1]
-        if len(argv) >= 2 and Path(argv[0]).name.startswith("python"):
-            if argv[1] == "-m" and len(argv) >= 3:
-                return argv[2].rsplit(".", 1)[-1]
-            return "python -c" if argv[1] == "-c" else Path(argv[1]).name
-        return Path(argv[0]).name if argv else "?"
-
-
-def read_proc(pid: int) -> ProcInfo | None:
-    """``/proc/<pid>`` of a live process, or None (gone, or not readable)."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
-        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-    except OSError:
-        return None
-    fields = stat[stat.rfind(")") + 2:].split()
-    if len(fields) < 20 or fields[0] == "Z":
-        return None
-    tick = os.sysconf("SC_CLK_TCK")
-    return ProcInfo(pid, int(fields[1]), int(fields[2]), int(fields[19]), (int(fields[11]) + int(fields[12])) / tick,
-                    tuple(a.decode(errors="replace") for a in argv if a))
-
-
-def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
-    """Every live process that is one of ``roots`` or descends from one (roslaunch starts each node in
-    a session of its own, so process groups alone do not find them)."""
-    procs = {}
-    for entry in os.scandir("/proc"):
-        if entry.name.isdigit():
-            info = read_proc(int(entry.name))
-            if info is not None:
-                procs[info.pid] = info
-    children: dict[int, list[int]] = {}
-    for info in procs.values():
-        children.setdefault(info.ppid, []).append(info.pid)
-    found: dict[int, ProcInfo] = {}
-    todo = [pid for pid in roots if pid in procs]
-    while todo:
-        pid = todo.pop()
-        if pid not in found:
-            found[pid] = procs[pid]
-            todo.extend(children.get(pid, []))
-    return found
 
 
 @dataclass

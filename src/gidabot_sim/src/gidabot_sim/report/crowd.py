@@ -1,4 +1,4 @@
-"""Statistics of a run with many visitors, from the monitor's JSON lines (ROS-free; issue 18).
+"""Statistics of a run with many visitors, from the monitor's JSON lines (ROS-free).
 
 Input: the visitors' plans (:mod:`gidabot_sim.visitor.population`) and the monitor's records
 (``monitor.jsonl``: every Goal and NavEvent seen on one master; the relays bring every
@@ -39,21 +39,18 @@ from gidabot_navigation.interface import (
     DECLINED,
     FINAL_PHASES,
     GO_TO_FLOOR,
-    GOAL_REACHED,
     GOING_TO_MEETING,
     LEG_COMMITTED,
     LEG_GOAL,
     LEG_START,
-    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
     PARTNER_OFFLINE,
     PHASE_NAMES,
     REJECTED,
     TIMEOUT,
-    TOUR_FINISHED,
     UNREACHABLE,
 )
-from gidabot_sim.demo.progress import MonitorFeed
+from gidabot_sim.report.visits import MonitorFeed, visit_completed
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
@@ -341,7 +338,7 @@ def _duplicated(goals: Sequence[_Goal]) -> int:
 
 def _ending(phase: object, tour: bool) -> str:
     """How an event of a visitor's trip ends the visit ("" = it does not)."""
-    if phase == TOUR_FINISHED or (not tour and phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR)):
+    if visit_completed(phase, tour):
         return COMPLETED
     if phase in (CANCELLED_HERE, CANCELLED_ELSEWHERE):
         return CANCELLED
