@@ -3,9 +3,12 @@
 By location, in every package's Python package ``src/<pkg>/src/<pkg>/``:
 
 - **adapters** may import anything: modules named ``*_node.py`` and every module of a ``ros/``
-  subpackage;
-- **tooling** may import ROS: gidabot_sim's ``runner/`` and ``bench/`` (they start masters and
-  launches and talk to them; they never run on a robot);
+  subpackage (the tooling's processes on a master too: the monitor, the chaos probe, the benchmarks'
+  workers and drivers);
+- **tooling**: gidabot_sim's ``runner/``, ``demo/``, ``chaos/``, ``bench/`` and ``report/`` never run on a
+  robot: no module outside them imports one of them. Of the tooling, ``runner/`` (it starts masters and
+  launches and finds node executables) may import ROS; the rest of it (the report, the chaos bookkeeping,
+  the governor, the timing...) is ROS-free like a core, its adapters aside;
 - **Qt part**: in gidabot_gui, every module outside ``core/`` (and not an adapter) may import Qt,
   never ROS;
 - everything else is **ROS-free**: it imports no ROS client library or tool (``source_imports.ROS``), no
@@ -24,10 +27,12 @@ from pathlib import Path
 from source_imports import QT, Import, imports, module_files, packages
 
 REPO = Path(__file__).resolve().parents[2]
-TOOLING = {"gidabot_sim": ("runner", "bench")}
+TOOLING = {"gidabot_sim": ("runner", "demo", "chaos", "bench", "report")}   # never runs on a robot
+ROS_TOOLING = {"gidabot_sim": ("runner",)}   # the tooling that may import ROS (besides its adapters)
 QT_PACKAGES = {"gidabot_gui": "core"}    # package -> its Qt-free subpackage; the rest is the Qt part
-ROS_WHERE = "ROS: only in *_node.py, ros/, and gidabot_sim's runner/ and bench/"
+ROS_WHERE = "ROS: only in *_node.py, ros/, and gidabot_sim's runner/"
 QT_WHERE = "Qt: only in gidabot_gui outside core/"
+TOOLING_WHERE = "tooling: only imported by the tooling"
 
 
 def is_adapter(module: str) -> bool:
@@ -35,21 +40,30 @@ def is_adapter(module: str) -> bool:
     return "ros" in parts or any(p.endswith("_node") for p in parts)
 
 
+def is_tooling(module: str) -> bool:
+    package, *rest = module.split(".")
+    return bool(rest) and rest[0] in TOOLING.get(package, ())
+
+
 def kind(module: str) -> str:
-    """``adapter``, ``tooling``, ``qt`` or ``core`` (ROS-free) for a dotted module name of ours."""
+    """``adapter``, ``ros tooling``, ``qt`` or ``core`` (ROS-free: the rest of the tooling too) for a dotted
+    module name of ours."""
     package, *rest = module.split(".")
     if is_adapter(module):
         return "adapter"
-    if rest and rest[0] in TOOLING.get(package, ()):
-        return "tooling"
+    if rest and rest[0] in ROS_TOOLING.get(package, ()):
+        return "ros tooling"
     if package in QT_PACKAGES and not (rest and rest[0] == QT_PACKAGES[package]):
         return "qt"
     return "core"
 
 
-def wrong(imp: Import, where: str) -> str:
-    """Why ``imp`` is not allowed in a module of kind ``where`` ('' = allowed)."""
-    if where in ("adapter", "tooling"):
+def wrong(imp: Import, where: str, tooling: bool = False) -> str:
+    """Why ``imp`` is not allowed in a module of kind ``where`` ('' = allowed); ``tooling``: that module is of
+    the tooling."""
+    if is_tooling(imp.module) and not tooling:
+        return TOOLING_WHERE
+    if where in ("adapter", "ros tooling"):
         return ""
     if imp.is_ros or is_adapter(imp.module) and imp.top.startswith("gidabot_"):
         return ROS_WHERE
@@ -65,7 +79,7 @@ def violations(root: Path) -> list[str]:
         for module, path in module_files(package):
             where = kind(module)
             for imp in imports(path, module):
-                why = wrong(imp, where)
+                why = wrong(imp, where, is_tooling(module))
                 if why:
                     found.append(f"{imp.where(root)}: {imp.module} ({why})")
     return found
@@ -80,8 +94,11 @@ def test_the_rule_by_location() -> None:
     assert kind("gidabot_navigation.guiding.goal_manager") == "core"
     assert kind("gidabot_navigation.guiding.goal_manager_node") == "adapter"
     assert kind("gidabot_navigation.ros.master_watch") == "adapter"
-    assert kind("gidabot_sim.runner.building_runner") == "tooling"
-    assert kind("gidabot_sim.chaos.core") == "core"
+    assert kind("gidabot_sim.runner.building_runner") == "ros tooling"
+    assert kind("gidabot_sim.chaos.bookkeeping") == "core" and kind("gidabot_sim.report.bags") == "core"
+    assert kind("gidabot_sim.bench.relay") == "core" and kind("gidabot_sim.bench.relay_node") == "adapter"
+    assert kind("gidabot_sim.demo.monitor_node") == "adapter" and kind("gidabot_sim.world.world") == "core"
+    assert is_tooling("gidabot_sim.demo.governor") and not is_tooling("gidabot_sim.visitor.population")
     assert kind("gidabot_gui.core.model") == "core"
     assert kind("gidabot_gui.window") == "qt"
     assert kind("gidabot_gui.gui_node") == "adapter"
@@ -117,3 +134,18 @@ def test_the_check_knows_the_gui_parts(tmp_path: Path) -> None:
     plant(tmp_path, f"{gui}/src/gidabot_gui/gui_node.py", "import rospy\nfrom PyQt5 import QtCore\n")
     assert violations(tmp_path) == [f"{gui}/src/gidabot_gui/core/model.py:1: PyQt5.QtCore ({QT_WHERE})",
                                     f"{gui}/src/gidabot_gui/window.py:2: rospy ({ROS_WHERE})"]
+
+
+def test_the_check_knows_the_tooling(tmp_path: Path) -> None:
+    """The tooling may import ROS in runner/ and its adapters only; nothing else imports the tooling."""
+    sim = "src/gidabot_sim"
+    plant(tmp_path, f"{sim}/package.xml", "<package/>")
+    plant(tmp_path, f"{sim}/src/gidabot_sim/runner/procs.py", "import rospy\n")
+    plant(tmp_path, f"{sim}/src/gidabot_sim/bench/flood.py", "from gidabot_sim.runner import procs\nimport rospy\n")
+    plant(tmp_path, f"{sim}/src/gidabot_sim/bench/flood_node.py", "import rospy\n")
+    plant(tmp_path, f"{sim}/src/gidabot_sim/report/tables.py", "from PyQt5 import QtCore\n")
+    plant(tmp_path, f"{sim}/src/gidabot_sim/visitor/visitor.py", "from gidabot_sim.report import tables\n")
+    assert violations(tmp_path) == [f"{sim}/src/gidabot_sim/bench/flood.py:2: rospy ({ROS_WHERE})",
+                                    f"{sim}/src/gidabot_sim/report/tables.py:1: PyQt5.QtCore ({QT_WHERE})",
+                                    f"{sim}/src/gidabot_sim/visitor/visitor.py:1: gidabot_sim.report.tables "
+                                    f"({TOOLING_WHERE})"]
