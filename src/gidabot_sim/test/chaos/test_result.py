@@ -9,7 +9,7 @@ import pytest
 from gidabot_navigation.building.model import load_building
 from gidabot_sim.chaos.bookkeeping import GoalFate, StepFate
 from gidabot_sim.chaos.result import ChaosResult, FaultResult
-from gidabot_sim.chaos.schedule import CUT_IPTABLES, HOSTILE, Fault
+from gidabot_sim.chaos.schedule import Fault, Kind
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -20,9 +20,9 @@ def faculty():
 
 
 def _result(faculty, **kw) -> ChaosResult:
-    f1 = FaultResult(Fault(CUT_IPTABLES, "Tartalo", "Kbot", duration=5.0), injected=1.0, cleared=6.0,
+    f1 = FaultResult(Fault(Kind.CUT_IPTABLES, "Tartalo", "Kbot", duration=5.0), injected=1.0, cleared=6.0,
                         recovery_s=0.4)
-    f2 = FaultResult(Fault(HOSTILE, "Kbot", target="goal_nan_pose"), injected=7.0, cleared=7.0,
+    f2 = FaultResult(Fault(Kind.HOSTILE, "Kbot", target="goal_nan_pose"), injected=7.0, cleared=7.0,
                         accounted={"goal_manager: Kbot.rejected_pose": 1})
     table = {"Tartalo": (1, 1), "Kbot": (1, 0)}
     fate = GoalFate("T/v/1", "Tartalo", 0.0, 0.0, "008", 0, ["Tartalo"], ["Tartalo"], completed=True)
@@ -41,8 +41,8 @@ def test_result_json_and_table(faculty) -> None:
     for key in ("accepted", "completed", "lost", "duplicated", "max_recovery_s", "faults", "table3_bags",
                 "node_crashes", "requests"):
         assert key in doc
-    assert [f["kind"] for f in doc["faults"]] == [CUT_IPTABLES, HOSTILE]
-    assert doc["fault_counts"][CUT_IPTABLES] == 1 and doc["fault_counts"][HOSTILE] == 1
+    assert [f["kind"] for f in doc["faults"]] == [Kind.CUT_IPTABLES, Kind.HOSTILE]
+    assert doc["fault_counts"][Kind.CUT_IPTABLES] == 1 and doc["fault_counts"][Kind.HOSTILE] == 1
     assert doc["max_recovery_s"] == 0.4 and doc["passed"] and doc["lost"] == 0 and doc["duplicated"] == 0
     assert doc["table3_bags"] == {"Tartalo": [1, 1], "Kbot": [1, 0]}
     text = res.format()

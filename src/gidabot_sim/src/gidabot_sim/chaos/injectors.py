@@ -22,25 +22,7 @@ from gidabot_sim.chaos.hostile import HOSTILE_COUNTERS, fill_placeholders, hosti
 from gidabot_sim.chaos.obstacle import choose_obstacle
 from gidabot_sim.chaos.result import FaultResult
 from gidabot_sim.chaos.run import ChaosRun, latest, wall_time
-from gidabot_sim.chaos.schedule import (
-    CORRIDOR,
-    CUT_IPTABLES,
-    CUT_MASTER_RESTART,
-    CUT_RELAY_END,
-    CUT_SUPERVISOR,
-    FLAPPING,
-    FREEZE,
-    HOSTILE,
-    LOSSY,
-    MACHINE_DOWN,
-    MASTER,
-    MASTER_RESTART,
-    MASTERS_DOWN,
-    NODE_RESTART,
-    ONE_WAY,
-    PARTITION,
-    Fault,
-)
+from gidabot_sim.chaos.schedule import MASTER, Fault, Kind
 from gidabot_sim.errors import ChaosError, FaultError, MachinesError, ProcessError
 from gidabot_sim.runner.machines import Machines
 
@@ -85,14 +67,14 @@ class Injector:
         if not fault.active:
             return fault
         robots = self.active_robots()
-        if fault.kind in (CUT_IPTABLES, CUT_RELAY_END) and len(robots) == 2:
+        if fault.kind in (Kind.CUT_IPTABLES, Kind.CUT_RELAY_END) and len(robots) == 2:
             order = [r.name for r in self.run.building.robots]
             a, b = sorted(robots, key=order.index)
             return Fault(fault.kind, a, b, fault.target, fault.duration, fault.gap, fault.crash, fault.active)
-        if fault.kind == PARTITION and robots:           # a robot of the trip: the other may give the trip up
+        if fault.kind == Kind.PARTITION and robots:           # a robot of the trip: the other may give the trip up
             return Fault(fault.kind, self.rng.choice(robots), duration=fault.duration, gap=fault.gap,
                          active=fault.active)
-        if fault.kind in (NODE_RESTART, FREEZE) and robots:
+        if fault.kind in (Kind.NODE_RESTART, Kind.FREEZE) and robots:
             busy = self.busy_robot(robots)       # a robot driving or waiting for this trip, if one is soon
             robot = busy or self.rng.choice(robots)
             return Fault(fault.kind, robot, fault.other, fault.target, fault.duration, fault.gap, fault.crash,
@@ -102,13 +84,13 @@ class Injector:
     def inject(self, fault: Fault) -> FaultResult:
         fault = self.aim(fault)
         res = FaultResult(fault)
-        handler = {CUT_IPTABLES: self._cut_iptables, CUT_RELAY_END: self._cut_relay_end,
-                   CUT_SUPERVISOR: self._kill_supervisor, MASTER_RESTART: self._restart_master,
-                   NODE_RESTART: self._restart_node, FREEZE: self._freeze, CORRIDOR: self._corridor,
-                   HOSTILE: self._hostile, MASTERS_DOWN: self._masters_down,
-                   CUT_MASTER_RESTART: self._cut_master_restart, PARTITION: self._partition,
-                   FLAPPING: self._flapping, ONE_WAY: self._one_way, LOSSY: self._lossy,
-                   MACHINE_DOWN: self._machine_down}[fault.kind]
+        handler = {Kind.CUT_IPTABLES: self._cut_iptables, Kind.CUT_RELAY_END: self._cut_relay_end,
+                   Kind.CUT_SUPERVISOR: self._kill_supervisor, Kind.MASTER_RESTART: self._restart_master,
+                   Kind.NODE_RESTART: self._restart_node, Kind.FREEZE: self._freeze, Kind.CORRIDOR: self._corridor,
+                   Kind.HOSTILE: self._hostile, Kind.MASTERS_DOWN: self._masters_down,
+                   Kind.CUT_MASTER_RESTART: self._cut_master_restart, Kind.PARTITION: self._partition,
+                   Kind.FLAPPING: self._flapping, Kind.ONE_WAY: self._one_way, Kind.LOSSY: self._lossy,
+                   Kind.MACHINE_DOWN: self._machine_down}[fault.kind]
         try:
             handler(fault, res)
         except (ChaosError, FaultError, MachinesError, ProcessError, OSError) as err:
@@ -140,18 +122,19 @@ class Injector:
 
     # -- the network between two robots: their machines' iptables, or this host's by address
     def cut(self, a: str, b: str) -> None:
-        assert self.run.sim is not None
-        if self.run.sim.net is not None:
-            self.run.sim.net.cut(a, b)
-        else:
-            self.cuts.cut(self.run.building.robot(a).ip, self.run.building.robot(b).ip)
+        self._link(a, b, up=False)
 
     def restore(self, a: str, b: str) -> None:
-        assert self.run.sim is not None
-        if self.run.sim.net is not None:
-            self.run.sim.net.uncut(a, b)
+        self._link(a, b, up=True)
+
+    def _link(self, a: str, b: str, up: bool) -> None:
+        sim = self.run.sim
+        assert sim is not None
+        if sim.net is not None:
+            (sim.net.uncut if up else sim.net.cut)(a, b)
         else:
-            self.cuts.restore(self.run.building.robot(a).ip, self.run.building.robot(b).ip)
+            ips = (self.run.building.robot(a).ip, self.run.building.robot(b).ip)
+            (self.cuts.restore if up else self.cuts.cut)(*ips)
 
     def clear_network_faults(self) -> None:
         self.cuts.clear_all()
@@ -349,21 +332,14 @@ class Injector:
         robot = f.robot
         others = [r.name for r in self.run.building.robots if r.name != robot]
 
-        def partition() -> None:
+        def links(up: bool) -> None:
             if net is not None:
-                net.partition(robot)
+                (net.clear_faults if up else net.partition)(robot)
             else:
                 for o in others:
-                    self.cut(robot, o)
+                    self._link(robot, o, up)
 
-        def heal() -> None:
-            if net is not None:
-                net.clear_faults(robot)
-            else:
-                for o in others:
-                    self.restore(robot, o)
-
-        with self._in_place(res, partition, heal):
+        with self._in_place(res, lambda: links(False), lambda: links(True)):
             self.run.pause(f.duration)
         self._recovery(res, latest([self.run.link_recovered(robot, o, res.cleared) for o in others]))
 

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from gidabot_sim.chaos.bookkeeping import GoalFate, StepFate
-from gidabot_sim.chaos.schedule import CORRIDOR, HOSTILE, KINDS, Fault
+from gidabot_sim.chaos.schedule import KINDS, Fault, Kind
 
 RECOVERY_TARGET_S = 5.0
 # what the relay ends did (their /diagnostics): links lost, events sent again on a new connection, events the
@@ -117,7 +117,7 @@ class ChaosResult:
 
     def unaccounted_hostile(self) -> list[str]:
         """Hostile messages injected that no node of the master they were sent to rejected and counted."""
-        return [f.fault.label() for f in self.injected() if f.fault.kind == HOSTILE and not f.accounted]
+        return [f.fault.label() for f in self.injected() if f.fault.kind == Kind.HOSTILE and not f.accounted]
 
     def unfinished_steps(self) -> list[StepFate]:
         return [st for st in self.steps if not st.passed]
@@ -126,7 +126,7 @@ class ChaosResult:
         """Every target missed (empty: the run passed)."""
         out = []
         if len(self.injected()) < len([f for f in self.faults if not f.skipped]) or \
-                any(f.skipped for f in self.faults if f.fault.kind != CORRIDOR):
+                any(f.skipped for f in self.faults if f.fault.kind != Kind.CORRIDOR):
             out.append("not every planned fault was injected")
         if self.lost():
             out.append(f"{len(self.lost())} goal(s) lost")
@@ -238,7 +238,7 @@ class ChaosResult:
                   "Hostile messages, each rejected and counted on the master it was sent to: "
                   + (", ".join(f"{f.fault.target}@{f.fault.robot} -> "
                                + (",".join(f"{k} +{v}" for k, v in sorted((f.accounted or {}).items())) or "NOTHING")
-                               for f in self.injected() if f.fault.kind == HOSTILE) or "-"),
+                               for f in self.injected() if f.fault.kind == Kind.HOSTILE) or "-"),
                   "Relay ends (all links, summed): "
                   + (", ".join(f"{k} {self.relay_counters.get(k, 0)}" for k in RELAY_COUNTERS)
                      if self.relay_counters else "-"),

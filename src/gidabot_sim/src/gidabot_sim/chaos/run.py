@@ -24,7 +24,7 @@ from gidabot_navigation.tours.tour_file import Tour
 from gidabot_sim.chaos.crashes import log_sizes, scan_logs
 from gidabot_sim.chaos.probe_client import ChaosProbeClient
 from gidabot_sim.chaos.result import RELAY_COUNTERS, FaultResult
-from gidabot_sim.chaos.schedule import CLOCK_OFFSET, PROFILES, Fault, clock_offsets, make_schedule, schedule_seconds
+from gidabot_sim.chaos.schedule import PROFILES, Fault, Kind, clock_offsets, make_schedule, schedule_seconds
 from gidabot_sim.chaos.table3 import tour_step_trips
 from gidabot_sim.chaos.tour_watch import Tail, TourWatch
 from gidabot_sim.errors import ChaosError
@@ -105,7 +105,7 @@ class ChaosRun:
                 command=lambda argv, robot=r.name: self.sim.command(robot, argv))  # type: ignore[union-attr]
         self.tail = Tail([p.out for p in self.probes.values()])
         for robot, offset in self.clock_offsets.items():      # a setting of the whole run, listed with the faults
-            self.results.append(FaultResult(Fault(CLOCK_OFFSET, robot, target=f"{offset:+g} s"),
+            self.results.append(FaultResult(Fault(Kind.CLOCK_OFFSET, robot, target=f"{offset:+g} s"),
                                             injected=self.begin,
                                             detail=f"wall clock {offset:+g} s (the world keeps the host's)"))
 
