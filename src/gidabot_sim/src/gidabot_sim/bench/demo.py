@@ -19,7 +19,6 @@ bench demo``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import subprocess
 import sys
@@ -29,7 +28,7 @@ from tempfile import mkdtemp
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.resources import resource
-from gidabot_sim.runner.command_line import print_verdict, progress_printer
+from gidabot_sim.runner.command_line import bench_arguments, print_verdict, progress_printer
 
 DEMO = (sys.executable, "-m", "gidabot_sim.cli", "demo")
 TARGETS = {"table5_max_delta_pct": 3.0, "fastest_wall_s": 30.0, "fastest_min_factor": 50.0, "max_min_factor": 50.0,
@@ -219,10 +218,7 @@ def format_markdown(result: dict) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="gidabot bench demo", description=__doc__.split("\n\n")[0])
-    out_format = ap.add_mutually_exclusive_group()
-    out_format.add_argument("--json", action="store_true", help="print one JSON object")
-    out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
+    ap = bench_arguments("gidabot bench demo", __doc__, markdown=True)
     ap.add_argument("--tour", type=Path, default=resource("tours", "long_tour.tour"), help="tour (default: Table 2)")
     ap.add_argument("--speeds", default="10,20,50,max",
                     help="speeds in order; the first is the reference; a speed given again is a reproducibility run "

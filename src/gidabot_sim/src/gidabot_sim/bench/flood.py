@@ -24,7 +24,6 @@ verdict would not mean anything).
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import tempfile
@@ -34,7 +33,7 @@ from gidabot_navigation.building.model import Building, load_building, relocate_
 from gidabot_navigation.resources import resource
 from gidabot_sim.bench.workers import Worker, percentile
 from gidabot_sim.runner.building_runner import node_executable
-from gidabot_sim.runner.command_line import progress_printer
+from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, test_network
 
 LIMIT_S = 0.5          # s: a valid request answered within this under the flood
@@ -113,8 +112,7 @@ def verdict(res: dict) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    ap = argparse.ArgumentParser(prog="gidabot bench flood", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap = bench_arguments("gidabot bench flood", __doc__)
     ap.add_argument("--rate", type=float, default=1000.0, help="invalid messages per second per master (1000)")
     ap.add_argument("--requests", type=int, default=15, help="timed requests per robot and phase (15)")
     args = ap.parse_args(argv)

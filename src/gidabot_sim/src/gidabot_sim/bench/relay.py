@@ -20,7 +20,6 @@ at p99; every mesh delivers every message once, with no stall over ``--max-stall
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
@@ -34,7 +33,7 @@ from pathlib import Path
 from gidabot_navigation.building.model import DEFAULT_RELAY_PORT
 from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, end_argv
 from gidabot_sim.bench.workers import Worker, percentile
-from gidabot_sim.runner.command_line import progress_printer
+from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.proc_info import cpu_seconds
 from gidabot_sim.runner.procs import (
@@ -254,8 +253,7 @@ def targets_missed(res: dict, max_added_p50: float, max_relayed_p99: float, max_
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    ap = argparse.ArgumentParser(prog="gidabot bench relay", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap = bench_arguments("gidabot bench relay", __doc__)
     ap.add_argument("--machines", action="store_true",
                     help="every robot a separate machine (network namespace): relayed messages cross a network hop")
     ap.add_argument("--max-added-p50", type=float, default=1.0, help="target: ms the relay adds at p50 (1)")

@@ -28,7 +28,6 @@ Exit status 1 when a target is missed.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import itertools
 import json
@@ -49,7 +48,7 @@ from gidabot_navigation.resources import resource
 from gidabot_sim.bench.closed_loop import FloorLoop
 from gidabot_sim.errors import ProcessError
 from gidabot_sim.navstack.move_base import MoveBaseCore
-from gidabot_sim.runner.command_line import print_verdict
+from gidabot_sim.runner.command_line import bench_arguments, print_verdict
 from gidabot_sim.runner.proc_info import cpu_seconds
 from gidabot_sim.runner.procs import ProcessGroup, node_pid, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.kinematics import Limits
@@ -289,8 +288,7 @@ def _read_line(proc: subprocess.Popen, timeout: float) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gidabot bench sim", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser = bench_arguments("gidabot bench sim", __doc__)
     parser.add_argument("--building", default=str(resource("maps", "faculty")),
                         help="building directory (default: the faculty)")
     parser.add_argument("--speed", type=float, default=10.0, help="speed factor of the ROS run (default 10)")

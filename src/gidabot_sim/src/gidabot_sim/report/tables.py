@@ -22,30 +22,22 @@ from dataclasses import asdict, dataclass
 from gidabot_navigation.guiding.assignment import LegAudit, LegRecord
 from gidabot_navigation.interface import (
     ASSIGNED,
-    CANCELLED_ELSEWHERE,
-    CANCELLED_HERE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
+    DECLINED,
+    FINAL_PHASES,
     LEG_COMMITTED,
     LEG_GOAL,
     LEG_NONE,
     LEG_START,
-    NO_ROBOT_ON_FLOOR,
     ON_THE_WAY,
-    PARTNER_OFFLINE,
+    REJECTED,
     SERVING_PHASES,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
     TRIP_DONE_PHASES,
-    UNREACHABLE,
 )
 from gidabot_sim.report.bags import DiagSample, EventSample, PoseSample, RobotRecord
 from gidabot_sim.report.rates import timing_report
 from gidabot_sim.report.visits import stops_done
 
-LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
-            PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
+LEG_ENDS = FINAL_PHASES - {REJECTED, DECLINED}    # a robot ended its part of a trip (a leg it served)
 MAX_GOAL_START_LAG = 5.0      # sim s: a move_base goal taken later than this after an ON_THE_WAY is not its leg's
 
 

@@ -7,12 +7,14 @@
 * run folders: ``--out`` (default ``runs/`` of the checkout), one folder per run named by its start time and
   what it runs (:func:`run_folder`), the tours every robot starts with (:func:`seed_tours`);
 * the options every run of the building checks the same way (:func:`load_tour`, :func:`check_network`);
-* the benchmarks' output: progress only without ``--json`` (:func:`progress_printer`), the targets missed and
-  PASS or FAIL (:func:`print_verdict`).
+* the benchmarks' arguments (:func:`bench_arguments`: ``--json``, its docstring's first paragraph as the help)
+  and output: progress only without ``--json`` (:func:`progress_printer`), the targets missed and PASS or FAIL
+  (:func:`print_verdict`).
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import shutil
 import signal
@@ -108,6 +110,17 @@ def check_network(net: int | None, machines: bool) -> None:
         raise DemoError(f"--net {net}: expected 1..254")
     if net is not None and machines:
         raise DemoError("--net and --machines exclude each other (separate machines have addresses of their own)")
+
+
+def bench_arguments(prog: str, doc: str, markdown: bool = False) -> argparse.ArgumentParser:
+    """The arguments of the benchmark ``prog`` (``gidabot bench <name>``), described by the first paragraph of its
+    docstring ``doc``: ``--json`` (one JSON object on stdout) and, with ``markdown``, ``--markdown`` instead."""
+    parser = argparse.ArgumentParser(prog=prog, description=doc.split("\n\n")[0])
+    out_format = parser.add_mutually_exclusive_group() if markdown else parser
+    out_format.add_argument("--json", action="store_true", help="print one JSON object")
+    if markdown:
+        out_format.add_argument("--markdown", action="store_true", help="print the runs as a Markdown table")
+    return parser
 
 
 def progress_printer(json_out: bool) -> Callable[[str], None]:
