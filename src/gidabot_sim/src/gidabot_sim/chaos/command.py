@@ -163,8 +163,8 @@ def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error
                 "completed": run.watch.last_step_done + 1, "outcome": outcome, "speed": args.speed, "seed": args.seed,
                 "sim_s": round(sim_s, 1), "wall_s": round(wall_s, 1),
                 "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag",
-                            "bags": [p.name for p in run.sim.bags.get(r.name, [])]} for r in run.base.robots],
-                "bag_parts_never_recorded": run.sim.never_recorded}
+                            "bags": [p.name for p in run.sim.recorders.bags.get(r.name, [])]} for r in run.base.robots],
+                "bag_parts_never_recorded": run.sim.recorders.never_recorded}
     (run.run_dir / "run.json").write_text(json.dumps(run_json, indent=2), encoding="utf-8")
     bags: dict[str, tuple[int, int]] = {}
     bags_error = ""
