@@ -62,8 +62,6 @@ TOUR_FLOOR = 1.0
 PHASES = ("laser", "no_laser", "idle")      # of the floor under ROS (sim_node's ros-driver)
 
 
-
-
 def places(building: Building, floor: float) -> list[Pose2D]:
     f = building.floor(floor)
     out = [loc.pose for loc in building.locations_on(f.id)]
@@ -113,7 +111,6 @@ def bench_rtf(building: Building, floor: float = TOUR_FLOOR) -> dict:
             "wall_s": round(wall, 2), "cpu_s": round(cpu, 2), "real_time_factor": round(sim / wall, 1),
             "laser_beams": 360, "laser_scans": loop.scans, "laser_hz": round(loop.scans / sim, 2),
             "driven_m": round(loop.world.robots[0].odometer, 1), "goals": outcomes}
-
 
 
 # -- the floor under ROS ------------------------------------------------------------------

@@ -126,6 +126,7 @@ def ros_driver(goals: list[list[float]]) -> int:
                           "scans": scans[0] - scans0, "outcomes": outcomes}), flush=True)
     return 0
 
+
 def main(argv: list[str] | None = None) -> int:
     """``ros-driver GOALS`` or ``stack-driver SPEC`` (JSON)."""
     argv = list(sys.argv[1:] if argv is None else argv)

@@ -169,7 +169,6 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
 
 
-
 def _trace_summary(trace: TraceWriter, timing: RunTiming) -> dict | None:
     """``--trace``: the trace summarised over the tour (its first goal to its end, or the last look at the clocks),
     the whole trace if the tour never started; None if the trace cannot be read (said on stderr)."""

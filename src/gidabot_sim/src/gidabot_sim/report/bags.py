@@ -110,7 +110,6 @@ class RobotRecord:
         return self.local_poses or self.poses
 
 
-
 def _stamp(msg: object, fallback_ns: int) -> float:
     header = getattr(msg, "header", None)
     if header is not None:

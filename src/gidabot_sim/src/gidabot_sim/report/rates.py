@@ -29,7 +29,6 @@ def _bracket(samples: list[DiagSample], start: float, end: float) -> tuple[DiagS
     return (a, b) if b.t > a.t else None
 
 
-
 def controller_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
     """Each lockstep participant of the floor's simulator over [start, end]: the steps it owed and answered in time
     (its achieved rate against its nominal one), the times the world stopped waiting for it."""

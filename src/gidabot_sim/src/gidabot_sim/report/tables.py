@@ -154,7 +154,6 @@ def robot_contacts(records: list[RobotRecord]) -> dict:
             "deadlocks": sum(n or 0 for n in deadlocks.values()), "per_robot": per_robot, "unmeasured": unmeasured}
 
 
-
 def leg_audit(records: list[RobotRecord]) -> dict:
     """Who served each leg, from every bag (docs/guiding.md, *Who serves a leg*): ``legs`` some robot was
     asked to serve, ``double_served`` (two robots or more had it), ``unserved`` (nobody got it and its trip
