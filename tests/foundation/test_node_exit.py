@@ -42,7 +42,7 @@ ROS_NODES = {        # process name -> ROS node name (registered on the master o
     "tour_store": global_name(Node.TOUR_STORE), "relay_supervisor": global_name(Node.RELAY_SUPERVISOR),
     "relay_end": relay_end_name(ROBOT, "Galtxagorri"), "visitor": global_name(Node.VISITOR),
     "monitor": global_name(Node.MONITOR), "gui": global_name(Node.GUI), "chaos_probe": global_name(Node.CHAOS_PROBE),
-}   # the monitor is anonymous: /gidabot_monitor_<pid>_<ms>
+}   # the monitor is anonymous: /monitor_<pid>_<ms>
 
 
 class Robot:

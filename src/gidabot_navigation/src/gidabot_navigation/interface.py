@@ -33,7 +33,7 @@ class Node:
     AMCL = "amcl"
     # what runs the simulated building, never on a robot
     VISITOR = "visitor"                # the simulated visitor (one per floor)
-    MONITOR = "gidabot_monitor"        # the demo's progress monitor (anonymous: rospy appends a suffix)
+    MONITOR = "monitor"                # the demo's progress monitor (anonymous: rospy appends a suffix)
     CHAOS_PROBE = "chaos_probe"
 
 
@@ -43,6 +43,9 @@ GUIDING_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION)
 def global_name(node: str) -> str:
     """The global name of node ``node``: what subscribers see as the callerid of its messages."""
     return "/" + node
+
+
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # the callerids of a robot's guiding nodes
 
 
 # -- relay ends ---------------------------------------------------------------------------------
@@ -194,6 +197,11 @@ RELEASE_PHASES = frozenset({Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR})
 SERVING_PHASES = frozenset({Phase.ON_THE_WAY, Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.GOING_TO_MEETING,
                             Phase.WAITING_VISITOR, Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_STEP_DONE,
                             Phase.TOUR_FINISHED, Phase.PARTNER_LOST, Phase.PARTNER_BACK})
+# phases by which a robot says it brought the visitor to the trip's goal (a tour's stop, or its last)
+GOAL_REACHED_PHASES = frozenset({Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED})
+# phases after which a visitor's trip counts as done: its goal reached, or the visitor sent alone to a floor
+# without robot (NO_ROBOT_ON_FLOOR: they find the place there)
+TRIP_DONE_PHASES = GOAL_REACHED_PHASES | {Phase.NO_ROBOT_ON_FLOOR}
 
 
 def phase_name(phase: int) -> str:
