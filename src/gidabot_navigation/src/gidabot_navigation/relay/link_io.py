@@ -149,7 +149,6 @@ class LinkIO:
         self._next_tick: float | None = None
         self._stop = threading.Event()
         self._io_thread: threading.Thread | None = None
-        self.iterations = 0
 
     def listen(self, listener: socket.socket) -> None:
         """Accept the connections of ``listener`` (a listening socket, e.g. :func:`open_listener`)."""
@@ -246,7 +245,6 @@ class LinkIO:
 
     def step(self) -> None:
         """One iteration: wait for a socket or for what is due next, handle it, run what is due."""
-        self.iterations += 1
         now = self.clock()
         if self._next_tick is None:
             self._next_tick = now
