@@ -26,11 +26,13 @@ NODE = global_name(Node.GOAL_MANAGER)
 
 
 class FakeTimeSelector(selectors.DefaultSelector):      # type: ignore[misc,valid-type]
-    """Never blocks: polls, and when nothing is ready moves ``clock`` on by the timeout asked for."""
+    """Never blocks: polls, and when nothing is ready moves ``clock`` on by the timeout asked for (and
+    ``late`` s more after a wait, as a real select() returns a little after its timeout)."""
 
-    def __init__(self, clock: Clock) -> None:
+    def __init__(self, clock: Clock, late: float = 0.0) -> None:
         super().__init__()
         self.clock = clock
+        self.late = late
         self.timeouts: list[float] = []
 
     def select(self, timeout: float | None = None) -> list:
@@ -38,7 +40,7 @@ class FakeTimeSelector(selectors.DefaultSelector):      # type: ignore[misc,vali
         self.timeouts.append(timeout)
         ready = super().select(0)
         if not ready:
-            self.clock.t += timeout
+            self.clock.t += timeout + (self.late if timeout > 0 else 0.0)
         return ready
 
 
@@ -234,6 +236,20 @@ def test_an_idle_link_wakes_the_loop_a_bounded_number_of_times() -> None:
     assert wakeups <= 80                                   # heartbeat ticks, pings and pongs: about 6 a second
     assert a.core.active is not None and 9 <= len(ran) <= 12
     close(a, b)
+
+
+def test_late_wake_ups_keep_the_heartbeat_and_the_jobs_on_one_grid() -> None:
+    clock = Clock()
+    sel = FakeTimeSelector(clock, late=0.003)            # every wait ends 3 ms late
+    beats: list[float] = []
+    diagnostics: list[float] = []
+    e = End("b", clock, sel, on_heartbeat=beats.append, jobs=(Periodic(1.0, diagnostics.append),))
+    start = clock.t
+    pump([e], lambda: clock.t >= start + 10.0)
+    # a heartbeat tick every 0.25 s, the 1 Hz job on the same wake-ups: about 4 a second, not 5 or 8
+    assert len(sel.timeouts) <= 42 and 40 <= len(beats) <= 41 and 10 <= len(diagnostics) <= 11
+    assert set(diagnostics) <= set(beats)
+    close(e)
 
 
 def test_periodic_jobs_run_at_once_then_every_period_and_a_late_one_skips_ahead() -> None:

@@ -276,8 +276,8 @@ class RelayEndNode:
         self.io = LinkIO(self.core, time.monotonic,
                          connect=tcp_connector(params.link_host, params.link_port, params.bind_ip)
                          if params.side == "a" else None,
-                         jobs=(Periodic(params.heartbeat / 2, self._housekeeping),
-                               Periodic(1.0 / params.diagnostics_rate, self._publish_diagnostics)),
+                         on_heartbeat=self._housekeeping,
+                         jobs=(Periodic(1.0 / params.diagnostics_rate, self._publish_diagnostics),),
                          after_io=self._deliver)
         for s in specs:
             if s.kind == STATE:

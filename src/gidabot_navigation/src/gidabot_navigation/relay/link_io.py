@@ -13,10 +13,12 @@ selector says it is writable.
   under :attr:`LinkIO.lock`, so every send happens in order; a send left unfinished, and
   :meth:`LinkIO.stop`, wake the loop through a socket pair.
 - **Time** comes from the injected ``clock`` (the core's): the loop waits in ``select()`` until the
-  earliest of the core's next tick (:meth:`RelayEndCore.next_tick_in`: a heartbeat, or a coalesced
-  state that is due), the heartbeat housekeeping, the adapter's periodic jobs, the next connect
-  attempt and a connect deadline; whatever is due when ``select()`` returns runs in the same
-  iteration, so the loop wakes a bounded number of times per second and never spins.
+  earliest of the core's next tick (:meth:`RelayEndCore.next_tick_in`: a coalesced state that is
+  due), its heartbeat tick (every half heartbeat), the adapter's periodic jobs, the next connect
+  attempt and a connect deadline. The heartbeat ticks and the periodic jobs are on one grid
+  (:class:`Periodic`), not rescheduled from each late wake-up, so they share their wake-ups; and
+  whatever is due when ``select()`` returns runs in the same iteration: the loop wakes a bounded
+  number of times per second and never spins.
 - **Connecting** (end a): while the core has no connection and none is being made, ``connect()``
   is called every ``retry_interval`` s; an attempt still unfinished after ``connect_timeout`` s
   is closed.
@@ -95,12 +97,19 @@ class Periodic:
     run: Callable[[float], None]
     due: float | None = None
 
-    def run_if_due(self, now: float) -> None:
-        if self.due is not None and now < self.due:
-            return
+    def is_due(self, now: float) -> bool:
+        return self.due is None or now >= self.due
+
+    def advance(self, now: float) -> None:
+        """The next run: one period after the one due (on the same grid), or one period from ``now`` if
+        that is past already (the loop was late by more than a period)."""
         nxt = (now if self.due is None else self.due) + self.period
-        self.due = nxt if nxt > now else now + self.period     # late: the next one a full period from now
-        self.run(now)
+        self.due = nxt if nxt > now else now + self.period
+
+    def run_if_due(self, now: float) -> None:
+        if self.is_due(now):
+            self.advance(now)
+            self.run(now)
 
 
 @dataclass
@@ -115,15 +124,18 @@ class LinkIO:
     """The I/O loop of one relay end (see the module docstring).
 
     ``listener``: a listening socket (end b) or None; ``connect``: a connect function (end a,
-    e.g. :func:`tcp_connector`) or None; ``jobs``: the adapter's periodic jobs; ``after_io()``
-    runs at the end of every iteration (the adapter publishes the core's deliveries there);
+    e.g. :func:`tcp_connector`) or None; ``on_heartbeat(now)`` runs with every heartbeat tick of the
+    core (every half heartbeat); ``jobs``: the adapter's other periodic jobs, on the same grid (they
+    start at the first iteration too); ``after_io()`` runs at the end of every iteration (the adapter
+    publishes the core's deliveries there);
     ``selector``: a :class:`selectors.BaseSelector` (default :class:`selectors.DefaultSelector`).
     Every time is read from ``clock`` (seconds, monotonic), the core's own clock.
     """
 
     def __init__(self, core: RelayEndCore, clock: Callable[[], float] = time.monotonic, *,
                  listener: socket.socket | None = None, connect: Connect | None = None,
-                 jobs: tuple[Periodic, ...] = (), after_io: Callable[[], None] | None = None,
+                 on_heartbeat: Callable[[float], None] | None = None, jobs: tuple[Periodic, ...] = (),
+                 after_io: Callable[[], None] | None = None,
                  selector: selectors.BaseSelector | None = None, retry_interval: float = RETRY_INTERVAL,
                  connect_timeout: float = CONNECT_TIMEOUT) -> None:
         self.core = core
@@ -134,7 +146,7 @@ class LinkIO:
         self.connect = connect
         self.retry_interval = retry_interval
         self.connect_timeout = connect_timeout
-        self.housekeeping = core.cfg.heartbeat / 2     # s between the core's heartbeat ticks
+        self.heartbeat = Periodic(core.cfg.heartbeat / 2, on_heartbeat or (lambda _now: None))   # the core's ticks
         self.sel = selector if selector is not None else selectors.DefaultSelector()
         self.socks: dict[int, _Sock] = {}
         self._wake_r, self._wake_w = socket.socketpair()
@@ -146,7 +158,6 @@ class LinkIO:
             self.listen(listener)
         self._next_id = 1
         self._next_connect = -float("inf")
-        self._next_tick: float | None = None
         self._stop = threading.Event()
         self._io_thread: threading.Thread | None = None
 
@@ -246,12 +257,10 @@ class LinkIO:
     def step(self) -> None:
         """One iteration: wait for a socket or for what is due next, handle it, run what is due."""
         now = self.clock()
-        if self._next_tick is None:
-            self._next_tick = now
+        schedule = (self.heartbeat, *self.jobs)
         with self.lock:
-            timeout = min(self.core.next_tick_in(), self._next_tick - now,
-                          *(j.due - now for j in self.jobs if j.due is not None))
-            if any(j.due is None for j in self.jobs):
+            timeout = min([self.core.next_tick_in()] + [j.due - now for j in schedule if j.due is not None])
+            if any(j.due is None for j in schedule):
                 timeout = 0.0
             self._update_interest()
             busy = self._busy()
@@ -266,14 +275,13 @@ class LinkIO:
             self._handle(key, mask)
         now = self.clock()
         self._check_connect_timeouts(now)
-        heartbeat = now >= self._next_tick
+        heartbeat = self.heartbeat.is_due(now)
         with self.lock:
             # the core's own schedule too (a coalesced state due): select() above waited for it,
             # so not ticking now would make the next select() return at once (a spin)
             if heartbeat or self.core.next_tick_in() <= 0:
                 self.apply(self.core.tick())
-        if heartbeat:
-            self._next_tick = now + self.housekeeping
+        self.heartbeat.run_if_due(now)
         for job in self.jobs:
             job.run_if_due(now)
         if self.after_io is not None:
