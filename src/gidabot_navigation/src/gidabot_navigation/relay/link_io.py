@@ -23,9 +23,9 @@ selector says it is writable.
   is called every ``retry_interval`` s; an attempt still unfinished after ``connect_timeout`` s
   is closed.
 
-The ROS adapter (:mod:`gidabot_navigation.relay.end_node`) creates the sockets, passes its
-periodic jobs (delivery hold, diagnostics) and publishes what :meth:`LinkIO.run` hands it after
-every iteration.
+The ROS adapter (:mod:`gidabot_navigation.relay.end_node`) creates the sockets, runs its
+housekeeping with the heartbeat (delivery hold, pruning) and its diagnostics as a periodic job,
+and publishes the core's deliveries after every iteration.
 """
 
 from __future__ import annotations
