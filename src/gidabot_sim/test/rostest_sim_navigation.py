@@ -160,8 +160,8 @@ class SimNavigation(unittest.TestCase):
         self.client.cancel_goal()
         wait_for(lambda: self.client.get_state() == GoalStatus.PREEMPTED, 10, "PREEMPTED")
         wait_for(lambda: self.speed() < 0.02, 5, "the robot to stop")      # 0.7 m/s at 0.6 m/s^2: ~1.2 s sim
-        stopped = self.pose()
-        time.sleep(0.5)                                                     # 5 s sim
+        stopped, t_stop = self.pose(), rospy.get_time()
+        wait_for(lambda: rospy.get_time() >= t_stop + 5.0, 30, "5 s of sim time standing still")
         self.assertLess(math.hypot(self.pose().x - stopped.x, self.pose().y - stopped.y), 0.01)
 
     def test_5_a_new_goal_preempts_the_current_one(self) -> None:
