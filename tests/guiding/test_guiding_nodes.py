@@ -32,6 +32,8 @@ STATUS, PENDING = "gidabot_msgs/RobotStatus", "gidabot_msgs/PendingRequests"
 LEG_PROPOSED, LEG_COMMITTED = 1, 2
 REQUEST, CONTINUE, CANCEL_CMD = 0, 1, 2
 BLOCKED = "012"                   # the fake move_base cannot reach this room
+OFFLINE_AFTER = 60                # s (wall): one status of each other robot (Robot.statuses) keeps it online
+                                  # through a whole test, however loaded the machine (liveness is not tested here)
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
 # the guiding nodes that subscribe each topic the probe publishes on: a message is published once they are
 # connected (the spoofed pending list, for one, is the navigation node's to reject)
@@ -96,7 +98,8 @@ def robot(tmp_path_factory) -> Iterator[Robot]:
         procs.start("fake_nav", [sys.executable, str(FAKE_NAV), "_start:=[30.0, 12.0, 0.0]", "_speed:=12.0",
                                  f"_abort_at:=[[{blocked.x}, {blocked.y}]]"], env)
         procs.start("guiding", ["roslaunch", "--skip-log-check", str(LAUNCH), f"building:={FACULTY}",
-                                "robot:=Tartalo", "continue_timeout:=4", "output:=screen"], env)
+                                "robot:=Tartalo", "continue_timeout:=4", f"offline_after:={OFFLINE_AFTER}",
+                                "output:=screen"], env)
         with Probe(env, tmp / "logs" / "probe.log") as probe:
             for topic, type_ in ((Topic.NAV_EVENTS, EVENT), (Topic.GOALS, GOAL),
                                  (Topic.CANCELS, CANCEL), (Topic.STATUS, STATUS),
