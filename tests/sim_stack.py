@@ -19,6 +19,7 @@ import contextlib
 import math
 import time
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from probe import Probe, ProbeError
@@ -160,8 +161,8 @@ class SimStack:
         self.close()
 
     def close(self) -> None:
-        for rec in self.rec.values():
-            rec.close()
+        with ThreadPoolExecutor(max(1, len(self.rec))) as pool:      # every recorder quits at once
+            list(pool.map(Recorder.close, self.rec.values()))
         self.sim.stop()
 
     def on_machine(self, robot: str) -> Callable[[list[str]], list[str]]:

@@ -32,6 +32,8 @@ STATUS, PENDING = "gidabot_msgs/RobotStatus", "gidabot_msgs/PendingRequests"
 LEG_PROPOSED, LEG_COMMITTED = 1, 2
 REQUEST, CONTINUE, CANCEL_CMD = 0, 1, 2
 BLOCKED = "012"                   # the fake move_base cannot reach this room
+CONTINUE_TIMEOUT = 2              # s: counted from the start robot's release of the visitor (only the second
+                                  # goal of test_goal_floor_meets_the_visitor_and_times_out is released)
 OFFLINE_AFTER = 60                # s (wall): one status of each other robot (Robot.statuses) keeps it online
                                   # through a whole test, however loaded the machine (liveness is not tested here)
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
@@ -98,7 +100,8 @@ def robot(tmp_path_factory) -> Iterator[Robot]:
         procs.start("fake_nav", [sys.executable, str(FAKE_NAV), "_start:=[30.0, 12.0, 0.0]", "_speed:=12.0",
                                  f"_abort_at:=[[{blocked.x}, {blocked.y}]]"], env)
         procs.start("guiding", ["roslaunch", "--skip-log-check", str(LAUNCH), f"building:={FACULTY}",
-                                "robot:=Tartalo", "continue_timeout:=4", f"offline_after:={OFFLINE_AFTER}",
+                                "robot:=Tartalo", f"continue_timeout:={CONTINUE_TIMEOUT}",
+                                f"offline_after:={OFFLINE_AFTER}",
                                 "output:=screen"], env)
         with Probe(env, tmp / "logs" / "probe.log") as probe:
             for topic, type_ in ((Topic.NAV_EVENTS, EVENT), (Topic.GOALS, GOAL),
@@ -175,7 +178,7 @@ def test_goal_floor_meets_the_visitor_and_times_out(robot: Robot) -> None:
     robot.command(CONTINUE, goal_uid="MariSorgin/v/t.1")
     robot.wait_phase(GOAL_REACHED, "MariSorgin/v/t.1", since=n)
     assert robot.events("MariSorgin/v/t.1")[0]["language"] == "eu"
-    # a second visitor never shows up: 4 s after MariSorgin released them, the trip is dropped
+    # a second visitor never shows up: CONTINUE_TIMEOUT s after MariSorgin released them, the trip is dropped
     robot.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.2"))
     robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.2", since=n)
     robot.pub(Topic.NAV_EVENTS, EVENT, {"uid": "MariSorgin/event/t.1", "robot": "MariSorgin", "floor": 3.0,

@@ -99,7 +99,7 @@ def _frozen_master_run(procs, tmp_path, mode: str, timeout: float) -> list[str]:
 
 
 def test_log_calls_and_parameter_reads_do_not_block_on_a_frozen_master(procs, tmp_path) -> None:
-    plain = _frozen_master_run(procs, tmp_path, "plain", timeout=4.0)
+    plain = _frozen_master_run(procs, tmp_path, "plain", timeout=2.0)
     assert plain == ["blocked"], plain                 # rospy alone: its first log line waits for the master
     lines = _frozen_master_run(procs, tmp_path, "bounded", timeout=20.0)
     log_s = float(next(line.split()[1] for line in lines if line.startswith("log ")))
