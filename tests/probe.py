@@ -26,6 +26,7 @@ import sys
 import time
 import xmlrpc.client
 from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 PROBE = Path(__file__).resolve().parent / "ros_probe.py"
@@ -69,6 +70,13 @@ def connected_subscribers(master_uri: str, publisher: str, topic: str) -> set[st
     except (OSError, xmlrpc.client.Error):
         return set()
     return bus_subscribers(info, topic) if code == 1 else set()
+
+
+def close_all(probes: Iterable[Probe]) -> None:
+    """Close every probe of ``probes`` side by side (each may take a moment to leave its master)."""
+    probes = list(probes)
+    with ThreadPoolExecutor(max(1, len(probes))) as pool:
+        list(pool.map(Probe.close, probes))
 
 
 def wait_connected(master_uri: str, publisher: str, topic: str, subscribers: Iterable[str],

@@ -15,7 +15,7 @@ import xmlrpc.client
 from collections.abc import Callable
 from pathlib import Path
 
-from probe import Probe
+from probe import Probe, close_all
 
 from gidabot_navigation.interface import Topic, is_relay_end, relay_end_name
 from gidabot_sim.runner.procs import wait_until
@@ -73,8 +73,7 @@ class RelayMesh:
             self.sim.procs.signal(name, signal.SIGINT)
         for name in names:
             self.sim.procs.stop(name)
-        for p in self.probes.values():
-            p.close()
+        close_all(self.probes.values())
 
     def __enter__(self) -> RelayMesh:
         return self

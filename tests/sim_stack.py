@@ -19,10 +19,9 @@ import contextlib
 import math
 import time
 from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
-from probe import Probe, ProbeError
+from probe import Probe, ProbeError, close_all
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
@@ -61,9 +60,6 @@ class Recorder:
                  command: Callable[[list[str]], list[str]] = list) -> None:
         self.probe = Probe(env, log_path, timeout=timeout, command=command)
         self.cache: dict[str, list[dict]] = {}
-
-    def close(self) -> None:
-        self.probe.close()
 
     def sub(self, topic: str, type_: str | None = None) -> None:
         self.probe.sub(topic, type_ or TYPES[topic])
@@ -161,8 +157,7 @@ class SimStack:
         self.close()
 
     def close(self) -> None:
-        with ThreadPoolExecutor(max(1, len(self.rec))) as pool:      # every recorder quits at once
-            list(pool.map(Recorder.close, self.rec.values()))
+        close_all(rec.probe for rec in self.rec.values())
         self.sim.stop()
 
     def on_machine(self, robot: str) -> Callable[[list[str]], list[str]]:
@@ -209,7 +204,7 @@ class SimStack:
         self.rec[robot].pub(Topic.VISITOR_COMMAND, msg, to=GUIDING)
         return uid
 
-    def request(self, robot: str, goal_id: str, way: str = "stairs", timeout: float = 20.0) -> tuple[str, int]:
+    def request(self, robot: str, goal_id: str, way: str = "stairs", timeout: float = 30.0) -> tuple[str, int]:
         """REQUEST at ``robot``; returns the new goal's uid and the index of ``robot``'s events before it."""
         rec = self.rec[robot]
         since = rec.count(EVENTS)
