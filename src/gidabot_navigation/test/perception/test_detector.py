@@ -14,7 +14,15 @@ from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
 from gidabot_navigation.errors import PerceptionError, ScanError
 from gidabot_navigation.perception import synthetic as sy
 from gidabot_navigation.perception.benchmark import benchmark
-from gidabot_navigation.perception.detector import Detector, DetectorParams, FieldOfView, Kind, Scan, occupied_lookup
+from gidabot_navigation.perception.detector import (
+    Detector,
+    DetectorParams,
+    FieldOfView,
+    Kind,
+    Scan,
+    fov_mismatch,
+    occupied_lookup,
+)
 
 ROBOT = Pose2D(0.0, 0.0, 0.0)
 ROOM = sy.box(0.0, 0.0, 12.0, 8.0)           # the walls of a 12 x 8 m room around the robot
@@ -211,3 +219,11 @@ def test_the_benchmark_measures_a_scan() -> None:
     """The figure itself is for the report (python -m gidabot_navigation.perception.benchmark), not a test."""
     figures = benchmark(beams=(360,), scans=20)
     assert set(figures) == {360} and all(f["detect_ms"] > 0 and f["step_ms"] > 0 for f in figures.values())
+
+
+def test_a_declared_field_of_view_is_checked_against_the_scans() -> None:
+    front = sy.scan(sy.Scene(), ROBOT, sy.Laser(beams=541, fov=math.radians(270)))
+    assert fov_mismatch(math.radians(270), front) == ""
+    assert fov_mismatch(2 * math.pi, front) == ("the scans cover 270 deg, the building file declares 360 deg "
+                                                "(sensors.laser.fov): the scans' angles are used")
+    assert fov_mismatch(2 * math.pi, sy.scan(sy.Scene(), ROBOT, sy.Laser(beams=360))) == ""

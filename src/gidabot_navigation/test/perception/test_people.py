@@ -318,3 +318,15 @@ def test_the_people_topics_stay_on_the_robot() -> None:
     (which the relays share)."""
     for name in (Topic.PEOPLE_TRACKS, Topic.PEOPLE_VISITOR, Topic.PEOPLE_VISITOR_LOCK):
         assert not name.startswith("/")
+
+
+def test_the_wish_for_a_visitor_locks_on_a_change_only() -> None:
+    """The lock topic is latched: the same wish again (a reconnection) must not lock someone else mid-trip."""
+    w = walk()
+    w.run(1.0)
+    assert w.tracker.want_visitor(True) and w.tracker.visitor.seen
+    vid = w.tracker.visitor.track_id
+    w.run(0.5)
+    assert not w.tracker.want_visitor(True) and w.tracker.visitor.track_id == vid
+    assert w.tracker.want_visitor(False) and w.tracker.visitor.sight == Sight.NONE
+    assert not w.tracker.want_visitor(False)

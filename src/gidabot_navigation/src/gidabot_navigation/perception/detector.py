@@ -170,6 +170,16 @@ class FieldOfView:
         return off <= (self.angle_max - self.angle_min) / 2.0 - slack
 
 
+def fov_mismatch(declared: float, scan: Scan) -> str:
+    """What is wrong with a laser declared to cover ``declared`` rad (the building file's ``sensors.laser.fov``)
+    whose scans cover another angle (more than two beams apart); "" when they agree."""
+    covered = scan.beams * scan.angle_increment if scan.full_circle else scan.angle_max - scan.angle_min
+    if abs(covered - declared) <= 2 * scan.angle_increment:
+        return ""
+    return (f"the scans cover {math.degrees(covered):.0f} deg, the building file declares {math.degrees(declared):.0f}"
+            " deg (sensors.laser.fov): the scans' angles are used")
+
+
 @dataclass(frozen=True)
 class DetectorParams:
     max_range: float = 8.0                          # m: farther returns are ignored

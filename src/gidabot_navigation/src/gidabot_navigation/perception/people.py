@@ -8,7 +8,8 @@
 - ``lock_visitor()``: at the moment guiding starts, the track in the *lock cone* (``lock_bearing`` +-
   ``lock_half_angle`` in the robot's frame, within ``lock_distance``; behind the robot by default)
   becomes THE visitor; if none is there yet the tracker keeps looking (``ACQUIRING``) for
-  ``lock_window`` s. ``unlock_visitor()`` lets it go.
+  ``lock_window`` s. ``unlock_visitor()`` lets it go; ``want_visitor(bool)`` does either on a change of
+  the guiding core's wish (the people node's latched lock topic).
 
 **Tracks.** Each person is a constant-velocity Kalman filter in the map frame (state x, y, vx, vy;
 white acceleration noise ``accel_sigma``; a detection's position has a standard deviation of ``meas_sigma``
@@ -190,6 +191,7 @@ class PeopleTracker:
         self._confidence = 0.0
         self._last_seen: LastSeen | None = None
         self._report = VisitorReport(Sight.NONE)
+        self._wanted = False
 
     # -- the visitor lock ------------------------------------------------------------------------
     def lock_visitor(self) -> bool:
@@ -209,6 +211,19 @@ class PeopleTracker:
         self._visitor, self._acquiring_since, self._last_seen = None, None, None
         self._sight, self._confidence = Sight.NONE, 0.0
         self._report = VisitorReport(Sight.NONE)
+
+    def want_visitor(self, wanted: bool) -> bool:
+        """The guiding core's wish, as a state (a latched topic): a change to True locks the visitor
+        (:meth:`lock_visitor`), False lets it go; the same wish again changes nothing (a re-sent latched
+        message must not lock another person mid-trip). True when the lock changed."""
+        if wanted == self._wanted:
+            return False
+        self._wanted = wanted
+        if wanted:
+            self.lock_visitor()
+        else:
+            self.unlock_visitor()
+        return True
 
     @property
     def visitor(self) -> VisitorReport:
