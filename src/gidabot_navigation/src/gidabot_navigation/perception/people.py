@@ -11,30 +11,29 @@
   ``lock_window`` s. ``unlock_visitor()`` lets it go; ``want_visitor(bool)`` does either on a change of
   the guiding core's wish (the people node's latched lock topic).
 
-**Tracks.** Each person is a constant-velocity Kalman filter in the map frame (state x, y, vx, vy;
-white acceleration noise ``accel_sigma``; a detection's position has a standard deviation of ``meas_sigma``
-divided by its confidence: a partly hidden body pulls little). Every scan, the tracks are predicted to its time and the
-detections assigned to them by the Hungarian method (``scipy.optimize.linear_sum_assignment``) on the
-negative log-likelihood of the innovation, gated by the Mahalanobis distance (``gate_chi2``) and a
-distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. A detection
-nobody takes starts a tentative track unless it lies within ``birth_exclusion`` of a track (one person,
-one track), which is confirmed after ``confirm_hits`` updates; a track unseen for ``track_lost_after``
-s (tentative: ``tentative_lost_after``) is dropped. A track unseen for more than ``coast_time`` s loses
-its velocity with time constant ``unseen_velocity_tau`` (people stop; a prediction does not run off).
+**Tracks.** Each person is a constant-velocity Kalman filter in the map frame (state x, y, vx, vy; white
+acceleration noise ``accel_sigma``; a detection's position has a standard deviation of ``meas_sigma``
+divided by its confidence: a partly hidden body pulls little). Every scan, the tracks are predicted to its
+time and the detections assigned to them by the Hungarian method (``scipy.optimize.linear_sum_assignment``)
+on the negative log-likelihood of the innovation, gated by the Mahalanobis distance (``gate_chi2``) and a
+distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. A detection nobody
+takes starts a tentative track unless it lies within ``birth_exclusion`` of a track (one person, one
+track), which is confirmed after ``confirm_hits`` updates; a track unseen for ``track_lost_after`` s
+(tentative: ``tentative_lost_after``) is dropped. A track unseen for more than ``coast_time`` s loses its
+velocity with time constant ``unseen_velocity_tau`` (people stop; a prediction does not run off).
 
 **The visitor is not swapped.** The visitor's track is associated like the others, with its predicted
-position and velocity, so a bystander crossing close by keeps its own track; and when the assignment is
-*ambiguous* (another confirmed track could take the visitor's detection, or the visitor the other's, and
-that assignment costs less than ``ambiguity_margin`` more in log-likelihood, a track that gets no detection
-costing as one at the gate's edge unless it could not have been seen: out of view, or behind something
-nearer in the scan) neither is updated: both coast
-on their own motion until they are apart again, and the visitor's confidence is halved, rather than risk
-a swap (were the rival updated, it could settle on the visitor and take its detections afterwards). It is never
-dropped as other tracks are, only reported:
+position and velocity, so a bystander crossing close by keeps its own track. When the assignment is
+*ambiguous* (another confirmed track could take the visitor's detection, or the visitor the other's, for
+less than ``ambiguity_margin`` more in log-likelihood; a track that gets no detection costs as one at the
+gate's edge, unless it could not have been seen: out of view, or behind something nearer in the scan),
+neither is updated: both coast on their own motion until they are apart again, and the visitor's
+confidence is halved, rather than risk a swap (an updated rival could settle on the visitor and take its
+detections afterwards). The visitor's track is never dropped as other tracks are, only reported:
 
 - ``SEEN``: updated by this scan;
-- ``HIDDEN``: not seen, predicted inside the laser's field of view (occluded, missed); ``LOST`` once it has
-  been hidden this way for ``visitor_lost_after`` s since it was last seen;
+- ``HIDDEN``: not seen, predicted inside the laser's field of view (occluded, missed, beyond its range);
+  ``LOST`` once it has been hidden this way for ``visitor_lost_after`` s since it was last seen;
 - ``OUT_OF_VIEW``: predicted at a bearing the laser does not cover (behind a front laser: the guiding core
   may turn to look; farther than the laser reaches is ``HIDDEN``); this time does not count against
   ``visitor_lost_after``, but ``out_of_view_lost_after`` s unseen in all is ``LOST`` too;
@@ -109,7 +108,6 @@ class _Track:
     id: int
     state: np.ndarray              # x, y, vx, vy (m, m/s, map frame)
     cov: np.ndarray                # 4 x 4
-    born: float
     seen: float                    # time of the last update
     hits: int = 1
     confirmed: bool = False
@@ -293,10 +291,8 @@ class PeopleTracker:
         for j, det in enumerate(people):
             if j in claimed or j in withheld or det.confidence < p.birth_confidence:
                 continue
-            if any(math.hypot(tr.state[0] - det.x, tr.state[1] - det.y) < p.birth_exclusion
-                                for tr in self._tracks):
-                continue
-            self._birth(det.x, det.y, t)
+            if all(math.hypot(tr.state[0] - det.x, tr.state[1] - det.y) >= p.birth_exclusion for tr in self._tracks):
+                self._birth(det.x, det.y, t)
         self._tracks = [tr for tr in self._tracks if tr.id == self._visitor or
                         t - tr.seen <= (p.track_lost_after if tr.confirmed else p.tentative_lost_after)]
 
@@ -422,7 +418,7 @@ class PeopleTracker:
         cov = np.diag([p.meas_sigma ** 2, p.meas_sigma ** 2, p.init_speed_sigma ** 2, p.init_speed_sigma ** 2])
         robot = self._robot
         heading = math.atan2(robot.y - y, robot.x - x) if robot is not None else 0.0
-        self._tracks.append(_Track(self._next_id, np.array([x, y, 0.0, 0.0]), cov, t, t, heading=heading,
+        self._tracks.append(_Track(self._next_id, np.array([x, y, 0.0, 0.0]), cov, t, heading=heading,
                                    confirmed=p.confirm_hits <= 1))
         self._next_id += 1
 

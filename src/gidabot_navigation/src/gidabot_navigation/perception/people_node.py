@@ -148,7 +148,7 @@ class PeopleNode:
         detector = Detector(DetectorParams(max_range=params.max_range), mount=robot.laser.mount, occupied=occupied)
         self.tracker = PeopleTracker(detector, params.tracker)
         self.poses = RobotPose()
-        self.inbox: queue.Queue[tuple[str, object] | None] = queue.Queue(QUEUE_SIZE)   # None: wake up
+        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.counts = {"scans": 0, "malformed": 0, "no_pose": 0, "dropped": 0, "bad_pose": 0}
         self.step_ms: list[float] = []
         self.last_error = ""
@@ -170,25 +170,23 @@ class PeopleNode:
             self.counts["dropped"] += 1
 
     def _wake(self) -> None:
+        """End the loop's wait at once (from the exit guard's thread)."""
         with contextlib.suppress(queue.Full):
-            self.inbox.put_nowait(None)
+            self.inbox.put_nowait(("wake", None))
 
     # -- the loop that owns the tracker ----------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
+        """Handle what comes in, in order, until shutdown or the guard's signal (which wakes it); diagnostics at
+        their rate."""
         guard.set_wake(self._wake)
         period = 1.0 / self.params.diagnostics_rate
-        next_tick = time.monotonic() + period
+        due = time.monotonic() + period
         try:
             while not rospy.is_shutdown() and not guard.requested:
-                try:
-                    item = self.inbox.get(timeout=max(0.0, min(0.2, next_tick - time.monotonic())))
-                except queue.Empty:
-                    item = None
-                if item is not None:
-                    self.handle(*item)
-                now = time.monotonic()
-                if now >= next_tick:
-                    next_tick = max(next_tick + period, now)
+                with contextlib.suppress(queue.Empty):
+                    self.handle(*self.inbox.get(timeout=min(0.2, max(0.0, due - time.monotonic()))))
+                if time.monotonic() >= due:
+                    due = max(due + period, time.monotonic())
                     self._publish_diagnostics()
         finally:
             guard.loop_stopped()
@@ -196,18 +194,13 @@ class PeopleNode:
     def handle(self, kind: str, msg: object) -> None:
         if kind == "scan":
             self._scan(msg)  # type: ignore[arg-type]
-        elif kind == "amcl":
+        elif kind in ("amcl", "odom"):
             pose = pose_of(msg.pose.pose)  # type: ignore[attr-defined]
             stamp = msg.header.stamp.to_sec()  # type: ignore[attr-defined]
             if pose is None or not all_finite(stamp):
                 self.counts["bad_pose"] += 1
-            else:
+            elif kind == "amcl":
                 self.poses.localised(stamp, pose)
-        elif kind == "odom":
-            pose = pose_of(msg.pose.pose)  # type: ignore[attr-defined]
-            stamp = msg.header.stamp.to_sec()  # type: ignore[attr-defined]
-            if pose is None or not all_finite(stamp):
-                self.counts["bad_pose"] += 1
             else:
                 self.poses.odometry(stamp, pose)
         elif kind == "lock" and self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
