@@ -26,6 +26,7 @@ class Node:
     MULTIROBOT_NAVIGATION = "multirobot_navigation"   # the paper's name of the node that drives move_base
     TOUR_STORE = "tour_store"
     RELAY_SUPERVISOR = "relay_supervisor"
+    PEOPLE = "people"                  # the people detector and tracker (the visitor behind the robot)
     GUI = "gui"
     # the simulated floor, and the stand-ins of a robot's own navigation stack
     SIM = "sim"
@@ -85,6 +86,10 @@ class Topic:
     TOUR_EDIT = "tour_store/edit"
     TOUR_EDIT_RESULT = "tour_store/edit_result"
     TOUR_CATALOG = "tour_store/catalog"
+    # the people the robot's laser tracks, and the visitor it guides: never shared with other robots
+    PEOPLE_TRACKS = "people/tracks"
+    PEOPLE_VISITOR = "people/visitor"
+    PEOPLE_VISITOR_LOCK = "people/visitor_lock"
     # the robot's navigation stack and base (standard names)
     MOVE_BASE = "move_base"                               # the move_base action's namespace
     MOVE_BASE_GOAL = "move_base/goal"
@@ -254,6 +259,20 @@ LEG_PROPOSED = 1         # the origin robot asked that robot; it answers ACCEPTE
 LEG_COMMITTED = 2        # that robot serves the leg; never changes afterwards
 LEG_STATES = (LEG_NONE, LEG_PROPOSED, LEG_COMMITTED)
 LEG_STATE_NAMES = {LEG_NONE: "none", LEG_PROPOSED: "proposed", LEG_COMMITTED: "committed"}
+
+# -- gidabot_msgs/VisitorTrack sights: what the robot's laser knows of the visitor it guides (docs/perception.md)
+class Sight(IntEnum):
+    """gidabot_msgs/VisitorTrack ``sight`` (same numbers)."""
+
+    NONE = 0            # no visitor locked
+    ACQUIRING = 1       # a lock was asked for; no track in the lock cone yet
+    SEEN = 2            # the visitor's track was updated by the latest scan
+    HIDDEN = 3          # predicted inside the laser's field of view but not seen (occluded, missed)
+    OUT_OF_VIEW = 4     # predicted outside the laser's field of view (e.g. behind a front laser): turn to look
+    LOST = 5            # unseen beyond the budgets, or never found in the lock cone
+
+
+SIGHT_NAMES = {s: s.name.lower().replace("_", " ") for s in Sight}
 
 # -- the visitors' languages (building names, tours, pop-ups, speech) -------------------------
 LANGUAGES = ("eu", "en", "es")
