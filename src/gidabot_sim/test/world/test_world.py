@@ -366,3 +366,29 @@ def test_keep_out_zones_stop_bodies_but_not_the_laser() -> None:
     world.add_obstacle("box", Circle(2.0, 1.0, 0.3))                     # a rebuild keeps the zone solid
     assert world.clearance(5.0, 3.0) == pytest.approx(0.95, abs=0.03)       # rasterised with half a cell more
     assert World(hall()).clearance(5.0, 3.0) == pytest.approx(2.95, abs=0.03)   # no zone: only the walls
+
+
+def test_a_floors_world_and_move_base_hold_its_keep_out_zones(tmp_path: Path) -> None:
+    """What the simulator and move_base nodes build from the building file: the floor's map with its keep-out
+    zones (solid for the robots, lethal for the planner)."""
+    import shutil
+
+    import yaml
+
+    from gidabot_sim.navstack.move_base import MoveBaseCore
+
+    shutil.copytree(FACULTY, tmp_path / "faculty")
+    file = tmp_path / "faculty" / "building.yaml"
+    doc = yaml.safe_load(file.read_text())
+    doc["floors"][1]["keep_out"] = [{"id": "glass", "polygon": [[43.0, 11.9], [47.0, 11.9], [47.0, 13.6],
+                                                                [43.0, 13.6]]}]
+    file.write_text(yaml.safe_dump(doc, sort_keys=False))
+    floor = load_building(tmp_path / "faculty").floor(1)
+    world = World.of_floor(floor, dt=0.02)
+    assert world.grid is floor.map
+    world.add_robot(spec(), Pose2D(40.0, 12.0, 0.0))
+    with pytest.raises(PoseRejected, match="keep-out zone"):
+        world.teleport(0, Pose2D(45.0, 12.8, 0.0))
+    core = MoveBaseCore.for_floor(floor, 0.3, DIFF)
+    assert list(core.planner.keep_out) == ["glass"] and core.planner.keep_out_at(45.0, 12.8) == "glass"
+    assert World.of_floor(load_building(FACULTY).floor(1)).clearance(45.0, 12.8) > 0.3      # no zone, no wall

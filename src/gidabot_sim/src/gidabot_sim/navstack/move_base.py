@@ -59,6 +59,7 @@ from enum import Enum
 import numpy as np
 
 from gidabot_navigation.building.geometry import Polygon, Pose2D, wrap_angle
+from gidabot_navigation.building.model import Floor
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.building.planning import (
     Circle,
@@ -192,6 +193,13 @@ class FollowedPath:
 
 class MoveBaseCore:
     """Plans and follows paths to one goal at a time (see the module docstring)."""
+
+    @classmethod
+    def for_floor(cls, floor: Floor, radius: float, limits: Limits, config: NavConfig | None = None,
+                  log: Logger | None = None, **kwargs) -> MoveBaseCore:
+        """A core for a robot of ``radius`` on a building's ``floor``: its map, its keep-out zones lethal (what the
+        node and the benches run); ``kwargs`` as :meth:`for_robot`'s."""
+        return cls.for_robot(floor.map, radius, limits, config, log, keep_out=floor.keep_out_zones, **kwargs)
 
     @classmethod
     def for_robot(cls, grid: OccupancyMap, radius: float, limits: Limits, config: NavConfig | None = None,

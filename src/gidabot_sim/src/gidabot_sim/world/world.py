@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gidabot_navigation.building.geometry import Polygon, Pose2D, wrap_angle
+from gidabot_navigation.building.model import Floor
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.building.planning import Circle, Rectangle, Shape, keep_out_mask, rasterize
 from gidabot_navigation.errors import ObstacleError
@@ -200,6 +201,11 @@ class World:
     repeatable runs). Time advances only by steps (:meth:`step`): it is ``start + steps * dt``,
     without rounding drift. ``keep_out``: the floor's keep-out zones by id (solid for bodies, not for the laser).
     """
+
+    @classmethod
+    def of_floor(cls, floor: Floor, **kwargs) -> World:
+        """The world of a building's ``floor``: its map and its keep-out zones (the nodes and benches make it so)."""
+        return cls(floor.map, keep_out=floor.keep_out_zones, **kwargs)
 
     def __init__(self, grid: OccupancyMap, dt: float = 0.02, cmd_timeout: float = 0.2,
                  rng: np.random.Generator | None = None, deadlock_time: float = 30.0,

@@ -266,7 +266,7 @@ class SimNode:
         substeps = params.step / params.dt
         if abs(substeps - round(substeps)) > 1e-6:
             raise SimConfigError(f"~step: {params.step:g} s must be a multiple of ~physics_dt ({params.dt:g} s)")
-        self.world = World(self.floor.map, dt=params.dt, cmd_timeout=params.cmd_timeout,
+        self.world = World.of_floor(self.floor, dt=params.dt, cmd_timeout=params.cmd_timeout,
                            rng=np.random.default_rng(params.seed), deadlock_time=params.deadlock_time)
         for robot, pose in zip(robots, params.poses, strict=True):
             spec = RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), params.laser, params.battery)
