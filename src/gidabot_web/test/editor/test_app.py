@@ -7,6 +7,7 @@ import asyncio
 import shutil
 from collections.abc import Awaitable, Callable
 from pathlib import Path
+from urllib.parse import quote
 
 import pytest
 import yaml
@@ -201,3 +202,97 @@ def test_a_new_building_aligned_by_two_point_pairs(maps_only: Path) -> None:
         assert status == 200 and answer["draft"] and not answer["backup"]
         assert yaml.safe_load((maps_only / "building.yaml").read_text())["draft"] is True
     run(maps_only, test)
+
+
+HOSTILE = ("evil name.png", "<img src=x onerror=alert(1)>.png", "new\nline.png", ".hidden.png", "-rf.png",
+           "ünï.png", "x" * 140 + ".png")
+
+
+def test_hostile_file_names_are_refused_with_the_reason(faculty_dir: Path) -> None:
+    """Files whose names a building must not hold are neither offered nor served nor accepted in an edit, and the
+    page is told which were left out and why; a map whose image lies outside the folder too."""
+    for name in HOSTILE:
+        shutil.copy(faculty_dir / "floor0.png", faculty_dir / name)
+    (faculty_dir / "outside.yaml").write_text("image: ../faculty/floor0.pgm\nresolution: 0.05\n"
+                                              "origin: [0, 0, 0]\nnegate: 0\n")
+
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        _, state = await page.get("/api/state")
+        offered = state["files"]["images"] + state["files"]["maps"]
+        assert not set(HOSTILE) & set(offered) and "outside.yaml" not in offered
+        reasons = {f["name"]: f["reason"] for f in state["files"]["left_out"]}
+        assert set(reasons) == {*HOSTILE, "outside.yaml"}, reasons
+        assert all(r.startswith("not a plain file name") for n, r in reasons.items() if n != "outside.yaml")
+        assert reasons["outside.yaml"].startswith("its image '../faculty/floor0.pgm': not a plain file name")
+        for name in (*HOSTILE, "../faculty/floor0.png"):
+            r = await page.client.get("/files/" + quote(name, safe=""))
+            assert r.status == 404, name
+            status, answer = await page.post("/api/edit", {"edits": [
+                {"op": "set", "path": ["floors", 0, "blueprint"], "value": name}]})
+            assert status == 400 and "not a file of the building folder: not a plain file name" in \
+                answer["message"], (name, answer)
+        for key, name, reason in (("map", "floor9.yaml", "not a file of the building folder: no such file"),
+                                  ("map", "outside.yaml", "its image '../faculty/floor0.pgm': not a plain file"),
+                                  ("map", "floor0.png", "not a map_server map"),
+                                  ("blueprint", "outside.yaml", "not an image")):
+            status, answer = await page.post("/api/edit", {"edits": [
+                {"op": "set", "path": ["floors", 0, key], "value": name}]})
+            assert status == 400 and reason in answer["message"], (name, answer)
+        assert server.document.revision == 0
+    run(faculty_dir, test)
+
+
+def test_floors_renumbered_and_removed_through_the_api(faculty_dir: Path) -> None:
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        status, answer = await page.post("/api/floor/id", {"floor": 0, "id": -0.5})
+        assert status == 200 and answer["undo"] == "floor id -0.5"
+        state = await page.checked()
+        assert state["check"]["accepted"] and state["doc"]["robots"][0]["floor"] == -0.5
+        status, answer = await page.post("/api/floor/id", {"floor": 1, "id": -0.5})
+        assert status == 400 and "floors[0] has it already" in answer["message"]
+        assert (await page.post("/api/floor/id", {"floor": 1, "id": "1; rm"}))[0] == 400
+        assert (await page.post("/api/floor/remove", {"floor": 9}))[0] == 400
+        assert (await page.post("/api/floor/remove", {"floor": 3}, **{CSRF_HEADER: "nope"}))[0] == 403
+        assert (await page.client.get("/api/floor/remove")).status == 405
+        status, answer = await page.post("/api/floor/remove", {"floor": 3})
+        assert status == 200 and answer["undo"] == "remove floor 3"
+        state = await page.checked()
+        assert [f["id"] for f in state["doc"]["floors"]] == [-0.5, 1, 2]
+        assert state["check"]["accepted"], state["check"]["problems"]
+    run(faculty_dir, test)
+
+
+def test_a_save_that_cannot_be_written_loses_nothing(faculty_dir: Path, monkeypatch) -> None:
+    """The disk full while the new file is written: the stored file and its backup are as they were, no partial
+    file is left, the page gets the reason, and the edits are still there to save again."""
+    import errno
+    import os
+
+    from gidabot_navigation.building import building_file
+
+    async def test(page: Page, server: EditorServer) -> None:
+        await page.login()
+        await page.post("/api/edit", {"edits": [{"op": "set", "path": ["name"], "value": "First"}]})
+        assert (await page.post("/api/save", {}))[0] == 200
+        stored = (faculty_dir / "building.yaml").read_bytes()
+        backup = (faculty_dir / "building.yaml.bak").read_bytes()
+        files = sorted(p.name for p in faculty_dir.iterdir())
+        await page.post("/api/edit", {"edits": [{"op": "set", "path": ["name"], "value": "Second"}]})
+
+        def full(_fd: int) -> None:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+        monkeypatch.setattr(building_file.os, "fsync", full)
+        status, answer = await page.post("/api/save", {})
+        assert status == 500 and "No space left on device" in answer["message"]
+        assert (faculty_dir / "building.yaml").read_bytes() == stored
+        assert (faculty_dir / "building.yaml.bak").read_bytes() == backup
+        assert sorted(p.name for p in faculty_dir.iterdir()) == files
+        monkeypatch.undo()
+        _, state = await page.get("/api/state")
+        assert state["dirty"] and state["doc"]["name"] == "Second"
+        assert (await page.post("/api/save", {}))[0] == 200
+        assert load_building(faculty_dir).name == "Second"
+    run(faculty_dir, test)

@@ -47,7 +47,8 @@ from gidabot_navigation.building.model import building_from_doc
 from gidabot_navigation.building.yaml_text import load_yaml
 from gidabot_navigation.errors import AlignmentError, BuildingError, ResourceError
 from gidabot_web.editor.checks import CheckResult, LiveChecker
-from gidabot_web.editor.document import BuildingDocument, folder_file, folder_images, folder_maps
+from gidabot_web.editor.document import BuildingDocument, folder_file, folder_images, folder_maps, left_out
+from gidabot_web.editor.floors import removal_edits, renumber_edits
 from gidabot_web.editor.preview import FEATURED, Preview, fitting_tours
 from gidabot_web.errors import EditError, PreviewError, Refused
 
@@ -121,7 +122,8 @@ class EditorServer:
         r.add_get("/files/{name}", self._read(self._file))
         for path, handler in (("/api/edit", self._edit), ("/api/undo", self._undo), ("/api/redo", self._redo),
                               ("/api/align/blueprint", self._align_blueprint),
-                              ("/api/align/floor", self._align_floor), ("/api/save", self._save),
+                              ("/api/align/floor", self._align_floor), ("/api/floor/id", self._floor_id),
+                              ("/api/floor/remove", self._floor_remove), ("/api/save", self._save),
                               ("/api/preview/start", self._preview_start), ("/api/preview/stop", self._preview_stop)):
             r.add_post(path, self._action(handler))
         self._task: asyncio.Task | None = None
@@ -262,7 +264,7 @@ class EditorServer:
         if request.query.get("since") != str(doc.revision):
             out.update(doc=doc.plain(), folder=self.directory.name, floors=self._floor_info(doc.plain()),
                        files={"maps": [n for n, _ in folder_maps(self.directory)],
-                              "images": folder_images(self.directory)})
+                              "images": folder_images(self.directory), "left_out": left_out(self.directory)})
         return web.json_response(out)
 
     def _floor_info(self, data: dict) -> list[dict]:
@@ -383,6 +385,26 @@ class EditorServer:
                            f"align floor {index + 1} to floor {ref + 1}")
         return {**done, "aligned_to": value, "residuals_m": [round(r, 3) for r in fit.residuals_m],
                 "rms_m": round(fit.rms_m, 3), "max_m": round(fit.max_m, 3), "scale": round(fit.scale, 4)}
+
+    async def _floor_id(self, body: dict) -> dict:
+        """Give floor ``floor`` (its index) the id ``id``, and every place, robot, meeting pose, connector and
+        alignment naming it too."""
+        index = self._floor_index(body)
+        try:
+            edits = renumber_edits(self.document.plain(), index, body.get("id"))
+        except EditError as err:
+            raise Refused(400, "edit", str(err)) from err
+        return self._apply(edits, f"floor id {edits[0]['value']}")
+
+    async def _floor_remove(self, body: dict) -> dict:
+        """Remove floor ``floor`` (its index) with its places, robots and meeting poses."""
+        index = self._floor_index(body)
+        fid = self.document.plain()["floors"][index].get("id")
+        try:
+            edits = removal_edits(self.document.plain(), index)
+        except EditError as err:
+            raise Refused(400, "edit", str(err)) from err
+        return self._apply(edits, f"remove floor {fid}")
 
     async def _save(self, body: dict) -> dict:
         """Save the building: as it is when the checks accept it, else only with ``draft`` (marked ``draft:

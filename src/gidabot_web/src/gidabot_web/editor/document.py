@@ -69,17 +69,26 @@ def is_safe_file_name(name: object) -> bool:
     return isinstance(name, str) and bool(SAFE_FILE.match(name)) and name not in (".", "..")
 
 
-def folder_file(directory: Path, name: object) -> Path | None:
-    """The regular file ``name`` of ``directory`` (not a symbolic link), or None."""
+def file_problem(directory: Path, name: object) -> str | None:
+    """Why ``name`` cannot be a file the building names (None when it can): a plain name (letters, digits and
+    ``_ . -``, not starting with ``.`` or ``-``, no directory) of a regular file of ``directory``, not a link."""
     if not is_safe_file_name(name):
-        return None
+        return "not a plain file name (letters, digits, '_', '.', '-' only, at most 128, not starting with '.' " \
+               "or '-', no directory)"
     path = directory / str(name)
     try:
-        if path.is_symlink() or not path.is_file():
-            return None
-    except OSError:
-        return None
-    return path
+        if path.is_symlink():
+            return "a symbolic link, not a file of the building folder"
+        if not path.is_file():
+            return "no such file in the building folder"
+    except OSError as err:
+        return f"cannot be read ({err.strerror})"
+    return None
+
+
+def folder_file(directory: Path, name: object) -> Path | None:
+    """The regular file ``name`` of ``directory`` (not a symbolic link), or None."""
+    return None if file_problem(directory, name) is not None else directory / str(name)
 
 
 class BuildingDocument:
@@ -257,9 +266,15 @@ class BuildingDocument:
         elif path == ("floors",) and isinstance(value, list):
             targets += [(k, f[k]) for f in value if isinstance(f, Mapping) for k in FILE_KEYS if k in f]
         for key, name in targets:
-            if folder_file(self.directory, name) is None:
-                raise EditError(f"{key} {_short(name)}: not a file of the building folder (a plain file name: "
-                                "no directory, no link)")
+            problem = file_problem(self.directory, name)
+            if problem is not None:
+                raise EditError(f"{key} {_short(name)}: not a file of the building folder: {problem}")
+            if key == "map":
+                problem = _map_problem(self.directory, name)
+                if problem is not None:
+                    raise EditError(f"map {_short(name)}: {problem}")
+            elif Path(str(name)).suffix.lower() not in IMAGE_SUFFIXES:
+                raise EditError(f"blueprint {_short(name)}: not an image ({', '.join(IMAGE_SUFFIXES)})")
 
     def _find(self, path: Path_) -> object | None:
         node: object = self.doc
@@ -399,18 +414,33 @@ def _label(label: object) -> str:
 FLOOR_NAMES = {"eu": "{n}. solairua", "en": "Floor {n}", "es": "Planta {n}"}
 
 
+def _map_doc(path: Path) -> dict | None:
+    """A map_server map YAML's content, or None when ``path`` is not one."""
+    try:
+        doc = load_yaml(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return None
+    return doc if isinstance(doc, dict) and {"image", "resolution", "origin"} <= set(doc) else None
+
+
+def _map_problem(directory: Path, name: object) -> str | None:
+    """Why the file ``name`` of ``directory`` is not a map the building can name (None when it is)."""
+    doc = _map_doc(directory / str(name))
+    if doc is None:
+        return "not a map_server map (YAML with image, resolution and origin)"
+    problem = file_problem(directory, doc["image"])
+    return None if problem is None else f"its image {_short(doc['image'])}: {problem}"
+
+
 def folder_maps(directory: Path) -> list[tuple[str, dict]]:
-    """The map_server map files of ``directory`` (name, their YAML), by name."""
+    """The map_server map files of ``directory`` whose image is a file of it too (name, their YAML), by name."""
     found = []
     for path in sorted(directory.iterdir()):
         if path.suffix not in (".yaml", ".yml") or path.name == bf.FILE_NAME or folder_file(directory, path.name) \
                 is None:
             continue
-        try:
-            doc = load_yaml(path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, yaml.YAMLError):
-            continue
-        if isinstance(doc, dict) and {"image", "resolution", "origin"} <= set(doc):
+        doc = _map_doc(path)
+        if doc is not None and folder_file(directory, doc["image"]) is not None:
             found.append((path.name, doc))
     return found
 
@@ -419,6 +449,22 @@ def folder_images(directory: Path) -> list[str]:
     """The image files of ``directory`` (plain names), by name."""
     return sorted(p.name for p in directory.iterdir()
                   if p.suffix.lower() in IMAGE_SUFFIXES and folder_file(directory, p.name) is not None)
+
+
+def left_out(directory: Path) -> list[dict]:
+    """The images and map YAMLs of ``directory`` the editor cannot offer, each with the reason (a name that is
+    not plain, a link, a map whose image is not a file of the folder), to show rather than skip silently."""
+    out = []
+    for path in sorted(directory.iterdir(), key=lambda p: p.name):
+        suffix = path.suffix.lower()
+        if suffix not in (*IMAGE_SUFFIXES, ".yaml", ".yml") or path.name == bf.FILE_NAME:
+            continue
+        problem = file_problem(directory, path.name)
+        if problem is None and suffix in (".yaml", ".yml") and _map_doc(path) is not None:
+            problem = _map_problem(directory, path.name)
+        if problem is not None:
+            out.append({"name": path.name[:200], "reason": problem})
+    return out
 
 
 def skeleton(directory: Path) -> dict:
@@ -447,7 +493,7 @@ def skeleton(directory: Path) -> dict:
         floor["blueprint_transform"] = {"scale": 10.0, "origin_px": [0.0, 0.0]}
         if bp is not None:
             try:
-                with Image.open(directory / str(doc["image"])) as img:
+                with Image.open(directory / str(doc["image"])) as img:     # a file of the folder (folder_maps)
                     mw, mh = img.size
                 with Image.open(directory / bp) as img:
                     bw, bh = img.size

@@ -62,15 +62,17 @@
     draw();
   }
 
-  async function edit(edits, label) {
+  // a change: the server applies it (or says why not), then the page shows the document again
+  async function change(path, body) {
     try {
-      await api("POST", "/api/edit", {edits, label});
+      await api("POST", path, body);
       say("");
     } catch (e) {
       say(e.message);
     }
     await refresh(true);
   }
+  const edit = (edits, label) => change("/api/edit", {edits, label});
 
   function say(text, info) {
     const m = $("message");
@@ -555,7 +557,8 @@
     form.replaceChildren();
     if (!f) return;
     const set = (path, value, label) => edit([{op: "set", path: ["floors", i, ...path], value}], label);
-    field(form, "Floor id", textInput(f.id, (v) => set(["id"], num(v), "floor id"), "number")).name = "floor-id";
+    field(form, "Floor id", textInput(f.id, (v) => change("/api/floor/id", {floor: i, id: num(v)}), "number"))
+      .name = "floor-id";
     for (const lang of LANGS) {
       field(form, `Name (${lang})`, textInput((f.names || {})[lang], (v) => set(["names", lang], v, "floor name")))
         .name = `floor-name-${lang}`;
@@ -571,6 +574,14 @@
       `rotation ${fmt((t.rotation || 0) * 180 / Math.PI)}°${S.fitNote ? ` — ${S.fitNote}` : ""}`;
     info.id = "transform-info";
     form.append(info);
+    const skipped = (S.files && S.files.left_out) || [];
+    if (skipped.length) {
+      const note = document.createElement("span");
+      note.className = "wide"; note.id = "left-out"; note.style.color = "#b3261e";
+      note.textContent = "Files of the folder left out: " +
+        skipped.map((f) => `${JSON.stringify(f.name)}: ${f.reason}`).join("; ");
+      form.append(note);
+    }
     if (S.floors[i] && S.floors[i].note) {
       const note = document.createElement("span");
       note.className = "wide"; note.style.color = "#b3261e"; note.textContent = S.floors[i].note;
@@ -859,23 +870,9 @@
   function removeFloor() {
     const f = floorDoc();
     if (!f || !confirm(`Remove floor ${fmt(f.id)} with its places, meeting points and robots?`)) return;
-    const edits = [];
-    const gone = (x) => sameFloor(x.floor, f.id);
-    list("robots").map((r, i) => [r, i]).filter(([r]) => gone(r)).reverse()
-      .forEach(([, i]) => edits.push({op: "delete", path: ["robots", i]}));
-    list("locations").map((l, i) => [l, i]).filter(([l]) => gone(l)).reverse()
-      .forEach(([, i]) => edits.push({op: "delete", path: ["locations", i]}));
-    list("connectors").forEach((c, i) => {
-      (c.meeting || []).map((m, k) => [m, k]).filter(([m]) => gone(m)).reverse()
-        .forEach(([, k]) => edits.push({op: "delete", path: ["connectors", i, "meeting", k]}));
-      if (Array.isArray(c.serves)) {
-        const left = c.serves.filter((s) => !sameFloor(s, f.id));
-        if (left.length !== c.serves.length) edits.push({op: "set", path: ["connectors", i, "serves"], value: left});
-      }
-    });
-    edits.push({op: "delete", path: ["floors", S.floor]});
     S.selected = null;
-    edit(edits, `remove floor ${fmt(f.id)}`).then(() => { S.floor = Math.max(0, S.floor - 1); renderSide(); draw(); });
+    change("/api/floor/remove", {floor: S.floor})
+      .then(() => { S.floor = Math.max(0, Math.min(S.floor, floors().length - 1)); renderSide(); draw(); });
   }
 
   // ------------------------------------------------------------------ the map's mouse
