@@ -334,3 +334,48 @@ def test_an_unreachable_place_is_shown_where_the_way_closes(tmp_path: Path) -> N
         if page is not None:
             page.close()
         assert editor.stop() == 0
+
+
+@pytest.mark.timeout(300)
+def test_floors_renumbered_added_reordered_and_removed_in_the_page(tmp_path: Path) -> None:
+    """A basement (-1) and a mezzanine (0.5): the floor's id changed in its form moves its places, robots and
+    meeting points along and the building is still accepted; the floor below is the ghost; a floor added, moved
+    up and removed (after the confirmation)."""
+    lab = tmp_path / "faculty"
+    shutil.copytree(FACULTY, lab)
+    editor = EditorProcess(lab, tmp_path / "editor.log")
+    page = None
+    ids = lambda: [f["id"] for f in page.state()["doc"]["floors"]]          # noqa: E731
+    try:
+        page = EditorPage(editor.url)
+        page.floor(0)
+        page.type("floor-form", "floor-id", -1)
+        page.floor(1)
+        page.type("floor-form", "floor-id", 0.5)
+        page.settle()
+        assert ids() == [-1, 0.5, 2, 3] and page.status().startswith("✓ accepted"), page.status()
+        robots = {r["name"]: r["floor"] for r in page.state()["doc"]["robots"]}
+        assert robots == {"Tartalo": -1, "Kbot": 0.5, "Galtxagorri": 2, "MariSorgin": 3}
+        assert page.js("return window.gidabotEditor.ghost();") == 0               # floor -1 under floor 0.5
+        if screenshots():
+            page.mode("floors")
+            page.shot(screenshots() / "editor-floors.png")
+            page.mode("select")
+        page.press("floor-add", change=True)
+        assert ids() == [-1, 0.5, 2, 3, 0] and page.js("return window.gidabotEditor.floorIndex();") == 4
+        assert page.status().startswith("✗"), page.status()                      # no connector serves it
+        page.press("floor-up", change=True)
+        assert ids() == [-1, 0.5, 2, 0, 3]
+        before = page.revision()
+        page.driver.find_element("id", "floor-remove").click()
+        page.driver.switch_to.alert.accept()
+        page.changed(before)
+        assert ids() == [-1, 0.5, 2, 3] and page.status().startswith("✓ accepted"), page.status()
+        page.press("save")
+        wait_for(lambda: page.message().startswith("Saved "), 20, "the save")
+    finally:
+        if page is not None:
+            page.close()
+        assert editor.stop() == 0
+    check = subprocess.run([str(GIDABOT), "check", str(lab)], capture_output=True, text=True, timeout=120)
+    assert check.returncode == 0 and check.stdout.startswith("ok   "), check.stdout

@@ -1161,7 +1161,7 @@
   // what tests and scripts may ask the page (where a map point is drawn, what it holds); changes go through clicks
   window.gidabotEditor = {
     toScreen, state: () => S, ready: () => S.rev >= 0 && !!S.check && S.check.revision === S.rev,
-    floorIndex: () => S.floor,
+    floorIndex: () => S.floor, ghost: () => (S.ghost ? ghostFloor() : null),
   };
   document.addEventListener("DOMContentLoaded", start);
 })();
