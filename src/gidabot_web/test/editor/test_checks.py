@@ -64,3 +64,20 @@ def test_where_a_problem_is() -> None:
     assert item_of("connector lift (meeting point on floor 2)") == {"list": "connectors", "id": "lift"}
     assert item_of("robot Kbot") == {"list": "robots", "id": "Kbot"}
     assert item_of("id") is None and item_of("line 3") is None
+
+
+def test_a_way_too_narrow_marks_its_narrowest_point(faculty_dir: Path) -> None:
+    """A gap of 0.4 m across floor 2's corridor: free, but too narrow for Galtxagorri (radius 0.27 m); the places
+    beyond are problems whose marks are the place (drawn red) and the narrowest point of the way."""
+    paint(faculty_dir, 2, 50.0, 50.2, 10.0, 11.8)
+    paint(faculty_dir, 2, 50.0, 50.2, 12.2, 14.0)
+    doc, checker = BuildingDocument.open(faculty_dir), LiveChecker()
+    result = checker.check(doc.plain(), doc.path, doc.revision)
+    assert not result.accepted
+    found = {p["where"]: p for p in result.problems}
+    problem = found["location 229"]
+    assert problem["floor"] == 2 and "the way is too narrow" in problem["message"]
+    kinds = {m[2]: m[:2] for m in problem["marks"]}
+    assert set(kinds) == {"place", "narrow"}
+    x, y = kinds["narrow"]
+    assert 49.9 <= x <= 50.3 and 11.8 <= y <= 12.2
