@@ -17,7 +17,7 @@ from gidabot_navigation.building.geometry import BlueprintTransform
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import BuildingError
 from gidabot_web.editor.app import CSRF_HEADER, SESSION_COOKIE, TOKEN_HEADER, EditorServer
-from gidabot_web.editor.preview import Preview
+from gidabot_web.editor.preview import Preview, Run
 
 REPO = Path(__file__).resolve().parents[4]
 TOKEN = "t" * 43
@@ -295,4 +295,33 @@ def test_a_save_that_cannot_be_written_loses_nothing(faculty_dir: Path, monkeypa
         assert state["dirty"] and state["doc"]["name"] == "Second"
         assert (await page.post("/api/save", {}))[0] == 200
         assert load_building(faculty_dir).name == "Second"
+    run(faculty_dir, test)
+
+
+def test_every_change_is_refused_without_same_origin_and_csrf_and_every_get_changes_nothing(
+        faculty_dir: Path) -> None:
+    """Each POST route of the server (read from its router, so a new one is covered) refused from another
+    origin, without an origin, without or with a wrong CSRF token, and without a session; every GET of the
+    same paths refused too; nothing changed, nothing saved, no preview started."""
+    stored = (faculty_dir / "building.yaml").read_bytes()
+    body = {"edits": [{"op": "set", "path": ["name"], "value": "X"}], "floor": 0, "id": -1, "reference": 1,
+            "pairs": [[[0, 0], [0, 0]], [[5, 0], [5, 0]]], "draft": True}
+
+    async def test(page: Page, server: EditorServer) -> None:
+        posts = sorted({r.resource.canonical for r in server.app.router.routes()
+                        if r.method == "POST" and r.resource.canonical != "/api/session"})
+        assert {"/api/edit", "/api/save", "/api/floor/id", "/api/floor/remove", "/api/preview/start"} <= set(posts)
+        await page.login()
+        for path in posts:
+            for headers in ({"Origin": "http://evil.example"}, {"Origin": None},
+                            {CSRF_HEADER: None}, {CSRF_HEADER: "x" * 43}):
+                status, _ = await page.post(path, body, **headers)
+                assert status == 403, (path, headers, status)
+            assert (await page.client.get(path)).status == 405, path
+        page.client.session.cookie_jar.clear()
+        for path in posts:
+            assert (await page.post(path, body))[0] in (401, 403), path
+        assert server.document.revision == 0 and server.preview.poll().state == Run.IDLE
+        assert (faculty_dir / "building.yaml").read_bytes() == stored
+        assert not (faculty_dir / "building.yaml.bak").exists()
     run(faculty_dir, test)
