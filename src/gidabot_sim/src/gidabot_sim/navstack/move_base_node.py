@@ -95,11 +95,11 @@ class MoveBaseNode:
         try:
             robot = building.robot(str(rospy.get_param("~robot", "")))
         except KeyError as err:
-            raise SimConfigError(f"~robot: {err}") from err
+            raise SimConfigError(f"~robot: {err.args[0]}") from err
         try:
             floor = building.floor(param_number("~floor", robot.floor, -1e6, strict=False))
         except KeyError as err:
-            raise SimConfigError(f"~floor: {err}") from err
+            raise SimConfigError(f"~floor: {err.args[0]}") from err
         defaults = NavConfig()
         config = NavConfig(**{name: param_number(f"~{name}", value) for name, value in defaults.__dict__.items()})
         nav = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
