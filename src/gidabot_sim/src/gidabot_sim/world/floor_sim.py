@@ -138,8 +138,8 @@ class SimConfig:
             raise SimConfigError(f"~step: {self.step:g} s must be a multiple of ~physics_dt ({self.dt:g} s)")
 
 
-# -- what the node publishes ---------------------------------------------------------------------------
-@dataclass(frozen=True, slots=True)
+# -- what the node publishes (slotted, not frozen: made at every stop, the cheaper the better) --------------
+@dataclass(slots=True)
 class Motion:
     """A robot's pose and body velocity at ``t``."""
 
@@ -149,17 +149,17 @@ class Motion:
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Odom(Motion):
     """Robot ``index``'s odometry: its pose in its odom frame."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Truth(Motion):
     """Robot ``index``'s true pose in the map frame."""
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Frame:
     """A transform ``parent`` -> ``child`` at ``t`` (``z``: its height)."""
 
@@ -170,13 +170,13 @@ class Frame:
     z: float = 0.0
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Transforms:
     frames: tuple[Frame, ...]
     static: bool = False               # /tf_static (latched) instead of /tf
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Scan:
     """One laser scan of robot ``index``: ranges (m, ``inf`` = no return) of its laser ``laser`` at ``t``."""
 
@@ -187,7 +187,7 @@ class Scan:
     scan_time: float                   # s between two scans
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Seen:
     """The other robots robot ``index``'s laser sees at ``t``: (name, disc) each."""
 
@@ -196,7 +196,7 @@ class Seen:
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Battery:
     """Robot ``name``'s (``index``) battery at ``t``: ``fraction`` of a full charge of ``model``, ``current`` A
     (negative: discharging)."""
@@ -209,21 +209,21 @@ class Battery:
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class ClockTick:
     """The floor's clock reached ``t``: ``/clock``, and the node's own ROS time."""
 
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class MapOut:
     """The floor's map (and its metadata), stamped ``t``."""
 
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Obstacles:
     """Every run-time obstacle, sorted by id, at ``t``."""
 
@@ -231,7 +231,7 @@ class Obstacles:
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Diagnostics:
     """The floor's diagnostics status at sim time ``t``."""
 
@@ -243,7 +243,7 @@ class Diagnostics:
     t: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class ResumeAt:
     """Where a restarted simulator of this floor starts (no timeline): a little ahead of any stamp seen so far."""
 
@@ -326,6 +326,7 @@ class FloorSim:
                                max_drift=drift, start=resume)
         self.lockstep = self.stepper.lockstep
         self.world.start_at(resume)
+        self.sees_robots = len(self.world.robots) > 1    # other robots for a laser to see: robots_seen published
         self.started = False
         self.scans = 0
         self._said_waiting = False
@@ -354,11 +355,6 @@ class FloorSim:
                 state = mates.read(slot)
                 index = self.world.add_mate(self._spec(robot), state.pose if state.finite() else robot.home)
                 self.mate_slots[index] = slot
-
-    @property
-    def sees_robots(self) -> bool:
-        """Whether the floor has other robots for a laser to see (then ``robots_seen`` is published)."""
-        return len(self.world.robots) > 1
 
     def close(self) -> None:
         if self.timeline is not None:
@@ -459,7 +455,7 @@ class FloorSim:
         if wait is None:
             self._read_mates(wall)
             self.world.advance_to(s.advance(wall))
-            if len(self.world.robots) > 1:
+            if self.sees_robots:
                 self._pairs()
             self._stop(wall)
             self._diagnostics(wall)
