@@ -6,8 +6,9 @@ By location, in every package's Python package ``src/<pkg>/src/<pkg>/``:
   subpackage (the tooling's processes on a master too: the monitor, the chaos probe, the benchmarks'
   workers and drivers);
 - **tooling**: gidabot_sim's ``runner/``, ``demo/``, ``chaos/``, ``bench/`` and ``report/``, and gidabot_web's
-  ``editor/`` (the building editor, whose preview runs ``gidabot demo``) never run on a robot: no module outside them imports one of them. Of the tooling, ``runner/`` (it starts masters and
-  launches and finds node executables) may import ROS; the rest of it (the report, the chaos bookkeeping,
+  ``editor/`` (the building editor, whose preview runs ``gidabot demo``) never run on a robot: no module
+  outside them imports one of them. Of the tooling, ``runner/`` (it starts masters and launches and finds
+  node executables) may import ROS; the rest of it (the report, the chaos bookkeeping,
   the governor, the timing...) is ROS-free like a core, its adapters aside. The tools keep to themselves:
   one imports no other, only what they share (``runner/``, and ``report/``'s modules: the report of a run
   folder), and no module imports a tool's ``command.py`` (bin/gidabot reaches it by name);
