@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import pytest
+from building_support import GLASS, faculty_with_keep_out
 from sim_support import ListLog
 
 from gidabot_navigation.building.geometry import Pose2D
@@ -185,17 +186,7 @@ def test_no_pose_aborts_and_bad_goals_are_rejected(faculty) -> None:
 def test_keep_out_zones_are_driven_around_and_goals_inside_abort(faculty, tmp_path: Path) -> None:
     """A keep-out zone of the building file (floor 1, the north half of the corridor at x 43..47) is lethal for
     move_base: the robot drives past it on the free side, and a goal inside it aborts at once."""
-    import shutil
-
-    import yaml
-
-    shutil.copytree(FACULTY, tmp_path / "faculty")
-    file = tmp_path / "faculty" / "building.yaml"
-    doc = yaml.safe_load(file.read_text())
-    doc["floors"][1]["keep_out"] = [{"id": "glass", "polygon": [[43.0, 11.9], [47.0, 11.9], [47.0, 13.6],
-                                                                [43.0, 13.6]]}]
-    file.write_text(yaml.safe_dump(doc, sort_keys=False))
-    building = load_building(tmp_path / "faculty")
+    building = load_building(faculty_with_keep_out(tmp_path / "faculty", 1, "glass", GLASS))
     zone = building.floor(1).keep_out[0].polygon
     sim = loop(building)
     goal = Pose2D(50.0, 12.0, 0.0)

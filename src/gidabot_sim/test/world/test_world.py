@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from building_support import GLASS, faculty_with_keep_out
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
@@ -365,19 +366,9 @@ def test_keep_out_zones_stop_bodies_but_not_the_laser() -> None:
 def test_a_floors_world_and_move_base_hold_its_keep_out_zones(tmp_path: Path) -> None:
     """What the simulator and move_base nodes build from the building file: the floor's map with its keep-out
     zones (solid for the robots, lethal for the planner)."""
-    import shutil
-
-    import yaml
-
     from gidabot_sim.navstack.move_base import MoveBaseCore
 
-    shutil.copytree(FACULTY, tmp_path / "faculty")
-    file = tmp_path / "faculty" / "building.yaml"
-    doc = yaml.safe_load(file.read_text())
-    doc["floors"][1]["keep_out"] = [{"id": "glass", "polygon": [[43.0, 11.9], [47.0, 11.9], [47.0, 13.6],
-                                                                [43.0, 13.6]]}]
-    file.write_text(yaml.safe_dump(doc, sort_keys=False))
-    floor = load_building(tmp_path / "faculty").floor(1)
+    floor = load_building(faculty_with_keep_out(tmp_path / "faculty", 1, "glass", GLASS)).floor(1)
     world = World.of_floor(floor, dt=0.02)
     assert world.grid is floor.map
     world.add_robot(spec(), Pose2D(40.0, 12.0, 0.0))
