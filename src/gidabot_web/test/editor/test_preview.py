@@ -4,6 +4,8 @@ itself runs in the editor's system test)."""
 from __future__ import annotations
 
 import json
+import shutil
+import time
 from pathlib import Path
 
 import pytest
@@ -67,3 +69,24 @@ def test_a_preview_needs_a_building_without_problems(tmp_path: Path) -> None:
     with pytest.raises(PreviewError, match="fix them before a preview"):
         Preview(tours_dir=REPO / "tours").start(data, FACULTY)
     assert Preview().poll().state == Run.IDLE
+
+
+def test_a_failed_preview_says_why_and_keeps_its_logs(tmp_path: Path) -> None:
+    """A demo that exits with an error: the preview fails with its last line and the directory of its logs, which
+    is kept (a finished or stopped preview removes it)."""
+    fake = tmp_path / "python"
+    fake.write_text("#!/bin/sh\necho 'demo: starting'\necho 'demo: the simulator of floor 0 crashed'\nexit 3\n")
+    fake.chmod(0o755)
+    preview = Preview(tours_dir=REPO / "tours", python=str(fake))
+    preview.start(BuildingDocument.open(FACULTY).plain(), FACULTY)
+    deadline = time.monotonic() + 30
+    while (state := preview.poll()).state in (Run.STARTING, Run.RUNNING) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert state.state == Run.FAILED, state
+    kept = Path(state.message.rsplit("its logs are kept in ", 1)[1].rstrip(")"))
+    try:
+        assert state.message.startswith("demo: the simulator of floor 0 crashed (gidabot demo exited with 3;")
+        assert (kept / "logs" / "demo.log").read_text().endswith("crashed\n")
+        assert preview.poll() == state and not preview.running
+    finally:
+        shutil.rmtree(kept)

@@ -9,6 +9,10 @@ robot's ``/gidabot/poses``) is started too; it keeps the latest pose of every ro
 atomically a few times a second. :meth:`Preview.poll` reads that file and the demo's last progress line: that is
 all the editor needs to draw the robots on its map, with no ROS in the editor's server. :meth:`Preview.stop`
 stops both by process group (the demo first, with SIGINT: it stops what it started) and removes the directory.
+A demo that ends with an error leaves the directory (the demo's log, its run folder with every node's log): the
+failed state's message names it.
+A demo that ends with an error leaves the directory (the demo's log, its run folder with every node's log): the
+failed state's message names it.
 
 The tour: ``featured`` (every featured place, else every place, floor by floor: at most :data:`MAX_STOPS`), or a
 tour file of the robots' tour directory that fits the building (``tours/real_world.tour`` on the faculty).
@@ -252,8 +256,12 @@ class Preview:
             state = Run.RUNNING if robots else Run.STARTING
             return PreviewState(state, message, robots, self._tour, elapsed)
         code = self._procs.get(DEMO).popen.returncode
-        final = PreviewState(Run.FINISHED if code == 0 else Run.FAILED, message, robots, self._tour, elapsed)
-        self._stop()
+        if code == 0:
+            final = PreviewState(Run.FINISHED, message, robots, self._tour, elapsed)
+        else:
+            final = PreviewState(Run.FAILED, f"{message} (gidabot demo exited with {code}; its logs are kept in "
+                                             f"{self._dir})", robots, self._tour, elapsed)
+        self._stop(keep=code != 0)
         self._final = final
         return final
 
@@ -263,13 +271,14 @@ class Preview:
         with self._lock:
             self._stop()
 
-    def _stop(self) -> None:
+    def _stop(self, keep: bool = False) -> None:
+        """Stop the processes; remove the directory unless ``keep`` (a failed demo's logs)."""
         procs, directory = self._procs, self._dir
         self._procs, self._dir = None, None
         if procs is not None:
             procs.stop(DEMO, grace=30.0)                 # the demo stops its masters and nodes on SIGINT
             procs.close()
-        if directory is not None:
+        if directory is not None and not keep:
             shutil.rmtree(directory, ignore_errors=True)
         if self._final is None and procs is not None:
             self._final = PreviewState(Run.STOPPED, "stopped", {}, self._tour, time.monotonic() - self._started)
