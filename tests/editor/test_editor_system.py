@@ -274,15 +274,14 @@ def test_the_preview_shows_the_robots_of_the_simulated_building(tmp_path: Path) 
         page = EditorPage(editor.url)
         assert page.status().startswith("✓ accepted")
         page.press("preview-start")
-        wait_for(lambda: len((page.state()["preview"] or {}).get("robots", {})) == 4, 240,
-                 "the four robots of the preview on the editor's map")
+        wait_preview(page, lambda robots: len(robots) == 4, 240, "the four robots of the preview on the editor's map")
         robots = page.state()["preview"]["robots"]
         assert {name: p["floor"] for name, p in robots.items()} == {"Tartalo": 0, "Kbot": 1, "Galtxagorri": 2,
                                                                      "MariSorgin": 3}
         start = robots["Tartalo"]
-        wait_for(lambda: math.dist((start["x"], start["y"]), (page.state()["preview"]["robots"]["Tartalo"]["x"],
-                                                              page.state()["preview"]["robots"]["Tartalo"]["y"]))
-                 > 1.0, 240, "Tartalo to move (the tour of the featured places)")
+        wait_preview(page, lambda robots: "Tartalo" in robots and math.dist(
+            (start["x"], start["y"]), (robots["Tartalo"]["x"], robots["Tartalo"]["y"])) > 1.0,
+            240, "Tartalo to move (the tour of the featured places)")
         if screenshots():
             page.floor(0)
             page.shot(screenshots() / "editor-preview.png")
@@ -295,6 +294,20 @@ def test_the_preview_shows_the_robots_of_the_simulated_building(tmp_path: Path) 
     leftovers = [p for p in Path("/proc").iterdir() if p.name.isdigit() and "gidabot-preview-" in
                  _cmdline(p)]
     assert leftovers == [], leftovers
+
+
+def wait_preview(page: EditorPage, predicate, timeout: float, what: str) -> None:
+    """Wait until ``predicate(robots)`` holds for the preview's robots on the page; fail at once when the preview
+    ended, and on a timeout say where it was (its state and the demo's last line)."""
+    def robots() -> dict:
+        preview = page.state()["preview"] or {}
+        assert preview.get("state") not in (Run.FAILED, Run.FINISHED, Run.STOPPED), f"the preview ended: {preview}"
+        return predicate(preview.get("robots", {}))
+
+    try:
+        wait_for(robots, timeout, what)
+    except AssertionError as err:
+        raise AssertionError(f"{err}; the preview: {page.state()['preview']}") from err
 
 
 def _cmdline(proc: Path) -> str:
