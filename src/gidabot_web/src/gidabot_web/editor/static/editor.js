@@ -7,6 +7,7 @@
   const LANGS = ["eu", "en", "es"];
   const CATEGORIES = ["office", "lab", "lecture", "service", "entrance", "meeting", "other"];
   const DRIVES = ["differential", "synchro"];
+  const PREVIEW_STARTING = "Preview starting: the simulated building takes a few seconds to come up";
   const HANDLE = 26;          // px from a place to its heading handle
   const PICK = 10;            // px: how near a click must be to pick something
 
@@ -453,6 +454,7 @@
     $("preview-state").textContent = p.state === "idle" ? "not running" :
       `${p.state}${p.tour ? ` (${p.tour})` : ""}, ${p.elapsed} s${robots ? `, ${robots} robots` : ""}: ${p.message || ""}`;
     const running = p.state === "running" || p.state === "starting";
+    if (p.state !== "starting" && $("message").textContent === PREVIEW_STARTING) say("");   // it came up, or ended
     $("preview-start").disabled = running || p.state === "stopping";
     $("preview-stop").disabled = !running;
   }
@@ -1076,7 +1078,7 @@
   async function previewStart() {
     try {
       await api("POST", "/api/preview/start", {tour: $("preview-tour").value || "featured"});
-      say("Preview starting: the simulated building takes a few seconds to come up", true);
+      say(PREVIEW_STARTING, true);
     } catch (e) { say(e.message); }
     await refresh(false);
   }
