@@ -11,8 +11,6 @@ all the editor needs to draw the robots on its map, with no ROS in the editor's 
 stops both by process group (the demo first, with SIGINT: it stops what it started) and removes the directory.
 A demo that ends with an error leaves the directory (the demo's log, its run folder with every node's log): the
 failed state's message names it.
-A demo that ends with an error leaves the directory (the demo's log, its run folder with every node's log): the
-failed state's message names it.
 
 The tour: ``featured`` (every featured place, else every place, floor by floor: at most :data:`MAX_STOPS`), or a
 tour file of the robots' tour directory that fits the building (``tours/real_world.tour`` on the faculty).
