@@ -357,6 +357,45 @@ def test_rejected_stale_and_duplicate_messages_write_nothing(store, monkeypatch)
     assert writes == ["write_atomic .gidabot-tours.json", "replace visit.tour", "write_atomic .gidabot-tours.json"]
 
 
+def test_a_forged_message_never_takes_the_uid_of_the_real_one(store, tmp_path) -> None:
+    """An invalid tour (through Kbot's relay end) and a valid one from a probe, with the uid a real tour of Kbot's
+    will carry, arrive first: neither is applied nor remembered, and the real one is accepted."""
+    real = remote("visit.tour", VISIT, T0)
+    kbot = from_robot(store, "Kbot")
+    assert store.receive(replace(real, tour_goals_info=("0, 999, Nowhere",)), sender=kbot).status == "rejected"
+    assert store.receive(replace(real, version=T0 + 99), sender="/chaos_probe").reason == "impostor"
+    assert store.receive(real, sender=kbot).status == "accepted"
+    assert (tmp_path / "tours" / "visit.tour").read_bytes() == VISIT_TEXT and store.get("visit.tour").version == T0
+
+
+def test_tours_speak_only_for_the_robot_that_sends_them(store, tmp_path) -> None:
+    """A tour is applied only from the relay end of the robot whose uid it carries (or our own echo): not from a
+    probe or ``rostopic pub``, not through another robot's relay end, not with a uid outside that robot's namespace
+    (counted, nothing written); any robot may pass on any robot's tour (anti-entropy)."""
+    before = snapshot(tmp_path / "tours", hidden=True)
+    msg = remote("visit.tour", VISIT, T0, editor="MariSorgin")
+    refused = [(msg, "/chaos_probe"), (msg, "/rostopic_4242_1700000000"), (msg, "/gidabot_relay_Galtxagorri_Kbot"),
+               (msg, from_robot(store, "Tartalo")), (replace(msg, uid="Kbot/tour/1"), from_robot(store, "Kbot")),
+               (replace(msg, uid=make_uid("Tartalo", "tour", "ts")), from_robot(store, "Kbot")),
+               (replace(msg, uid=""), from_robot(store, "Kbot"))]
+    for m, sender in refused:
+        assert store.receive(m, sender=sender).status == "refused"
+    assert snapshot(tmp_path / "tours", hidden=True) == before
+    assert store.refusals() == {"impostor": 3, "foreign": 3, "wrong_namespace": 1, "conflict": 0, "invalid": 0}
+    assert store.stats()["refused_impostor"] == 3
+    assert store.receive(msg, sender=from_robot(store, "Kbot")).status == "accepted"     # MariSorgin's, from Kbot
+
+
+def test_only_this_robots_own_nodes_edit_its_tours(store, tmp_path) -> None:
+    before = snapshot(tmp_path / "tours", hidden=True)
+    for sender in ("/chaos_probe", from_robot(store, "Kbot")):
+        with pytest.raises(TourRejected) as err:
+            store.edit(tour_msg("visit.tour", VISIT), sender=sender)
+        assert err.value.reason in ("impostor", "foreign")
+    assert snapshot(tmp_path / "tours", hidden=True) == before and store.get("visit.tour") is None
+    assert store.edit(tour_msg("visit.tour", VISIT), sender=GUI).file_name == "visit.tour"
+
+
 def test_rejection_logs_are_rate_limited(store, log, clock) -> None:
     for _ in range(50):
         recv(store, remote("real_world.tour", ["0, 014"], T0))
