@@ -51,25 +51,17 @@ def answers(bus: Bus, robot: str, uid: str) -> list[int]:
     return [e.phase for e in bus.events if e.robot == robot and e.goal_uid == uid]
 
 
-def feed_goal(bus: Bus, robot: str, trip: Trip, sender: str) -> None:
+def feed(bus: Bus, robot: str, msg: Trip | CancelData | NavEventData, sender: str) -> None:
+    """``robot``'s cores get ``msg`` (a goal, cancel or event) as ``sender`` published it on its master."""
     r = bus.robots[robot]
-    bus.run(robot, r.gm.on_goal(trip, bus.now_ros, bus.now_wall, sender=sender))
-    bus.pump()
-
-
-def feed_event(bus: Bus, robot: str, ev: NavEventData, sender: str) -> None:
-    r = bus.robots[robot]
-    bus.run(robot, r.gm.on_nav_event(ev, bus.now_ros, bus.now_wall, sender=sender))
-    if r.nav is not None:
-        bus.run(robot, r.nav.on_nav_event(ev, bus.now_ros, bus.now_wall, sender=sender))
-    bus.pump()
-
-
-def feed_cancel(bus: Bus, robot: str, cancel: CancelData, sender: str) -> None:
-    r = bus.robots[robot]
-    bus.run(robot, r.gm.on_cancel(cancel, bus.now_ros, bus.now_wall, sender=sender))
-    if r.nav is not None:
-        bus.run(robot, r.nav.on_cancel(cancel, bus.now_ros, bus.now_wall, sender=sender))
+    if isinstance(msg, Trip):
+        calls = [r.gm.on_goal]
+    elif isinstance(msg, CancelData):
+        calls = [r.gm.on_cancel, r.nav.on_cancel]
+    else:
+        calls = [r.gm.on_nav_event, r.nav.on_nav_event]
+    for call in calls:
+        bus.run(robot, call(msg, bus.now_ros, bus.now_wall, sender=sender))
     bus.pump()
 
 
@@ -101,7 +93,7 @@ def test_forged_goals_with_a_real_trips_uid_get_no_answer_and_the_trip_goes_on(f
         other = next(r for r in bus.robots if r not in (robot, "Tartalo"))
         for sender in (PROBE, from_robot(bus.robots[robot].gm, other), "/gidabot_relay_Tartalo_Ghost"):
             for trip in forged:
-                feed_goal(bus, robot, trip, sender)
+                feed(bus, robot, trip, sender)
                 hostile += 1
     assert [e for e in bus.events if e.phase == REJECTED] == []
     assert newest(bus, uid) == real and bus.queue_of("Tartalo") == [uid] and bus.queue_of("MariSorgin") == [uid]
@@ -119,7 +111,7 @@ def test_an_invalid_copy_of_a_trip_from_its_rightful_sender_is_dropped_unanswere
     real = newest(bus, uid)
     kbot = bus.robots["Kbot"].gm
     for bad in (replace(real, start_robot="", start_state=LEG_NONE), replace(real, goal_floor=math.nan)):
-        feed_goal(bus, "Kbot", replace(bad, attempt=real.attempt + 1), from_robot(kbot, "Tartalo"))
+        feed(bus, "Kbot", replace(bad, attempt=real.attempt + 1), from_robot(kbot, "Tartalo"))
     assert answers(bus, "Kbot", uid) == [] and kbot.refusals()["invalid"] == 2
     finish_trip(bus, uid)
 
@@ -140,11 +132,11 @@ def test_a_real_uid_with_other_content_is_a_conflict_never_applied_nor_answered(
                      attempt=real.attempt + 5)
     before = list(bus.events)
     for n in range(3):
-        feed_goal(bus, "Kbot", replace(forged, attempt=forged.attempt + n), relay)
+        feed(bus, "Kbot", replace(forged, attempt=forged.attempt + n), relay)
     assert [t.goal_id for t in kbot.queue] == ["101"] and bus.events == before
     assert kbot.refusals()["conflict"] == 3
     assert sum("came again" in line for _, line in bus.log.lines) == 1
-    feed_goal(bus, "Kbot", real, relay)                          # the real goal once more: a duplicate
+    feed(bus, "Kbot", real, relay)                          # the real goal once more: a duplicate
     assert kbot.refusals()["conflict"] == 3 and bus.events == before
 
 
@@ -158,9 +150,9 @@ def test_a_squatted_future_uid_does_not_take_the_real_trip(faculty) -> None:
     uid = bus.goals[0].uid
     first = bus.goals[0]
     kbot = bus.robots["Kbot"].gm
-    feed_goal(bus, "Kbot", replace(first, attempt=2 ** 31, goal_state=LEG_COMMITTED), PROBE)
-    feed_cancel(bus, "Kbot", CancelData(make_uid("Tartalo", "cancel", "gm"), uid, "Tartalo", "visitor"), PROBE)
-    feed_goal(bus, "Kbot", replace(first, goal_floor=math.nan), from_robot(kbot, "Tartalo"))
+    feed(bus, "Kbot", replace(first, attempt=2 ** 31, goal_state=LEG_COMMITTED), PROBE)
+    feed(bus, "Kbot", CancelData(make_uid("Tartalo", "cancel", "gm"), uid, "Tartalo", "visitor"), PROBE)
+    feed(bus, "Kbot", replace(first, goal_floor=math.nan), from_robot(kbot, "Tartalo"))
     assert kbot.queue == [] and answers(bus, "Kbot", uid) == []
     while bus.kept:
         bus.release()
@@ -190,11 +182,11 @@ def test_forged_replies_for_a_real_trip_neither_commit_nor_move_nor_end_it(facul
         return NavEventData(uid=make_uid(robot, "event", "gm"), robot=robot, floor=3.0 if robot == "MariSorgin" else 0,
                             goal_uid=uid, phase=phase, leg=LEG_GOAL, attempt=proposal.attempt, eta=1.0)
 
-    feed_event(bus, "Tartalo", reply("MariSorgin", ACCEPTED), PROBE)
-    feed_event(bus, "Tartalo", reply("MariSorgin", DECLINED), from_robot(tartalo, "Kbot"))
-    feed_event(bus, "Tartalo", reply("MariSorgin", ACCEPTED), "/gidabot_relay_Tartalo_Ghost")
-    feed_event(bus, "Tartalo", replace(reply("Tartalo", GOAL_REACHED), leg=""), PROBE)
-    feed_event(bus, "Tartalo", replace(reply("Tartalo", REJECTED), leg=""), from_robot(tartalo, "MariSorgin"))
+    feed(bus, "Tartalo", reply("MariSorgin", ACCEPTED), PROBE)
+    feed(bus, "Tartalo", reply("MariSorgin", DECLINED), from_robot(tartalo, "Kbot"))
+    feed(bus, "Tartalo", reply("MariSorgin", ACCEPTED), "/gidabot_relay_Tartalo_Ghost")
+    feed(bus, "Tartalo", replace(reply("Tartalo", GOAL_REACHED), leg=""), PROBE)
+    feed(bus, "Tartalo", replace(reply("Tartalo", REJECTED), leg=""), from_robot(tartalo, "MariSorgin"))
     assert newest(bus, uid) == proposal and [e for e in bus.events if e.phase == ASSIGNED and e.leg == LEG_GOAL] == []
     assert bus.queue_of("Tartalo") == [uid]
     assert tartalo.refusals()["impostor"] == 3 and tartalo.refusals()["foreign"] == 2
@@ -216,10 +208,10 @@ def test_goals_from_impostors_and_fake_relay_ends_are_never_answered(faculty) ->
     assert proposal.goal_robot == "Kbot" and proposal.goal_state == LEG_PROPOSED
     kbot = bus.robots["Kbot"].gm
     for sender in (PROBE, "/rostopic_4242_1700000000", *FAKE_RELAYS, from_robot(kbot, "Galtxagorri"), ""):
-        feed_goal(bus, "Kbot", proposal, sender)
+        feed(bus, "Kbot", proposal, sender)
     assert kbot.queue == [] and answers(bus, "Kbot", proposal.uid) == []
     assert kbot.refusals()["impostor"] == 7 and kbot.refusals()["foreign"] == 1
-    feed_goal(bus, "Kbot", proposal, from_robot(kbot, "Tartalo"))
+    feed(bus, "Kbot", proposal, from_robot(kbot, "Tartalo"))
     assert answers(bus, "Kbot", proposal.uid) == [ACCEPTED]
 
 
@@ -233,9 +225,9 @@ def test_messages_of_robots_not_in_the_building_are_refused(faculty) -> None:
     ghost = replace(real, uid=make_uid("Ghost", "v", "gm"), origin_robot="Ghost")
     before = list(bus.events)
     for sender in (from_robot(kbot, "Tartalo"), PROBE):
-        feed_goal(bus, "Kbot", ghost, sender)
-        feed_cancel(bus, "Kbot", CancelData(make_uid("Ghost", "cancel", "gm"), real.uid, "Ghost", "visitor"), sender)
-        feed_event(bus, "Kbot", NavEventData(uid=make_uid("Ghost", "event", "nav"), robot="Ghost", floor=1.0,
+        feed(bus, "Kbot", ghost, sender)
+        feed(bus, "Kbot", CancelData(make_uid("Ghost", "cancel", "gm"), real.uid, "Ghost", "visitor"), sender)
+        feed(bus, "Kbot", NavEventData(uid=make_uid("Ghost", "event", "nav"), robot="Ghost", floor=1.0,
                                              goal_uid=real.uid, phase=GOAL_REACHED), sender)
     # a status of MariSorgin from a probe on Kbot's master does not keep MariSorgin online
     kbot.on_status("MariSorgin", bus.now_wall + 100.0, sender=PROBE)

@@ -119,14 +119,7 @@ from gidabot_navigation.interface import (
     WAYS,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
-from gidabot_navigation.senders import (
-    INVALID,
-    Claim,
-    Gate,
-    HandledUids,
-    Senders,
-    as_text,
-)
+from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
 from gidabot_navigation.tours.tour_file import MAX_GOALS
 
 PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)

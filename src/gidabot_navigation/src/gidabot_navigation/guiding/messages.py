@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import re
-from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
@@ -50,7 +49,7 @@ from gidabot_navigation.interface import (
     UNREACHABLE,
     WAYS,
 )
-from gidabot_navigation.senders import MAX_UID, SCOPE_CANCEL, SCOPE_EVENT, fingerprint, make_uid
+from gidabot_navigation.senders import MAX_UID, SCOPE_CANCEL, SCOPE_EVENT, HandledUids, fingerprint, make_uid
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
@@ -302,42 +301,12 @@ def cancel_digest(cancel: CancelData) -> str:
     return fingerprint(cancel, ("stamp", "detail"))
 
 
-class SeenSet:
-    """A bounded set of ids (oldest forgotten first): uids already handled."""
+class SeenSet(HandledUids):
+    """A bounded set of ids (oldest forgotten first), without content: ids already handled."""
 
-    def __init__(self, limit: int = 20000) -> None:
-        self.limit = limit
-        self._items: OrderedDict[str, None] = OrderedDict()
-
-    def __contains__(self, item: object) -> bool:
-        return item in self._items
-
-    def __len__(self) -> int:
-        return len(self._items)
-
-    def add(self, item: str) -> bool:
-        """Add ``item``; False if it was already there."""
-        if item in self._items:
-            return False
-        self._items[item] = None
-        while len(self._items) > self.limit:
-            self._items.popitem(last=False)
-        return True
-
-    def discard(self, item: str) -> None:
-        self._items.pop(item, None)
-
-    def recent(self, n: int) -> list[str]:
+    def recent(self, n: int) -> list[str]:  # type: ignore[override]
         """The ``n`` most recently added ids, oldest first (what a restarted node must remember)."""
-        if n <= 0:
-            return []
-        items = list(self._items)
-        return items[-n:]
-
-    def update(self, items: Iterable[str]) -> None:
-        for item in items:
-            if isinstance(item, str):
-                self.add(item)
+        return [uid for uid, _ in super().recent(n)]
 
 
 class Counters(dict):

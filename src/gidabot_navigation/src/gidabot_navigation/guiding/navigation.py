@@ -107,15 +107,9 @@ from gidabot_navigation.interface import (
     global_name,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
-from gidabot_navigation.senders import (
-    IMPOSTOR,
-    INVALID,
-    Claim,
-    Gate,
-    HandledUids,
-    Senders,
-    as_text,
-)
+from gidabot_navigation.senders import IMPOSTOR, INVALID, Claim, Gate, HandledUids, Senders, as_text
+
+GOAL_MANAGER = global_name(Node.GOAL_MANAGER)    # the one publisher of this robot's pending list
 
 # move_base (actionlib) terminal states, as the adapter names them
 SUCCEEDED = "succeeded"
@@ -290,9 +284,9 @@ class NavigationCore:
         queue to run; another robot's is not this node's business; any other publisher is refused."""
         if robot != self.me:
             return []
-        if sender != self._goal_manager:
+        if sender != GOAL_MANAGER:
             self.gate.refuse(IMPOSTOR, f"pending list of {self.me} from {as_text(sender)[:80]!r}, not from "
-                                          f"{self._goal_manager}")
+                                       f"{GOAL_MANAGER}")
             return []
         self.queue = list(goals)
         self._eta_last = eta_last if math.isfinite(eta_last) else 0.0
@@ -673,10 +667,6 @@ class NavigationCore:
                 SendCancel(self._cancel(trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
 
     # ------------------------------------------------------------------ helpers
-    @property
-    def _goal_manager(self) -> str:
-        return global_name(Node.GOAL_MANAGER)
-
     def refusals(self) -> dict[str, int]:
         """Messages refused so far, by kind (impostor, foreign, wrong_namespace, conflict, invalid)."""
         return self.gate.refusals()
