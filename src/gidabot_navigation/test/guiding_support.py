@@ -38,7 +38,7 @@ from gidabot_navigation.tours.tour_store import TourMessage
 
 _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
 # the callerids of a robot's own nodes on its master
-GM, NAV, GUI = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI))
+GM, NAV, GUI, TS = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI, Node.TOUR_STORE))
 
 
 def from_robot(core: GoalManagerCore | NavigationCore, robot: str) -> str:
@@ -121,9 +121,9 @@ class Bus:
                 nav.on_pose(home.x, home.y, home.yaw)
             self.robots[name] = RobotCores(name, gm, nav)
             if catalog:
-                gm.on_catalog(catalog)
+                gm.on_catalog(catalog, sender=TS)
                 if nav:
-                    nav.on_catalog(catalog)
+                    nav.on_catalog(catalog, sender=TS)
         self.goals: list[Trip] = []
         self.cancels: list[CancelData] = []
         self.events: list[NavEventData] = []

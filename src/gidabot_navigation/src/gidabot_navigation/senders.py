@@ -328,6 +328,15 @@ class Gate:
         sender, kind = self.check(callerid, claim, what)
         return sender if kind is None else None
 
+    def only(self, callerid: object, node: str, what: str) -> bool:
+        """True when ``callerid`` is this robot's own node ``node`` (a base name of :class:`Node`), the one
+        publisher of ``what`` (a local topic); else the message is refused as an impostor's."""
+        if callerid == global_name(node):
+            return True
+        self.refuse(IMPOSTOR, f"{what} of {self.senders.robot} from {as_text(callerid)[:80]!r}, not from "
+                              f"{global_name(node)}")
+        return False
+
     def conflict(self, handled: HandledUids, uid: str, digest: str, what: str) -> bool:
         """True (refused) when ``uid`` was handled with another content than ``digest``: dropped, never answered."""
         if handled.check(uid, digest) != CONFLICT:

@@ -7,7 +7,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from guiding_support import GM, GUI, NAV, Bus, ListLog, catalog_of, from_robot, sender_of
+from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
 
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
@@ -293,7 +293,7 @@ def test_a_commit_to_a_full_queue_is_refused_and_cancelled(faculty) -> None:
 @pytest.fixture
 def tour_gm(faculty):
     gm = core(faculty, "Kbot")
-    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour", TOURS / "long_tour.tour"))
+    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour", TOURS / "long_tour.tour"), sender=TS)
     return gm
 
 
@@ -414,7 +414,7 @@ def test_a_tour_command_before_the_first_catalog_waits_for_it(faculty) -> None:
                       visitor_id="v")
     assert gm.on_command(cmd, 10.0, 1.0, sender=GUI) == []
     assert gm.on_command(cmd, 10.0, 1.2, sender=GUI) == []                  # its replay waits once
-    acts = gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), 10.5, 1.5)
+    acts = gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), 10.5, 1.5, sender=TS)
     [trip] = goals(acts)
     assert (trip.tour_file, trip.tour_step, trip.goal_id) == ("real_world.tour", 0, "014")
     assert not events(acts, Phase.REJECTED)
@@ -427,7 +427,7 @@ def test_a_continue_replayed_to_a_restarted_goal_manager_before_its_catalog_goes
     visitor's Continue were replayed to it before the catalog: the next step is issued once the catalog comes."""
     catalog = catalog_of(faculty, TOURS / "real_world.tour")
     gm = core(faculty, "Kbot")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     trip = goals(gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=2, visitor_id="v"),
                                10.0, 1.0, sender=GUI))[0]
     assert trip.goal_id == "101"                                  # floor 1: guided by Kbot itself
@@ -440,7 +440,7 @@ def test_a_continue_replayed_to_a_restarted_goal_manager_before_its_catalog_goes
     cont = CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid, tour_file="real_world.tour", uid="Kbot/v/cmd/7",
                        stamp=31.0, visitor_id="v")
     assert new.on_command(cont, 31.0, 50.2, sender=GUI) == []
-    [nxt] = goals(new.on_catalog(catalog, 31.1, 50.3))
+    [nxt] = goals(new.on_catalog(catalog, 31.1, 50.3, sender=TS))
     assert (nxt.tour_step, nxt.goal_id) == (3, "104")
     assert new.on_command(cont, 31.2, 50.4, sender=GUI) == []                # a later replay of it: handled already
 
@@ -453,7 +453,7 @@ def test_without_a_catalog_tour_commands_are_refused_after_the_wait(faculty) -> 
     assert "not in this robot's catalog (0 tours)" in refused.detail and refused.tour_file == "real_world.tour"
     late = CommandData(command=Cmd.START_TOUR, tour_file="real_world.tour", visitor_id="v")
     assert events(gm.on_command(late, 21.0, 11.0, sender=GUI), Phase.REJECTED)      # later ones at once
-    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"))
+    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), sender=TS)
     for r in faculty.robots:
         gm.on_status(r.name, 12.0, sender=from_robot(gm, r.name))
     assert goals(gm.on_command(late, 22.0, 12.0, sender=GUI))
@@ -464,7 +464,7 @@ def test_a_tour_going_on_past_a_floor_without_robot_waits_for_the_catalog(facult
     (the next stop on a floor with a robot) once the catalog comes, instead of stopping there."""
     catalog = catalog_of(faculty3, TOURS / "real_world.tour")
     gm = core(faculty3, "Kbot")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     trip = goals(gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=4, visitor_id="v"),
                                10.0, 1.0, sender=GUI))[0]
     assert (trip.goal_id, trip.goal_floor) == ("223", 2.0)          # floor 2 of faculty3 has no robot
@@ -473,5 +473,5 @@ def test_a_tour_going_on_past_a_floor_without_robot_waits_for_the_catalog(facult
     alone = NavEventData(uid=make_uid("Kbot", "event", "nav"), robot="Kbot", floor=1.0, goal_uid=trip.uid,
                          phase=Phase.NO_ROBOT_ON_FLOOR, tour_file="real_world.tour", tour_step=4, stamp=40.0)
     assert new.on_nav_event(alone, 40.0, 50.1, sender=sender_of(new, alone)) == []
-    [nxt] = goals(new.on_catalog(catalog, 40.2, 50.2))
+    [nxt] = goals(new.on_catalog(catalog, 40.2, 50.2, sender=TS))
     assert (nxt.tour_step, nxt.start_id, nxt.initial_floor) == (6, "274", 2.0)

@@ -6,7 +6,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from guiding_support import GM, GUI, NAV, Bus, ListLog, catalog_of, from_robot, sender_of
+from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GuidingError
@@ -177,7 +177,8 @@ def test_of_the_visitor_commands_only_a_continue_is_the_navigation_s(faculty) ->
     press = CommandData(command=Cmd.CONTINUE, uid="Lamia/v/cmd/9", goal_uid=t.uid, stamp=11.5)
     acts = n.on_command(press, 12.0, 0.0, sender=GUI)
     assert phases(acts) == [Phase.ON_THE_WAY]
-    assert n.on_command(press, 13.0, 0.0, sender=GUI) == [] and n.stats["duplicate_commands"] == 1     # the same press again
+    assert n.on_command(press, 13.0, 0.0, sender=GUI) == []                     # the same press again
+    assert n.stats["duplicate_commands"] == 1
     assert n.durable(acts) == [a for a in acts if isinstance(a, SendEvent)]               # not the MoveTo
 
 
@@ -331,7 +332,7 @@ def test_start_floor_only_tells_the_visitor(faculty) -> None:
 
 def test_tour_steps_and_the_last_step(faculty) -> None:
     n = nav(faculty, "MariSorgin")
-    n.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"))
+    n.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), sender=TS)
     step = trip(faculty, "MariSorgin", "325", "MariSorgin/v/1", tour_file="real_world.tour", tour_step=6)
     last = replace(step, uid="MariSorgin/v/2", goal_id="305", goal_x=faculty.location("305").pose.x,
                    goal_y=faculty.location("305").pose.y, tour_step=7)

@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-from guiding_support import GUI, NAV, Bus, ListLog, from_robot, sender_of
+from guiding_support import GUI, NAV, TS, Bus, ListLog, from_robot, sender_of
 
 from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
@@ -35,7 +35,7 @@ def restart_goal_manager(bus: Bus, robot: str) -> GoalManagerCore:
     old = bus.robots[robot].gm
     new = GoalManagerCore(bus.building, GoalManagerConfig(robot=robot), bus.log, bus.now_wall)
     new.load_state(roundtrip(old.state()))
-    new.on_catalog([])
+    new.on_catalog([], sender=TS)
     bus.robots[robot].gm = new
     bus.robots[robot].pending_version = -1
     return new
@@ -114,7 +114,7 @@ def test_tour_step_waiting_survives_a_restart(faculty, tmp_path: Path) -> None:
     bus.start_tour("Tartalo", "two.tour")
     first = bus.goals[0].uid
     gm = restart_goal_manager(bus, "Tartalo")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     bus.cont("Tartalo", first)                                         # Continue after step 1, at the new node
     assert [g.tour_step for g in bus.goals] == [0, 1]
 
@@ -230,20 +230,20 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     first = bus.goals[0].uid
     assert bus.phases("Tartalo", first)[-1] == Phase.ON_THE_WAY
     gm = restart_goal_manager(bus, "Tartalo")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     meeting = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/8", visitor_id="v", goal_uid=first, stamp=150.0)
     assert gm.on_command(meeting, bus.now_ros, bus.now_wall, sender=GUI) == []        # pressed before the step was done
     done = NavEventData(uid=make_uid("Tartalo", "event", "nav"), robot="Tartalo", floor=0.0, goal_uid=first,
                         phase=Phase.TOUR_STEP_DONE, tour_file="two.tour", tour_step=0, stamp=200.0)
     gm_copy = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall)
     gm_copy.load_state(roundtrip(gm.state()))
-    gm_copy.on_catalog(catalog)
+    gm_copy.on_catalog(catalog, sender=TS)
     assert gm_copy.on_nav_event(done, bus.now_ros, bus.now_wall, sender=NAV) == []    # not a Continue after the step
     cont = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/9", visitor_id="v", goal_uid=first, stamp=203.0)
     assert gm.on_command(cont, bus.now_ros, bus.now_wall, sender=GUI) == []           # the step is not done yet here
     gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall)
     gm2.load_state(roundtrip(gm.state()))                                  # and it survives another restart
-    gm2.on_catalog(catalog)
+    gm2.on_catalog(catalog, sender=TS)
     actions = gm2.on_nav_event(done, bus.now_ros, bus.now_wall, sender=NAV)
     [goal] = [a.trip for a in actions if isinstance(a, SendGoal)]
     assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1

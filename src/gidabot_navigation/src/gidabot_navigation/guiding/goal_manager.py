@@ -102,6 +102,7 @@ from gidabot_navigation.interface import (
     WAY_STAIRS,
     WAYS,
     Cmd,
+    Node,
     Phase,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
@@ -222,8 +223,12 @@ class GoalManagerCore:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = (float(x), float(y), float(yaw))
 
-    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
-        """The tour store's catalog changed; the tour commands that waited for the first one are carried out."""
+    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0, *,
+                   sender: str) -> list[Action]:
+        """The tour store's catalog changed (published by ``sender``: only this robot's tour store's is taken); the
+        tour commands that waited for the first one are carried out."""
+        if not self.gate.only(sender, Node.TOUR_STORE, "tour catalog"):
+            return []
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
         self._catalog_known = True

@@ -91,13 +91,10 @@ from gidabot_navigation.interface import (
     Node,
     Phase,
     RobotState,
-    global_name,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
-from gidabot_navigation.senders import IMPOSTOR, INVALID, Claim, Gate, HandledUids, Senders, as_text
+from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
 from gidabot_navigation.tours.tour_store import TourMessage
-
-GOAL_MANAGER = global_name(Node.GOAL_MANAGER)    # the one publisher of this robot's pending list
 
 # move_base (actionlib) terminal states, as the adapter names them
 SUCCEEDED = "succeeded"
@@ -236,7 +233,10 @@ class NavigationCore:
         if self.gate.admit(sender, Claim(as_text(robot)), "status") and self.building.find_robot(robot) is not None:
             self.liveness.heard(robot, now_wall)
 
-    def on_catalog(self, entries: Iterable[TourMessage]) -> None:
+    def on_catalog(self, entries: Iterable[TourMessage], *, sender: str) -> None:
+        """The tour store's catalog (published by ``sender``: only this robot's tour store's is taken)."""
+        if not self.gate.only(sender, Node.TOUR_STORE, "tour catalog"):
+            return
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
 
@@ -254,9 +254,7 @@ class NavigationCore:
         queue to run; another robot's is not this node's business; any other publisher is refused."""
         if robot != self.me:
             return []
-        if sender != GOAL_MANAGER:
-            self.gate.refuse(IMPOSTOR, f"pending list of {self.me} from {as_text(sender)[:80]!r}, not from "
-                                       f"{GOAL_MANAGER}")
+        if not self.gate.only(sender, Node.GOAL_MANAGER, "pending list"):
             return []
         self.queue = list(goals)
         self._eta_last = eta_last if math.isfinite(eta_last) else 0.0
