@@ -134,6 +134,7 @@ OWN, RELAY, IMPOSTOR = "own", "relay", "impostor"
 # refusal kinds, counted by every core
 FOREIGN, WRONG_NAMESPACE, CONFLICT, INVALID = "foreign", "wrong_namespace", "conflict", "invalid"
 REFUSALS = (IMPOSTOR, FOREIGN, WRONG_NAMESPACE, CONFLICT, INVALID)
+SENDER_REFUSALS = (IMPOSTOR, FOREIGN, WRONG_NAMESPACE)     # what Senders.refusal says: a message not its sender's
 
 
 @dataclass(frozen=True)

@@ -133,13 +133,14 @@ def test_admin_cannot_create_over_a_file_the_store_does_not_own(store, tmp_path)
 
 
 def test_an_admin_action_is_answered_and_shared_or_refused(store, tmp_path, log, monkeypatch) -> None:
-    result, shared = store.admin_edit(tour_msg("visit.tour", VISIT, uid="Galtxagorri/gui/tour-edit/1"))
+    result, shared = store.admin_edit(tour_msg("visit.tour", VISIT, uid="Galtxagorri/gui/tour-edit/1"), sender=GUI)
     assert (result.uid, result.file_name, result.ok, result.version, result.reason) == (
         "Galtxagorri/gui/tour-edit/1", "visit.tour", True, store.get("visit.tour").version, "")
     assert shared is not None and shared.file_name == "visit.tour" and shared.uid.startswith("Galtxagorri/tour/")
     assert [t.file_name for t in store.catalog_data().tours] == [r.file_name for r in store.catalog()]
     assert store.index_data().entries == tuple(store.index()) and store.index_data().robot == "Galtxagorri"
-    result, shared = store.admin_edit(tour_msg("gone.tour", [], deleted=True, uid="Galtxagorri/gui/tour-edit/2"))
+    result, shared = store.admin_edit(tour_msg("gone.tour", [], deleted=True, uid="Galtxagorri/gui/tour-edit/2"),
+                                      sender=GUI)
     assert (result.ok, result.deleted, result.reason, shared) == (False, True, "unknown", None)
     assert any("admin delete of tour 'gone.tour' refused" in line for _level, line in log.lines)
 
@@ -147,8 +148,11 @@ def test_an_admin_action_is_answered_and_shared_or_refused(store, tmp_path, log,
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(SafeDir, "write_atomic", full)
-    result, shared = store.admin_edit(tour_msg("other.tour", VISIT))
+    result, shared = store.admin_edit(tour_msg("other.tour", VISIT), sender=GUI)
     assert (result.ok, result.reason, shared) == (False, "io", None) and "No space left" in result.error
+    # an edit from a node that is none of this robot's: neither carried out nor answered
+    assert store.admin_edit(tour_msg("probe.tour", VISIT), sender="/chaos_probe") == (None, None)
+    assert store.get("probe.tour") is None and store.refusals()["impostor"] == 1
 
 
 def test_metadata_write_failure_changes_nothing(store, tmp_path, monkeypatch) -> None:

@@ -64,6 +64,7 @@ from gidabot_navigation.senders import (
     DUPLICATE,
     INVALID,
     SCOPE_TOUR,
+    SENDER_REFUSALS,
     Claim,
     Gate,
     HandledUids,
@@ -669,13 +670,16 @@ class TourStore:
         self.log.info(f"{'deleted' if rec.deleted else 'saved'} tour {name} (version {version})")
         return done
 
-    def admin_edit(self, msg: TourMessage) -> tuple[EditResultData, TourMessage | None]:
-        """Carry out an admin action (:meth:`edit`): the result to answer the GUI with, and the message that
-        shares the new record with the other robots (None when the action was refused, which is logged)."""
+    def admin_edit(self, msg: TourMessage, *, sender: str) -> tuple[EditResultData | None, TourMessage | None]:
+        """Carry out an admin action published by ``sender`` (:meth:`edit`): the result to answer the GUI with, and
+        the message that shares the new record with the other robots (None when the action was refused, which is
+        logged). An action whose sender may not speak for this robot is not answered either (result None)."""
         what = "delete" if msg.deleted else "edit"
         try:
-            rec = self.edit(msg)
+            rec = self.edit(msg, sender=sender)
         except TourRejected as err:
+            if err.reason in SENDER_REFUSALS:
+                return None, None             # counted and logged by the gate: never answered
             self.log.warning(f"admin {what} of tour {_short(msg.file_name)} refused: {err}")
             return edit_result(msg, None, err.reason, str(err)), None
         except TourStoreError as err:
@@ -707,6 +711,15 @@ class TourStore:
         self.last_rejection = text
         self._warn.warning(f"rejected_{reason}", f"rejected tour message: {text}")
         return Outcome("rejected", reason, text)
+
+    def oversized(self, edit: bool, size: int, sender: str) -> EditResultData | None:
+        """A message of ``size`` bytes (over the limit: not decoded) published by ``sender``: counted and logged;
+        the answer to send when it was an admin edit from one of this robot's own nodes (else None)."""
+        self.reject("oversized", f"{'edit' if edit else 'tour'} message of {size} bytes from {_short(sender, 80)} is "
+                                 f"larger than the {self.limits.max_message_bytes} bytes allowed; not decoded")
+        if not edit or not self.gate.senders.attribute(sender).own:
+            return None
+        return edit_result(TourMessage(), None, "oversized", f"message of {size} bytes is too large")
 
     def receive(self, msg: TourMessage, *, sender: str) -> Outcome:
         """Apply a tour message published by ``sender`` (another robot's relay end, or our own echo) if its sender
