@@ -47,6 +47,7 @@ from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, bound_master_calls, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 from gidabot_navigation.ros.rospy_internals import close_connections_from, connected_subscribers, publisher_lock
+from gidabot_navigation.senders import SPEAKS_FOR, Claim, claim_of
 
 
 @dataclass(frozen=True)
@@ -160,20 +161,20 @@ def make_validator(classes: dict[str, type]) -> Callable[[str, bytes], str | Non
     return validate
 
 
-def make_speaker(classes: dict[str, type]) -> Callable[[str, bytes], str | None]:
-    """speaker(topic, payload): the ``robot`` field of a message whose type has one (the state topics), else
-    None (also for a payload that does not decode: the validator reports that)."""
+def make_speaker(classes: dict[str, type]) -> Callable[[str, bytes], Claim | None]:
+    """speaker(topic, payload): whom a message speaks for and its uid (``senders.claim_of`` of the decoded
+    message: every shared topic of ``senders.SPEAKS_FOR``), else None (also for a payload that does not decode:
+    the validator reports that)."""
 
-    def speaker(topic: str, payload: bytes) -> str | None:
-        cls = classes[topic]
-        if "robot" not in getattr(cls, "__slots__", ()):
+    def speaker(topic: str, payload: bytes) -> Claim | None:
+        if topic not in SPEAKS_FOR:
             return None
-        msg = cls()
+        msg = classes[topic]()
         try:
             msg.deserialize(payload)
         except (genpy.DeserializationError, struct.error, ValueError, TypeError, IndexError, UnicodeError):
             return None
-        return msg.robot if isinstance(msg.robot, str) else None
+        return claim_of(topic, msg)
 
     return speaker
 
