@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 from gidabot_navigation.guiding.messages import CancelData, NavEventData, Trip
-from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
+from gidabot_navigation.interface import SHARED_TOPICS, Node, Phase, Topic, global_name
 from gidabot_navigation.senders import (
     CONFLICT,
     DUPLICATE,
@@ -113,7 +113,7 @@ def test_the_table_says_whom_every_shared_message_speaks_for() -> None:
                         reason="visitor")
     assert claim_of(Topic.CANCELS, cancel) == Claim("Galtxagorri", cancel.uid)
     ev = NavEventData(uid=make_uid("MariSorgin", "event", "nav"), robot="MariSorgin", floor=3.0, goal_uid=uid,
-                      phase=0)
+                      phase=Phase.ACCEPTED)
     assert claim_of(Topic.NAV_EVENTS, ev) == Claim("MariSorgin", ev.uid)
     tour = TourMessage(uid=make_uid("Tartalo", "tour", "ts"), origin_robot="Kbot", editor_robot="MariSorgin")
     assert claim_of(Topic.TOURS, tour) == Claim("Tartalo", tour.uid)              # the robot that sends it
@@ -124,16 +124,16 @@ def test_the_table_says_whom_every_shared_message_speaks_for() -> None:
 
 
 def test_a_fingerprint_is_the_content_as_the_ros_message_carries_it() -> None:
-    ev = NavEventData(uid="u", robot="Kbot", floor=1, goal_uid="g", phase=0, eta=12.3, detail="x")
+    ev = NavEventData(uid="u", robot="Kbot", floor=1, goal_uid="g", phase=Phase.ACCEPTED, eta=12.3, detail="x")
     through_float32 = struct.unpack("<f", struct.pack("<f", 12.3))[0]
-    assert fingerprint(ev) == fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=0,
+    assert fingerprint(ev) == fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=Phase.ACCEPTED,
                                                        eta=through_float32, detail="x"))
-    assert fingerprint(ev) != fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=0,
+    assert fingerprint(ev) != fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=Phase.ACCEPTED,
                                                        eta=12.4, detail="x"))
     assert fingerprint(ev, ("detail",)) == fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g",
-                                                                    phase=0, eta=12.3, detail="y"), ("detail",))
+                                                                    phase=Phase.ACCEPTED, eta=12.3, detail="y"), ("detail",))
     assert fingerprint(TourMessage(tour_goals_info=("a", "b"))) != fingerprint(TourMessage(tour_goals_info=("ab",)))
-    assert fingerprint(NavEventData(uid="u", robot="K", floor=float("nan"), goal_uid="\udcff", phase=0, eta=1e300))
+    assert fingerprint(NavEventData(uid="u", robot="K", floor=float("nan"), goal_uid="\udcff", phase=Phase.ACCEPTED, eta=1e300))
 
 
 def test_handled_uids_tell_a_repeat_from_a_conflict() -> None:
