@@ -124,16 +124,17 @@ def test_the_table_says_whom_every_shared_message_speaks_for() -> None:
 
 
 def test_a_fingerprint_is_the_content_as_the_ros_message_carries_it() -> None:
-    ev = NavEventData(uid="u", robot="Kbot", floor=1, goal_uid="g", phase=Phase.ACCEPTED, eta=12.3, detail="x")
+    def event(**kw) -> NavEventData:
+        return NavEventData(**{"uid": "u", "robot": "Kbot", "floor": 1.0, "goal_uid": "g", "phase": Phase.ACCEPTED,
+                               "eta": 12.3, "detail": "x", **kw})
+
+    ev = event(floor=1)
     through_float32 = struct.unpack("<f", struct.pack("<f", 12.3))[0]
-    assert fingerprint(ev) == fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=Phase.ACCEPTED,
-                                                       eta=through_float32, detail="x"))
-    assert fingerprint(ev) != fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g", phase=Phase.ACCEPTED,
-                                                       eta=12.4, detail="x"))
-    assert fingerprint(ev, ("detail",)) == fingerprint(NavEventData(uid="u", robot="Kbot", floor=1.0, goal_uid="g",
-                                                                    phase=Phase.ACCEPTED, eta=12.3, detail="y"), ("detail",))
+    assert fingerprint(ev) == fingerprint(event(eta=through_float32))
+    assert fingerprint(ev) != fingerprint(event(eta=12.4))
+    assert fingerprint(ev, ("detail",)) == fingerprint(event(detail="y"), ("detail",))
     assert fingerprint(TourMessage(tour_goals_info=("a", "b"))) != fingerprint(TourMessage(tour_goals_info=("ab",)))
-    assert fingerprint(NavEventData(uid="u", robot="K", floor=float("nan"), goal_uid="\udcff", phase=Phase.ACCEPTED, eta=1e300))
+    assert fingerprint(event(robot="K", floor=float("nan"), goal_uid="\udcff", eta=1e300))
 
 
 def test_handled_uids_tell_a_repeat_from_a_conflict() -> None:
