@@ -84,11 +84,14 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     def counters(key: str) -> bool:
         return all(int((mesh.end_diag(src, o) or {}).get(key, 0)) >= 1 for o in others)
 
-    # publishers on src's own master under the names of impostors, each repeating its message until every
-    # relay end of src has counted it: a plain std_msgs/String on the shared topic, bytes that are no Goal
-    # under Goal's type and md5
-    for node, type_, msg, raw, key in (("impostor", "std_msgs/String", {"data": "wrong-type"}, None, "rejected_type"),
-                                       ("garbler", GOAL, {}, b"\xff" * 7, "rejected_malformed")):
+    # publishers on src's own master, each repeating its message until every relay end of src has counted it: a
+    # real Goal of src from a node that is none of src's (an impostor: whatever it says, it is not forwarded), and
+    # from src's own nodes (which may speak for src) a plain std_msgs/String on the shared topic and bytes that
+    # are no Goal under Goal's type and md5
+    forged = {"uid": mesh.legit_uid(src, "impostor"), "origin_robot": src}
+    for node, type_, msg, raw, key in (("impostor", GOAL, forged, None, "rejected_impostor"),
+                                       (Node.GUI, "std_msgs/String", {"data": "wrong-type"}, None, "rejected_type"),
+                                       (Node.TOUR_STORE, GOAL, {}, b"\xff" * 7, "rejected_malformed")):
         with Probe(mesh.sim.env(src), mesh.sim.log_dir / f"{node}.log", name=node) as p:
             p.publish_until(GOALS, type_, msg, lambda key=key: counters(key), f"{key} counted by {ends}", to=ends,
                             raw=raw)
