@@ -17,12 +17,20 @@ It watches what its master delivers and acts on it when the chaos runner asks:
   master);
 * reads the ``/diagnostics`` counters of its master's nodes (rejected input, the relays' link
   losses and resent events): it keeps the latest values of every status it hears (a subscription
-  made at start), so the runner can tell which node counted a hostile message it just sent.
+  made at start), so the runner can tell which node counted a hostile message it just sent;
+* forges messages about real trips (:mod:`gidabot_sim.chaos.forgery`): on request for one goal uid
+  (``forge``), or, with ``--forge``, for every goal uid a robot's own node or relay end publishes on its
+  master, as soon as it is seen; it counts what it sent per topic and, per node of its robot, the
+  refusals those nodes counted since it started (``forged``; a node that restarted counts from 0 again).
+
+Node name ``/chaos_probe`` (its caller id tells its own hostile messages apart), or ``--name`` (a forger
+named like an impostor relay end, ``forgery.impostor_relay``). None of them is a node of the robot:
+every message it publishes on a shared topic is an impostor's, refused and counted by the nodes that
+receive it.
 
 Driven by JSON lines on stdin, one JSON reply per line on stdout (``ChaosProbeClient``
 in :mod:`gidabot_sim.chaos.probe_client`). The probe keeps itself registered across master restarts
-(``keep_registered``). Node name ``/chaos_probe`` (its caller id tells its own hostile
-messages apart).
+(``keep_registered``).
 
     {"op": "deliveries", "topic": "status", "since": T, "stamped": S}
                               -> {"first": {robot: wall time}} of the first received at or after wall time T,
@@ -34,6 +42,9 @@ messages apart).
     {"op": "obstacle", "action": "add"|"remove", "id": I, "x": X, "y": Y, "radius": R}
     {"op": "counters"}                                      -> {"status": {name: {key: int}} (whole numbers),
                                                                 "heard": {name: wall time of its latest status}}
+    {"op": "forge", "uid": U, "origin": R}                  -> {"sent": {topic: n}} the forgeries of goal U of R
+    {"op": "forged"}                                        -> {"sent": {topic: n}, "refused": {node: n},
+                                                                "uids": n, "last": wall time of the last one}
     {"op": "quit"}
 """
 
@@ -49,7 +60,8 @@ import time
 from collections import defaultdict
 from typing import Any
 
-from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.interface import GUIDING_CALLERIDS, Node, Topic, is_relay_end
+from gidabot_sim.chaos.forgery import Forged, forgeries, refusals
 
 MAX_RECEIPTS = 20000         # per (topic, robot): far more than a run needs
 
@@ -89,7 +101,7 @@ class ChaosProbeNode:
     ``move_base/NavfnROS/plan``, ``/diagnostics``; publishes hostile messages on any topic
     it is asked to and ``/sim/obstacle``."""
 
-    def __init__(self, robot: str, out_path: str) -> None:
+    def __init__(self, robot: str, out_path: str, forge: bool = False) -> None:
         import rospy
         from geometry_msgs.msg import PoseWithCovarianceStamped
         from nav_msgs.msg import Path
@@ -98,6 +110,15 @@ class ChaosProbeNode:
 
         self.rospy = rospy
         self.robot = robot
+        self.name = rospy.get_name()
+        self.forge_all = forge
+        self.forged_uids: set[str] = set()
+        self.forge_queue: list[tuple[str, str]] = []
+        self.forge_cv = threading.Condition()
+        self.sent: dict[str, int] = defaultdict(int)       # topic -> forged messages published
+        self.last_forged = 0.0
+        self.refused_total: dict[str, int] = {}             # node -> refusals counted since this probe started
+        self.refused_last: dict[str, int] = {}              # node -> its latest reading
         self.lock = threading.Lock()
         self.out = open(out_path, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
         # topic -> robot -> [(wall time received, header stamp)]
@@ -136,6 +157,8 @@ class ChaosProbeNode:
         for h in HOSTILE_MESSAGES:
             self._publisher(h.topic, h.type)
         self._publisher(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle")
+        self.forger = threading.Thread(target=self._forge_loop, daemon=True)
+        self.forger.start()
 
     # -- recording --------------------------------------------------------------------------
     def _write(self, kind: str, msg: Any, **data: Any) -> None:
@@ -161,6 +184,13 @@ class ChaosProbeNode:
         return text[:n] if isinstance(text, str) else ""
 
     def _on_goal(self, m: Any) -> None:
+        caller = str(getattr(m, "_connection_header", {}).get("callerid", ""))
+        if self.forge_all and caller != self.name and (caller in GUIDING_CALLERIDS or is_relay_end(caller)):
+            with self.forge_cv:
+                if m.uid not in self.forged_uids:
+                    self.forged_uids.add(m.uid)
+                    self.forge_queue.append((m.uid, m.origin_robot))
+                    self.forge_cv.notify()
         self._write("goal", m, uid=self._clip(m.uid), origin=self._clip(m.origin_robot, 64),
                     initial_floor=_num(m.initial_floor), goal_floor=_num(m.goal_floor),
                     goal_id=self._clip(m.goal_id, 64), connector=self._clip(m.connector, 64),
@@ -211,6 +241,10 @@ class ChaosProbeNode:
             with self.lock:
                 self.counters[st.name] = values
                 self.heard[st.name] = now
+                for node, n in refusals({st.name: values}, self.robot).items():
+                    last = self.refused_last.get(node, 0)
+                    self.refused_total[node] = self.refused_total.get(node, 0) + (n - last if n >= last else n)
+                    self.refused_last[node] = n
 
     def _on_pose(self, m: Any) -> None:
         from gidabot_navigation.building.geometry import quaternion_to_yaw
@@ -267,7 +301,44 @@ class ChaosProbeNode:
             with self.lock:
                 return {"ok": True, "status": {k: dict(v) for k, v in self.counters.items()},
                         "heard": dict(self.heard)}
+        if op == "forge":
+            return {"ok": True, "sent": self.forge(str(cmd["uid"]), str(cmd["origin"]))}
+        if op == "forged":
+            with self.lock:
+                return {"ok": True, "sent": dict(self.sent), "refused": dict(self.refused_total),
+                        "uids": len(self.forged_uids), "last": self.last_forged}
         raise ValueError(f"unknown op {op!r}")
+
+    # -- forging ----------------------------------------------------------------------------
+    def forge(self, uid: str, origin: str) -> dict[str, int]:
+        """Publish the forgeries of goal ``uid`` of ``origin`` (each once every subscriber is connected)."""
+        sent: dict[str, int] = defaultdict(int)
+        with self.lock:
+            serial = sum(self.sent.values())
+        for f in forgeries(uid, origin, serial):
+            self._forge_one(f)
+            sent[f.topic] += 1
+        return dict(sent)
+
+    def _forge_one(self, f: Forged) -> None:
+        self.publish(f.topic, f.type, dict(f.msg), 3.0)
+        with self.lock:
+            self.sent[f.topic] += 1
+            self.last_forged = time.time()
+
+    def _forge_loop(self) -> None:
+        """With ``--forge``: the forgeries of every real goal uid seen, in the order seen."""
+        while not self.rospy.is_shutdown():
+            with self.forge_cv:
+                while not self.forge_queue:
+                    self.forge_cv.wait(0.5)
+                    if self.rospy.is_shutdown():
+                        return
+                uid, origin = self.forge_queue.pop(0)
+            try:
+                self.forge(uid, origin)
+            except Exception as err:  # noqa: BLE001 - a master away: the forger goes on with the next uid
+                self.rospy.logwarn(f"forging for {uid}: {type(err).__name__}: {err}")
 
     def _publisher(self, topic: str, type_: str) -> tuple[Any, type]:
         import roslib.message
@@ -319,6 +390,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog=Node.CHAOS_PROBE)
     ap.add_argument("--robot", required=True)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--name", default=Node.CHAOS_PROBE, help="node name (default chaos_probe)")
+    ap.add_argument("--forge", action="store_true", help="forge messages about every real goal uid seen")
     args = ap.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
     # replies own the real stdout; everything else (rospy's log lines) goes to stderr
     replies = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
@@ -328,10 +401,10 @@ def main(argv: list[str] | None = None) -> int:
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
-    rospy.init_node(Node.CHAOS_PROBE, disable_signals=True, disable_rostime=True)
+    rospy_exit_guard(args.name)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node(args.name, disable_signals=True, disable_rostime=True)
     keep_registered()
-    node = ChaosProbeNode(args.robot, args.out)
+    node = ChaosProbeNode(args.robot, args.out, forge=args.forge)
     replies.write(json.dumps({"ok": True, "ready": True}) + "\n")
     for line in sys.stdin:
         if not line.strip():
