@@ -120,6 +120,22 @@ def test_local_messages_that_must_not_cross(tmp_path) -> None:
     assert la.has("only gidabot_msgs/Goal")
 
 
+def test_a_node_named_like_a_relay_end_that_is_none_of_this_robots_is_an_impostor(tmp_path) -> None:
+    """Tartalo's ends know Tartalo's links (the supervisor passes them): another link's end is ignored (it published
+    what its robot sent), a relay-looking name of a link Tartalo does not have is refused and counted."""
+    ends = frozenset(relay_end_name("Tartalo", r) for r in ("Kbot", "Galtxagorri", "MariSorgin"))
+    w, la, _, _ = pair(tmp_path, robot_ends=ends)
+    w.connect()
+    w.run("a", w.a.local_message(G, relay_end_name("Tartalo", "Galtxagorri"), TYPES[G], MD5[G], b"relayed"))
+    for impostor in (relay_end_name("Tartalo", "Ghost"), relay_end_name("Kbot", "Galtxagorri"),
+                     relay_end_name("Galtxagorri", "Tartalo")):
+        w.run("a", w.a.local_message(G, impostor, TYPES[G], MD5[G], b"forged"))
+    assert w.payloads("b") == []
+    s = w.a.snapshot()
+    assert s["ignored_relay"] == 1 and s["rejected_impostor"] == 3 and s["forwarded"] == 0
+    assert la.has("named like a relay end but is none of Tartalo's")
+
+
 def test_a_state_crosses_only_from_the_robot_it_speaks_for(tmp_path) -> None:
     """A status / pose / pending list published on Tartalo's master that speaks for another robot (a spoofed or
     hostile one: the chaos run's NavPose of 'Ghost' with an infinite pose) never leaves Tartalo; it is counted."""

@@ -143,6 +143,9 @@ class RelayEndConfig:
     state_rate: float = 10.0                    # Hz, max sends per (state topic, publisher)
     max_pending_connections: int = 8            # connections not yet authenticated
     header_topics: frozenset[str] = frozenset()  # event topics whose type starts with std_msgs/Header
+    # node names of this robot's relay ends (its links to every other robot): a local publisher named like a relay
+    # end but none of them is an impostor (refused, counted); empty: every relay-named publisher is taken for one
+    robot_ends: frozenset[str] = frozenset()
 
     def __post_init__(self) -> None:
         if self.side not in ("a", "b"):
@@ -336,7 +339,11 @@ class RelayEndCore:
         """A message the local node ``callerid`` published on a shared topic; returns frames to send now. Only this
         robot's own nodes are forwarded, and only what speaks for this robot."""
         if is_relay_end(callerid):
-            self.stats.ignored_relay += 1
+            if self.cfg.robot_ends and callerid not in self.cfg.robot_ends:
+                self._reject(IMPOSTOR, f"local publisher {callerid[:80]!r} on {topic} is named like a relay end but "
+                                       f"is none of {self.cfg.robot}'s: not forwarded")
+                return []
+            self.stats.ignored_relay += 1       # another link's end published what its robot sent: not again
             return []
         sender = self.senders.attribute(callerid)
         if not sender.own:

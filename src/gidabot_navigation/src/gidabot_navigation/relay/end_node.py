@@ -72,6 +72,7 @@ class Params:
     diagnostics_rate: float
     replay_window: float = DEFAULT_WINDOW
     replay_limit: int = 500
+    robot_ends: str = ""
 
     @staticmethod
     def parse(argv: list[str]) -> Params:
@@ -100,6 +101,7 @@ class Params:
         ap.add_argument("--diagnostics_rate", type=float, default=1.0)
         ap.add_argument("--replay_window", type=float, default=DEFAULT_WINDOW)
         ap.add_argument("--replay_limit", type=int, default=500)
+        ap.add_argument("--robot_ends", default="")
         args = [a for a in argv if ":=" not in a]
         try:
             ns = ap.parse_args(args)
@@ -237,6 +239,9 @@ class RelayEndNode:
       - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
       - ``--topics_file`` (path, default the package's ``config/shared_topics.yaml``): the shared topics whitelist.
       - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
+      - ``--robot_ends`` (comma-separated node names, default ''): this robot's relay ends, this one included (the
+        supervisor passes them): a local publisher named like a relay end but none of them is an impostor,
+        refused and counted (``rejected_impostor``); '' = any relay-named publisher is taken for one.
       - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
       - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
         outbound), ``--max_inbound`` (events, 10000: received, not yet published),
@@ -428,7 +433,8 @@ def end_config(params: Params, specs: tuple[TopicSpec, ...], classes: dict[str, 
                           heartbeat=params.heartbeat, link_timeout=params.link_timeout,
                           state_rate=params.state_rate,
                           header_topics=frozenset(s.name for s in specs
-                                                  if s.kind == EVENT and classes[s.name]._has_header))
+                                                  if s.kind == EVENT and classes[s.name]._has_header),
+                          robot_ends=frozenset(n for n in params.robot_ends.split(",") if n))
 
 
 def diagnostic_status(cfg: RelayEndConfig, snap: dict[str, object], down_for: float | None) -> DiagnosticStatus:
