@@ -290,14 +290,14 @@ def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
     assert not [e for e in rejected_events if e["goal_uid"].startswith(("Kbot/", "u"))], rejected_events
     assert robot.procs.alive("guiding") and robot.procs.alive("fake_nav")
     # a valid request still works; an (empty) pending list of Tartalo brought by Kbot's relay end on the way is
-    # refused (only Tartalo's own goal_manager speaks for Tartalo) and counted by the navigation node
+    # refused (the navigation takes its robot's pending list from its goal_manager only) and counted
     n = len(robot.events())
-    nav_before = int(robot.diag("navigation").get("refused_foreign", 0))
+    nav_before = int(robot.diag("navigation").get("refused_impostor", 0))
     robot.command(REQUEST, goal_id="014", way="stairs")
     uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
     robot.pub(Topic.PENDING, PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, by="Kbot")
     robot.wait_phase(GOAL_REACHED, uid)
-    wait_until(lambda: int(robot.diag("navigation").get("refused_foreign", 0)) > nav_before, 30,
+    wait_until(lambda: int(robot.diag("navigation").get("refused_impostor", 0)) > nav_before, 30,
                "the spoofed pending list counted")
     # an anonymous node is an impostor, whatever it says
     with Probe(robot.env, robot.procs.log_dir / "impostor.log") as impostor:
