@@ -80,7 +80,7 @@ class Robot:
             "gui": [py, str(GUI_NODE), *common, "_speech:=false", "_fullscreen:=false"],
         }
         if stand_ins:
-            starts |= {"sim": [py, str(SIM_NODES / "sim"), f"__name:={Node.SIM}", *common, "_speed:=20",
+            starts |= {"sim": [py, str(SIM_NODES / "world"), f"__name:={Node.SIM}", *common, "_speed:=20",
                                "_use_sim_time:=true"],
                        "move_base": [py, str(SIM_NODES / "move_base"), f"__name:={Node.MOVE_BASE}", *common],
                        "amcl": [py, str(SIM_NODES / "amcl"), f"__name:={Node.AMCL}"]}
