@@ -95,17 +95,22 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
         with Probe(mesh.sim.env(src), mesh.sim.log_dir / f"{node}.log", name=node) as p:
             p.publish_until(GOALS, type_, msg, lambda key=key: counters(key), f"{key} counted by {ends}", to=ends,
                             raw=raw)
-    # and a real Goal from a node named like a relay end. The ends close their connections to relay publishers
-    # within a tick, so the Goal is latched (written as each end connects) and the node started again (the
-    # ends connect again) until every end has counted it
+    # and a real Goal from a node named like a relay end that is none of src's (each end knows src's ends): an
+    # impostor too. The ends close their connections to relay publishers within a tick, so the Goal is latched
+    # (written as each end connects) and the node started again (the ends connect again) until every end has
+    # counted it
+    impostors = {o: int((mesh.end_diag(src, o) or {}).get("rejected_impostor", 0)) for o in others}
+
+    def fake_counted() -> bool:
+        return all(int((mesh.end_diag(src, o) or {}).get("rejected_impostor", 0)) > impostors[o] for o in others)
     for attempt in range(1, 6):
         with Probe(mesh.sim.env(src), mesh.sim.log_dir / f"relay_fake_{attempt}.log", name="gidabot_relay_fake") as p:
             p.pub(GOALS, GOAL, {"uid": "fake-relay"}, to=[mesh.probes[src].name], latch=True)
             with contextlib.suppress(ProcessError):
-                wait_until(lambda: counters("ignored_relay"), 10, "the fake relay end's Goal ignored by every end")
-        if counters("ignored_relay"):
+                wait_until(fake_counted, 10, "the fake relay end's Goal refused by every end")
+        if fake_counted():
             break
-    assert counters("ignored_relay"), f"the fake relay end's Goal not counted by every end of {src}"
+    assert fake_counted(), f"the fake relay end's Goal not counted by every end of {src}"
     wait_until(lambda: "fake-relay" in mesh.uids(src), 30, "fake-relay at src")   # published locally, not relayed
     big = ["0, 014, " + "x" * (1 << 20)]                          # a 1 MiB tour: over the 1 MiB limit
     mesh.publish(src, Topic.TOURS, "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
@@ -115,7 +120,7 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
 
     def counted(d: dict[str, str]) -> bool:
         return (int(d["rejected_type"]) >= 1 and int(d["rejected_malformed"]) >= 1
-                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1
+                and int(d["rejected_oversize"]) >= 1 and int(d["rejected_impostor"]) >= 2
                 and int(d["forwarded_events"]) >= 1)
 
     arrived = time.time()           # diagnostics stamped later count "legit" as forwarded (1 Hz)
