@@ -304,7 +304,7 @@ class Injector:
         """The forgeries about the tour's latest goal (``forgery.forgeries``: its uid and the next ones), on the
         master of its origin robot, accounted for: every node there that receives them counted at least as many
         refusals as forged messages reached it (else ``accounted`` stays empty: a failure)."""
-        uids = sorted(self.run.watch.floors, key=list(self.run.watch.floors).index)
+        uids = list(self.run.watch.floors)            # the tour's goals, in the order seen
         if not uids:
             res.skipped = "no goal of the tour yet"
             return
