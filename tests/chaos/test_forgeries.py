@@ -13,21 +13,17 @@ Needs root (the chaos run checks iptables); about 5 minutes.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
-import signal
-import subprocess
 from pathlib import Path
 
 import pytest
+from chaos_cli import run_chaos
 
 import gidabot_sim.runner.procs as procs_mod
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
-REPO = Path(__file__).resolve().parents[2]
-GIDABOT = REPO / "bin" / "gidabot"
 TABLE3 = {"Tartalo": [15, 7], "Kbot": [15, 8], "Galtxagorri": [15, 8], "MariSorgin": [15, 6]}
 ROBOTS = tuple(TABLE3)
 RECEIVERS = {"guiding: goal_manager", "guiding: navigation"}
@@ -36,17 +32,9 @@ RECEIVERS = {"guiding: goal_manager", "guiding: navigation"}
 @pytest.mark.timeout(1200)
 @pytest.mark.skipif(shutil.which("iptables") is None or os.geteuid() != 0, reason="needs iptables and root")
 def test_forgeries_about_every_trip_are_refused_and_the_table2_tour_completes(tmp_path: Path) -> None:
-    argv = [str(GIDABOT), "chaos", "--profile", "forgeries", "--seed", "1", "--speed", "8", "--out",
-            str(tmp_path / "runs"), "--net", str(procs_mod.test_network()), "--json", "--timeout", "900"]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=1080)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        pytest.fail(f"chaos run still going after 1080 s\n{err[-4000:]}")
-    print(err[-6000:])                       # the progress and the table (shown with -s or on failure)
-    doc = json.loads(out)
+    doc, returncode = run_chaos(["--profile", "forgeries", "--seed", "1", "--speed", "8", "--out",
+                                 str(tmp_path / "runs"), "--net", str(procs_mod.test_network()), "--timeout", "900"],
+                                1080)
     rows = doc["forgeries"]
     print("\n[forgeries] sent / refused per node: "
           + ", ".join(f"{r['node']}@{r['robot']} {r['sent']} / {r['refused']}" for r in rows))
@@ -62,4 +50,4 @@ def test_forgeries_about_every_trip_are_refused_and_the_table2_tour_completes(tm
     assert doc["table3_bags"] == TABLE3 and not doc["table3"]["bags_error"], doc["table3"]
     assert doc["node_crashes"] == 0, (doc["crashes"], doc["tracebacks"])
     assert doc["tours_intact"], doc["tours_problems"]
-    assert doc["passed"] and proc.returncode == 0, doc["failures"]
+    assert doc["passed"] and returncode == 0, doc["failures"]
