@@ -21,7 +21,7 @@ from typing import Any
 from gidabot_navigation.interface import Phase, Topic, relay_end_name
 from gidabot_navigation.senders import UID_RE
 
-GOAL, CANCEL, EVENT = "gidabot_msgs/Goal", "gidabot_msgs/Cancel", "gidabot_msgs/NavEvent"
+GOAL_TYPE, CANCEL_TYPE, EVENT_TYPE = "gidabot_msgs/Goal", "gidabot_msgs/Cancel", "gidabot_msgs/NavEvent"
 NEXT_UIDS = 2                  # uids after a real one a forger tries to squat
 GHOST = "Ghost"                # a robot no building has: the far end of an impostor relay's link
 # the diagnostics status (name without its robot) of each node of a robot that counts refusals, and the forged
@@ -86,15 +86,15 @@ def forgeries(uid: str, origin: str, serial: int, n_next: int = NEXT_UIDS) -> li
         return {"uid": own_uid("event", k), "robot": origin, "floor": 0.0, "goal_uid": goal_uid, "phase": int(phase),
                 "tour_step": -1, "leg": "start", "detail": "forged"}
 
-    out = [Forged("goal_same_uid", Topic.GOALS, GOAL, _goal(uid, origin)),
-           Forged("cancel", Topic.CANCELS, CANCEL, cancel(uid, 0)),
-           Forged("event_goal_reached", Topic.NAV_EVENTS, EVENT, event(uid, Phase.GOAL_REACHED, 1)),
-           Forged("event_rejected", Topic.NAV_EVENTS, EVENT, event(uid, Phase.REJECTED, 2))]
+    out = [Forged("goal_same_uid", Topic.GOALS, GOAL_TYPE, _goal(uid, origin)),
+           Forged("cancel", Topic.CANCELS, CANCEL_TYPE, cancel(uid, 0)),
+           Forged("event_goal_reached", Topic.NAV_EVENTS, EVENT_TYPE, event(uid, Phase.GOAL_REACHED, 1)),
+           Forged("event_rejected", Topic.NAV_EVENTS, EVENT_TYPE, event(uid, Phase.REJECTED, 2))]
     for i, nxt in enumerate(next_uids(uid, n_next)):
         k = 3 * (i + 1)
-        out += [Forged("goal_next_uid", Topic.GOALS, GOAL, _goal(nxt, origin)),
-                Forged("cancel_next_uid", Topic.CANCELS, CANCEL, cancel(nxt, k)),
-                Forged("event_next_uid", Topic.NAV_EVENTS, EVENT, event(nxt, Phase.GOAL_REACHED, k + 1))]
+        out += [Forged("goal_next_uid", Topic.GOALS, GOAL_TYPE, _goal(nxt, origin)),
+                Forged("cancel_next_uid", Topic.CANCELS, CANCEL_TYPE, cancel(nxt, k)),
+                Forged("event_next_uid", Topic.NAV_EVENTS, EVENT_TYPE, event(nxt, Phase.GOAL_REACHED, k + 1))]
     return out
 
 

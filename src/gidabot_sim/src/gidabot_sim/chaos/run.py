@@ -108,7 +108,7 @@ class ChaosRun:
             if self.profile.forgers:     # named like a relay end of a link the building does not have
                 self.forgers[r.name] = ChaosProbeClient(
                     r.name, self.sim.env(r.name), self.run_dir / "chaos" / f"forger_{r.name}.jsonl",
-                    self.run_dir / "logs" / f"forger_{r.name}.log", name=impostor_relay(r.name), forge=True,
+                    self.run_dir / "logs" / f"forger_{r.name}.log", name=impostor_relay(r.name).lstrip("/"), forge=True,
                     command=lambda argv, robot=r.name: self.sim.command(robot, argv))  # type: ignore[union-attr]
         self.tail = Tail([p.out for p in self.probes.values()])
         for robot, offset in self.clock_offsets.items():      # a setting of the whole run, listed with the faults
