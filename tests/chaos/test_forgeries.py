@@ -6,8 +6,9 @@ every goal uid it sees published by a guiding node or a relay end of its master,
 and other content, a cancel of it, its GOAL_REACHED and REJECTED, and a goal, a cancel and a GOAL_REACHED for each
 of the next two uids (as if uids were counters). Targets: the tour completes, no goal lost or duplicated, Table 3
 from the bags is the paper's (15 / 7, 8, 8, 6), the tour directories are unchanged, and on every master each node
-that receives the forged goals, cancels and events (goal_manager, multirobot_navigation, the three relay ends)
-counted at least as many refusals as forged messages reached it (printed: sent / refused per node).
+that receives the forged goals, cancels and events (goal_manager, multirobot_navigation; the relay ends drop
+their connection to any relay-named publisher at once, so nothing it sends reaches them) counted at least as
+many refusals as forged messages reached it (printed: sent / refused per node).
 Needs root (the chaos run checks iptables); about 5 minutes.
 """
 
@@ -40,9 +41,7 @@ def test_forgeries_about_every_trip_are_refused_and_the_table2_tour_completes(tm
           + ", ".join(f"{r['node']}@{r['robot']} {r['sent']} / {r['refused']}" for r in rows))
     print(f"[forgeries] Table 3 from the bags: {doc['table3_bags']}")
     # every master had its forger, and every trip was forged about: 15 goals x 10 messages on each master at least
-    assert {(r["robot"], r["node"]) for r in rows if not r["node"].startswith("relay ")} == \
-        {(m, n) for m in ROBOTS for n in RECEIVERS}, rows
-    assert all(sum(r["node"].startswith("relay ") and r["robot"] == m for r in rows) == 3 for m in ROBOTS), rows
+    assert {(r["robot"], r["node"]) for r in rows} == {(m, n) for m in ROBOTS for n in RECEIVERS}, rows
     assert all(r["sent"] >= 15 * 6 for r in rows if r["node"] == "guiding: navigation"), rows
     assert all(r["accounted"] for r in rows) and not doc["forgeries_unaccounted"], rows
     assert doc["completed"] == 15 and doc["lost"] == 0 and doc["duplicated"] == 0, doc["failures"]

@@ -30,8 +30,6 @@ RECEIVERS: dict[str, tuple[str, ...]] = {
     "guiding: goal_manager": (Topic.GOALS, Topic.CANCELS, Topic.NAV_EVENTS),
     "guiding: navigation": (Topic.CANCELS, Topic.NAV_EVENTS),
 }
-RELAY_STATUS = "relay "        # a relay end's status (``relay <pair> (<robot> end)``): it receives every forged topic
-RELAY_TOPICS = (Topic.GOALS, Topic.CANCELS, Topic.NAV_EVENTS)
 
 
 @dataclass(frozen=True)
@@ -123,12 +121,10 @@ class NodeAccount:
 
 def account(robot: str, sent: Mapping[str, int], refused: Mapping[str, int]) -> list[NodeAccount]:
     """Each refusing node of ``robot``'s master: forged messages ``sent`` (per topic) that reached it against its
-    ``refused`` count (status name without the robot -> refusals counted while they were sent); the relay ends
-    among ``refused`` too (each receives every forged message and counts it as ``rejected_impostor``)."""
-    rows = [NodeAccount(robot, node, n, int(refused.get(node, 0))) for node, n in reaching(sent).items()]
-    to_relays = sum(sent.get(t, 0) for t in RELAY_TOPICS)
-    return rows + [NodeAccount(robot, node, to_relays, int(n)) for node, n in sorted(refused.items())
-                   if node.startswith(RELAY_STATUS)]
+    ``refused`` count (status name without the robot -> refusals counted while they were sent). The relay ends
+    are not among them: an end drops its connection to any publisher named like a relay end at once, so what a
+    forger of such a name publishes does not reach it (and the chaos probe's messages are the hostile faults')."""
+    return [NodeAccount(robot, node, n, int(refused.get(node, 0))) for node, n in reaching(sent).items()]
 
 
 def status_node(status_name: str, robot: str) -> str:
@@ -138,12 +134,10 @@ def status_node(status_name: str, robot: str) -> str:
 
 
 def refusals(counters: Mapping[str, Mapping[str, int]], robot: str) -> dict[str, int]:
-    """The refusals of each node of ``robot``'s master from the chaos probe's counters (status name -> counters):
-    the ``refused`` total of a core's node, the ``rejected_impostor`` of a relay end."""
-    out = {status_node(name, robot): int(values["refused"]) for name, values in counters.items() if "refused" in values}
-    out.update({name: int(values["rejected_impostor"]) for name, values in counters.items()
-                if name.startswith(RELAY_STATUS) and "rejected_impostor" in values})
-    return out
+    """The ``refused`` total of each node of ``robot``'s master from the chaos probe's counters (status name ->
+    counters)."""
+    return {status_node(name, robot): int(values["refused"]) for name, values in counters.items()
+            if "refused" in values}
 
 
 def grown(before: Mapping[str, int], after: Mapping[str, int]) -> dict[str, int]:
