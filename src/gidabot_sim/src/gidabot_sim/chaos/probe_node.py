@@ -44,7 +44,8 @@ in :mod:`gidabot_sim.chaos.probe_client`). The probe keeps itself registered acr
                                                                 "heard": {name: wall time of its latest status}}
     {"op": "forge", "uid": U, "origin": R}                  -> {"sent": {topic: n}} the forgeries of goal U of R
     {"op": "forged"}                                        -> {"sent": {topic: n}, "refused": {node: n},
-                                                                "uids": n, "last": wall time of the last one}
+                                                                "uids": n, "last": wall time of the last one,
+                                                                "pending": uids seen, not yet forged about}
     {"op": "quit"}
 """
 
@@ -115,6 +116,7 @@ class ChaosProbeNode:
         self.forged_uids: set[str] = set()
         self.forge_queue: list[tuple[str, str]] = []
         self.forge_cv = threading.Condition()
+        self.forging = 0                                      # 1 while a uid's forgeries are being published
         self.sent: dict[str, int] = defaultdict(int)       # topic -> forged messages published
         self.last_forged = 0.0
         self.refused_total: dict[str, int] = {}             # node -> refusals counted since this probe started
@@ -306,7 +308,8 @@ class ChaosProbeNode:
         if op == "forged":
             with self.lock:
                 return {"ok": True, "sent": dict(self.sent), "refused": dict(self.refused_total),
-                        "uids": len(self.forged_uids), "last": self.last_forged}
+                        "uids": len(self.forged_uids), "last": self.last_forged,
+                        "pending": len(self.forge_queue) + self.forging}
         raise ValueError(f"unknown op {op!r}")
 
     # -- forging ----------------------------------------------------------------------------
@@ -335,10 +338,13 @@ class ChaosProbeNode:
                     if self.rospy.is_shutdown():
                         return
                 uid, origin = self.forge_queue.pop(0)
+                self.forging = 1
             try:
                 self.forge(uid, origin)
             except Exception as err:  # noqa: BLE001 - a master away: the forger goes on with the next uid
                 self.rospy.logwarn(f"forging for {uid}: {type(err).__name__}: {err}")
+            finally:
+                self.forging = 0
 
     def _publisher(self, topic: str, type_: str) -> tuple[Any, type]:
         import roslib.message
@@ -352,7 +358,8 @@ class ChaosProbeNode:
         return self.pubs[key], cls
 
     def _subscribers(self, topic: str) -> int:
-        """How many nodes the master lists as subscribers of ``topic`` (0 if it does not answer)."""
+        """How many nodes the master lists as subscribers of ``topic`` (0 if it does not answer); for a probe named
+        like a relay end, the relay ends not counted (they close their connections to such a publisher)."""
         import rosgraph
 
         try:
@@ -360,7 +367,8 @@ class ChaosProbeNode:
         except Exception:  # noqa: BLE001 - rosgraph raises several types; a master away means "unknown"
             return 0
         name = self.rospy.resolve_name(topic)
-        return next((len(nodes) for t, nodes in subs if t == name), 0)
+        nodes = next((nodes for t, nodes in subs if t == name), [])
+        return len([n for n in nodes if not (is_relay_end(self.name) and is_relay_end(n))])
 
     def publish(self, topic: str, type_: str, data: dict[str, Any], wait: float) -> None:
         pub, cls = self._publisher(topic, type_)

@@ -301,14 +301,16 @@ class ChaosRun:
                             total[f"{who}.{k}"] = total.get(f"{who}.{k}", 0) + v
         return total
 
-    def forgery_accounts(self, settle: float = 10.0) -> list[NodeAccount]:
+    def forgery_accounts(self, settle: float = 30.0) -> list[NodeAccount]:
         """Per master and node receiving them: the forgers' messages against the refusals that node counted since
-        the forger started (waiting up to ``settle`` s for counters published after the last forgery)."""
+        the forger started (waiting up to ``settle`` s for the forgeries still due and for counters published after
+        the last one)."""
         deadline = time.monotonic() + settle
         while True:
             docs = {r: f.call("forged") for r, f in self.forgers.items()}
-            heard_after = all(t > doc["last"] + 1.0 for r, doc in docs.items()
-                              for t in self.forgers[r].call("counters")["heard"].values())
+            heard_after = all(doc["pending"] == 0 for doc in docs.values()) and \
+                all(t > doc["last"] + 1.0 for r, doc in docs.items()
+                    for t in self.forgers[r].call("counters")["heard"].values())
             accounts = [a for r, doc in docs.items() for a in account(r, doc["sent"], doc["refused"])]
             if (heard_after and all(a.accounted for a in accounts)) or time.monotonic() > deadline:
                 return accounts
