@@ -62,6 +62,7 @@ from collections import defaultdict
 from typing import Any
 
 from gidabot_navigation.interface import GUIDING_CALLERIDS, Node, Topic, is_relay_end
+from gidabot_navigation.senders import uid_robot
 from gidabot_sim.chaos.forgery import Forged, forgeries, refusals
 
 MAX_RECEIPTS = 20000         # per (topic, robot): far more than a run needs
@@ -185,14 +186,22 @@ class ChaosProbeNode:
     def _clip(text: Any, n: int = 160) -> str:
         return text[:n] if isinstance(text, str) else ""
 
-    def _on_goal(self, m: Any) -> None:
+    def _to_forge(self, m: Any, uid: str, origin: str) -> None:
+        """With ``--forge``: queue the forgeries about goal ``uid`` of ``origin``, named by a message ``m`` of a
+        guiding node or relay end of this master (a goal, or an event about it: a goal missed is still forged
+        about), once per uid."""
         caller = str(getattr(m, "_connection_header", {}).get("callerid", ""))
-        if self.forge_all and caller != self.name and (caller in GUIDING_CALLERIDS or is_relay_end(caller)):
-            with self.forge_cv:
-                if m.uid not in self.forged_uids:
-                    self.forged_uids.add(m.uid)
-                    self.forge_queue.append((m.uid, m.origin_robot))
-                    self.forge_cv.notify()
+        legit = caller in GUIDING_CALLERIDS or (is_relay_end(caller) and caller != self.name)
+        if not (self.forge_all and uid and legit):
+            return
+        with self.forge_cv:
+            if uid not in self.forged_uids:
+                self.forged_uids.add(uid)
+                self.forge_queue.append((uid, origin))
+                self.forge_cv.notify()
+
+    def _on_goal(self, m: Any) -> None:
+        self._to_forge(m, m.uid, m.origin_robot)
         self._write("goal", m, uid=self._clip(m.uid), origin=self._clip(m.origin_robot, 64),
                     initial_floor=_num(m.initial_floor), goal_floor=_num(m.goal_floor),
                     goal_id=self._clip(m.goal_id, 64), connector=self._clip(m.connector, 64),
@@ -205,6 +214,7 @@ class ChaosProbeNode:
                     origin=self._clip(m.origin_robot, 64), reason=self._clip(m.reason, 32))
 
     def _on_event(self, m: Any) -> None:
+        self._to_forge(m, m.goal_uid, uid_robot(m.goal_uid) or "")
         self._write("event", m, uid=self._clip(m.uid), robot=self._clip(m.robot, 64), goal_uid=self._clip(m.goal_uid),
                     phase=int(m.phase), s=_num(m.header.stamp.to_sec()), tour_file=self._clip(m.tour_file, 64),
                     tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), attempt=int(m.attempt),
@@ -354,7 +364,7 @@ class ChaosProbeNode:
             raise ValueError(f"unknown message type {type_}")
         key = f"{topic} {type_}"
         if key not in self.pubs:
-            self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=10)
+            self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=1000)   # bursts of forgeries: none dropped
         return self.pubs[key], cls
 
     def _subscribers(self, topic: str) -> int:
