@@ -367,24 +367,27 @@ class ChaosProbeNode:
             self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=1000)   # bursts of forgeries: none dropped
         return self.pubs[key], cls
 
-    def _subscribers(self, topic: str) -> int:
-        """How many nodes the master lists as subscribers of ``topic`` (0 if it does not answer); for a probe named
-        like a relay end, the relay ends not counted (they close their connections to such a publisher)."""
+    def _subscribers(self, topic: str) -> set[str]:
+        """The nodes the master lists as subscribers of ``topic`` (none if it does not answer); for a probe named
+        like a relay end, the relay ends left out (they close their connections to such a publisher)."""
         import rosgraph
 
         try:
             _, subs, _ = rosgraph.Master(self.rospy.get_name()).getSystemState()
         except Exception:  # noqa: BLE001 - rosgraph raises several types; a master away means "unknown"
-            return 0
+            return set()
         name = self.rospy.resolve_name(topic)
         nodes = next((nodes for t, nodes in subs if t == name), [])
-        return len([n for n in nodes if not (is_relay_end(self.name) and is_relay_end(n))])
+        return {n for n in nodes if not (is_relay_end(self.name) and is_relay_end(n))}
 
     def publish(self, topic: str, type_: str, data: dict[str, Any], wait: float) -> None:
+        from gidabot_navigation.ros.rospy_internals import connected_subscribers
+
         pub, cls = self._publisher(topic, type_)
-        want = max(1, self._subscribers(topic))
+        want = self._subscribers(topic) or {""}       # (nobody listed: wait for a first connection)
         deadline = time.monotonic() + wait
-        while pub.get_num_connections() < want and time.monotonic() < deadline:
+        while time.monotonic() < deadline and not (want <= connected_subscribers(pub) if "" not in want
+                                                   else pub.get_num_connections() >= 1):
             time.sleep(0.02)
         header = data.pop("header", None)
         msg = build_message(cls, data)
