@@ -90,6 +90,8 @@ def test_one_robot_runs_from_the_install_space(tmp_path: Path) -> None:
         assert (share / resource).is_file() and not (share / resource).is_symlink(), resource
     for program in ("gidabot_navigation/goal_manager", "gidabot_sim/sim", "gidabot_gui/gui"):
         assert os.access(install / "lib" / program, os.X_OK), program
+    editor_page = install / "lib/python3/dist-packages/gidabot_web/editor/static"     # gidabot edit's package data
+    assert {"index.html", "editor.js", "editor.css"} <= {p.name for p in editor_page.iterdir()}
 
     env = sourced(install / "setup.bash", clean_env(tmp_path / "home"))
     for var in ("ROS_PACKAGE_PATH", "PYTHONPATH", "CMAKE_PREFIX_PATH"):
