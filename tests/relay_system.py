@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import os
 import signal
 import time
@@ -17,7 +18,8 @@ from pathlib import Path
 
 from probe import Probe, close_all
 
-from gidabot_navigation.interface import Topic, is_relay_end, relay_end_name
+from gidabot_navigation.interface import Node, Topic, is_relay_end, relay_end_name
+from gidabot_navigation.senders import SPEAKS_FOR, uid_robot
 from gidabot_sim.runner.procs import wait_until
 
 REPO = Path(__file__).resolve().parents[1]
@@ -42,13 +44,16 @@ class RelayMesh:
             self.secret_file = str(path)
         self.state_dir = tmp_path / "relay_state"
         self.probes: dict[str, Probe] = {}
+        self.labels: dict[str, str] = {}        # uid made by legit_uid -> the test's label
         self.subscribed: dict[str, set[str]] = {r: set() for r in self.robots}
 
     # -- processes ------------------------------------------------------------------------
     def start(self, subscribe: list[tuple[str, str]] | None = None, timeout: float = 60.0) -> None:
         for r in self.robots:
+            # named like the robot's own goal manager (which these tests do not run): a message speaks only for
+            # its sender, and the relay ends forward only what one of their robot's own nodes published
             self.probes[r] = Probe(self.sim.env(r), self.sim.log_dir / f"probe_{r}.log", timeout=30,
-                                   command=lambda argv, r=r: self.sim.command(r, argv))
+                                   command=lambda argv, r=r: self.sim.command(r, argv), name=Node.GOAL_MANAGER)
         for r in self.robots:
             self.sub(r, DIAG, DIAG_T)
             for topic, type_ in subscribe or []:
@@ -161,11 +166,27 @@ class RelayMesh:
         return [relay_end_name(*self.pair(robot, o)) for o in self.robots if o != robot]
 
     def publish(self, robot: str, topic: str, type_: str, msg: dict) -> None:
-        """Publish once every relay end of ``robot`` (and its probe, if it records ``topic``) is connected."""
+        """Publish as ``robot``'s own node once every relay end of ``robot`` (and its probe, if it records ``topic``)
+        is connected. The message is made ``robot``'s as its own nodes would make it (senders.SPEAKS_FOR): the
+        field naming its robot set to ``robot`` when left out, a ``uid`` label (e.g. "during-outage") replaced by
+        a uid of ``robot`` (:meth:`legit_uid`; :meth:`uids` gives the labels back)."""
+        msg = dict(msg)
+        speech = SPEAKS_FOR.get(topic)
+        if speech is not None and speech.robot:
+            msg.setdefault(speech.robot, robot)
+        if speech is not None and speech.uid and "uid" in msg and uid_robot(msg["uid"]) is None:
+            msg["uid"] = self.legit_uid(robot, str(msg["uid"]))
         self.probes[robot].pub(topic, type_, msg, to=self.ends(robot))
 
+    def legit_uid(self, robot: str, label: str) -> str:
+        """A uid of ``robot`` (senders.UID_FORMAT) standing for the test's ``label``."""
+        uid = f"{robot}/test/gm.{hashlib.blake2b(label.encode(), digest_size=8).hexdigest()}"
+        self.labels[uid] = label
+        return uid
+
     def uids(self, robot: str, topic: str = GOALS) -> list[str]:
-        return [m["uid"] for m in self.probes[robot].msgs(topic)]
+        """The uids received on ``topic`` at ``robot``; those published by :meth:`publish` as their labels."""
+        return [self.labels.get(m["uid"], m["uid"]) for m in self.probes[robot].msgs(topic)]
 
     def wait_uid(self, robot: str, topic: str, uid: str, timeout: float = 30.0) -> float:
         return wait_until(lambda: uid in self.uids(robot, topic), timeout, f"{uid} on {topic} at {robot}",

@@ -57,8 +57,8 @@ class Recorder:
     """A probe on one master that records topics; fetched messages are cached here (incremental)."""
 
     def __init__(self, env: dict[str, str], log_path: Path, timeout: float = 30.0,
-                 command: Callable[[list[str]], list[str]] = list) -> None:
-        self.probe = Probe(env, log_path, timeout=timeout, command=command)
+                 command: Callable[[list[str]], list[str]] = list, name: str | None = None) -> None:
+        self.probe = Probe(env, log_path, timeout=timeout, command=command, name=name)
         self.cache: dict[str, list[dict]] = {}
 
     def sub(self, topic: str, type_: str | None = None) -> None:
@@ -144,7 +144,10 @@ class SimStack:
         try:
             self.sim.start()
             for r in self.robots:     # every recorder starts at once, then each subscribes
-                self.rec[r] = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log", command=self.on_machine(r))
+                # named like the robot's GUI, which the stack does not run (gui:=false): the visitor's commands are
+                # taken only from this robot's own nodes
+                self.rec[r] = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log", command=self.on_machine(r),
+                                       name=Node.GUI)
             for r, rec in self.rec.items():
                 for topic in self.topics.get(r, self.DEFAULT_TOPICS):
                     rec.sub(topic)

@@ -58,26 +58,30 @@ def hostile(editor: str, version: int = T_NOW) -> list[tuple[str, dict, str]]:
         kw.setdefault("version", version)
         return tour(file_name, goals, **kw)
 
+    def uid(n: int) -> str:
+        """A uid of the editor robot (senders.UID_FORMAT): its messages are judged on their content."""
+        return f"{editor}/h/ts.{n:016x}"
+
     ten_mb = "x" * (10 * 1024 * 1024)
     return [
-        ("path traversal", remote("../../escape.tour", VISIT, uid=f"{editor}/h/1"), "file_name"),
-        ("absolute path", remote("/tmp/abs.tour", VISIT, uid=f"{editor}/h/2"), "file_name"),
-        ("NUL byte in name", remote("real_world\x00.tour", VISIT, uid=f"{editor}/h/3"), "file_name"),
-        ("hidden name", remote(".gidabot-tours.json", VISIT, uid=f"{editor}/h/4"), "file_name"),
-        ("device name", remote("con.tour", VISIT, uid=f"{editor}/h/5"), "file_name"),
-        ("overlong name", remote("x" * 300 + ".tour", VISIT, uid=f"{editor}/h/6"), "file_name"),
-        ("10 MB body", remote("real_world.tour", [f"0, 014, {ten_mb}"], uid=f"{editor}/h/7"), "oversized"),
-        ("wrong columns", remote("real_world.tour", ["0, 014"], uid=f"{editor}/h/8"), "content"),
-        ("unknown room", remote("real_world.tour", ["0, 999, Nowhere"], uid=f"{editor}/h/9"), "content"),
-        ("NaN floor", remote("real_world.tour", VISIT, floor="nan", uid=f"{editor}/h/10"), "floor"),
-        ("NaN floor in a goal", remote("real_world.tour", ["nan, 014, Lab"], floor=0.0, uid=f"{editor}/h/11"),
+        ("path traversal", remote("../../escape.tour", VISIT, uid=uid(1)), "file_name"),
+        ("absolute path", remote("/tmp/abs.tour", VISIT, uid=uid(2)), "file_name"),
+        ("NUL byte in name", remote("real_world\x00.tour", VISIT, uid=uid(3)), "file_name"),
+        ("hidden name", remote(".gidabot-tours.json", VISIT, uid=uid(4)), "file_name"),
+        ("device name", remote("con.tour", VISIT, uid=uid(5)), "file_name"),
+        ("overlong name", remote("x" * 300 + ".tour", VISIT, uid=uid(6)), "file_name"),
+        ("10 MB body", remote("real_world.tour", [f"0, 014, {ten_mb}"], uid=uid(7)), "oversized"),
+        ("wrong columns", remote("real_world.tour", ["0, 014"], uid=uid(8)), "content"),
+        ("unknown room", remote("real_world.tour", ["0, 999, Nowhere"], uid=uid(9)), "content"),
+        ("NaN floor", remote("real_world.tour", VISIT, floor="nan", uid=uid(10)), "floor"),
+        ("NaN floor in a goal", remote("real_world.tour", ["nan, 014, Lab"], floor=0.0, uid=uid(11)),
          "content"),
-        ("line injection", remote("real_world.tour", ["0, 014, Lab\n0, 008, Injected"], uid=f"{editor}/h/12"),
+        ("line injection", remote("real_world.tour", ["0, 014, Lab\n0, 008, Injected"], uid=uid(12)),
          "content"),
-        ("huge name", remote("real_world.tour", VISIT, name="n" * 5000, uid=f"{editor}/h/13"), "name"),
-        ("unknown editor", remote("real_world.tour", VISIT, editor="Mallory", uid=f"{editor}/h/14"), "robot"),
-        ("version from the far future", remote("real_world.tour", VISIT, version=2**64 - 1, uid=f"{editor}/h/15"),
+        ("huge name", remote("real_world.tour", VISIT, name="n" * 5000, uid=uid(13)), "name"),
+        ("unknown editor", remote("real_world.tour", VISIT, editor="Mallory", uid=uid(14)), "robot"),
+        ("version from the far future", remote("real_world.tour", VISIT, version=2**64 - 1, uid=uid(15)),
          "version"),
-        ("delete through traversal", remote("../long_tour.tour", [], deleted=True, uid=f"{editor}/h/16"),
+        ("delete through traversal", remote("../long_tour.tour", [], deleted=True, uid=uid(16)),
          "file_name"),
     ]

@@ -17,21 +17,17 @@ about 4 minutes each.
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
-import signal
-import subprocess
 from pathlib import Path
 
 import pytest
+from chaos_cli import run_chaos
 
 import gidabot_sim.runner.procs as procs_mod
 
 pytestmark = [pytest.mark.system, pytest.mark.slow]
 
-REPO = Path(__file__).resolve().parents[2]
-GIDABOT = REPO / "bin" / "gidabot"
 TOUR = ("Tour: Chaos test\n0, 008, Caretakers' Office\n1, 101, Secretary's Office\n2, 203, An office\n"
         "0, 014, Computer Technicians 1\n")
 KEYS = {"accepted", "completed", "lost", "duplicated", "max_recovery_s", "faults", "table3_bags", "node_crashes",
@@ -45,17 +41,8 @@ def test_quick_chaos_run_keeps_every_promise(tmp_path: Path, machines: bool) -> 
     tour = tmp_path / "chaos_test.tour"
     tour.write_text(TOUR, encoding="utf-8")
     where = ["--machines"] if machines else ["--net", str(procs_mod.test_network())]
-    argv = [str(GIDABOT), "chaos", "--profile", "quick", "--seed", "3", "--tour", str(tour), "--out",
-            str(tmp_path / "runs"), *where, "--json", "--timeout", "480"]
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
-    try:
-        out, err = proc.communicate(timeout=540)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        pytest.fail(f"chaos run still going after 540 s\n{err[-4000:]}")
-    print(err[-6000:])                       # the progress and the table (shown with -s or on failure)
-    doc = json.loads(out)
+    doc, returncode = run_chaos(["--profile", "quick", "--seed", "3", "--tour", str(tour), "--out",
+                                 str(tmp_path / "runs"), *where, "--timeout", "480"], 540)
     assert set(doc) >= KEYS
     counts = doc["fault_counts"]
     assert {f["kind"] for f in doc["faults"]} == {k for k, n in counts.items() if n}
@@ -76,6 +63,6 @@ def test_quick_chaos_run_keeps_every_promise(tmp_path: Path, machines: bool) -> 
     assert doc["tours_intact"], doc["tours_problems"]
     hostile = [f for f in doc["faults"] if f["kind"] == "hostile_message"]
     assert all(f["accounted"] for f in hostile), [(f["target"], f["robot"]) for f in hostile if not f["accounted"]]
-    assert doc["passed"] and proc.returncode == 0, doc["failures"]
+    assert doc["passed"] and returncode == 0, doc["failures"]
     run = Path(doc["run_folder"])
     assert (run / "chaos.json").exists() and len(list(run.glob("*.bag"))) >= 5     # a new part after the restart

@@ -1,12 +1,15 @@
 """goal_manager + multirobot_navigation on ONE master (launch/guiding.launch), with a fake move_base.
 
 Tartalo (floor 0) runs its guiding nodes next to tests/guiding/guiding_fake_nav.py (move_base action
-server, amcl_pose, odom, battery); a probe plays the visitor (visitor/command), the other
-robots (their goals, events and statuses on the shared topics) and records what guiding says.
+server, amcl_pose, odom, battery). A probe named like Tartalo's GUI plays the visitor (visitor/command) and
+records what guiding says; each other robot is played by a probe named like Tartalo's relay end of the link to
+it (the one node that may speak for that robot on Tartalo's master: gidabot_navigation.senders), publishing
+its goals, events and statuses on the shared topics with uids of its own namespace.
 """
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -16,6 +19,7 @@ from probe import Probe
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.senders import Senders
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -37,21 +41,28 @@ CONTINUE_TIMEOUT = 2              # s: counted from the start robot's release of
 OFFLINE_AFTER = 60                # s (wall): one status of each other robot (Robot.statuses) keeps it online
                                   # through a whole test, however loaded the machine (liveness is not tested here)
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
+OTHERS = {"Kbot": 1.0, "Galtxagorri": 2.0, "MariSorgin": 3.0}     # the other robots and their floors
 # the guiding nodes that subscribe each topic the probe publishes on: a message is published once they are
 # connected (the spoofed pending list, for one, is the navigation node's to reject)
 LISTENERS = {Topic.VISITOR_COMMAND: (GM, NAV), Topic.STATUS: (GM, NAV), Topic.NAV_EVENTS: (GM, NAV),
              Topic.GOALS: (GM,), Topic.CANCELS: (GM, NAV), Topic.PENDING: (GM, NAV)}
 
 
+def peer_uid(robot: str, scope: str, n: int) -> str:
+    """A uid of ``robot``'s namespace (senders.UID_FORMAT), the ``n``-th of this test."""
+    return f"{robot}/{scope}/t.{n:016x}"
+
+
 class Robot:
-    def __init__(self, procs: ProcessGroup, probe: Probe, env: dict[str, str]) -> None:
-        self.procs, self.probe, self.env = procs, probe, env
+    def __init__(self, procs: ProcessGroup, probe: Probe, peers: dict[str, Probe], env: dict[str, str]) -> None:
+        """``probe``: named like Tartalo's GUI, records; ``peers``: each other robot's relay end on this master."""
+        self.procs, self.probe, self.peers, self.env = procs, probe, peers, env
         self.n = 0
 
-    def pub(self, topic: str, type_: str, msg: dict) -> None:
-        """Publish as the visitor or another robot would, once every guiding node listening to ``topic`` is
-        connected."""
-        self.probe.pub(topic, type_, msg, to=LISTENERS[topic])
+    def pub(self, topic: str, type_: str, msg: dict, by: str = "") -> None:
+        """Publish as the visitor (``by`` "": from the GUI's probe) or as robot ``by``'s relay end would, once every
+        guiding node listening to ``topic`` is connected."""
+        (self.peers[by] if by else self.probe).pub(topic, type_, msg, to=LISTENERS[topic])
 
     def command(self, command: int, **fields) -> None:
         self.n += 1
@@ -60,9 +71,17 @@ class Robot:
         self.pub(Topic.VISITOR_COMMAND, CMD, msg)
 
     def statuses(self) -> None:
-        """The other robots are alive (their statuses, as the relays would deliver them)."""
-        for name, floor in (("Kbot", 1.0), ("Galtxagorri", 2.0), ("MariSorgin", 3.0)):
-            self.pub(Topic.STATUS, STATUS, {"robot": name, "floor": floor, "state": "idle"})
+        """The other robots are alive (their statuses, as their relay ends deliver them)."""
+        for name, floor in OTHERS.items():
+            self.pub(Topic.STATUS, STATUS, {"robot": name, "floor": floor, "state": "idle"}, by=name)
+
+    def diag(self, node: str) -> dict[str, str]:
+        """The newest diagnostics values of guiding node ``node`` ("goal_manager", "navigation")."""
+        for m in reversed(self.probe.msgs(Topic.DIAGNOSTICS)):
+            st = m["status"][0]
+            if st["name"] == f"guiding: {node} Tartalo":
+                return {kv["key"]: kv["value"] for kv in st["values"]}
+        return {}
 
     def events(self, goal_uid: str | None = None, since: int = 0) -> list[dict]:
         return [m for m in self.probe.msgs(Topic.NAV_EVENTS, since)
@@ -79,9 +98,9 @@ class Robot:
         self.n += 1
         goal = self.probe.wait(Topic.GOALS, lambda m: m["uid"] == goal_uid and m["goal_robot"] == robot
                                and m["goal_state"] == LEG_PROPOSED, 10, f"the goal leg proposed to {robot}")
-        self.pub(Topic.NAV_EVENTS, EVENT, {"uid": f"{robot}/event/t.{self.n}", "robot": robot, "floor": floor,
+        self.pub(Topic.NAV_EVENTS, EVENT, {"uid": peer_uid(robot, "event", self.n), "robot": robot, "floor": floor,
                                            "goal_uid": goal_uid, "phase": ACCEPTED, "leg": "goal",
-                                           "attempt": goal["attempt"], "tour_step": -1})
+                                           "attempt": goal["attempt"], "tour_step": -1}, by=robot)
 
     def idle(self, timeout: float = 20.0) -> dict:
         return self.probe.wait(Topic.STATUS, lambda m: m["state"] == "idle" and m["pending"] == 0, timeout,
@@ -103,13 +122,17 @@ def robot(tmp_path_factory) -> Iterator[Robot]:
                                 "robot:=Tartalo", f"continue_timeout:={CONTINUE_TIMEOUT}",
                                 f"offline_after:={OFFLINE_AFTER}",
                                 "output:=screen"], env)
-        with Probe(env, tmp / "logs" / "probe.log") as probe:
+        links = Senders.of_building(building, "Tartalo")
+        with contextlib.ExitStack() as stack:
+            peers = {r: stack.enter_context(Probe(env, tmp / "logs" / f"{r}_relay.log",
+                                                  name=links.relay_of(r).lstrip("/"))) for r in OTHERS}
+            probe = stack.enter_context(Probe(env, tmp / "logs" / "probe.log", name=Node.GUI))
             for topic, type_ in ((Topic.NAV_EVENTS, EVENT), (Topic.GOALS, GOAL),
                                  (Topic.CANCELS, CANCEL), (Topic.STATUS, STATUS),
                                  (Topic.PENDING, PENDING), (Topic.POSES, "gidabot_msgs/NavPose"),
                                  (Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray")):
                 probe.sub(topic, type_)
-            r = Robot(procs, probe, env)
+            r = Robot(procs, probe, peers, env)
             # the nodes are up, localised and connected to move_base
             probe.wait(Topic.STATUS, lambda m: m["robot"] == "Tartalo" and m["state"] == "idle"
                        and abs(m["nav_pose"]["position"]["x"] - 30.0) < 0.01 and abs(m["battery"] - 0.8) < 1e-6,
@@ -171,21 +194,22 @@ def test_goal_floor_meets_the_visitor_and_times_out(robot: Robot) -> None:
                 "tour_file": "", "tour_step": -1, "start_robot": "MariSorgin", "start_state": LEG_COMMITTED,
                 "goal_robot": "Tartalo", "goal_state": LEG_COMMITTED, "attempt": 2}
 
+    first, second = peer_uid("MariSorgin", "v", 1), peer_uid("MariSorgin", "v", 2)
     n = len(robot.events())
-    robot.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.1"))
-    robot.wait_phase(GOING_TO_MEETING, "MariSorgin/v/t.1", since=n)
-    robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.1", since=n)
-    robot.command(CONTINUE, goal_uid="MariSorgin/v/t.1")
-    robot.wait_phase(GOAL_REACHED, "MariSorgin/v/t.1", since=n)
-    assert robot.events("MariSorgin/v/t.1")[0]["language"] == "eu"
+    robot.pub(Topic.GOALS, GOAL, goal(first), by="MariSorgin")
+    robot.wait_phase(GOING_TO_MEETING, first, since=n)
+    robot.wait_phase(WAITING_VISITOR, first, since=n)
+    robot.command(CONTINUE, goal_uid=first)
+    robot.wait_phase(GOAL_REACHED, first, since=n)
+    assert robot.events(first)[0]["language"] == "eu"
     # a second visitor never shows up: CONTINUE_TIMEOUT s after MariSorgin released them, the trip is dropped
-    robot.pub(Topic.GOALS, GOAL, goal("MariSorgin/v/t.2"))
-    robot.wait_phase(WAITING_VISITOR, "MariSorgin/v/t.2", since=n)
-    robot.pub(Topic.NAV_EVENTS, EVENT, {"uid": "MariSorgin/event/t.1", "robot": "MariSorgin", "floor": 3.0,
-                                        "goal_uid": "MariSorgin/v/t.2", "phase": GO_TO_FLOOR, "target_floor": 0.0,
-                                        "tour_step": -1})
-    robot.wait_phase(TIMEOUT, "MariSorgin/v/t.2", since=n, timeout=15)
-    robot.probe.wait(Topic.CANCELS, lambda m: m["goal_uid"] == "MariSorgin/v/t.2" and m["reason"] == "timeout",
+    robot.pub(Topic.GOALS, GOAL, goal(second), by="MariSorgin")
+    robot.wait_phase(WAITING_VISITOR, second, since=n)
+    robot.pub(Topic.NAV_EVENTS, EVENT, {"uid": peer_uid("MariSorgin", "event", 1), "robot": "MariSorgin", "floor": 3.0,
+                                        "goal_uid": second, "phase": GO_TO_FLOOR, "target_floor": 0.0,
+                                        "tour_step": -1}, by="MariSorgin")
+    robot.wait_phase(TIMEOUT, second, since=n, timeout=15)
+    robot.probe.wait(Topic.CANCELS, lambda m: m["goal_uid"] == second and m["reason"] == "timeout",
                      5, "the timeout cancel")
     robot.idle()
 
@@ -219,59 +243,67 @@ def test_aborted_navigation_is_unreachable_and_broadcast(robot: Robot) -> None:
     robot.command(REQUEST, goal_id="223", way="lift")
     uid2 = robot.wait_phase(ACCEPTED, since=n)["goal_uid"]
     robot.accept(uid2, "Galtxagorri", 2.0)
-    robot.pub(Topic.CANCELS, CANCEL, {"uid": "Galtxagorri/cancel/t.1", "goal_uid": uid2,
-                                      "origin_robot": "Galtxagorri", "reason": "visitor"})
+    robot.pub(Topic.CANCELS, CANCEL, {"uid": peer_uid("Galtxagorri", "cancel", 1), "goal_uid": uid2,
+                                      "origin_robot": "Galtxagorri", "reason": "visitor"}, by="Galtxagorri")
     robot.wait_phase(CANCELLED_ELSEWHERE, uid2)
     robot.idle()
 
 
 def test_hostile_input_never_crashes_the_nodes(robot: Robot) -> None:
-    p = robot.probe
     n = len(robot.events())
+    before = {node: robot.diag(node) for node in ("goal_manager", "navigation")}
     for cmd in ({"command": 99}, {"command": REQUEST, "goal_id": "x" * 100000},
                 {"command": REQUEST, "goal_id": "999"}, {"command": REQUEST, "goal_id": "001", "way": "rocket"},
                 {"command": CONTINUE, "goal_uid": "../../etc"}, {"command": 3, "tour_file": "../../passwd.tour"},
                 {"command": 4, "tour_file": "nope.tour", "tour_step": 2 ** 31 - 1},
                 {"command": CANCEL_CMD, "goal_uid": "nobody/v/1"}, {"command": REQUEST, "language": "\u0000"}):
         robot.command(**cmd)
-    base = {"uid": "Evil/1", "origin_robot": "Kbot", "visitor_id": "v", "initial_floor": 1.0,
+    base = {"origin_robot": "Kbot", "visitor_id": "v", "initial_floor": 1.0,
             "initial_pose": {"x": 30.0, "y": 12.0}, "goal_floor": 0.0,
             "goal_pose": {"position": {"x": 9.0, "y": 11.4}, "orientation": {"w": 1.0}}, "way": "stairs",
             "connector": "stairs_west", "start_id": "robot", "goal_id": "001", "language": "en", "tour_step": -1}
+    # goals Kbot's relay end brings (invalid, or speaking for another robot, or with a uid not Kbot's), and goals
+    # of Kbot from Galtxagorri's relay end: every one refused by the goal manager, none answered
     hostile = [{"goal_floor": "nan"}, {"initial_floor": "nan"}, {"goal_floor": 1e30}, {"origin_robot": "Evil"},
                {"goal_id": "999"}, {"uid": "u" * 200000}, {"goal_pose": {"position": {"x": "nan", "y": 1.0}}},
-               {"connector": "chimney"}, {"tour_file": "../../x.tour", "tour_step": 0}, {"language": "x" * 5000}]
+               {"connector": "chimney"}, {"tour_file": "../../x.tour", "tour_step": 0}, {"language": "x" * 5000},
+               {"origin_robot": "Tartalo"}, {"uid": "Tartalo/v/t.00000000000000ff"}]
     for i, change in enumerate(hostile):
-        msg = {**base, "uid": f"Evil/{i}", **change}
-        robot.pub(Topic.GOALS, GOAL, msg)
-    robot.pub(Topic.CANCELS, CANCEL, {"uid": "", "goal_uid": "x", "origin_robot": "Evil", "reason": "why"})
+        robot.pub(Topic.GOALS, GOAL, {**base, "uid": peer_uid("Kbot", "v", 100 + i), **change}, by="Kbot")
+    robot.pub(Topic.GOALS, GOAL, {**base, "uid": peer_uid("Kbot", "v", 200)}, by="Galtxagorri")
+    robot.pub(Topic.CANCELS, CANCEL, {"uid": "", "goal_uid": "x", "origin_robot": "Evil", "reason": "why"},
+              by="Kbot")
     robot.pub(Topic.NAV_EVENTS, EVENT, {"uid": "e/1", "robot": "Tartalo", "floor": "nan", "goal_uid": "",
-                                        "phase": 250, "tour_step": -5})
-    # the goal manager counted the rejections
-    def rejected() -> int:
-        for m in reversed(p.msgs(Topic.DIAGNOSTICS)):
-            st = m["status"][0]
-            if st["name"] == "guiding: goal_manager Tartalo":
-                return int({kv["key"]: kv["value"] for kv in st["values"]}.get("rejected", 0))
-        return 0
-    wait_until(lambda: rejected() >= len(hostile) + 5, 30, "the rejections counted")
+                                        "phase": 250, "tour_step": -5}, by="MariSorgin")
+    goals_refused = len(hostile) + 1           # the goal manager alone subscribes the goals
+    both_refused = 2                           # the cancel and the event: each refused by both guiding nodes
+
+    def refused(node: str) -> int:
+        return int(robot.diag(node).get("refused", 0)) - int(before[node].get("refused", 0))
+    wait_until(lambda: refused("goal_manager") >= goals_refused + both_refused
+               and refused("navigation") >= both_refused, 30, "the refusals counted")
+    print(f"\n[guiding] refused: goal_manager {refused('goal_manager')} of {goals_refused + both_refused} forged, "
+          f"navigation {refused('navigation')} of {both_refused}")
     rejected_events = [e for e in robot.events(since=n) if e["phase"] == REJECTED]
+    # the visitor's invalid commands are answered; no forged goal of another robot is
     assert len(rejected_events) >= 5 and all(len(e["detail"]) <= 400 for e in rejected_events)
+    assert not [e for e in rejected_events if e["goal_uid"].startswith(("Kbot/", "u"))], rejected_events
     assert robot.procs.alive("guiding") and robot.procs.alive("fake_nav")
-    # a valid request still works; an (empty) pending list of Tartalo published by another node
-    # on the way is ignored (only the local goal_manager's counts)
+    # a valid request still works; an (empty) pending list of Tartalo brought by Kbot's relay end on the way is
+    # refused (the navigation takes its robot's pending list from its goal_manager only) and counted
     n = len(robot.events())
+    nav_before = int(robot.diag("navigation").get("refused_impostor", 0))
     robot.command(REQUEST, goal_id="014", way="stairs")
     uid = robot.wait_phase(ON_THE_WAY, since=n)["goal_uid"]
-    robot.pub(Topic.PENDING, PENDING, {"robot": "Tartalo", "num": 0, "eta": []})
+    robot.pub(Topic.PENDING, PENDING, {"robot": "Tartalo", "num": 0, "eta": []}, by="Kbot")
     robot.wait_phase(GOAL_REACHED, uid)
-
-    def spoofed_pending() -> int:          # and counted as rejected by the navigation node (a chaos verdict)
-        for m in reversed(p.msgs(Topic.DIAGNOSTICS)):
-            st = m["status"][0]
-            if st["name"] == "guiding: navigation Tartalo":
-                return int({kv["key"]: kv["value"] for kv in st["values"]}.get("rejected_pending_sender", 0))
-        return 0
-    wait_until(lambda: spoofed_pending() >= 1, 30, "the spoofed pending list counted")
+    wait_until(lambda: int(robot.diag("navigation").get("refused_impostor", 0)) > nav_before, 30,
+               "the spoofed pending list counted")
+    # an anonymous node is an impostor, whatever it says
+    with Probe(robot.env, robot.procs.log_dir / "impostor.log") as impostor:
+        gm_before = int(robot.diag("goal_manager").get("refused_impostor", 0))
+        impostor.pub(Topic.STATUS, STATUS, {"robot": "Kbot", "floor": 1.0, "state": "idle"}, to=LISTENERS[Topic.STATUS])
+        wait_until(lambda: int(robot.diag("goal_manager").get("refused_impostor", 0)) > gm_before, 30,
+                   "the impostor's status counted")
     log = (robot.procs.get("guiding").log_path or Path("/dev/null")).read_text(errors="replace")
     assert "Traceback" not in log

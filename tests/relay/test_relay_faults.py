@@ -14,6 +14,7 @@ import pytest
 from probe import Probe
 from relay_system import GOAL, GOALS, RelayMesh, detection_delay, settle
 
+from gidabot_navigation.interface import Node
 from gidabot_sim.runner.procs import master_pid, wait_until
 
 pytestmark = pytest.mark.system
@@ -57,9 +58,11 @@ def test_goal_published_during_a_master_outage_arrives_once_within_2s_of_the_res
     print(f"goal of the outage delivered {took:.2f} s after the master came back")
 
     # re-registration: a node that starts after the restart is found by the relays, both ways
-    with Probe(mesh.sim.env(dead), mesh.sim.log_dir / "late_probe.log") as late:
+    # (named like one of the robot's own nodes that the mesh does not run: only those are forwarded)
+    with Probe(mesh.sim.env(dead), mesh.sim.log_dir / "late_probe.log", name=Node.MULTIROBOT_NAVIGATION) as late:
         # a plain publisher: published once every relay end of the robot and the mesh's probe are connected
-        late.pub(GOALS, GOAL, {"uid": "from-new-node"}, to=[*mesh.ends(dead), mesh.probes[dead].name])
+        late.pub(GOALS, GOAL, {"uid": mesh.legit_uid(dead, "from-new-node"), "origin_robot": dead},
+                 to=[*mesh.ends(dead), mesh.probes[dead].name])
         for r in _others(mesh, dead):
             mesh.wait_uid(r, GOALS, "from-new-node")
     mesh.publish(src, GOALS, GOAL, {"uid": "after-restart"})

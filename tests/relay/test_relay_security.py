@@ -84,25 +84,33 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
     def counters(key: str) -> bool:
         return all(int((mesh.end_diag(src, o) or {}).get(key, 0)) >= 1 for o in others)
 
-    # publishers on src's own master under the names of impostors, each repeating its message until every
-    # relay end of src has counted it: a plain std_msgs/String on the shared topic, bytes that are no Goal
-    # under Goal's type and md5
-    for node, type_, msg, raw, key in (("impostor", "std_msgs/String", {"data": "wrong-type"}, None, "rejected_type"),
-                                       ("garbler", GOAL, {}, b"\xff" * 7, "rejected_malformed")):
+    # publishers on src's own master, each repeating its message until every relay end of src has counted it: a
+    # real Goal of src from a node that is none of src's (an impostor: whatever it says, it is not forwarded), and
+    # from src's own nodes (which may speak for src) a plain std_msgs/String on the shared topic and bytes that
+    # are no Goal under Goal's type and md5
+    forged = {"uid": mesh.legit_uid(src, "impostor"), "origin_robot": src}
+    for node, type_, msg, raw, key in (("impostor", GOAL, forged, None, "rejected_impostor"),
+                                       (Node.GUI, "std_msgs/String", {"data": "wrong-type"}, None, "rejected_type"),
+                                       (Node.TOUR_STORE, GOAL, {}, b"\xff" * 7, "rejected_malformed")):
         with Probe(mesh.sim.env(src), mesh.sim.log_dir / f"{node}.log", name=node) as p:
             p.publish_until(GOALS, type_, msg, lambda key=key: counters(key), f"{key} counted by {ends}", to=ends,
                             raw=raw)
-    # and a real Goal from a node named like a relay end. The ends close their connections to relay publishers
-    # within a tick, so the Goal is latched (written as each end connects) and the node started again (the
-    # ends connect again) until every end has counted it
+    # and a real Goal from a node named like a relay end that is none of src's (each end knows src's ends): an
+    # impostor too. The ends close their connections to relay publishers within a tick, so the Goal is latched
+    # (written as each end connects) and the node started again (the ends connect again) until every end has
+    # counted it
+    impostors = {o: int((mesh.end_diag(src, o) or {}).get("rejected_impostor", 0)) for o in others}
+
+    def fake_counted() -> bool:
+        return all(int((mesh.end_diag(src, o) or {}).get("rejected_impostor", 0)) > impostors[o] for o in others)
     for attempt in range(1, 6):
         with Probe(mesh.sim.env(src), mesh.sim.log_dir / f"relay_fake_{attempt}.log", name="gidabot_relay_fake") as p:
             p.pub(GOALS, GOAL, {"uid": "fake-relay"}, to=[mesh.probes[src].name], latch=True)
             with contextlib.suppress(ProcessError):
-                wait_until(lambda: counters("ignored_relay"), 10, "the fake relay end's Goal ignored by every end")
-        if counters("ignored_relay"):
+                wait_until(fake_counted, 10, "the fake relay end's Goal refused by every end")
+        if fake_counted():
             break
-    assert counters("ignored_relay"), f"the fake relay end's Goal not counted by every end of {src}"
+    assert fake_counted(), f"the fake relay end's Goal not counted by every end of {src}"
     wait_until(lambda: "fake-relay" in mesh.uids(src), 30, "fake-relay at src")   # published locally, not relayed
     big = ["0, 014, " + "x" * (1 << 20)]                          # a 1 MiB tour: over the 1 MiB limit
     mesh.publish(src, Topic.TOURS, "gidabot_msgs/Tour", {"uid": "huge-tour", "tour_goals_info": big})
@@ -112,7 +120,7 @@ def test_local_impostors_wrong_types_malformed_and_oversized_messages_do_not_cro
 
     def counted(d: dict[str, str]) -> bool:
         return (int(d["rejected_type"]) >= 1 and int(d["rejected_malformed"]) >= 1
-                and int(d["rejected_oversize"]) >= 1 and int(d["ignored_relay"]) >= 1
+                and int(d["rejected_oversize"]) >= 1 and int(d["rejected_impostor"]) >= 2
                 and int(d["forwarded_events"]) >= 1)
 
     arrived = time.time()           # diagnostics stamped later count "legit" as forwarded (1 Hz)

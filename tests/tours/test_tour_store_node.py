@@ -8,7 +8,9 @@ import pytest
 from probe import Probe
 from tour_system import FACULTY, REPO, T_NOW, TOUR, VISIT, dir_state, hostile, robot_ip, start_store, tour
 
+from gidabot_navigation.building.model import load_building
 from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.senders import Senders
 from gidabot_sim.runner.procs import ProcessGroup, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -23,7 +25,8 @@ def one_robot(tmp_path: Path, procs: ProcessGroup):
     env = ros_env(uri, robot_ip(2), log_dir=tmp_path / "logs" / "ros")
     tours_dir = tmp_path / "tours"
     start_store(procs, env, "Galtxagorri", FACULTY, tours_dir, name="tour_store")
-    with Probe(env, tmp_path / "logs" / "probe.log") as probe:
+    # named like the robot's GUI (not run here): admin edits are answered only for this robot's own nodes
+    with Probe(env, tmp_path / "logs" / "probe.log", name=Node.GUI) as probe:
         for topic, type_ in ((Topic.TOUR_CATALOG, "gidabot_msgs/TourCatalog"), (Topic.TOURS, TOUR),
                              (Topic.TOUR_INDEX, "gidabot_msgs/TourIndex"),
                              (Topic.TOUR_EDIT_RESULT, "gidabot_msgs/TourEditResult"),
@@ -83,9 +86,16 @@ def test_admin_edits_are_stored_shared_and_survive_restart(one_robot) -> None:
 
 def test_remote_tours_hostile_input_and_anti_entropy(one_robot) -> None:
     procs, env, tours_dir, probe = one_robot
+    # Kbot's messages reach Galtxagorri's master through the relay end of their link, which speaks for Kbot only
+    kbot = Senders.of_building(load_building(FACULTY), "Galtxagorri").relay_of("Kbot")
+    with Probe(env, tours_dir.parent / "logs" / "kbot_relay.log", name=kbot.lstrip("/")) as relay:
+        remote_tours(tours_dir, probe, relay)
+
+
+def remote_tours(tours_dir: Path, probe: Probe, relay: Probe) -> None:
     # a valid tour from Kbot is written into the directory
-    probe.pub(Topic.TOURS, TOUR, tour("from_kbot.tour", VISIT, editor="Kbot", origin="Kbot", version=T_NOW,
-                                             uid="Kbot/tour/x.1"), to=STORE)
+    relay.pub(Topic.TOURS, TOUR, tour("from_kbot.tour", VISIT, editor="Kbot", origin="Kbot", version=T_NOW,
+                                      uid="Kbot/tour/ts.0000000000000001"), to=STORE)
     wait_until(lambda: "from_kbot.tour" in dir_state(tours_dir), 30, "Kbot's tour on disk")
     before = dir_state(tours_dir)
     assert sorted(before) == sorted([*SEEDED, "from_kbot.tour"])
@@ -93,7 +103,7 @@ def test_remote_tours_hostile_input_and_anti_entropy(one_robot) -> None:
     # hostile and malformed tours: every one rejected, counted, nothing touched
     cases = hostile("Kbot")
     for _, msg, _ in cases:
-        probe.pub(Topic.TOURS, TOUR, msg, to=STORE)
+        relay.pub(Topic.TOURS, TOUR, msg, to=STORE)
     wait_until(lambda: diag(probe, "rejected") >= len(cases), 30, f"{len(cases)} rejections")
     assert diag(probe, "rejected") == len(cases)
     for reason in {r for _, _, r in cases}:
@@ -104,7 +114,7 @@ def test_remote_tours_hostile_input_and_anti_entropy(one_robot) -> None:
 
     # anti-entropy: Kbot's index says it lacks everything -> every record is re-sent
     n = len(probe.msgs(Topic.TOURS))
-    probe.pub(Topic.TOUR_INDEX, "gidabot_msgs/TourIndex", {"robot": "Kbot", "file_names": [], "versions": [],
-                                                               "editor_robots": [], "deleted": []}, to=STORE)
+    relay.pub(Topic.TOUR_INDEX, "gidabot_msgs/TourIndex", {"robot": "Kbot", "file_names": [], "versions": [],
+                                                           "editor_robots": [], "deleted": []}, to=STORE)
     wait_until(lambda: {m["file_name"] for m in probe.msgs(Topic.TOURS, n)} >= set(before), 20,
                "the re-sent tours")

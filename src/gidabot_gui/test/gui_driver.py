@@ -39,7 +39,7 @@ def main() -> int:
     building = load_building(building_path)
     params = Params(building_path, robot, "en", False, "", False, "null", 150, False, 800, 480, 5.0, 20.0, "")
     inbox = Inbox()
-    node = GuiNode(params, inbox)
+    node = GuiNode(params, inbox, building)
     speaker = NullSpeaker()
     window = MainWindow(building, GuiConfig(robot, visitor_id="guidriver"), Translator("en"), node, speaker,
                         inbox=inbox)

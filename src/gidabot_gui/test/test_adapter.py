@@ -6,6 +6,7 @@ import math
 import statistics
 import threading
 import time
+from pathlib import Path
 
 import pytest
 from geometry_msgs.msg import Pose
@@ -16,9 +17,11 @@ from gidabot_gui.core.model import InitialPose, TourEdit, tour_info
 from gidabot_gui.gui_node import INITIAL_COVARIANCE, Receiver, catalog_tours, initial_pose_to_msg
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
+from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import CommandData
-from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Node, Phase, global_name, relay_end_name
 from gidabot_navigation.ros.convert import command_to_msg, tour_from_msg, tour_to_msg
+from gidabot_navigation.senders import Gate, Senders, make_uid
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -86,18 +89,50 @@ def test_catalog_goal_lines_are_read_like_a_tour_file(lines: list[str], ok: bool
         assert info.goals[0] == (0.0, "014", "Lab")
 
 
+def kbot_gate() -> Gate:
+    """Whose messages Kbot's screen takes in the faculty."""
+    faculty = load_building(Path(__file__).resolve().parents[3] / "maps" / "faculty")
+    return Gate(Senders.of_building(faculty, "Kbot"), NullLog())
+
+
+class NullLog:
+    def info(self, msg: str) -> None: ...
+    def warning(self, msg: str) -> None: ...
+    def error(self, msg: str) -> None: ...
+
+
+def published(msg, callerid: str):
+    """``msg`` as a subscriber gets it from ``callerid``."""
+    msg._connection_header = {"callerid": callerid}
+    return msg
+
+
+def test_forged_events_never_reach_the_screen() -> None:
+    inbox = Inbox()
+    r = Receiver(inbox, lambda _m: None, kbot_gate())
+    ev = NavEvent()
+    ev.uid, ev.robot, ev.phase, ev.goal_uid = make_uid("Kbot", "event", "nav"), "Kbot", Phase.GOAL_REACHED, "Kbot/v/1"
+    r.nav_event(published(ev, "/chaos_probe"))                              # a probe: impostor
+    r.nav_event(published(ev, relay_end_name("Tartalo", "Kbot")))           # Tartalo's relay speaks for Tartalo
+    r.nav_event(published(ev, "/gidabot_relay_Kbot_Tartalo"))               # named like a relay: none of Kbot's
+    ev.uid = "Tartalo/event/nav.0123456789abcdef"
+    r.nav_event(published(ev, global_name(Node.MULTIROBOT_NAVIGATION)))     # another robot's uid
+    assert inbox.drain().events == []
+    assert r.gate.refusals() == {"impostor": 2, "foreign": 1, "wrong_namespace": 1, "conflict": 0, "invalid": 0}
+
+
 def test_receiver_converts_and_survives_hostile_input() -> None:
     inbox = Inbox()
     logs: list[str] = []
-    r = Receiver(inbox, logs.append)
+    r = Receiver(inbox, logs.append, kbot_gate())
     r.status(status_msg("Kbot", 1, 30.0))
     ev = NavEvent()
-    ev.uid, ev.robot, ev.phase, ev.goal_uid = "Tartalo/event/1", "Tartalo", Phase.ON_THE_WAY, "x"
-    r.nav_event(ev)                             # another robot's event: the flow decides (a visitor handed to it)
+    ev.uid, ev.robot, ev.phase, ev.goal_uid = make_uid("Tartalo", "event", "nav"), "Tartalo", Phase.ON_THE_WAY, "x"
+    r.nav_event(published(ev, relay_end_name("Tartalo", "Kbot")))   # another robot's event: the flow decides
     ev2 = NavEvent()
-    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid = "Kbot/event/1", "Kbot", Phase.WAITING_VISITOR, "y"
+    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid = make_uid("Kbot", "event", "nav"), "Kbot", Phase.WAITING_VISITOR, "y"
     ev2.location_id = "z" * 10_000
-    r.nav_event(ev2)
+    r.nav_event(published(ev2, global_name(Node.MULTIROBOT_NAVIGATION)))
     hostile = status_msg("K\x00bot" * 1000, float("nan"), float("inf"))
     r.status(hostile)
     pend = PendingRequests()
@@ -118,14 +153,14 @@ def test_receiver_converts_and_survives_hostile_input() -> None:
 def test_hostile_records_do_not_break_the_window(make_gui, faculty) -> None:
     gui = make_gui("Kbot")
     inbox = gui.window.inbox
-    r = Receiver(inbox, lambda _m: None)
+    r = Receiver(inbox, lambda _m: None, kbot_gate())
     r.status(status_msg("Nobody", 1, 1.0))
     r.status(status_msg("Kbot", 1, float("nan")))
     r.status(status_msg("Tartalo", 0, 9.0, battery=7.0, state="on fire"))
     for phase in (0, 99, 255):
         ev = NavEvent()
-        ev.uid, ev.robot, ev.phase, ev.goal_uid = f"Kbot/event/{phase}", "Kbot", phase, ""
-        r.nav_event(ev)
+        ev.uid, ev.robot, ev.phase, ev.goal_uid = make_uid("Kbot", "event", "nav"), "Kbot", phase, ""
+        r.nav_event(published(ev, global_name(Node.MULTIROBOT_NAVIGATION)))
     gui.window.drain()
     gui.window.show_page("info")
     gui.process()
@@ -140,7 +175,7 @@ def test_responsive_with_10hz_status_from_8_robots(make_gui, big_building) -> No
     w = gui.window
     w.drain_timer.start(w.config.drain_ms)
     w.tick_timer.start(1000)
-    receiver = Receiver(w.inbox, lambda _m: None)
+    receiver = Receiver(w.inbox, lambda _m: None, kbot_gate())
     robots = list(big_building.robots)
     stop = threading.Event()
     sent = [0]

@@ -32,11 +32,24 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.trips import TripPlanner
-from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Node, Phase, global_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 
 _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
+# the callerids of a robot's own nodes on its master
+GM, NAV, GUI, TS = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI, Node.TOUR_STORE))
+
+
+def from_robot(core: GoalManagerCore | NavigationCore, robot: str) -> str:
+    """The callerid that messages of ``robot`` have on the master of ``core``'s robot: its own goal manager, or the
+    relay end of the link from ``robot``."""
+    return GM if robot == core.me else core.gate.senders.relay_of(robot)
+
+
+def sender_of(core: GoalManagerCore | NavigationCore, msg: Trip | CancelData | NavEventData) -> str:
+    """The callerid of the rightful publisher of ``msg`` (a goal, cancel or event) on ``core``'s master."""
+    return from_robot(core, msg.robot if isinstance(msg, NavEventData) else msg.origin_robot)
 
 
 def shared_planner(building: Building) -> TripPlanner:
@@ -96,21 +109,21 @@ class Bus:
         self.robots: dict[str, RobotCores] = {}
         names = robots or [r.name for r in building.robots]
         for name in names:
-            gm = GoalManagerCore(building, GoalManagerConfig(robot=name), self.log, self.now_wall, boot="t",
+            gm = GoalManagerCore(building, GoalManagerConfig(robot=name), self.log, self.now_wall,
                                  planner=shared_planner(building))
             nav = None
             if navigation:
                 nav = NavigationCore(building, NavigationConfig(robot=name, continue_timeout=continue_timeout,
                                                                 partner_timeout=partner_timeout),
-                                     self.log, self.now_wall, boot="t")
+                                     self.log, self.now_wall)
                 nav.on_move_base_available(True, self.now_ros)
                 home = building.robot(name).home
                 nav.on_pose(home.x, home.y, home.yaw)
             self.robots[name] = RobotCores(name, gm, nav)
             if catalog:
-                gm.on_catalog(catalog)
+                gm.on_catalog(catalog, sender=TS)
                 if nav:
-                    nav.on_catalog(catalog)
+                    nav.on_catalog(catalog, sender=TS)
         self.goals: list[Trip] = []
         self.cancels: list[CancelData] = []
         self.events: list[NavEventData] = []
@@ -146,25 +159,25 @@ class Bus:
         self.queue.append(fn)
 
     def dispatch(self, sender: str, actions: list) -> None:
+        callerid = {name: from_robot(r.gm, sender) for name, r in self.robots.items()}   # of sender, per master
         for act in actions:
             if isinstance(act, SendGoal):
                 self.goals.append(act.trip)
                 for name, r in self.robots.items():
-                    self._to(name, lambda r=r, t=act.trip: self.run(r.name, r.gm.on_goal(t, self.now_ros,
-                                                                                          self.now_wall)),
-                             sender, act)
+                    self._to(name, lambda r=r, t=act.trip, s=callerid[name]:
+                             self.run(r.name, r.gm.on_goal(t, self.now_ros, self.now_wall, sender=s)), sender, act)
             elif isinstance(act, SendCancel):
                 self.cancels.append(act.cancel)
                 for name, r in self.robots.items():
-                    relay = name != sender
-                    self._to(name, lambda r=r, c=act.cancel, relay=relay: self._cancel(r, c, relay), sender, act)
+                    self._to(name, lambda r=r, c=act.cancel, s=callerid[name]: self._cancel(r, c, s),
+                             sender, act)
             elif isinstance(act, SendEvent):
                 self.events.append(act.event)
                 if self.on_event is not None:
                     self.on_event(act.event)
                 for name, r in self.robots.items():
-                    relay = name != sender
-                    self._to(name, lambda r=r, e=act.event, relay=relay: self._event(r, e, relay), sender, act)
+                    self._to(name, lambda r=r, e=act.event, s=callerid[name]: self._event(r, e, s),
+                             sender, act)
             elif isinstance(act, MoveTo):
                 r = self.robots[sender]
                 r.moves.append(act)
@@ -178,15 +191,15 @@ class Bus:
                     r.active = None
         self._sync_pending(self.robots[sender])
 
-    def _cancel(self, r: RobotCores, c: CancelData, relay: bool) -> None:
-        self.run(r.name, r.gm.on_cancel(c, self.now_ros, self.now_wall, from_relay=relay))
+    def _cancel(self, r: RobotCores, c: CancelData, sender: str) -> None:
+        self.run(r.name, r.gm.on_cancel(c, self.now_ros, self.now_wall, sender=sender))
         if r.nav:
-            self.run(r.name, r.nav.on_cancel(c, self.now_ros, self.now_wall, from_relay=relay))
+            self.run(r.name, r.nav.on_cancel(c, self.now_ros, self.now_wall, sender=sender))
 
-    def _event(self, r: RobotCores, e: NavEventData, relay: bool) -> None:
-        self.run(r.name, r.gm.on_nav_event(e, self.now_ros, self.now_wall, from_relay=relay))
+    def _event(self, r: RobotCores, e: NavEventData, sender: str) -> None:
+        self.run(r.name, r.gm.on_nav_event(e, self.now_ros, self.now_wall, sender=sender))
         if r.nav:
-            self.run(r.name, r.nav.on_nav_event(e, self.now_ros, self.now_wall, from_relay=relay))
+            self.run(r.name, r.nav.on_nav_event(e, self.now_ros, self.now_wall, sender=sender))
 
     def _sync_pending(self, r: RobotCores) -> None:
         if r.gm.version == r.pending_version:
@@ -194,12 +207,12 @@ class Bus:
         r.pending_version = r.gm.version
         snap = r.gm.pending(self.now_ros)
         if r.nav is not None:
-            self.queue.append(lambda r=r, s=snap: self.run(r.name, r.nav.on_pending(s.goals, s.wait_new,
-                                                                                      self.now_ros, self.now_wall)))
+            self.queue.append(lambda r=r, s=snap: self.run(r.name, r.nav.on_pending(
+                s.goals, s.wait_new, self.now_ros, self.now_wall, robot=s.robot, sender=GM)))
         for other in self.robots.values():
             if other.name != r.name:
-                self._to(other.name, lambda o=other, s=snap: o.gm.on_pending(s.robot, s.goals, s.wait_new,
-                                                                            self.now_wall), r.name, snap)
+                self._to(other.name, lambda o=other, s=snap: o.gm.on_pending(
+                    s.robot, s.goals, s.wait_new, self.now_wall, sender=from_robot(o.gm, s.robot)), r.name, snap)
 
     def run(self, robot: str, actions: list) -> None:
         self.dispatch(robot, actions)
@@ -245,9 +258,9 @@ class Bus:
     def command(self, robot: str, command: int, **fields) -> None:
         cmd = CommandData(command=command, uid=f"{robot}/v/cmd/{len(self.events)}", visitor_id="v", **fields)
         r = self.robots[robot]
-        self.run(robot, r.gm.on_command(cmd, self.now_ros, self.now_wall))
+        self.run(robot, r.gm.on_command(cmd, self.now_ros, self.now_wall, sender=GUI))
         if r.nav is not None and command == Cmd.CONTINUE:
-            self.run(robot, r.nav.on_continue(cmd.goal_uid, self.now_ros, self.now_wall))
+            self.run(robot, r.nav.on_continue(cmd.goal_uid, self.now_ros, self.now_wall, sender=GUI))
         self.pump()
 
     def request(self, robot: str, goal_id: str, way: str = "stairs") -> None:
@@ -269,18 +282,18 @@ class Bus:
         """Every robot hears a status of each robot in ``robots`` (default: all) now (wall time)."""
         for r in self.robots.values():
             for name in robots or list(self.robots):
-                r.gm.on_status(name, self.now_wall)
+                r.gm.on_status(name, self.now_wall, sender=from_robot(r.gm, name))
                 if r.nav:
-                    r.nav.on_status(name, self.now_wall)
+                    r.nav.on_status(name, self.now_wall, sender=from_robot(r.gm, name))
 
     def heartbeat(self) -> None:
         """Every robot hears the status of every robot it is not partitioned from, now (wall time)."""
         for r in self.robots.values():
             for name in self.robots:
                 if name == r.name or (name not in self.down and r.name not in self.down):
-                    r.gm.on_status(name, self.now_wall)
+                    r.gm.on_status(name, self.now_wall, sender=from_robot(r.gm, name))
                     if r.nav:
-                        r.nav.on_status(name, self.now_wall)
+                        r.nav.on_status(name, self.now_wall, sender=from_robot(r.gm, name))
 
     def tick(self, ros_dt: float = 0.0, wall_dt: float = 0.0) -> None:
         self.now_ros += ros_dt

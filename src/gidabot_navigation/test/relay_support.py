@@ -8,6 +8,7 @@ from pathlib import Path
 from gidabot_navigation.interface import EVENT, SHARED_TOPICS, Node, Topic, global_name
 from gidabot_navigation.relay.end import Close, RelayEndConfig, RelayEndCore, Send
 from gidabot_navigation.relay.journal import Journal
+from gidabot_navigation.senders import Claim
 
 TOPICS = tuple(t for t in SHARED_TOPICS if t.name in (Topic.GOALS, Topic.CANCELS, Topic.STATUS))
 MD5 = {Topic.GOALS: "a" * 32, Topic.CANCELS: "b" * 32, Topic.STATUS: "c" * 32}
@@ -44,11 +45,14 @@ def validate(topic: str, payload: bytes) -> str | None:
     return "garbage" if payload.startswith(b"BAD") else None
 
 
-def speaker(topic: str, payload: bytes) -> str | None:
-    """A test state payload b"robot=<name>;..." speaks for <name>; any other does not say."""
+def speaker(topic: str, payload: bytes) -> Claim | None:
+    """A test payload b"robot=<name>;uid=<uid>;..." speaks for <name> with that uid (b"robot=<name>;...": no uid);
+    any other does not say."""
     if not payload.startswith(b"robot="):
         return None
-    return payload[6:].split(b";")[0].decode()
+    fields = dict(part.split(b"=", 1) for part in payload.split(b";") if b"=" in part)
+    uid = fields.get(b"uid")
+    return Claim(fields[b"robot"].decode(), None if uid is None else uid.decode())
 
 
 def make_core(side: str, journal: Journal, clock: Clock, log: Log, secret: bytes | None = SECRET,

@@ -5,11 +5,35 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from gidabot_navigation.tours.tour_store import TourMessage, TourStore
+from gidabot_navigation.interface import Node, global_name
+from gidabot_navigation.senders import uid_robot
+from gidabot_navigation.tours.tour_store import Outcome, TourMessage, TourStore
 
 REPO = Path(__file__).resolve().parents[3]
 TOURS = REPO / "tours"
 T0 = 1_700_000_000 * 1_000_000_000       # a wall-clock instant in ns
+GUI, TOUR_STORE = global_name(Node.GUI), global_name(Node.TOUR_STORE)      # callerids of a robot's own nodes
+
+
+def from_robot(store: TourStore, robot: str) -> str:
+    """The callerid messages of ``robot`` have on ``store``'s master: its own tour store, or the relay end of the
+    link from ``robot`` (a robot without link: a node that is no relay end)."""
+    if robot == store.robot:
+        return TOUR_STORE
+    try:
+        return store.gate.senders.relay_of(robot)
+    except KeyError:
+        return f"/not_a_relay_of_{robot}"
+
+
+def rightful(store: TourStore, msg: TourMessage) -> str:
+    """The callerid of the robot whose uid ``msg`` carries (the robot that sends it), on ``store``'s master."""
+    return from_robot(store, uid_robot(msg.uid) or "")
+
+
+def recv(store: TourStore, msg: TourMessage) -> Outcome:
+    """``store`` receives ``msg`` from its rightful sender."""
+    return store.receive(msg, sender=rightful(store, msg))
 
 
 class FakeClock:

@@ -135,8 +135,10 @@ class FakeRos:
     def resolve_name(name: str) -> str:
         return "/test_node/" + name[1:] if name.startswith("~") else name if name.startswith("/") else "/" + name
 
-    def deliver(self, topic: str, msg: Any) -> None:
-        """``msg`` to every active subscriber of ``topic``, as rospy calls them."""
+    def deliver(self, topic: str, msg: Any, callerid: str = "") -> None:
+        """``msg`` to every active subscriber of ``topic``, as rospy calls them (published by ``callerid``)."""
+        if callerid:
+            msg._connection_header = {"callerid": callerid}
         subs = [s for s in self.subs.get(topic, []) if s.active]
         assert subs, f"nobody subscribes to {topic}"
         for sub in subs:

@@ -27,14 +27,17 @@ from gidabot_gui.core.i18n import Translator, check_language, package_locale_dir
 from gidabot_gui.core.inbox import Inbox
 from gidabot_gui.core.model import InitialPose, TourEdit, TourInfo, bounded, tour_info
 from gidabot_gui.errors import ConfigError, GuiError
-from gidabot_navigation.building.model import load_building
+from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import CommandData, base36
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.adapter import sender, simulated
+from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import start_node
 from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.senders import Claim, Gate, Senders, claim_of
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
@@ -64,9 +67,10 @@ class Receiver:
     Messages that cannot be converted are counted and logged (throttled), never raised.
     """
 
-    def __init__(self, inbox: Inbox, log: Callable[[str], None]) -> None:
+    def __init__(self, inbox: Inbox, log: Callable[[str], None], gate: Gate) -> None:
         self.inbox = inbox
         self.log = log
+        self.gate = gate      # whose events the screen takes (gidabot_navigation.senders)
         self.bad = 0
 
     def _convert(self, what: str, fn: Callable[[Any], Any], msg: Any) -> Any:
@@ -99,7 +103,12 @@ class Receiver:
         self._state("pending", convert.pending_from_msg, m)
 
     def nav_event(self, m: gidabot_msgs.NavEvent) -> None:
-        self._event("nav_event", convert.event_from_msg, m)
+        """A NavEvent, taken only when its publisher may speak for the robot it names, with a uid of that robot:
+        a forged event never reaches the visitor (refused and counted: ``self.gate.refusals()``)."""
+        rec = self._convert("nav_event", lambda msg: bounded(convert.event_from_msg(msg)), m)
+        if rec is not None and self.gate.admit(sender(m), claim_of(Topic.NAV_EVENTS, rec) or Claim(""),
+                                               "nav event") is not None:
+            self.inbox.put_event("nav_event", rec)
 
     def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
         self._event("edit_result", convert.edit_result_from_msg, m)
@@ -157,7 +166,9 @@ class GuiNode:
         shown before a request is confirmed and in the Information tab.
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): this robot's events become pop-ups and speech, and
         those of another robot of the floor that comes for a visitor waiting at this screen
-        (:class:`~gidabot_gui.core.flow.VisitorFlow` picks them).
+        (:class:`~gidabot_gui.core.flow.VisitorFlow` picks them). Only an event its publisher may send is
+        taken: this robot's own nodes speak for it, the relay end of its link to robot P for P
+        (gidabot_navigation.senders); the others are refused and logged (rate-limited).
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the Guided Tour tab.
       - ``tour_store/edit_result`` (gidabot_msgs/TourEditResult): outcome of admin tour edits.
 
@@ -180,9 +191,10 @@ class GuiNode:
       - ``~locale_dir`` (str, default the package's ``locale``): compiled gettext catalogs.
     """
 
-    def __init__(self, params: Params, inbox: Inbox) -> None:
+    def __init__(self, params: Params, inbox: Inbox, building: Building) -> None:
         self.params = params
-        self.receiver = Receiver(inbox, lambda m: rospy.logwarn_throttle(10.0, m))
+        self.receiver = Receiver(inbox, lambda m: rospy.logwarn_throttle(10.0, m),
+                                 Gate(Senders.of_building(building, params.robot, simulated()), RosLog()))
         # a guiding node that connects late (starting, or respawned) still gets the commands of the last
         # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
         # request the visitor was told got no answer is never acted on later.
@@ -259,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
         except ConfigError as err:
             rospy.logerr(f"gui: admin mode is off: {err}")
     inbox = Inbox()
-    node = GuiNode(params, inbox)
+    node = GuiNode(params, inbox, building)
     if params.speech:
         sink = "null" if params.speech_sink == "null" or (params.speech_sink == "auto" and headless) else ""
         speaker = EspeakSpeaker(rate_wpm=params.speech_rate, sink=sink, log=rospy.logwarn)

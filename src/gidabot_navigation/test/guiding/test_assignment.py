@@ -14,7 +14,7 @@ import random
 from dataclasses import replace
 
 import pytest
-from guiding_support import Bus
+from guiding_support import Bus, from_robot
 
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.assignment import AssignConfig, Assigner, GaveUp, LegBook, Publish, audit_legs
@@ -406,10 +406,10 @@ def test_reordered_attempts_the_newest_wins(faculty6) -> None:
 def restart_gm(bus: Bus, robot: str) -> None:
     """The goal manager of ``robot`` restarts and resumes its saved state (docs/guiding.md, restarts)."""
     old = bus.robots[robot].gm
-    new = GoalManagerCore(bus.building, old.cfg, bus.log, bus.now_wall, boot="r")
+    new = GoalManagerCore(bus.building, old.cfg, bus.log, bus.now_wall)
     new.load_state(old.state())
     for r in bus.robots:
-        new.on_status(r, bus.now_wall)
+        new.on_status(r, bus.now_wall, sender=from_robot(new, r))
     bus.robots[robot].gm = new
 
 

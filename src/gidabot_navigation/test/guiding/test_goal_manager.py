@@ -7,20 +7,21 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from guiding_support import Bus, ListLog, catalog_of
+from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
 
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import CancelData, CommandData, NavEventData, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_PROPOSED, REASON_VISITOR, Cmd, Phase
+from gidabot_navigation.senders import make_uid
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"
 
 
 def core(faculty, robot: str = "Tartalo", **cfg) -> GoalManagerCore:
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot=robot, **cfg), ListLog(), now_wall=0.0, boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot=robot, **cfg), ListLog(), now_wall=0.0)
     for r in faculty.robots:
-        gm.on_status(r.name, 0.0)
+        gm.on_status(r.name, 0.0, sender=from_robot(gm, r.name))
     return gm
 
 
@@ -35,13 +36,13 @@ def goals(actions):
 
 def request(gm, goal_id: str, visitor: str = "v", way: str = "stairs", now_wall: float = 1.0, **kw):
     return gm.on_command(CommandData(command=Cmd.REQUEST, goal_id=goal_id, way=way, language="es", visitor_id=visitor,
-                                     **kw), 10.0, now_wall)
+                                     **kw), 10.0, now_wall, sender=GUI)
 
 
 def own_event(gm, trip_uid: str, phase: int, n: int, **kw) -> list:
-    ev = NavEventData(uid=f"{gm.me}/event/nav.t.{n}", robot=gm.me, floor=gm.robot.floor, goal_uid=trip_uid,
+    ev = NavEventData(uid=make_uid(gm.me, "event", "nav"), robot=gm.me, floor=gm.robot.floor, goal_uid=trip_uid,
                       phase=phase, **kw)
-    return gm.on_nav_event(ev, 20.0, 2.0)
+    return gm.on_nav_event(ev, 20.0, 2.0, sender=sender_of(gm, ev))
 
 
 def test_unknown_robot_is_a_clear_error(faculty) -> None:
@@ -62,7 +63,7 @@ def test_a_request_becomes_a_broadcast_goal_accepted_here(faculty) -> None:
     assert (acc.goal_uid, acc.robot, acc.target_floor, acc.connector) == (trip.uid, "Tartalo", 3.0, "stairs_west")
     assert [t.uid for t in gm.queue] == [trip.uid]
     # the echo from /gidabot/goals is not queued twice
-    assert gm.on_goal(trip, 10.0, 1.0) == [] and len(gm.queue) == 1
+    assert gm.on_goal(trip, 10.0, 1.0, sender=sender_of(gm, trip)) == [] and len(gm.queue) == 1
     assert gm.stats["received"] == 1 and gm.stats["duplicates"] == 1
 
 
@@ -83,8 +84,9 @@ def test_two_visitors_are_queued_fifo_with_growing_waits(faculty) -> None:
 def test_only_goals_starting_or_ending_here_are_kept(faculty) -> None:
     tartalo, kbot, mari = core(faculty, "Tartalo"), core(faculty, "Kbot"), core(faculty, "MariSorgin")
     trip = goals(request(tartalo, "301"))[0]
-    assert events(mari.on_goal(trip, 10.0, 1.0), Phase.ACCEPTED)
-    assert kbot.on_goal(trip, 10.0, 1.0) == [] and kbot.queue == [] and kbot.stats["received"] == 1
+    assert events(mari.on_goal(trip, 10.0, 1.0, sender=sender_of(mari, trip)), Phase.ACCEPTED)
+    assert kbot.on_goal(trip, 10.0, 1.0, sender=sender_of(kbot, trip)) == []
+    assert kbot.queue == [] and kbot.stats["received"] == 1
 
 
 def test_cancel_of_a_queued_goal_everywhere(faculty) -> None:
@@ -107,36 +109,36 @@ def test_cancel_without_uid_means_the_trip_in_progress(faculty) -> None:
     a = goals(request(gm, "001"))[0]
     b = goals(request(gm, "022"))[0]
     own_event(gm, a.uid, Phase.ON_THE_WAY, 1)
-    acts = gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0)
+    acts = gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0, sender=GUI)
     [cancel] = [x.cancel for x in acts if isinstance(x, SendCancel)]
     assert cancel.goal_uid == a.uid and [t.uid for t in gm.queue] == [b.uid]
     assert events(acts, Phase.CANCELLED_HERE)[0].goal_uid == a.uid
     # nothing in progress: the newest goal made here
-    acts = gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0)
+    acts = gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0, sender=GUI)
     assert gm.queue == [] and events(acts, Phase.CANCELLED_HERE)[0].goal_uid == b.uid
-    assert gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0) == []
+    assert gm.on_command(CommandData(command=Cmd.CANCEL), 11.0, 1.0, sender=GUI) == []
 
 
 def test_a_cancel_that_overtakes_its_goal_wins(faculty) -> None:
     tartalo, mari = core(faculty, "Tartalo"), core(faculty, "MariSorgin")
     trip = goals(request(tartalo, "301"))[0]
-    c = CancelData(uid="Tartalo/cancel/gm.t.9", goal_uid=trip.uid, origin_robot="Tartalo", reason="visitor")
-    assert mari.on_cancel(c, 10.0, 1.0, from_relay=True) == []
+    c = CancelData(uid=make_uid("Tartalo", "cancel", "gm"), goal_uid=trip.uid, origin_robot="Tartalo", reason="visitor")
+    assert mari.on_cancel(c, 10.0, 1.0, sender=sender_of(mari, c)) == []
     assert mari.stats["cancel_unknown"] == 1                       # a cancel of a goal never seen is counted
-    assert mari.on_goal(trip, 10.0, 1.0) == [] and mari.queue == []
+    assert mari.on_goal(trip, 10.0, 1.0, sender=sender_of(mari, trip)) == [] and mari.queue == []
     assert mari.stats["cancelled_before_arrival"] == 1
     # a second copy of the same cancel changes nothing
-    assert mari.on_cancel(c, 10.0, 1.0, from_relay=True) == []
+    assert mari.on_cancel(c, 10.0, 1.0, sender=sender_of(mari, c)) == []
 
 
 def test_cancels_from_other_robots_tell_why(faculty) -> None:
     tartalo, mari = core(faculty, "Tartalo"), core(faculty, "MariSorgin")
     phases = {}
-    for i, reason in enumerate(("visitor", "unreachable", "timeout", "offline", "admin")):
+    for reason in ("visitor", "unreachable", "timeout", "offline", "admin"):
         trip = goals(request(tartalo, "301"))[0]
-        c = CancelData(uid=f"MariSorgin/cancel/nav.t.{i}", goal_uid=trip.uid, origin_robot="MariSorgin",
+        c = CancelData(uid=make_uid("MariSorgin", "cancel", "nav"), goal_uid=trip.uid, origin_robot="MariSorgin",
                        reason=reason, detail="d")
-        phases[reason] = [e.phase for e in events(tartalo.on_cancel(c, 10.0, 1.0, from_relay=True))]
+        phases[reason] = [e.phase for e in events(tartalo.on_cancel(c, 10.0, 1.0, sender=sender_of(tartalo, c)))]
     assert phases == {"visitor": [Phase.CANCELLED_ELSEWHERE], "unreachable": [Phase.UNREACHABLE], "timeout": [10],
                       "offline": [Phase.PARTNER_OFFLINE], "admin": [Phase.CANCELLED_ELSEWHERE]}
     assert mari.stats.get("accepted", 0) == 0
@@ -145,23 +147,25 @@ def test_cancels_from_other_robots_tell_why(faculty) -> None:
 def test_own_navigation_giving_up_is_silent_but_spoofs_are_refused(faculty) -> None:
     gm = core(faculty)
     trip = goals(request(gm, "301"))[0]
-    spoof = CancelData(uid="x/cancel/1", goal_uid=trip.uid, origin_robot="Tartalo", reason="unreachable")
-    assert gm.on_cancel(spoof, 10.0, 1.0, from_relay=True) == [] and len(gm.queue) == 1
-    assert gm.stats["rejected_spoofed"] == 1
-    own = CancelData(uid="Tartalo/cancel/nav.t.1", goal_uid=trip.uid, origin_robot="Tartalo", reason="unreachable")
-    assert gm.on_cancel(own, 10.0, 1.0) == [] and gm.queue == []
+    spoof = CancelData(uid=make_uid("Tartalo", "cancel", "nav"), goal_uid=trip.uid, origin_robot="Tartalo",
+                       reason="unreachable")
+    assert gm.on_cancel(spoof, 10.0, 1.0, sender=from_robot(gm, "Kbot")) == [] and len(gm.queue) == 1
+    assert gm.refusals()["foreign"] == 1
+    own = CancelData(uid=make_uid("Tartalo", "cancel", "nav"), goal_uid=trip.uid, origin_robot="Tartalo",
+                     reason="unreachable")
+    assert gm.on_cancel(own, 10.0, 1.0, sender=NAV) == [] and gm.queue == []
     # a relayed event claiming to be ours does not drop anything either
     trip2 = goals(request(gm, "001"))[0]
-    ev = NavEventData(uid="Tartalo/event/evil.1", robot="Tartalo", floor=0.0, goal_uid=trip2.uid,
+    ev = NavEventData(uid=make_uid("Tartalo", "event", "nav"), robot="Tartalo", floor=0.0, goal_uid=trip2.uid,
                       phase=Phase.GOAL_REACHED)
-    gm.on_nav_event(ev, 10.0, 1.0, from_relay=True)
-    assert [t.uid for t in gm.queue] == [trip2.uid]
+    gm.on_nav_event(ev, 10.0, 1.0, sender=from_robot(gm, "MariSorgin"))
+    assert [t.uid for t in gm.queue] == [trip2.uid] and gm.refusals()["foreign"] == 2
 
 
 def test_a_request_needing_an_offline_robot_is_answered_at_once(faculty) -> None:
     gm = core(faculty, offline_after=5.0)
     for name in ("Tartalo", "Kbot", "Galtxagorri"):
-        gm.on_status(name, 100.0)
+        gm.on_status(name, 100.0, sender=from_robot(gm, name))
     acts = request(gm, "301", now_wall=103.0)
     assert goals(acts) == [] and gm.queue == []
     [ev] = events(acts)
@@ -170,7 +174,7 @@ def test_a_request_needing_an_offline_robot_is_answered_at_once(faculty) -> None
     # same floor and floors whose robot is online still work
     assert goals(request(gm, "001", now_wall=103.0)) and goals(request(gm, "223", now_wall=103.0))
     # MariSorgin comes back
-    gm.on_status("MariSorgin", 104.0)
+    gm.on_status("MariSorgin", 104.0, sender=from_robot(gm, "MariSorgin"))
     assert goals(request(gm, "301", now_wall=104.5))
 
 
@@ -190,10 +194,10 @@ def test_what_a_restart_must_still_publish_is_all_but_a_refusal(faculty) -> None
 def test_bad_requests_are_rejected_with_a_reason(faculty) -> None:
     gm = core(faculty)
     assert events(request(gm, "999"), Phase.REJECTED)[0].detail == "unknown goal '999'"
-    assert events(gm.on_command(CommandData(command=Cmd.REQUEST), 1.0, 1.0), Phase.REJECTED)
-    assert events(gm.on_command(CommandData(command=42), 1.0, 1.0), Phase.REJECTED)
-    rocket = CommandData(command=Cmd.REQUEST, goal_id="001", way="rocket")
-    assert events(gm.on_command(rocket, 1.0, 1.0), Phase.REJECTED)
+    assert events(gm.on_command(CommandData(command=Cmd.REQUEST), 1.0, 1.0, sender=GUI), Phase.REJECTED)
+    assert events(gm.on_command(CommandData(command=42), 1.0, 1.0, sender=GUI), Phase.REJECTED)
+    assert events(gm.on_command(CommandData(command=Cmd.REQUEST, goal_id="001", way="rocket"), 1.0, 1.0, sender=GUI),
+                  Phase.REJECTED)
     assert gm.queue == []
     # an unplannable start (the robot is lost in a wall) is answered as unreachable
     gm.on_pose(0.0, 0.0, 0.0)
@@ -203,17 +207,25 @@ def test_bad_requests_are_rejected_with_a_reason(faculty) -> None:
 def test_hostile_goals_are_counted_and_only_ours_get_an_event(faculty) -> None:
     tartalo, kbot = core(faculty, "Tartalo"), core(faculty, "Kbot")
     good = goals(request(tartalo, "104"))[0]
-    bad = [replace(good, uid="a/1", goal_floor=math.nan), replace(good, uid="a/2", goal_id="x" * 10 ** 6),
-           replace(good, uid="a/3", origin_robot="Evil"), replace(good, uid="a/4", goal_floor=9.0),
-           replace(good, uid="a/5", goal_id="999"), replace(good, uid="a/6", language="\x00"),
-           replace(good, uid="b" * 10 ** 5), replace(good, uid="a/8", initial_x=math.inf),
-           replace(good, uid="a/9", tour_file="/etc/passwd", tour_step=0)]
-    for trip in bad:
-        assert kbot.on_goal(trip, 1.0, 1.0) == []
-    assert kbot.queue == [] and kbot.stats["rejected"] == len(bad)
-    assert kbot.stats["rejected_not_finite"] == 2 and kbot.stats["rejected_too_long"] == 2
+
+    def uid() -> str:
+        return make_uid("Tartalo", "v", "gm")
+
+    invalid = [replace(good, uid=uid(), goal_floor=math.nan), replace(good, uid=uid(), goal_id="x" * 10 ** 6),
+               replace(good, uid=uid(), goal_floor=9.0), replace(good, uid=uid(), goal_id="999"),
+               replace(good, uid=uid(), language="\x00"), replace(good, uid=uid(), initial_x=math.inf),
+               replace(good, uid=uid(), tour_file="/etc/passwd", tour_step=0)]
+    refused = [replace(good, uid=make_uid("Evil", "v", "gm"), origin_robot="Evil"),     # foreign
+               replace(good, uid="b" * 10 ** 5)]                                         # wrong namespace
+    for trip in invalid + refused:
+        assert kbot.on_goal(trip, 1.0, 1.0, sender=from_robot(kbot, "Tartalo")) == []
+    assert kbot.queue == [] and kbot.stats["rejected"] == len(invalid)
+    assert kbot.stats["rejected_not_finite"] == 2 and kbot.stats["rejected_too_long"] == 1
+    assert kbot.refusals() == {"impostor": 0, "foreign": 1, "wrong_namespace": 1, "conflict": 0,
+                               "invalid": len(invalid)}
     # a broken goal of our own origin is reported to our visitor
-    assert events(tartalo.on_goal(replace(good, uid="Tartalo/v/x", goal_id="999"), 1.0, 1.0), Phase.REJECTED)
+    broken = replace(good, uid=uid(), goal_id="999")
+    assert events(tartalo.on_goal(broken, 1.0, 1.0, sender=GM), Phase.REJECTED)
 
 
 def test_a_pending_list_with_a_wait_that_is_not_a_number_is_rejected_and_counted(faculty) -> None:
@@ -221,9 +233,9 @@ def test_a_pending_list_with_a_wait_that_is_not_a_number_is_rejected_and_counted
     the others, and nobody counted it. The last good list of that robot is kept."""
     kbot = core(faculty, "Kbot")
     queued = goals(request(core(faculty, "Galtxagorri"), "104"))[0]
-    kbot.on_pending("Galtxagorri", [queued], 240.0, 1.0)
+    kbot.on_pending("Galtxagorri", [queued], 240.0, 1.0, sender=from_robot(kbot, "Galtxagorri"))
     for wait in (-math.inf, math.nan, math.inf, "x"):
-        kbot.on_pending("Galtxagorri", [], wait, 2.0)
+        kbot.on_pending("Galtxagorri", [], wait, 2.0, sender=from_robot(kbot, "Galtxagorri"))
     view = kbot.fleet["Galtxagorri"]
     assert (view.wait_new, [t.uid for t in view.queue], view.heard) == (240.0, [queued.uid], 1.0)
     assert kbot.stats["rejected_pending"] == 4
@@ -254,14 +266,14 @@ def test_a_long_queue_is_no_reason_to_decline_unless_max_wait_is_set(faculty) ->
     from gidabot_navigation.guiding.assignment import AssignConfig
     [trip] = goals(request(core(faculty), "301"))
     mari = core(faculty, "MariSorgin")
-    mari.on_pending("Tartalo", [], 0.0, 1.0)
+    mari.on_pending("Tartalo", [], 0.0, 1.0, sender=from_robot(mari, "Tartalo"))
     for i, target in enumerate(("301", "305", "310", "301", "305") * 3):   # its queue: 15 trips across the floor
-        mari.on_command(CommandData(command=Cmd.REQUEST, goal_id=target, visitor_id=f"m{i}"), 10.0, 1.0)
-    acts = mari.on_goal(trip, 10.0, 1.0)
+        mari.on_command(CommandData(command=Cmd.REQUEST, goal_id=target, visitor_id=f"m{i}"), 10.0, 1.0, sender=GUI)
+    acts = mari.on_goal(trip, 10.0, 1.0, sender=sender_of(mari, trip))
     [acc] = events(acts, Phase.ACCEPTED)
     assert acc.eta > 900 and not events(acts, Phase.DECLINED)      # the former fixed limit: 900 s
     strict = core(faculty, "MariSorgin", assign=AssignConfig(max_wait=1.0))
-    [dec] = events(strict.on_goal(trip, 10.0, 1.0), Phase.DECLINED)
+    [dec] = events(strict.on_goal(trip, 10.0, 1.0, sender=sender_of(strict, trip)), Phase.DECLINED)
     assert "more than max_wait 1 s" in dec.detail
 
 
@@ -272,7 +284,7 @@ def test_a_commit_to_a_full_queue_is_refused_and_cancelled(faculty) -> None:
     # a trip committed here while the queue is full (never answered here) is refused and cancelled everywhere
     [down] = goals(request(core(faculty, "Kbot"), "012", visitor="w"))
     assert (down.goal_robot, down.goal_state) == ("Tartalo", LEG_PROPOSED)
-    acts = gm.on_goal(replace(down, goal_state=LEG_COMMITTED, attempt=5), 10.0, 1.0)
+    acts = gm.on_goal(replace(down, goal_state=LEG_COMMITTED, attempt=5), 10.0, 1.0, sender=sender_of(gm, down))
     assert [a.cancel.reason for a in acts if isinstance(a, SendCancel)] == ["admin"] and len(gm.queue) == 2
 
 
@@ -281,13 +293,13 @@ def test_a_commit_to_a_full_queue_is_refused_and_cancelled(faculty) -> None:
 @pytest.fixture
 def tour_gm(faculty):
     gm = core(faculty, "Kbot")
-    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour", TOURS / "long_tour.tour"))
+    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour", TOURS / "long_tour.tour"), sender=TS)
     return gm
 
 
 def start(gm, tour_file: str = "real_world.tour", **kw):
     return gm.on_command(CommandData(command=Cmd.START_TOUR, tour_file=tour_file, way="lift", language="eu",
-                                     visitor_id="v", **kw), 10.0, 1.0)
+                                     visitor_id="v", **kw), 10.0, 1.0, sender=GUI)
 
 
 def test_start_tour_issues_step_zero_from_here(tour_gm) -> None:
@@ -300,39 +312,42 @@ def test_start_tour_issues_step_zero_from_here(tour_gm) -> None:
 
 def test_continue_after_a_step_issues_the_next_from_here(tour_gm) -> None:
     # step 2 (101, floor 1) was done here at Kbot
-    trip = replace(goals(start(tour_gm))[0], uid="Tartalo/v/9", origin_robot="Tartalo", initial_floor=0.0,
-                   goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
+    trip = replace(goals(start(tour_gm))[0], uid=make_uid("Tartalo", "v", "gm"), origin_robot="Tartalo",
+                   initial_floor=0.0, goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
                    start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="Kbot", goal_state=LEG_COMMITTED)
     loc = tour_gm.building.location("101")
     trip = replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw)
-    tour_gm.on_goal(trip, 10.0, 1.0)
+    tour_gm.on_goal(trip, 10.0, 1.0, sender=sender_of(tour_gm, trip))
     own_event(tour_gm, trip.uid, Phase.TOUR_STEP_DONE, 1, tour_file="real_world.tour", tour_step=2)
     tour_gm.on_pose(20.0, 12.0, 0.0)
     # a Continue for something else (e.g. a meeting point) is not the goal manager's
-    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid="Kbot/x/1"), 11.0, 1.0) == []
-    acts = tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0)
+    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid="Kbot/x/1"), 11.0, 1.0, sender=GUI) == []
+    acts = tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0, sender=GUI)
     [nxt] = goals(acts)
     assert (nxt.tour_step, nxt.goal_id, nxt.initial_floor, nxt.initial_x) == (3, "104", 1.0, 20.0)
     assert nxt.way == "lift" and nxt.language == "eu" and nxt.visitor_id == "v"      # remembered from the step
     # the same Continue again does nothing more
-    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0) == []
+    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0, sender=GUI) == []
 
 
 def test_two_visitors_on_the_same_tour_at_one_robot_keep_their_own_steps(tour_gm) -> None:
     """Visitor a finished step 2 here and is about to press Continue; visitor b starts the same tour at this screen
     (many visitors: found on faculty6 seed 2, a's Continue was lost): a's step waits on, its Continue goes on."""
-    trip = replace(goals(start(tour_gm))[0], uid="Tartalo/a/9", origin_robot="Tartalo", visitor_id="a",
+    trip = replace(goals(start(tour_gm))[0], uid=make_uid("Tartalo", "a", "gm"), origin_robot="Tartalo", visitor_id="a",
                    initial_floor=0.0, goal_floor=1.0, goal_id="101", tour_step=2, connector="lift", initial_x=30.0,
                    start_robot="Tartalo", start_state=LEG_COMMITTED, goal_robot="Kbot", goal_state=LEG_COMMITTED)
     loc = tour_gm.building.location("101")
-    tour_gm.on_goal(replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw), 10.0, 1.0)
+    tour_gm.on_goal(replace(trip, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw), 10.0, 1.0,
+                    sender=sender_of(tour_gm, trip))
     own_event(tour_gm, trip.uid, Phase.TOUR_STEP_DONE, 1, tour_file="real_world.tour", tour_step=2)
-    b = tour_gm.on_command(CommandData(command=Cmd.START_TOUR, tour_file="real_world.tour", visitor_id="b"), 10.5, 1.0)
+    b = tour_gm.on_command(CommandData(command=Cmd.START_TOUR, tour_file="real_world.tour", visitor_id="b"), 10.5, 1.0,
+                           sender=GUI)
     assert [g.visitor_id for g in goals(b)] == ["b"] and not [a for a in b if isinstance(a, SendCancel)]
-    [nxt] = goals(tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid, visitor_id="a"), 11.0, 1.0))
+    [nxt] = goals(tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid, visitor_id="a"), 11.0, 1.0,
+                                     sender=GUI))
     assert (nxt.visitor_id, nxt.tour_step, nxt.goal_id) == ("a", 3, "104")
     # b cancels its own tour: a's next step is untouched
-    tour_gm.on_command(CommandData(command=Cmd.CANCEL, goal_uid=goals(b)[0].uid, visitor_id="b"), 12.0, 1.0)
+    tour_gm.on_command(CommandData(command=Cmd.CANCEL, goal_uid=goals(b)[0].uid, visitor_id="b"), 12.0, 1.0, sender=GUI)
     assert nxt.uid in [t.uid for t in tour_gm.queue]
 
 
@@ -340,13 +355,14 @@ def test_skip_restart_cancel_and_finish(tour_gm) -> None:
     first = goals(start(tour_gm))[0]
     # skip while step 0 is still held here: step 0 is cancelled everywhere, step 5 issued
     acts = tour_gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=5, visitor_id="v"),
-                              11.0, 1.0)
+                              11.0, 1.0, sender=GUI)
     assert [a.cancel.goal_uid for a in acts if isinstance(a, SendCancel)] == [first.uid]
     assert not events(acts, Phase.CANCELLED_HERE)                           # the visitor chose it: no pop-up
     [skipped] = goals(acts)
     assert skipped.tour_step == 5 and skipped.goal_id == "274" and [t.uid for t in tour_gm.queue] == [skipped.uid]
     # out-of-range skip
-    bad = tour_gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=8), 11.0, 1.0)
+    bad = tour_gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=8), 11.0, 1.0,
+                             sender=GUI)
     assert events(bad, Phase.REJECTED) and "steps 0..7" in events(bad)[0].detail
     # start again: restarts at step 0, cancelling the held step
     acts = start(tour_gm)
@@ -354,9 +370,9 @@ def test_skip_restart_cancel_and_finish(tour_gm) -> None:
     assert goals(acts)[0].tour_step == 0
     # the last step done here; a Continue ends the tour
     last = goals(tour_gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=7,
-                                                visitor_id="v"), 12.0, 1.0))[0]
+                                                visitor_id="v"), 12.0, 1.0, sender=GUI))[0]
     own_event(tour_gm, last.uid, Phase.TOUR_STEP_DONE, 5, tour_file="real_world.tour", tour_step=7)
-    fin = tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=last.uid), 13.0, 1.0)
+    fin = tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=last.uid), 13.0, 1.0, sender=GUI)
     assert [e.phase for e in events(fin)] == [Phase.TOUR_FINISHED] and goals(fin) == []
 
 
@@ -367,25 +383,25 @@ def test_cancel_after_a_step_ends_the_tour(tour_gm) -> None:
     assert tour_gm.queue == []
     tour_gm2 = tour_gm
     t = goals(tour_gm2.on_command(CommandData(command=Cmd.SKIP, tour_file="long_tour.tour", tour_step=3,
-                                              visitor_id="v"), 11.0, 1.0))[0]
+                                              visitor_id="v"), 11.0, 1.0, sender=GUI))[0]
     assert t.goal_id == "103"                              # floor 1, same floor as Kbot
     own_event(tour_gm2, t.uid, Phase.ON_THE_WAY, 3)
     own_event(tour_gm2, t.uid, Phase.TOUR_STEP_DONE, 4, tour_file="long_tour.tour", tour_step=3)
-    acts = tour_gm2.on_command(CommandData(command=Cmd.CANCEL), 12.0, 1.0)
+    acts = tour_gm2.on_command(CommandData(command=Cmd.CANCEL), 12.0, 1.0, sender=GUI)
     [ev] = events(acts)
     assert (ev.phase, ev.goal_uid, ev.tour_step, ev.detail) == (Phase.CANCELLED_HERE, t.uid, 3, "tour ended")
     # nothing left to continue
-    assert tour_gm2.on_command(CommandData(command=Cmd.CONTINUE), 13.0, 1.0) == []
+    assert tour_gm2.on_command(CommandData(command=Cmd.CONTINUE), 13.0, 1.0, sender=GUI) == []
 
 
 def test_continue_without_uid_prefers_the_meeting_point(tour_gm) -> None:
     trip = goals(start(tour_gm, "long_tour.tour", tour_step=-1))[0]
     own_event(tour_gm, trip.uid, Phase.TOUR_STEP_DONE, 1, tour_file="long_tour.tour", tour_step=0)
     other = goals(request(core(tour_gm.building, "Tartalo"), "104"))[0]     # a visitor coming up from floor 0
-    tour_gm.on_goal(other, 10.0, 1.0)
+    tour_gm.on_goal(other, 10.0, 1.0, sender=sender_of(tour_gm, other))
     own_event(tour_gm, other.uid, Phase.WAITING_VISITOR, 2)
-    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE), 11.0, 1.0) == []   # navigation's Continue
-    assert goals(tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0))
+    assert tour_gm.on_command(CommandData(command=Cmd.CONTINUE), 11.0, 1.0, sender=GUI) == []   # navigation's Continue
+    assert goals(tour_gm.on_command(CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid), 11.0, 1.0, sender=GUI))
 
 
 # ---------------------------------------------------------------------------- before the first catalog
@@ -396,13 +412,13 @@ def test_a_tour_command_before_the_first_catalog_waits_for_it(faculty) -> None:
     gm = core(faculty, "Kbot")
     cmd = CommandData(command=Cmd.START_TOUR, tour_file="real_world.tour", way="lift", uid="Kbot/v/cmd/1", stamp=5.0,
                       visitor_id="v")
-    assert gm.on_command(cmd, 10.0, 1.0) == []
-    assert gm.on_command(cmd, 10.0, 1.2) == []                  # its replay waits once
-    acts = gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), 10.5, 1.5)
+    assert gm.on_command(cmd, 10.0, 1.0, sender=GUI) == []
+    assert gm.on_command(cmd, 10.0, 1.2, sender=GUI) == []                  # its replay waits once
+    acts = gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), 10.5, 1.5, sender=TS)
     [trip] = goals(acts)
     assert (trip.tour_file, trip.tour_step, trip.goal_id) == ("real_world.tour", 0, "014")
     assert not events(acts, Phase.REJECTED)
-    assert gm.on_command(cmd, 11.0, 2.0) == []                  # carried out: remembered
+    assert gm.on_command(cmd, 11.0, 2.0, sender=GUI) == []                  # carried out: remembered
     assert gm.stats["waited_for_catalog"] == 1
 
 
@@ -411,37 +427,36 @@ def test_a_continue_replayed_to_a_restarted_goal_manager_before_its_catalog_goes
     visitor's Continue were replayed to it before the catalog: the next step is issued once the catalog comes."""
     catalog = catalog_of(faculty, TOURS / "real_world.tour")
     gm = core(faculty, "Kbot")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     trip = goals(gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=2, visitor_id="v"),
-                               10.0, 1.0))[0]
+                               10.0, 1.0, sender=GUI))[0]
     assert trip.goal_id == "101"                                  # floor 1: guided by Kbot itself
     own_event(gm, trip.uid, Phase.ON_THE_WAY, 1)
-    new = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0, boot="t2")
+    new = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0)
     new.load_state(gm.state())
-    done = NavEventData(uid="Kbot/event/nav.t.2", robot="Kbot", floor=1.0, goal_uid=trip.uid,
+    done = NavEventData(uid=make_uid("Kbot", "event", "nav"), robot="Kbot", floor=1.0, goal_uid=trip.uid,
                         phase=Phase.TOUR_STEP_DONE, tour_file="real_world.tour", tour_step=2, stamp=30.0)
-    new.on_nav_event(done, 30.0, 50.1)
+    new.on_nav_event(done, 30.0, 50.1, sender=sender_of(new, done))
     cont = CommandData(command=Cmd.CONTINUE, goal_uid=trip.uid, tour_file="real_world.tour", uid="Kbot/v/cmd/7",
                        stamp=31.0, visitor_id="v")
-    assert new.on_command(cont, 31.0, 50.2) == []
-    [nxt] = goals(new.on_catalog(catalog, 31.1, 50.3))
+    assert new.on_command(cont, 31.0, 50.2, sender=GUI) == []
+    [nxt] = goals(new.on_catalog(catalog, 31.1, 50.3, sender=TS))
     assert (nxt.tour_step, nxt.goal_id) == (3, "104")
-    assert new.on_command(cont, 31.2, 50.4) == []                # a later replay of it: handled already
+    assert new.on_command(cont, 31.2, 50.4, sender=GUI) == []                # a later replay of it: handled already
 
 
 def test_without_a_catalog_tour_commands_are_refused_after_the_wait(faculty) -> None:
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot", catalog_wait=10.0), ListLog(), now_wall=0.0,
-                         boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot", catalog_wait=10.0), ListLog(), now_wall=0.0)
     assert start(gm) == []                                        # at 1.0 s: waits
     assert gm.tick(12.0, 5.0) == []
     [refused] = events(gm.tick(20.0, 10.5), Phase.REJECTED)
     assert "not in this robot's catalog (0 tours)" in refused.detail and refused.tour_file == "real_world.tour"
     late = CommandData(command=Cmd.START_TOUR, tour_file="real_world.tour", visitor_id="v")
-    assert events(gm.on_command(late, 21.0, 11.0), Phase.REJECTED)      # later ones at once
-    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"))
+    assert events(gm.on_command(late, 21.0, 11.0, sender=GUI), Phase.REJECTED)      # later ones at once
+    gm.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), sender=TS)
     for r in faculty.robots:
-        gm.on_status(r.name, 12.0)
-    assert goals(gm.on_command(late, 22.0, 12.0))
+        gm.on_status(r.name, 12.0, sender=from_robot(gm, r.name))
+    assert goals(gm.on_command(late, 22.0, 12.0, sender=GUI))
 
 
 def test_a_tour_going_on_past_a_floor_without_robot_waits_for_the_catalog(faculty3) -> None:
@@ -449,14 +464,14 @@ def test_a_tour_going_on_past_a_floor_without_robot_waits_for_the_catalog(facult
     (the next stop on a floor with a robot) once the catalog comes, instead of stopping there."""
     catalog = catalog_of(faculty3, TOURS / "real_world.tour")
     gm = core(faculty3, "Kbot")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     trip = goals(gm.on_command(CommandData(command=Cmd.SKIP, tour_file="real_world.tour", tour_step=4, visitor_id="v"),
-                               10.0, 1.0))[0]
+                               10.0, 1.0, sender=GUI))[0]
     assert (trip.goal_id, trip.goal_floor) == ("223", 2.0)          # floor 2 of faculty3 has no robot
-    new = GoalManagerCore(faculty3, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0, boot="t2")
+    new = GoalManagerCore(faculty3, GoalManagerConfig(robot="Kbot"), ListLog(), now_wall=50.0)
     new.load_state(gm.state())
-    alone = NavEventData(uid="Kbot/event/nav.t.3", robot="Kbot", floor=1.0, goal_uid=trip.uid,
+    alone = NavEventData(uid=make_uid("Kbot", "event", "nav"), robot="Kbot", floor=1.0, goal_uid=trip.uid,
                          phase=Phase.NO_ROBOT_ON_FLOOR, tour_file="real_world.tour", tour_step=4, stamp=40.0)
-    assert new.on_nav_event(alone, 40.0, 50.1) == []
-    [nxt] = goals(new.on_catalog(catalog, 40.2, 50.2))
+    assert new.on_nav_event(alone, 40.0, 50.1, sender=sender_of(new, alone)) == []
+    [nxt] = goals(new.on_catalog(catalog, 40.2, 50.2, sender=TS))
     assert (nxt.tour_step, nxt.start_id, nxt.initial_floor) == (6, "274", 2.0)

@@ -26,6 +26,7 @@ from gidabot_navigation.interface import (
     relay_end_name,
 )
 from gidabot_navigation.ros import convert
+from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.tour_store import CatalogData, TourMessage
 
 REPO = Path(__file__).resolve().parents[4]
@@ -84,8 +85,8 @@ def test_a_cancel_from_another_robot_drops_the_goal(ros: FakeRos, node: GoalMana
     spin(node)
     [goal] = ros.sent(Topic.GOALS)
     ros.feed(Topic.GOALS, goal, "/goal_manager")            # its own goal, back on the topic
-    cancel = CancelData(uid="Tartalo/cancel/x.1", goal_uid=goal.uid, origin_robot="Tartalo", reason=REASON_VISITOR,
-                        stamp=101.0)
+    cancel = CancelData(uid=make_uid("Tartalo", "cancel", "gm"), goal_uid=goal.uid, origin_robot="Tartalo",
+                        reason=REASON_VISITOR, stamp=101.0)
     ros.feed(Topic.CANCELS, convert.cancel_to_msg(cancel), RELAY)
     spin(node)
     assert phases(ros)[-1] == Phase.CANCELLED_ELSEWHERE
@@ -115,12 +116,17 @@ def test_statuses_pending_lists_poses_and_the_catalog_reach_the_core(ros: FakeRo
 def test_diagnostics_say_what_the_node_counted(ros: FakeRos, node: GoalManagerNode) -> None:
     request(ros, "nowhere")
     spin(node)
-    [diag] = ros.sent(Topic.DIAGNOSTICS)
-    [status] = diag.status
+    probe = CommandData(command=Cmd.REQUEST, uid="Kbot/v/cmd/2", visitor_id="v", goal_id="104", stamp=99.0)
+    ros.feed(Topic.VISITOR_COMMAND, convert.command_to_msg(probe), "/chaos_probe")     # none of this robot's nodes
+    spin(node)
+    assert phases(ros) == [Phase.REJECTED] and ros.sent(Topic.GOALS) == []    # neither carried out nor answered
+    node.publish_diagnostics()
+    [status] = ros.sent(Topic.DIAGNOSTICS)[-1].status
     values = {kv.key: kv.value for kv in status.values}
     assert (status.name, status.hardware_id) == ("guiding: goal_manager Kbot", "Kbot")
     assert status.level == DiagnosticStatus.OK
     assert values["queue_dropped"] == "0" and "rejected" in status.message
+    assert (values["refused_impostor"], values["refused_invalid"], values["refused"]) == ("1", "0", "1")
 
 
 def test_what_was_not_published_before_a_restart_is_published_by_the_next_node(ros: FakeRos, node: GoalManagerNode,

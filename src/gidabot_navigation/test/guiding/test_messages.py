@@ -11,6 +11,7 @@ from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding import messages
 from gidabot_navigation.guiding.messages import CommandData, Trip, validate_command, validate_trip
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd, Phase
+from gidabot_navigation.senders import uid_robot
 
 
 def good_trip(faculty) -> Trip:
@@ -144,11 +145,19 @@ def test_commands_are_checked() -> None:
         assert err.value.reason == reason
 
 
-def test_uids_are_unique_across_restarts() -> None:
-    a, b = messages.UidMaker("Kbot", "gm"), messages.UidMaker("Kbot", "gm", boot="other")
-    assert a.event() != b.event()
-    assert a.event() != a.event()
+def test_uids_are_unguessable_unique_across_restarts_and_in_their_robots_namespace() -> None:
+    a, b = messages.UidMaker("Kbot", "gm"), messages.UidMaker("Kbot", "gm")          # two runs of one node
+    made = [a.event(), b.event(), a.event(), a.goal("v"), b.goal("v"), a.cancel()]
+    assert len(set(made)) == len(made)
+    for uid in made:
+        token = uid.rsplit(".", 1)[1]
+        assert uid_robot(uid) == "Kbot" and len(token) >= 16 and int(token, 16) >= 0     # 64 random bits at least
     assert a.goal("v").startswith("Kbot/v/gm.") and a.cancel().startswith("Kbot/cancel/gm.")
+    # a counted uid (guessable), or one without its robot's namespace, is no uid of any robot
+    for bad in ("Kbot/event/gm.t.1", "Kbot/v/1", "Kbot/event/gm.0123456789abcde", "Kbot/event/gm.0123456789ABCDEF",
+                "/event/gm.0123456789abcdef", "Kbot/gm.0123456789abcdef", "Kbot/v/gm.0123456789abcdef/x",
+                "Kbot/" + "v" * 150 + "/gm.0123456789abcdef", 7):
+        assert uid_robot(bad) is None, bad
 
 
 def test_seen_set_is_bounded() -> None:

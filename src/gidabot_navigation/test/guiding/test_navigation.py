@@ -6,7 +6,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from guiding_support import Bus, ListLog, catalog_of
+from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GuidingError
@@ -22,6 +22,7 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import ABORTED, PREEMPTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Phase, RobotState
+from gidabot_navigation.senders import make_uid
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"
 
@@ -42,12 +43,12 @@ def trip(faculty, origin: str, goal_id: str, uid: str, start: tuple[float, float
 
 
 def nav(faculty, robot: str, **cfg) -> NavigationCore:
-    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0, boot="t")
+    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0)
     n.on_move_base_available(True, 0.0)
     home = faculty.robot(robot).home
     n.on_pose(home.x, home.y, home.yaw)
     for r in faculty.robots:
-        n.on_status(r.name, 0.0)
+        n.on_status(r.name, 0.0, sender=from_robot(n, r.name))
     return n
 
 
@@ -67,9 +68,9 @@ def cancels(actions):
     return [a.cancel for a in actions if isinstance(a, SendCancel)]
 
 
-def released(n: NavigationCore, by: str, goal_uid: str, now: float, k: int = 1) -> None:
-    n.on_nav_event(NavEventData(uid=f"{by}/event/nav.t.{k}", robot=by, floor=faculty_floor(by), goal_uid=goal_uid,
-                                phase=Phase.GO_TO_FLOOR), now, 0.0, from_relay=True)
+def released(n: NavigationCore, by: str, goal_uid: str, now: float) -> None:
+    n.on_nav_event(NavEventData(uid=make_uid(by, "event", "nav"), robot=by, floor=faculty_floor(by), goal_uid=goal_uid,
+                                phase=Phase.GO_TO_FLOOR), now, 0.0, sender=from_robot(n, by))
 
 
 def faculty_floor(name: str) -> float:
@@ -86,7 +87,7 @@ def test_config_is_checked(faculty) -> None:
 def test_same_floor_guides_to_the_goal(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
-    acts = n.on_pending([t], 30.0, 1.0, 0.0)
+    acts = n.on_pending([t], 30.0, 1.0, 0.0, robot=n.me, sender=GM)
     [move] = moves(acts)
     assert (move.x, move.y) == (t.goal_x, t.goal_y) and phases(acts) == [Phase.ON_THE_WAY]
     assert evs(acts)[0].location_id == "104"
@@ -97,13 +98,13 @@ def test_same_floor_guides_to_the_goal(faculty) -> None:
     assert evs(acts)[0].stamp == 20.0          # when move_base got there, not when its result arrived
     assert n.status(20.0).state == RobotState.IDLE
     # the pending list still holds it until the goal manager drops it: not run twice
-    assert n.on_pending([t], 0.0, 21.0, 0.0) == []
+    assert n.on_pending([t], 0.0, 21.0, 0.0, robot=n.me, sender=GM) == []
 
 
 def test_a_far_robot_first_picks_the_visitor_up(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1", start=(10.0, 12.0))
-    acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     [move] = moves(acts)
     assert (move.x, move.y) == (10.0, 12.0) and phases(acts) == [Phase.GOING_TO_MEETING]
     assert n.status(1.0).state == RobotState.TO_MEETING
@@ -115,7 +116,7 @@ def test_a_far_robot_first_picks_the_visitor_up(faculty) -> None:
 def test_start_floor_guides_to_the_connector_then_sends_the_visitor_up(faculty) -> None:
     n = nav(faculty, "Tartalo")
     t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
-    acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     meet = faculty.find_connector("stairs_west").meeting[0.0]
     assert (moves(acts)[0].x, moves(acts)[0].y) == (meet.x, meet.y)
     assert phases(acts) == [Phase.ON_THE_WAY] and evs(acts)[0].location_id == "stairs_west"
@@ -136,7 +137,7 @@ def test_no_robot_on_the_goal_floor(faculty, connector: str, way: str, name: str
     assert faculty.find_connector(connector).name("en") == name
     n = nav(no_mari, "Tartalo")
     t = replace(trip(no_mari, "Tartalo", "301", "Tartalo/v/1", connector=connector), way=way)
-    acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     meet = faculty.find_connector(connector).meeting[0.0]
     assert (moves(acts)[0].x, moves(acts)[0].y) == (meet.x, meet.y)
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 5.0, 0.0)
@@ -148,7 +149,7 @@ def test_no_robot_on_the_goal_floor(faculty, connector: str, way: str, name: str
 def goal_floor_leg(faculty, **cfg):
     n = nav(faculty, "MariSorgin", **cfg)
     t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
-    acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     meet = faculty.find_connector("stairs_west").meeting[3.0]
     assert (moves(acts)[0].x, moves(acts)[0].y) == (meet.x, meet.y)
     assert phases(acts) == [Phase.GOING_TO_MEETING] and evs(acts)[0].location_id == "stairs_west"
@@ -160,8 +161,8 @@ def test_goal_floor_meets_the_visitor_and_guides_on_continue(faculty) -> None:
     n, t, move = goal_floor_leg(faculty)
     acts = n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 0.0)
     assert phases(acts) == [Phase.WAITING_VISITOR] and n.status(10.0).state == RobotState.WAITING
-    assert n.on_continue("Other/v/9", 11.0, 0.0) == []          # not this trip
-    acts = n.on_continue(t.uid, 12.0, 0.0)
+    assert n.on_continue("Other/v/9", 11.0, 0.0, sender=GUI) == []          # not this trip
+    acts = n.on_continue(t.uid, 12.0, 0.0, sender=GUI)
     assert phases(acts) == [Phase.ON_THE_WAY] and moves(acts)[0].x == t.goal_x
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 30.0, 0.0)
     assert phases(acts) == [Phase.GOAL_REACHED]
@@ -171,17 +172,19 @@ def test_of_the_visitor_commands_only_a_continue_is_the_navigation_s(faculty) ->
     n, t, move = goal_floor_leg(faculty)
     n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 0.0)
     for cmd in (Cmd.REQUEST, Cmd.CANCEL, Cmd.START_TOUR, Cmd.SKIP):
-        assert n.on_command(CommandData(command=cmd, uid=f"Lamia/v/cmd/{cmd}", goal_uid=t.uid), 11.0, 0.0) == []
+        assert n.on_command(CommandData(command=cmd, uid=f"Lamia/v/cmd/{cmd}", goal_uid=t.uid), 11.0, 0.0,
+                            sender=GUI) == []
     press = CommandData(command=Cmd.CONTINUE, uid="Lamia/v/cmd/9", goal_uid=t.uid, stamp=11.5)
-    acts = n.on_command(press, 12.0, 0.0)
+    acts = n.on_command(press, 12.0, 0.0, sender=GUI)
     assert phases(acts) == [Phase.ON_THE_WAY]
-    assert n.on_command(press, 13.0, 0.0) == [] and n.stats["duplicate_commands"] == 1     # the same press again
+    assert n.on_command(press, 13.0, 0.0, sender=GUI) == []                     # the same press again
+    assert n.stats["duplicate_commands"] == 1
     assert n.durable(acts) == [a for a in acts if isinstance(a, SendEvent)]               # not the MoveTo
 
 
 def test_continue_before_arrival_goes_on_at_once(faculty) -> None:
     n, t, move = goal_floor_leg(faculty)
-    assert n.on_continue("", 5.0, 0.0) == []
+    assert n.on_continue("", 5.0, 0.0, sender=GUI) == []
     acts = n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 0.0)
     assert phases(acts) == [Phase.WAITING_VISITOR, Phase.ON_THE_WAY]
 
@@ -190,8 +193,8 @@ def test_continue_pressed_while_still_queued(faculty) -> None:
     n = nav(faculty, "MariSorgin")
     first = trip(faculty, "MariSorgin", "305", "MariSorgin/v/1")
     t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
-    acts = n.on_pending([first, t], 0.0, 1.0, 0.0)
-    n.on_continue(t.uid, 2.0, 0.0)                 # the visitor is already upstairs
+    acts = n.on_pending([first, t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
+    n.on_continue(t.uid, 2.0, 0.0, sender=GUI)                 # the visitor is already upstairs
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 5.0, 0.0)
     assert phases(acts) == [Phase.GOAL_REACHED, Phase.GOING_TO_MEETING]
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 9.0, 0.0)
@@ -233,7 +236,7 @@ def test_timeout_from_arrival_when_the_start_floor_has_no_robot(faculty) -> None
                           faculty.connectors, faculty.robots[1:])
     n = nav(no_tartalo, "MariSorgin", continue_timeout=60.0)
     t = replace(trip(faculty, "Tartalo", "301", "Tartalo/v/1"), start_robot="", start_state=LEG_NONE)
-    acts = n.on_pending([t], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 10.0, 0.0)
     assert phases(n.tick(70.0, 0.0)) == [Phase.TIMEOUT]
 
@@ -242,7 +245,7 @@ def test_move_base_failure_is_unreachable_everywhere(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
     nxt = trip(faculty, "Kbot", "101", "Kbot/v/2")
-    acts = n.on_pending([t, nxt], 0.0, 1.0, 0.0)
+    acts = n.on_pending([t, nxt], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     acts = n.on_move_base_result(moves(acts)[0].token, ABORTED, "no valid plan", 5.0, 0.0)
     assert phases(acts) == [Phase.UNREACHABLE, Phase.ON_THE_WAY]          # and the next visitor's trip starts
     assert "no valid plan" in evs(acts)[0].detail
@@ -254,7 +257,7 @@ def test_move_base_failure_is_unreachable_everywhere(faculty) -> None:
 def test_someone_else_preempting_move_base_is_a_failure_but_stale_results_are_not(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
-    move = moves(n.on_pending([t], 0.0, 1.0, 0.0))[0]
+    move = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))[0]
     assert n.on_move_base_result(move.token + 7, ABORTED, "", 2.0, 0.0) == []
     acts = n.on_move_base_result(move.token, PREEMPTED, "", 3.0, 0.0)
     assert phases(acts) == [Phase.UNREACHABLE] and "another client" in evs(acts)[0].detail
@@ -263,27 +266,27 @@ def test_someone_else_preempting_move_base_is_a_failure_but_stale_results_are_no
 def test_cancel_stops_at_once_and_frees_the_robot(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
-    move = moves(n.on_pending([t], 0.0, 1.0, 0.0))[0]
-    c = CancelData(uid="Kbot/cancel/gm.t.1", goal_uid=t.uid, origin_robot="Kbot", reason="visitor")
-    acts = n.on_cancel(c, 2.0, 0.0)
+    move = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))[0]
+    c = CancelData(uid=make_uid("Kbot", "cancel", "gm"), goal_uid=t.uid, origin_robot="Kbot", reason="visitor")
+    acts = n.on_cancel(c, 2.0, 0.0, sender=sender_of(n, c))
     assert acts == [StopMoving(move.token)] and n.leg is None and n.status(2.0).state == RobotState.IDLE
     # the late PREEMPTED result of the stopped goal is ignored, and the trip never restarts
     assert n.on_move_base_result(move.token, PREEMPTED, "", 2.1, 0.0) == []
-    assert n.on_pending([t], 0.0, 3.0, 0.0) == []
+    assert n.on_pending([t], 0.0, 3.0, 0.0, robot=n.me, sender=GM) == []
 
 
 def test_a_goal_leaving_the_pending_list_is_stopped(faculty) -> None:
     n = nav(faculty, "Kbot")
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
-    move = moves(n.on_pending([t], 0.0, 1.0, 0.0))[0]
-    assert n.on_pending([], 0.0, 2.0, 0.0) == [StopMoving(move.token)]
+    move = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))[0]
+    assert n.on_pending([], 0.0, 2.0, 0.0, robot=n.me, sender=GM) == [StopMoving(move.token)]
 
 
 def test_no_move_base_no_guiding(faculty) -> None:
     n = nav(faculty, "Kbot", nav_lost_timeout=10.0)
     n.on_move_base_available(False, 0.0)
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
-    assert n.on_pending([t], 0.0, 1.0, 0.0) == [] and n.status(1.0).state == RobotState.ERROR
+    assert n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM) == [] and n.status(1.0).state == RobotState.ERROR
     n.on_move_base_available(True, 2.0)
     move = moves(n.tick(2.0, 0.0))[0]
     # move_base vanishes while driving
@@ -296,13 +299,13 @@ def test_no_move_base_no_guiding(faculty) -> None:
 def test_partner_offline_is_a_notice_then_the_goal_floor_gives_up(faculty) -> None:
     n, t, move = goal_floor_leg(faculty, partner_timeout=120.0, offline_after=5.0)
     for r in faculty.robots:
-        n.on_status(r.name, 100.0)
+        n.on_status(r.name, 100.0, sender=from_robot(n, r.name))
     n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 100.0)
     assert n.tick(11.0, 104.0) == []
     acts = n.tick(12.0, 106.0)
     assert phases(acts) == [Phase.PARTNER_LOST] and "Tartalo is offline" in evs(acts)[0].detail
     assert n.tick(13.0, 107.0) == []                              # told once
-    n.on_status("Tartalo", 150.0)                                 # the link is back
+    n.on_status("Tartalo", 150.0, sender=from_robot(n, "Tartalo"))                                 # the link is back
     assert phases(n.tick(14.0, 150.5)) == [Phase.PARTNER_BACK]
     # offline again, for good this time
     assert phases(n.tick(15.0, 156.0)) == [Phase.PARTNER_LOST]
@@ -321,7 +324,7 @@ def test_partner_offline_after_the_release_does_not_matter(faculty) -> None:
 def test_start_floor_only_tells_the_visitor(faculty) -> None:
     n = nav(faculty, "Tartalo", partner_timeout=10.0, offline_after=5.0)
     t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
-    move = moves(n.on_pending([t], 0.0, 1.0, 0.0))[0]
+    move = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))[0]
     assert phases(n.tick(2.0, 6.0)) == [Phase.PARTNER_LOST]
     assert n.tick(3.0, 1000.0) == [] and n.leg is not None        # keeps guiding to the stairs
     assert phases(n.on_move_base_result(move.token, SUCCEEDED, "", 4.0, 1000.0)) == [Phase.GO_TO_FLOOR]
@@ -329,11 +332,11 @@ def test_start_floor_only_tells_the_visitor(faculty) -> None:
 
 def test_tour_steps_and_the_last_step(faculty) -> None:
     n = nav(faculty, "MariSorgin")
-    n.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"))
+    n.on_catalog(catalog_of(faculty, TOURS / "real_world.tour"), sender=TS)
     step = trip(faculty, "MariSorgin", "325", "MariSorgin/v/1", tour_file="real_world.tour", tour_step=6)
     last = replace(step, uid="MariSorgin/v/2", goal_id="305", goal_x=faculty.location("305").pose.x,
                    goal_y=faculty.location("305").pose.y, tour_step=7)
-    acts = n.on_pending([step, last], 0.0, 1.0, 0.0)
+    acts = n.on_pending([step, last], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 2.0, 0.0)
     assert phases(acts)[0] == Phase.TOUR_STEP_DONE and evs(acts)[0].tour_step == 6
     acts = n.on_move_base_result(moves(acts)[0].token, SUCCEEDED, "", 3.0, 0.0)
@@ -433,8 +436,8 @@ def test_a_link_outage_delays_but_never_loses_the_trip(faculty) -> None:
     bus.status_all(["Tartalo", "Kbot", "Galtxagorri"])
     for r in bus.robots.values():
         if r.name != "MariSorgin":
-            r.nav.on_status("Tartalo", bus.now_wall)
-    bus.robots["MariSorgin"].nav.on_status("MariSorgin", bus.now_wall)
+            r.nav.on_status("Tartalo", bus.now_wall, sender=from_robot(r.nav, "Tartalo"))
+    bus.robots["MariSorgin"].nav.on_status("MariSorgin", bus.now_wall, sender=NAV)
     bus.tick(ros_dt=1.0, wall_dt=10.0)
     assert bus.phases("MariSorgin", uid)[-1] == Phase.PARTNER_LOST
     bus.link_up("MariSorgin")

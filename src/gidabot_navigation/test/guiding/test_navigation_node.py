@@ -25,6 +25,7 @@ from gidabot_navigation.guiding.navigation import NavigationConfig
 from gidabot_navigation.guiding.navigation_node import NavigationNode, Params
 from gidabot_navigation.interface import REASON_VISITOR, Cmd, Node, Phase, RobotState, Topic, global_name
 from gidabot_navigation.ros import convert
+from gidabot_navigation.senders import make_uid
 
 REPO = Path(__file__).resolve().parents[4]
 FACULTY = REPO / "maps" / "faculty"
@@ -81,22 +82,21 @@ def ros(monkeypatch: pytest.MonkeyPatch) -> FakeRos:
 @pytest.fixture
 def node(ros: FakeRos, tmp_path: Path) -> NavigationNode:
     return NavigationNode(Params(str(FACULTY), NavigationConfig(robot="Kbot"), status_rate=2.0, pose_rate=5.0,
-                                 move_base=Topic.MOVE_BASE, frame_id="map", goal_manager=GOAL_MANAGER,
-                                 state_dir=str(tmp_path)))
+                                 move_base=Topic.MOVE_BASE, frame_id="map", state_dir=str(tmp_path)))
 
 
 @pytest.fixture(scope="module")
 def pending() -> PendingData:
     """Kbot's goal manager with one trip on floor 1, committed to Kbot."""
     building = load_building(FACULTY)
-    gm = GoalManagerCore(building, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t",
+    gm = GoalManagerCore(building, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0,
                          planner=shared_planner(building))
     home = building.robot("Kbot").home
     gm.on_pose(home.x, home.y, home.yaw)
     acts = gm.on_command(CommandData(command=Cmd.REQUEST, uid="Kbot/v/cmd/1", goal_id="104", visitor_id="v",
-                                     stamp=90.0), 90.0, 0.0)
+                                     stamp=90.0), 90.0, 0.0, sender="/gui")
     for trip in [a.trip for a in acts if isinstance(a, SendGoal)]:
-        gm.on_goal(trip, 90.0, 0.0)
+        gm.on_goal(trip, 90.0, 0.0, sender=GOAL_MANAGER)
     snap = gm.pending(95.0)
     assert len(snap.goals) == 1 and snap.goals[0].committed("start") == "Kbot"
     return snap
@@ -128,7 +128,11 @@ def test_a_pending_list_not_from_its_goal_manager_is_ignored(ros: FakeRos, node:
                                                              pending: PendingData) -> None:
     ros.feed(Topic.PENDING, convert.pending_to_msg(pending), "/mallory")
     spin(node)
-    assert node.client.goals == [] and node.rejected_pending_sender == 1
+    assert node.client.goals == [] and node.core.refusals()["impostor"] == 1
+    node.publish_diagnostics()
+    [status] = ros.sent(Topic.DIAGNOSTICS)[-1].status
+    values = {kv.key: kv.value for kv in status.values}
+    assert (values["refused_impostor"], values["refused"]) == ("1", "1")
 
 
 def test_a_cancel_stops_move_base(ros: FakeRos, node: NavigationNode, pending: PendingData) -> None:
@@ -136,7 +140,7 @@ def test_a_cancel_stops_move_base(ros: FakeRos, node: NavigationNode, pending: P
     spin(node)
     [(_goal, handle, _cb)] = node.client.goals
     handle.state = actionlib.CommState.ACTIVE
-    cancel = CancelData(uid="Kbot/cancel/g.1", goal_uid=pending.goals[0].uid, origin_robot="Kbot",
+    cancel = CancelData(uid=make_uid("Kbot", "cancel", "gm"), goal_uid=pending.goals[0].uid, origin_robot="Kbot",
                         reason=REASON_VISITOR)
     ros.feed(Topic.CANCELS, convert.cancel_to_msg(cancel), GOAL_MANAGER)
     spin(node)

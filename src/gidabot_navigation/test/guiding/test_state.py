@@ -6,7 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
-from guiding_support import Bus, ListLog
+from guiding_support import GUI, NAV, TS, Bus, ListLog, from_robot, sender_of
 
 from gidabot_navigation.errors import GuidingStateError
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
@@ -23,6 +23,7 @@ from gidabot_navigation.guiding.messages import (
 from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.state import StateFile, actions_from_list, actions_to_list
 from gidabot_navigation.interface import LEG_GOAL, Cmd, Phase
+from gidabot_navigation.senders import make_uid
 
 
 def roundtrip(state: dict) -> dict:
@@ -32,9 +33,9 @@ def roundtrip(state: dict) -> dict:
 
 def restart_goal_manager(bus: Bus, robot: str) -> GoalManagerCore:
     old = bus.robots[robot].gm
-    new = GoalManagerCore(bus.building, GoalManagerConfig(robot=robot), bus.log, bus.now_wall, boot="t2")
+    new = GoalManagerCore(bus.building, GoalManagerConfig(robot=robot), bus.log, bus.now_wall)
     new.load_state(roundtrip(old.state()))
-    new.on_catalog([])
+    new.on_catalog([], sender=TS)
     bus.robots[robot].gm = new
     bus.robots[robot].pending_version = -1
     return new
@@ -43,7 +44,7 @@ def restart_goal_manager(bus: Bus, robot: str) -> GoalManagerCore:
 def restart_navigation(bus: Bus, robot: str) -> NavigationCore:
     old = bus.robots[robot].nav
     assert old is not None
-    new = NavigationCore(bus.building, NavigationConfig(robot=robot), bus.log, bus.now_wall, boot="t2")
+    new = NavigationCore(bus.building, NavigationConfig(robot=robot), bus.log, bus.now_wall)
     new.load_state(roundtrip(old.state()))
     new.on_move_base_available(True, bus.now_ros)
     bus.robots[robot].nav = new
@@ -59,7 +60,7 @@ def test_a_restarted_goal_manager_keeps_its_queue_and_ignores_the_replayed_goal(
     goal = bus.goals[0]
     gm = restart_goal_manager(bus, "MariSorgin")
     assert bus.queue_of("MariSorgin") == [uid]
-    assert gm.on_goal(goal, bus.now_ros, bus.now_wall) == []          # the relay's replay: a duplicate
+    assert gm.on_goal(goal, bus.now_ros, bus.now_wall, sender=sender_of(gm, goal)) == []   # the relay's replay
     assert gm.stats["duplicates"] == 1 and bus.queue_of("MariSorgin") == [uid]
     # the trip goes on to the end with the new goal manager
     bus.finish_move("MariSorgin")
@@ -77,26 +78,28 @@ def test_a_cancel_seen_before_the_restart_still_wins_over_its_late_goal(faculty)
     bus = Bus(faculty, auto_move=False)
     bus.status_all()
     gm = bus.robots["Kbot"].gm
-    cancel = CancelData(uid="Tartalo/cancel/x.1", goal_uid="Tartalo/v/t.9", origin_robot="Tartalo", reason="visitor")
-    gm.on_cancel(cancel, bus.now_ros, bus.now_wall, from_relay=True)
+    cancelled = make_uid("Tartalo", "v", "gm")
+    cancel = CancelData(uid=make_uid("Tartalo", "cancel", "gm"), goal_uid=cancelled, origin_robot="Tartalo",
+                        reason="visitor")
+    gm.on_cancel(cancel, bus.now_ros, bus.now_wall, sender=sender_of(gm, cancel))
     gm = restart_goal_manager(bus, "Kbot")
     bus.request("Tartalo", "101")          # not the cancelled uid: queued
     assert len(bus.queue_of("Kbot")) == 1
-    late = bus.goals[0].__class__(**{**bus.goals[0].__dict__, "uid": "Tartalo/v/t.9"})
-    assert gm.on_goal(late, bus.now_ros, bus.now_wall) == []
+    late = bus.goals[0].__class__(**{**bus.goals[0].__dict__, "uid": cancelled})
+    assert gm.on_goal(late, bus.now_ros, bus.now_wall, sender=sender_of(gm, late)) == []
     assert gm.stats["cancelled_before_arrival"] == 1
 
 
 def test_replayed_commands_are_ignored_but_a_restarted_gui_counting_again_is_not(faculty) -> None:
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0, boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0)
     cmd = CommandData(command=Cmd.REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=12.5)
-    assert any(isinstance(a, SendGoal) for a in gm.on_command(cmd, 12.5, 0.0))
-    gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0, boot="t2")
+    assert any(isinstance(a, SendGoal) for a in gm.on_command(cmd, 12.5, 0.0, sender=GUI))
+    gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0)
     gm2.load_state(roundtrip(gm.state()))
-    assert gm2.on_command(cmd, 13.0, 1.0) == []                       # replayed: same uid and stamp
+    assert gm2.on_command(cmd, 13.0, 1.0, sender=GUI) == []                       # replayed: same uid and stamp
     assert gm2.stats["duplicate_commands"] == 1
     again = CommandData(command=Cmd.REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=99.0)
-    assert any(isinstance(a, SendGoal) for a in gm2.on_command(again, 99.0, 2.0))
+    assert any(isinstance(a, SendGoal) for a in gm2.on_command(again, 99.0, 2.0, sender=GUI))
     assert command_key("", 1.0) == "" and command_key("a", float("nan")) == "a@0.000000"
 
 
@@ -111,7 +114,7 @@ def test_tour_step_waiting_survives_a_restart(faculty, tmp_path: Path) -> None:
     bus.start_tour("Tartalo", "two.tour")
     first = bus.goals[0].uid
     gm = restart_goal_manager(bus, "Tartalo")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     bus.cont("Tartalo", first)                                         # Continue after step 1, at the new node
     assert [g.tour_step for g in bus.goals] == [0, 1]
 
@@ -146,19 +149,20 @@ def test_a_navigation_restarted_while_waiting_does_not_move_and_takes_the_replay
     nav = restart_navigation(bus, "MariSorgin")
     assert not any(isinstance(a, MoveTo) for a in nav.tick(bus.now_ros, bus.now_wall))
     key = command_key("MariSorgin/v/cmd/1", 200.0)
-    assert [type(a) for a in nav.on_continue(uid, bus.now_ros, bus.now_wall, key=key)] == [MoveTo, SendEvent]
-    assert nav.on_continue(uid, bus.now_ros, bus.now_wall, key=key) == []      # replayed
+    assert [type(a) for a in nav.on_continue(uid, bus.now_ros, bus.now_wall, key=key, sender=GUI)] == [MoveTo,
+                                                                                                        SendEvent]
+    assert nav.on_continue(uid, bus.now_ros, bus.now_wall, key=key, sender=GUI) == []      # replayed
     assert nav.stats["duplicate_commands"] == 1
 
 
 def test_damaged_states_change_nothing(faculty) -> None:
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0)
     for bad in ({"queue": [{"uid": 5}]}, {"queue": "x"}, {"goals_seen": [1, 2]}, {"phase": {"a": "b"}},
                 {"waits": [{"goal_uid": None}]}):
         with pytest.raises(GuidingStateError):
             gm.load_state(bad)
     assert gm.queue == [] and len(gm._goals_seen) == 0
-    nav = NavigationCore(faculty, NavigationConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    nav = NavigationCore(faculty, NavigationConfig(robot="Kbot"), ListLog(), 0.0)
     for bad in ({"leg": {"trip": {}, "role": "nope"}}, {"leg": {"target": [float("nan")]}}, {"token": "x"}):
         with pytest.raises(GuidingStateError):
             nav.load_state(bad)
@@ -226,21 +230,21 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     first = bus.goals[0].uid
     assert bus.phases("Tartalo", first)[-1] == Phase.ON_THE_WAY
     gm = restart_goal_manager(bus, "Tartalo")
-    gm.on_catalog(catalog)
+    gm.on_catalog(catalog, sender=TS)
     meeting = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/8", visitor_id="v", goal_uid=first, stamp=150.0)
-    assert gm.on_command(meeting, bus.now_ros, bus.now_wall) == []        # pressed before the step was done
-    done = NavEventData(uid="Tartalo/event/nav.x.9", robot="Tartalo", floor=0.0, goal_uid=first,
+    assert gm.on_command(meeting, bus.now_ros, bus.now_wall, sender=GUI) == []        # pressed before the step was done
+    done = NavEventData(uid=make_uid("Tartalo", "event", "nav"), robot="Tartalo", floor=0.0, goal_uid=first,
                         phase=Phase.TOUR_STEP_DONE, tour_file="two.tour", tour_step=0, stamp=200.0)
-    gm_copy = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t4")
+    gm_copy = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall)
     gm_copy.load_state(roundtrip(gm.state()))
-    gm_copy.on_catalog(catalog)
-    assert gm_copy.on_nav_event(done, bus.now_ros, bus.now_wall) == []    # not a Continue after the step
+    gm_copy.on_catalog(catalog, sender=TS)
+    assert gm_copy.on_nav_event(done, bus.now_ros, bus.now_wall, sender=NAV) == []    # not a Continue after the step
     cont = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/9", visitor_id="v", goal_uid=first, stamp=203.0)
-    assert gm.on_command(cont, bus.now_ros, bus.now_wall) == []           # the step is not done yet here
-    gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t3")
+    assert gm.on_command(cont, bus.now_ros, bus.now_wall, sender=GUI) == []           # the step is not done yet here
+    gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall)
     gm2.load_state(roundtrip(gm.state()))                                  # and it survives another restart
-    gm2.on_catalog(catalog)
-    actions = gm2.on_nav_event(done, bus.now_ros, bus.now_wall)
+    gm2.on_catalog(catalog, sender=TS)
+    actions = gm2.on_nav_event(done, bus.now_ros, bus.now_wall, sender=NAV)
     [goal] = [a.trip for a in actions if isinstance(a, SendGoal)]
     assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1
 
@@ -254,8 +258,9 @@ class _Monotonic:
         return self.t
 
 
-def _hostile(faculty, n: int) -> list[tuple[str, object]]:
-    """Messages a goal manager rejects at once: invalid goals, cancels, events and visitor commands."""
+def _hostile(faculty, n: int) -> list[tuple[str, object, str]]:
+    """Messages Kbot's goal manager refuses at once, and their senders: invalid goals, goals, cancels and events
+    for robots not in the building, invalid visitor commands."""
     from dataclasses import replace
 
     from gidabot_navigation.guiding.messages import NavEventData
@@ -264,24 +269,25 @@ def _hostile(faculty, n: int) -> list[tuple[str, object]]:
     bus.status_all()
     bus.request("Tartalo", "101")
     good = bus.goals[0]
-    out: list[tuple[str, object]] = []
+    relay = bus.robots["Kbot"].gm.gate.senders.relay_of("Tartalo")
+    out: list[tuple[str, object, str]] = []
     for i in range(n):
         out += [
-            ("goal", replace(good, uid=f"Kbot/x/{i}", goal_id="nowhere")),                   # unknown location
-            ("goal", replace(good, uid=f"Mallory/x/{i}", origin_robot="Mallory")),          # not a robot
-            ("cancel", CancelData(f"Kbot/cancel/{i}", good.uid, "Mallory", "visitor")),      # not a robot
-            ("event", NavEventData(uid=f"Kbot/event/{i}", robot="Mallory", floor=1.0, goal_uid="x",
-                                   phase=Phase.ACCEPTED)),
-            ("command", CommandData(command=99, uid=f"Kbot/v/cmd/{i}", stamp=float(i))),   # unknown command
-            ("command", CommandData(command=Cmd.REQUEST, uid=f"Kbot/v/cmd/r{i}", goal_id="../x", stamp=float(i))),
+            ("goal", replace(good, uid=make_uid("Tartalo", "v", "gm"), goal_id="nowhere"), relay),   # unknown place
+            ("goal", replace(good, uid=make_uid("Mallory", "x", "gm"), origin_robot="Mallory"), relay),  # no robot
+            ("cancel", CancelData(make_uid("Mallory", "cancel", "gm"), good.uid, "Mallory", "visitor"), relay),
+            ("event", NavEventData(uid=make_uid("Mallory", "event", "gm"), robot="Mallory", floor=1.0, goal_uid="x",
+                                   phase=Phase.ACCEPTED), relay),
+            ("command", CommandData(command=99, uid=f"Kbot/v/cmd/{i}", stamp=float(i)), GUI),   # unknown command
+            ("command", CommandData(command=Cmd.REQUEST, uid=f"Kbot/v/cmd/r{i}", goal_id="../x", stamp=float(i)), GUI),
         ]
     return out
 
 
-def _feed(gm: GoalManagerCore, sf: StateFile, kind: str, msg: object, now: float) -> list:
+def _feed(gm: GoalManagerCore, sf: StateFile, kind: str, msg: object, sender: str, now: float) -> list:
     """What GoalManagerNode does with one input: the core's answer, committed (REJECTED answers are not kept)."""
     actions = {"goal": gm.on_goal, "cancel": gm.on_cancel, "event": gm.on_nav_event,
-               "command": gm.on_command}[kind](msg, 100.0, now)
+               "command": gm.on_command}[kind](msg, 100.0, now, sender=sender)
     durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
     sf.commit(gm.state, actions, durable, lambda _a: None, changed=True)
     return actions
@@ -292,16 +298,16 @@ def test_rejected_messages_cost_no_state_write(faculty, tmp_path: Path) -> None:
     main wrote it, with fsync, for every one of them)."""
     mono = _Monotonic()
     sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0)
     sf.save(gm.state(), [])
     before = (sf.saves, sf.path.read_bytes())
-    for k, (kind, msg) in enumerate(_hostile(faculty, 200)):
+    for k, (kind, msg, sender) in enumerate(_hostile(faculty, 200)):
         mono.t = k * 0.001                              # 1,200 messages in 1.2 s
-        _feed(gm, sf, kind, msg, mono.t)
+        _feed(gm, sf, kind, msg, sender, mono.t)
     mono.t += 10.0
     sf.flush(gm.state)
     sf.flush(gm.state, force=True)
-    assert gm.stats["rejected"] + gm.stats["rejected_location"] >= 1000
+    assert gm.refusals()["foreign"] == 600 and gm.refusals()["invalid"] == 400 and gm.stats["rejected_location"] == 400
     assert (sf.saves, sf.path.read_bytes()) == before
 
 
@@ -310,13 +316,13 @@ def test_state_changes_are_written_before_publishing_or_within_the_soft_interval
 
     mono = _Monotonic()
     sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
-    gm.on_status("Tartalo", 0.0)
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0)
+    gm.on_status("Tartalo", 0.0, sender=from_robot(gm, "Tartalo"))
     bus = Bus(faculty, auto_move=False)
     bus.status_all()
     bus.request("Tartalo", "101")                       # a goal from floor 0 to floor 1: Kbot keeps it
     seen_at_publish: list[dict] = []
-    actions = gm.on_goal(bus.goals[0], 100.0, 0.0)
+    actions = gm.on_goal(bus.goals[0], 100.0, 0.0, sender=sender_of(gm, bus.goals[0]))
     assert [type(a) for a in actions] == [SendEvent]     # ACCEPTED
     sf.commit(gm.state, actions, actions, lambda _a: seen_at_publish.append(json.loads(sf.path.read_bytes())))
     assert seen_at_publish[0]["outbox"] and [t["uid"] for t in seen_at_publish[0]["state"]["queue"]] == \
@@ -325,9 +331,10 @@ def test_state_changes_are_written_before_publishing_or_within_the_soft_interval
     # valid events of other robots about trips that do not exist: remembered (state), published nothing
     for i in range(1000):
         mono.t = 0.1 + i * 0.001
-        ev = NavEventData(uid=f"MariSorgin/event/flood.{i}", robot="MariSorgin", floor=3.0, goal_uid=f"M/v/{i}",
-                          phase=Phase.ACCEPTED, leg=LEG_GOAL)
-        sf.commit(gm.state, gm.on_nav_event(ev, 100.0, mono.t), [], lambda _a: None, changed=True)
+        ev = NavEventData(uid=make_uid("MariSorgin", "event", "gm"), robot="MariSorgin", floor=3.0,
+                          goal_uid=f"M/v/{i}", phase=Phase.ACCEPTED, leg=LEG_GOAL)
+        sf.commit(gm.state, gm.on_nav_event(ev, 100.0, mono.t, sender=sender_of(gm, ev)), [], lambda _a: None,
+                  changed=True)
     assert sf.saves - saves <= 2                         # one write per soft interval at most
     mono.t += 1.0
     sf.flush(gm.state)
@@ -345,21 +352,22 @@ def test_a_leg_committed_in_the_published_pending_list_survives_a_restart_right_
 
     mono = _Monotonic()
     sf = StateFile(tmp_path / "goal_manager.json", "goal_manager", "Kbot", ListLog(), monotonic=mono)
-    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0, boot="t")
+    gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 0.0)
     bus = Bus(faculty, auto_move=False)
     bus.status_all()
     bus.request("Tartalo", "101")
     proposed = next(g for g in bus.goals if g.goal_robot == "Kbot" and g.goal_state == LEG_PROPOSED)
     committed = next(g for g in bus.goals if g.goal_robot == "Kbot" and g.goal_state == LEG_COMMITTED)
-    actions = gm.on_goal(proposed, 100.0, 0.0)                  # ACCEPTED: written before it is published
+    actions = gm.on_goal(proposed, 100.0, 0.0, sender=sender_of(gm, proposed))   # ACCEPTED: saved before it is sent
     sf.commit(gm.state, actions, actions, lambda _a: None)
     mono.t = 0.3
-    sf.commit(gm.state, gm.on_goal(committed, 100.3, 0.3), [], lambda _a: None, changed=True)
+    sf.commit(gm.state, gm.on_goal(committed, 100.3, 0.3, sender=sender_of(gm, committed)), [], lambda _a: None,
+              changed=True)
     shown: list[Trip] = []
     sf.publish_state(gm.state, lambda: shown.extend(gm.pending(100.3).goals))   # what the node does
     assert shown[0].goal_state == LEG_COMMITTED                 # its navigation starts the leg
     # killed now: the restarted goal manager shows what its navigation acts on, not an older list
-    again = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 10.0, boot="t2")
+    again = GoalManagerCore(faculty, GoalManagerConfig(robot="Kbot"), ListLog(), 10.0)
     loaded = StateFile(sf.path, "goal_manager", "Kbot", ListLog()).load()
     assert loaded is not None
     again.load_state(loaded[0])

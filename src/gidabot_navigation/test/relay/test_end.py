@@ -13,6 +13,7 @@ from gidabot_navigation.interface import EVENT, Node, Topic, TopicSpec, global_n
 from gidabot_navigation.relay.end import Close, RelayEndConfig, Send, parse_shared_topics, read_secret
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.relay.protocol import FrameType, Hello, encode_frame, hello_key
+from gidabot_navigation.senders import make_uid
 
 G = Topic.GOALS
 S = Topic.STATUS
@@ -106,11 +107,12 @@ def test_local_messages_that_must_not_cross(tmp_path) -> None:
     w, la, _, _ = pair(tmp_path, max_message_bytes=100)
     w.connect()
     w.run("a", w.a.local_message(G, relay_end_name("Kbot", "Galtxagorri"), TYPES[G], MD5[G], b"relayed"))
-    w.run("a", w.a.local_message(G, "/spoofer", "std_msgs/String", "f" * 32, b"wrong type"))
-    w.run("a", w.a.local_message(G, "/spoofer", TYPES[G], "f" * 32, b"wrong md5"))
-    w.run("a", w.a.local_message(G, "/big", TYPES[G], MD5[G], b"x" * 101))
-    w.run("a", w.a.local_message(G, "/broken", TYPES[G], MD5[G], b"BAD bytes"))
-    w.run("a", w.a.local_message("/not/shared", "/x", "std_msgs/String", "0" * 32, b"x"))
+    own = global_name(Node.GOAL_MANAGER)
+    w.run("a", w.a.local_message(G, own, "std_msgs/String", "f" * 32, b"wrong type"))
+    w.run("a", w.a.local_message(G, own, TYPES[G], "f" * 32, b"wrong md5"))
+    w.run("a", w.a.local_message(G, own, TYPES[G], MD5[G], b"x" * 101))
+    w.run("a", w.a.local_message(G, own, TYPES[G], MD5[G], b"BAD bytes"))
+    w.run("a", w.a.local_message("/not/shared", own, "std_msgs/String", "0" * 32, b"x"))
     assert w.payloads("b") == []
     s = w.a.snapshot()
     assert s["ignored_relay"] == 1 and s["rejected_type"] == 3 and s["rejected_oversize"] == 1
@@ -118,16 +120,33 @@ def test_local_messages_that_must_not_cross(tmp_path) -> None:
     assert la.has("only gidabot_msgs/Goal")
 
 
+def test_a_node_named_like_a_relay_end_that_is_none_of_this_robots_is_an_impostor(tmp_path) -> None:
+    """Tartalo's ends know Tartalo's links (the supervisor passes them): another link's end is ignored (it published
+    what its robot sent), a relay-looking name of a link Tartalo does not have is refused and counted."""
+    ends = frozenset(relay_end_name("Tartalo", r) for r in ("Kbot", "Galtxagorri", "MariSorgin"))
+    w, la, _, _ = pair(tmp_path, robot_ends=ends)
+    w.connect()
+    w.run("a", w.a.local_message(G, relay_end_name("Tartalo", "Galtxagorri"), TYPES[G], MD5[G], b"relayed"))
+    for impostor in (relay_end_name("Tartalo", "Ghost"), relay_end_name("Kbot", "Galtxagorri"),
+                     relay_end_name("Galtxagorri", "Tartalo")):
+        w.run("a", w.a.local_message(G, impostor, TYPES[G], MD5[G], b"forged"))
+    assert w.payloads("b") == []
+    s = w.a.snapshot()
+    assert s["ignored_relay"] == 1 and s["rejected_impostor"] == 3 and s["forwarded"] == 0
+    assert la.has("named like a relay end but is none of Tartalo's")
+
+
 def test_a_state_crosses_only_from_the_robot_it_speaks_for(tmp_path) -> None:
     """A status / pose / pending list published on Tartalo's master that speaks for another robot (a spoofed or
     hostile one: the chaos run's NavPose of 'Ghost' with an infinite pose) never leaves Tartalo; it is counted."""
     w, la, _, _ = pair(tmp_path)
     w.connect()
-    w.local("a", S, b"robot=Tartalo;ok", callerid="/multirobot_navigation")
-    w.local("a", S, b"robot=Ghost;x=inf", callerid="/chaos_probe")
-    w.local("a", S, b"robot=Kbot;spoofed", callerid="/chaos_probe")
+    nav = global_name(Node.MULTIROBOT_NAVIGATION)
+    w.local("a", S, b"robot=Tartalo;ok", callerid=nav)
+    w.local("a", S, b"robot=Ghost;x=inf", callerid=nav)
+    w.local("a", S, b"robot=Kbot;spoofed", callerid=nav)
     assert w.payloads("b", S) == [b"robot=Tartalo;ok"]
-    assert w.a.snapshot()["rejected_foreign"] == 2 and la.has("speaks for 'Ghost', not for Tartalo")
+    assert w.a.snapshot()["rejected_foreign"] == 2 and la.has("may speak for Tartalo, not for 'Ghost'")
     # and a peer's state that does not speak for the peer is not published here (the link stays)
     from gidabot_navigation.relay.protocol import Message, encode_message
 
@@ -135,6 +154,57 @@ def test_a_state_crosses_only_from_the_robot_it_speaks_for(tmp_path) -> None:
         w.run("a", [w.a._frame(w.a.active, FrameType.STATE, encode_message(Message(S, "/x", MD5[S], payload), False))])
     assert w.payloads("b", S) == [b"robot=Tartalo;ok", b"robot=Tartalo;ok again"]
     assert w.b.snapshot()["rejected_foreign"] == 1 and w.b.active is not None
+
+
+def test_a_goal_published_by_a_node_that_is_not_this_robots_is_never_forwarded(tmp_path) -> None:
+    """A goal on Tartalo's master from a node that is neither one of Tartalo's nodes nor a relay end (rostopic pub,
+    a probe, the fault injection; a name that merely looks like ours) never leaves Tartalo, whatever it says."""
+    w, la, _, _ = pair(tmp_path)
+    w.connect()
+    goal = f"robot=Tartalo;uid={make_uid('Tartalo', 'v', 'gm')}".encode()
+    for callerid in ("/chaos_probe", "/rostopic_4242_1700000000", "/goal_manager_2", "goal_manager", ""):
+        w.local("a", G, goal, callerid=callerid)
+    snap = w.a.snapshot()
+    assert w.payloads("b") == [] and snap["rejected_impostor"] == 5 and snap["forwarded"] == 0
+    assert la.has("is not one of Tartalo's nodes")
+    w.local("a", G, goal, callerid=global_name(Node.GOAL_MANAGER))
+    assert w.payloads("b") == [goal]
+
+
+def test_an_own_event_that_does_not_speak_for_this_robot_is_not_forwarded(tmp_path) -> None:
+    w, _, _, _ = pair(tmp_path)
+    w.connect()
+    for payload in (f"robot=Kbot;uid={make_uid('Kbot', 'event', 'nav')}",             # another robot's
+                    f"robot=Ghost;uid={make_uid('Ghost', 'event', 'nav')}",           # not in the building
+                    f"robot=Tartalo;uid={make_uid('Kbot', 'event', 'nav')}",          # a uid of Kbot's
+                    "robot=Tartalo;uid=Tartalo/event/nav.1"):                         # no random part
+        w.local("a", G, payload.encode(), callerid=global_name(Node.MULTIROBOT_NAVIGATION))
+    snap = w.a.snapshot()
+    assert w.payloads("b") == [] and snap["rejected_foreign"] == 2 and snap["rejected_wrong_namespace"] == 2
+    assert snap["queue_depth"] == 0 and w.a.refusals()["foreign"] == 2
+
+
+def test_an_event_the_peer_sends_for_another_robot_is_acknowledged_never_published(tmp_path) -> None:
+    """Over the link from Tartalo, only what speaks for Tartalo is published on Kbot's master: an event for Kbot
+    itself, for a third robot, or with a uid of another robot's is dropped and counted (and acknowledged: the
+    link goes on)."""
+    from gidabot_navigation.relay.protocol import Message, encode_message
+
+    w, _, lb, _ = pair(tmp_path)
+    w.connect()
+    real = f"robot=Tartalo;uid={make_uid('Tartalo', 'event', 'gm')}".encode()
+    forged = [f"robot=Kbot;uid={make_uid('Kbot', 'event', 'gm')}",
+              f"robot=MariSorgin;uid={make_uid('MariSorgin', 'cancel', 'nav')}",
+              f"robot=Tartalo;uid={make_uid('Galtxagorri', 'v', 'gm')}"]
+    first = w.a.state.next_seq
+    w.a.state.next_seq += 4
+    for i, payload in enumerate([p.encode() for p in forged] + [real]):
+        m = Message(G, global_name(Node.GOAL_MANAGER), MD5[G], payload, first + i)
+        w.run("a", [w.a._frame(w.a.active, FrameType.EVENT, encode_message(m, True))])
+    assert w.payloads("b") == [real]
+    snap = w.b.snapshot()
+    assert snap["rejected_foreign"] == 2 and snap["rejected_wrong_namespace"] == 1 and w.b.active is not None
+    assert w.b.state.in_last == first + 3 and lb.has("may speak for Tartalo, not for 'Kbot'")
 
 
 def test_oversized_frame_from_the_peer_closes_only_that_connection(tmp_path) -> None:
@@ -189,8 +259,8 @@ def test_lost_acks_cause_retransmission_that_is_suppressed(tmp_path) -> None:
     w.connect()
     # a sends two events, b receives them but the ACKs never reach a
     w.open = True
-    frames = w.a.local_message(G, "/gm", TYPES[G], MD5[G], b"x1") + \
-        w.a.local_message(G, "/gm", TYPES[G], MD5[G], b"x2")
+    gm = global_name(Node.GOAL_MANAGER)
+    frames = w.a.local_message(G, gm, TYPES[G], MD5[G], b"x1") + w.a.local_message(G, gm, TYPES[G], MD5[G], b"x2")
     for f in frames:
         w.b.data_received(w.conn, f.data)                             # replies dropped
     w.deliver()
@@ -343,8 +413,8 @@ def test_queue_bounds_in_bytes_too(tmp_path) -> None:
 def test_state_keys_are_bounded(tmp_path) -> None:
     w, la, _, _ = pair(tmp_path, max_state_keys=2)
     w.connect()
-    for node in ("/n1", "/n2", "/n3"):
-        w.local("a", S, b"x", callerid=node)
+    for node in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE):
+        w.local("a", S, b"x", callerid=global_name(node))
     assert len(w.b.latest_states(S)) == 2 and w.a.stats.dropped == 1 and la.has("already 2")
 
 
@@ -355,7 +425,7 @@ def test_states_are_coalesced_per_publisher_and_resent_on_reconnect(tmp_path) ->
     for i in range(20):                                  # 20 updates within 50 ms
         w.local("a", S, b"s%d" % i, callerid=global_name(Node.MULTIROBOT_NAVIGATION))
         clock.t += 0.0025
-    w.local("a", S, b"other", callerid="/other_node")
+    w.local("a", S, b"other", callerid=global_name(Node.GOAL_MANAGER))
     got = w.payloads("b", S)
     assert got[0] == b"s0" and len(got) <= 3
     clock.t += 0.2
@@ -391,7 +461,7 @@ def test_a_due_coalesced_state_is_sent_by_the_next_tick_so_the_loop_never_spins(
 def test_states_published_while_down_arrive_as_latest_only(tmp_path) -> None:
     w, _, _, clock = pair(tmp_path)
     for i in range(5):
-        w.local("a", S, b"v%d" % i, callerid="/nav")
+        w.local("a", S, b"v%d" % i, callerid=global_name(Node.MULTIROBOT_NAVIGATION))
     w.connect()
     assert w.payloads("b", S) == [b"v4"]
 

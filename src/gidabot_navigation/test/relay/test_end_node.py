@@ -8,7 +8,7 @@ import io
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from gidabot_msgs.msg import Goal, RobotStatus
+from gidabot_msgs.msg import Goal, NavEvent, RobotStatus, Tour
 from gidabot_navigation.errors import RelayConfigError
 from gidabot_navigation.interface import RobotState, Topic, TopicSpec
 from gidabot_navigation.relay.end import load_shared_topics
@@ -22,6 +22,7 @@ from gidabot_navigation.relay.end_node import (
     raw_class,
 )
 from gidabot_navigation.resources import resource
+from gidabot_navigation.senders import Claim
 
 REQUIRED = ["--robot_a", "Tartalo", "--robot_b", "Kbot", "--side", "b", "--link_host", "10.0.0.2",
             "--link_port", "11411", "--state_dir", "/tmp/relay"]
@@ -75,11 +76,18 @@ def test_the_validator_takes_exactly_a_well_formed_message() -> None:
     assert validate(Topic.GOALS, bad_utf8) is not None
 
 
-def test_the_speaker_is_the_robot_field_of_a_state_and_nobody_else() -> None:
-    speaker = make_speaker({Topic.STATUS: RobotStatus, Topic.GOALS: Goal})
-    assert speaker(Topic.STATUS, raw(RobotStatus(robot="Kbot"))) == "Kbot"
+def test_the_speaker_is_whom_the_message_speaks_for_and_its_uid() -> None:
+    speaker = make_speaker({Topic.STATUS: RobotStatus, Topic.GOALS: Goal, Topic.NAV_EVENTS: NavEvent,
+                            Topic.TOURS: Tour, "/elsewhere": RobotStatus})
+    assert speaker(Topic.STATUS, raw(RobotStatus(robot="Kbot"))) == Claim("Kbot")
     assert speaker(Topic.STATUS, b"\x01") is None                   # undecodable: the validator says why
-    assert speaker(Topic.GOALS, raw(Goal(origin_robot="Kbot"))) is None   # no robot field
+    assert speaker(Topic.GOALS, raw(Goal(uid="Kbot/v/gm.0123456789abcdef", origin_robot="Kbot"))) == Claim(
+        "Kbot", "Kbot/v/gm.0123456789abcdef")
+    assert speaker(Topic.NAV_EVENTS, raw(NavEvent(uid="Lamia/event/nav.0", robot="Kbot"))) == Claim(
+        "Kbot", "Lamia/event/nav.0")                                  # the end refuses it: wrong_namespace
+    assert speaker(Topic.TOURS, raw(Tour(uid="Kbot/tour/ts.0123456789abcdef"))) == Claim(
+        "Kbot", "Kbot/tour/ts.0123456789abcdef")                     # a tour speaks for the robot of its uid
+    assert speaker("/elsewhere", raw(RobotStatus(robot="Kbot"))) is None   # not a shared topic: not checked
 
 
 def test_a_raw_class_publishes_bytes_under_the_real_type() -> None:

@@ -6,7 +6,7 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from gidabot_navigation.errors import RelayConfigError
-from gidabot_navigation.relay.supervisor import plan_relays
+from gidabot_navigation.relay.supervisor import end_argv, plan_relays
 from gidabot_navigation.relay.supervisor_node import Params, _describe, diagnostic_status
 
 
@@ -14,7 +14,7 @@ def getter(values: dict[str, object]):
     return lambda name, default: values.get(name, default)
 
 
-def test_params_with_a_secret_and_end_options(tmp_path) -> None:
+def test_params_with_a_secret_and_end_options(tmp_path, faculty) -> None:
     secret = tmp_path / "secret"
     secret.write_text("0123456789abcdef0123")
     p = Params.parse(getter({"~building": "maps/faculty", "~robot": "Kbot", "~state_dir": str(tmp_path / "state"),
@@ -24,6 +24,12 @@ def test_params_with_a_secret_and_end_options(tmp_path) -> None:
     opts = p.end_options()
     assert (tmp_path / "state").is_dir() and opts.state_dir == str((tmp_path / "state").resolve())
     assert opts.extra == p.end_params and opts.secret_file == p.secret_file
+    # every end learns the names of all of Kbot's ends (a relay-looking name of another link is an impostor's)
+    ends = plan_relays(faculty, "Kbot")
+    opts = p.end_options(ends)
+    assert opts.robot_ends == tuple(e.node_name for e in ends) and len(ends) == 3
+    argv = end_argv(ends[0], opts)
+    assert argv[argv.index("--robot_ends") + 1] == ",".join(e.node_name for e in ends)
 
 
 @pytest.mark.parametrize(("values", "text"), [

@@ -9,9 +9,10 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from tour_support import T0, TOURS, FakeClock, ListLog, open_store, snapshot, tour_msg
+from tour_support import GUI, T0, TOURS, FakeClock, ListLog, from_robot, open_store, recv, snapshot, tour_msg
 
 from gidabot_navigation.errors import TourRejected, TourStoreError
+from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.safe_dir import SafeDir
 from gidabot_navigation.tours.tour_store import (
     META_NAME,
@@ -56,8 +57,8 @@ def test_first_start_seeds_the_initial_tours(store: TourStore, tmp_path: Path) -
 
 
 def test_restart_keeps_everything_and_does_not_seed_again(store, tmp_path, faculty, clock) -> None:
-    store.edit(tour_msg("visit.tour", VISIT))
-    store.edit(tour_msg("long_tour.tour", [], deleted=True))
+    store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
+    store.edit(tour_msg("long_tour.tour", [], deleted=True), sender=GUI)
     before = (snapshot(tmp_path / "tours"), store.index())
     store.close()
     again = open_store(tmp_path / "tours", faculty, clock=clock, seed_dir=TOURS)
@@ -85,24 +86,24 @@ def test_files_present_without_metadata_are_adopted(tmp_path, faculty, clock, lo
 # ---------------------------------------------------------------- admin actions
 def test_create_edit_delete(store: TourStore, tmp_path: Path, clock) -> None:
     d = tmp_path / "tours"
-    rec = store.edit(tour_msg("visit.tour", VISIT, name="A visit"))
+    rec = store.edit(tour_msg("visit.tour", VISIT, name="A visit"), sender=GUI)
     assert (d / "visit.tour").read_bytes() == b"Tour: A visit\n" + VISIT_TEXT[5:]
     assert (rec.version, rec.editor, rec.origin, rec.language) == (T0, "Galtxagorri", "Galtxagorri", "en")
     clock.ns -= 5 * NS            # the clock steps back: the next version is still larger
-    rec2 = store.edit(tour_msg("visit.tour", VISIT[:2], language="eu"))
+    rec2 = store.edit(tour_msg("visit.tour", VISIT[:2], language="eu"), sender=GUI)
     assert rec2.version == T0 + 1 and rec2.language == "eu"
     assert (d / "visit.tour").read_bytes() == b"Tour\n0, 014, Computer Technicians 1\n1, 101, Secretary's Office\n"
     clock.advance(10)
-    tomb = store.edit(tour_msg("visit.tour", [], deleted=True))
+    tomb = store.edit(tour_msg("visit.tour", [], deleted=True), sender=GUI)
     assert tomb.deleted and tomb.version == clock.ns and not (d / "visit.tour").exists()
     assert "visit.tour" not in [r.file_name for r in store.catalog()]
     assert IndexEntry("visit.tour", clock.ns, "Galtxagorri", True) in store.index()
     with pytest.raises(TourRejected, match="no tour visit.tour to delete"):
-        store.edit(tour_msg("visit.tour", [], deleted=True))
+        store.edit(tour_msg("visit.tour", [], deleted=True), sender=GUI)
 
 
 def test_edit_of_a_seeded_tour_keeps_its_origin(store: TourStore) -> None:
-    rec = store.edit(tour_msg("real_world.tour", VISIT))
+    rec = store.edit(tour_msg("real_world.tour", VISIT), sender=GUI)
     assert rec.origin == "" and rec.editor == "Galtxagorri" and rec.version > SEED_VERSION
 
 
@@ -118,7 +119,7 @@ def test_edit_of_a_seeded_tour_keeps_its_origin(store: TourStore) -> None:
 def test_invalid_admin_edits_are_rejected(store, tmp_path, msg, reason, text) -> None:
     before = snapshot(tmp_path / "tours", hidden=True)
     with pytest.raises(TourRejected, match=re.escape(text)) as info:
-        store.edit(msg)
+        store.edit(msg, sender=GUI)
     assert info.value.reason == reason
     assert snapshot(tmp_path / "tours", hidden=True) == before
     assert store.stats()["rejected_edit"] == 1      # counted as a rejection (a chaos verdict reads rejected_*)
@@ -127,18 +128,19 @@ def test_invalid_admin_edits_are_rejected(store, tmp_path, msg, reason, text) ->
 def test_admin_cannot_create_over_a_file_the_store_does_not_own(store, tmp_path) -> None:
     (tmp_path / "tours" / "stray.tour").write_bytes(b"by hand")
     with pytest.raises(TourRejected, match="stray.tour already exists .* as a file the tour store does not manage"):
-        store.edit(tour_msg("stray.tour", VISIT))
+        store.edit(tour_msg("stray.tour", VISIT), sender=GUI)
     assert (tmp_path / "tours" / "stray.tour").read_bytes() == b"by hand"
 
 
 def test_an_admin_action_is_answered_and_shared_or_refused(store, tmp_path, log, monkeypatch) -> None:
-    result, shared = store.admin_edit(tour_msg("visit.tour", VISIT, uid="Galtxagorri/gui/tour-edit/1"))
+    result, shared = store.admin_edit(tour_msg("visit.tour", VISIT, uid="Galtxagorri/gui/tour-edit/1"), sender=GUI)
     assert (result.uid, result.file_name, result.ok, result.version, result.reason) == (
         "Galtxagorri/gui/tour-edit/1", "visit.tour", True, store.get("visit.tour").version, "")
     assert shared is not None and shared.file_name == "visit.tour" and shared.uid.startswith("Galtxagorri/tour/")
     assert [t.file_name for t in store.catalog_data().tours] == [r.file_name for r in store.catalog()]
     assert store.index_data().entries == tuple(store.index()) and store.index_data().robot == "Galtxagorri"
-    result, shared = store.admin_edit(tour_msg("gone.tour", [], deleted=True, uid="Galtxagorri/gui/tour-edit/2"))
+    result, shared = store.admin_edit(tour_msg("gone.tour", [], deleted=True, uid="Galtxagorri/gui/tour-edit/2"),
+                                      sender=GUI)
     assert (result.ok, result.deleted, result.reason, shared) == (False, True, "unknown", None)
     assert any("admin delete of tour 'gone.tour' refused" in line for _level, line in log.lines)
 
@@ -146,8 +148,11 @@ def test_an_admin_action_is_answered_and_shared_or_refused(store, tmp_path, log,
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(SafeDir, "write_atomic", full)
-    result, shared = store.admin_edit(tour_msg("other.tour", VISIT))
+    result, shared = store.admin_edit(tour_msg("other.tour", VISIT), sender=GUI)
     assert (result.ok, result.reason, shared) == (False, "io", None) and "No space left" in result.error
+    # an edit from a node that is none of this robot's: neither carried out nor answered
+    assert store.admin_edit(tour_msg("probe.tour", VISIT), sender="/chaos_probe") == (None, None)
+    assert store.get("probe.tour") is None and store.refusals()["impostor"] == 1
 
 
 def test_metadata_write_failure_changes_nothing(store, tmp_path, monkeypatch) -> None:
@@ -158,7 +163,7 @@ def test_metadata_write_failure_changes_nothing(store, tmp_path, monkeypatch) ->
 
     monkeypatch.setattr(SafeDir, "write_atomic", full)
     with pytest.raises(TourStoreError, match="No space left on device"):
-        store.edit(tour_msg("visit.tour", VISIT))
+        store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
     assert store.get("visit.tour") is None
     assert snapshot(tmp_path / "tours", hidden=True) == before
 
@@ -170,23 +175,25 @@ def test_second_store_on_the_same_directory_is_refused(store, tmp_path, faculty)
 
 # ---------------------------------------------------------------- remote records and versions
 def remote(file_name: str, goals, version: int, editor: str = "Kbot", **kw):
-    return tour_msg(file_name, goals, version=version, editor=editor, origin=kw.pop("origin", editor), **kw)
+    """A tour message Kbot sends (a fresh uid of Kbot's), of a version ``editor`` wrote."""
+    return tour_msg(file_name, goals, version=version, editor=editor, origin=kw.pop("origin", editor),
+                    uid=kw.pop("uid", "") or make_uid("Kbot", "tour", "ts"), **kw)
 
 
 def test_newer_wins_older_is_ignored(store: TourStore, tmp_path: Path) -> None:
     d = tmp_path / "tours"
-    assert store.receive(remote("visit.tour", VISIT, T0 + 10)).status == "accepted"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 10)).status == "accepted"
     assert (d / "visit.tour").read_bytes() == VISIT_TEXT
-    assert store.receive(remote("visit.tour", VISIT[:1], T0 + 5)).status == "stale"
-    assert store.receive(remote("visit.tour", VISIT, T0 + 10)).status == "duplicate"
+    assert recv(store, remote("visit.tour", VISIT[:1], T0 + 5)).status == "stale"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 10)).status == "duplicate"
     assert (d / "visit.tour").read_bytes() == VISIT_TEXT
     # a tombstone beats the tour; the old copy arriving late cannot resurrect it
-    assert store.receive(remote("visit.tour", [], T0 + 20, deleted=True)).status == "accepted"
+    assert recv(store, remote("visit.tour", [], T0 + 20, deleted=True)).status == "accepted"
     assert not (d / "visit.tour").exists()
-    assert store.receive(remote("visit.tour", VISIT, T0 + 10, uid="Kbot/tour/late")).status == "stale"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 10)).status == "stale"
     assert not (d / "visit.tour").exists()
     # a newer version re-creates it
-    assert store.receive(remote("visit.tour", VISIT, T0 + 30, editor="MariSorgin")).status == "accepted"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 30, editor="MariSorgin")).status == "accepted"
     assert (d / "visit.tour").read_bytes() == VISIT_TEXT
 
 
@@ -197,26 +204,29 @@ def test_equal_versions_tie_break_on_the_editor(faculty, tmp_path) -> None:
     for i, order in enumerate(([a, b], [b, a])):
         s = open_store(tmp_path / f"s{i}", faculty)
         for m in order:
-            s.receive(m)
+            recv(s, m)
         results.append(((tmp_path / f"s{i}" / "t.tour").read_bytes(), s.get("t.tour").editor))
         s.close()
     assert results[0] == results[1] and results[0][1] == "Tartalo"
 
 
-def test_uid_duplicates_are_ignored_before_any_work(store) -> None:
-    m = remote("visit.tour", VISIT, T0, uid="Kbot/tour/1")
-    assert store.receive(m).status == "accepted"
-    assert store.receive(replace(m, version=T0 + 1)).status == "duplicate"
-    assert store.get("visit.tour").version == T0
+def test_uid_duplicates_are_ignored_and_conflicts_refused_before_any_work(store, log) -> None:
+    m = remote("visit.tour", VISIT, T0)
+    assert recv(store, m).status == "accepted"
+    assert recv(store, m).status == "duplicate"
+    assert (recv(store, replace(m, version=T0 + 1)).status, recv(store, replace(m, deleted=True)).reason) == \
+        ("refused", "conflict")                               # its uid, other content: never applied
+    assert store.get("visit.tour").version == T0 and store.refusals()["conflict"] == 2
+    assert log.text("warning").count("came again") == 1     # logged once
 
 
 def test_own_messages_round_trip(store, faculty, tmp_path) -> None:
-    rec = store.edit(tour_msg("visit.tour", VISIT, name="A visit", language="es"))
+    rec = store.edit(tour_msg("visit.tour", VISIT, name="A visit", language="es"), sender=GUI)
     msg = store.outgoing(rec)
     assert msg.uid.startswith("Galtxagorri/tour/") and msg.floor == 0 and msg.tour_name == "A visit"
-    assert store.receive(msg).status == "duplicate"       # our own echo
+    assert recv(store, msg).status == "duplicate"       # our own echo
     other = open_store(tmp_path / "other", faculty, robot="Kbot")
-    assert other.receive(msg).status == "accepted"
+    assert recv(other, msg).status == "accepted"
     assert (tmp_path / "other" / "visit.tour").read_bytes() == (tmp_path / "tours" / "visit.tour").read_bytes()
     assert other.get("visit.tour").key == store.get("visit.tour").key
     other.close()
@@ -235,18 +245,18 @@ VARIANTS = [  # the same tour as VISIT_TEXT, written by a text editor or a phone
 def test_a_remote_tour_in_a_tolerated_form_is_stored_canonically_and_compares_equal(store, faculty,
                                                                                      tmp_path) -> None:
     sloppy = remote("visit.tour", VARIANT_GOALS, T0, name=" Visit ")
-    assert store.receive(sloppy).status == "accepted"
+    assert recv(store, sloppy).status == "accepted"
     assert (tmp_path / "tours" / "visit.tour").read_bytes() == VISIT_TEXT
     other = open_store(tmp_path / "other", faculty, robot="Kbot", seed_dir=TOURS)
-    assert other.receive(remote("visit.tour", VISIT, T0, uid="Kbot/tour/canonical")).status == "accepted"
+    assert recv(other, remote("visit.tour", VISIT, T0)).status == "accepted"
     assert other.get("visit.tour") == store.get("visit.tour")                # same record, same digest
     assert other.get("visit.tour").key == store.get("visit.tour").key
     assert (tmp_path / "other" / "visit.tour").read_bytes() == VISIT_TEXT
     # either form arriving again is the record held: nothing written, nothing re-sent
-    assert store.receive(remote("visit.tour", VISIT, T0, uid="Kbot/tour/again")).status == "duplicate"
-    assert other.receive(replace(sloppy, uid="Kbot/tour/sloppy-again")).status == "duplicate"
-    assert store.peer_index("Kbot", other.index(), 0.0) == [] and other.peer_index("Galtxagorri", store.index(),
-                                                                                     0.0) == []
+    assert recv(store, remote("visit.tour", VISIT, T0)).status == "duplicate"
+    assert recv(other, replace(sloppy, uid=make_uid("Kbot", "tour", "ts"))).status == "duplicate"
+    assert store.peer_index("Kbot", other.index(), 0.0, sender=from_robot(store, "Kbot")) == []
+    assert other.peer_index("Galtxagorri", store.index(), 0.0, sender=from_robot(other, "Galtxagorri")) == []
     other.close()
 
 
@@ -258,7 +268,7 @@ def test_a_hand_written_tour_reaches_another_robot_as_the_same_bytes(tmp_path, f
     (d / "open_day.tour").write_bytes(b"Tour: Open day\r\n0, 014, Lab\r\n\r\n")
     here = open_store(d, faculty, clock=clock)
     there = open_store(tmp_path / "kbot", faculty, robot="Kbot", clock=clock)
-    assert there.receive(here.outgoing(here.get("open_day.tour"))).status == "accepted"
+    assert recv(there, here.outgoing(here.get("open_day.tour"))).status == "accepted"
     assert there.get("open_day.tour") == here.get("open_day.tour")
     assert (tmp_path / "kbot" / "open_day.tour").read_bytes() == (d / "open_day.tour").read_bytes() == \
         b"Tour\n0, 014, Lab\n"
@@ -291,7 +301,7 @@ def test_a_seed_in_a_tolerated_form_is_seeded_canonically(tmp_path, faculty, clo
 
 def test_the_same_tour_rewritten_by_hand_in_another_form_is_not_a_new_version(store, tmp_path, faculty, clock,
                                                                               log) -> None:
-    rec = store.edit(tour_msg("visit.tour", VISIT))
+    rec = store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
     store.close()
     d = tmp_path / "tours"
     (d / "visit.tour").write_bytes(VARIANTS[0])                # opened and saved on Windows
@@ -342,7 +352,7 @@ HOSTILE = [
 def test_hostile_remote_tours_are_rejected_and_touch_nothing(store, tmp_path, log, label, msg, reason) -> None:
     before = snapshot(tmp_path / "tours", hidden=True)
     outside = snapshot(tmp_path)
-    out = store.receive(msg)
+    out = recv(store, msg)
     assert (out.status, out.reason) == ("rejected", reason), out
     assert store.counters["rejected"] == 1 and store.counters[f"rejected_{reason}"] == 1
     assert "rejected tour message" in log.text("warning")
@@ -354,38 +364,77 @@ def test_hostile_remote_tours_are_rejected_and_touch_nothing(store, tmp_path, lo
 def test_rejected_stale_and_duplicate_messages_write_nothing(store, monkeypatch) -> None:
     """Only an accepted record writes: a rejected, stale or duplicate one costs no write, not even a
     rewrite of the metadata with the same bytes (which a byte-for-byte comparison would not see)."""
-    store.receive(remote("visit.tour", VISIT, T0 + 10))
+    recv(store, remote("visit.tour", VISIT, T0 + 10))
     writes: list[str] = []
     for op in ("create", "replace", "remove", "write_atomic"):
         real = getattr(SafeDir, op)
         monkeypatch.setattr(SafeDir, op, lambda self, name, *a, _op=op, _real=real: (writes.append(f"{_op} {name}"),
                                                                                    _real(self, name, *a))[1])
     for _, msg, _ in HOSTILE:
-        assert store.receive(msg).status == "rejected"
-    assert store.receive(remote("visit.tour", VISIT, T0 + 5)).status == "stale"
-    assert store.receive(remote("visit.tour", VISIT, T0 + 10, uid="Kbot/tour/dup")).status == "duplicate"
-    assert store.peer_index("Kbot", [], 0.0) and not store.step()
+        assert recv(store, msg).status == "rejected"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 5)).status == "stale"
+    assert recv(store, remote("visit.tour", VISIT, T0 + 10)).status == "duplicate"
+    assert store.peer_index("Kbot", [], 0.0, sender=from_robot(store, "Kbot")) and not store.step()
     assert writes == []
-    assert store.receive(remote("visit.tour", VISIT[:1], T0 + 20)).status == "accepted"
+    assert recv(store, remote("visit.tour", VISIT[:1], T0 + 20)).status == "accepted"
     assert writes == ["write_atomic .gidabot-tours.json", "replace visit.tour", "write_atomic .gidabot-tours.json"]
+
+
+def test_a_forged_message_never_takes_the_uid_of_the_real_one(store, tmp_path) -> None:
+    """An invalid tour (through Kbot's relay end) and a valid one from a probe, with the uid a real tour of Kbot's
+    will carry, arrive first: neither is applied nor remembered, and the real one is accepted."""
+    real = remote("visit.tour", VISIT, T0)
+    kbot = from_robot(store, "Kbot")
+    assert store.receive(replace(real, tour_goals_info=("0, 999, Nowhere",)), sender=kbot).status == "rejected"
+    assert store.receive(replace(real, version=T0 + 99), sender="/chaos_probe").reason == "impostor"
+    assert store.receive(real, sender=kbot).status == "accepted"
+    assert (tmp_path / "tours" / "visit.tour").read_bytes() == VISIT_TEXT and store.get("visit.tour").version == T0
+
+
+def test_tours_speak_only_for_the_robot_that_sends_them(store, tmp_path) -> None:
+    """A tour is applied only from the relay end of the robot whose uid it carries (or our own echo): not from a
+    probe or ``rostopic pub``, not through another robot's relay end, not with a uid outside that robot's namespace
+    (counted, nothing written); any robot may pass on any robot's tour (anti-entropy)."""
+    before = snapshot(tmp_path / "tours", hidden=True)
+    msg = remote("visit.tour", VISIT, T0, editor="MariSorgin")
+    refused = [(msg, "/chaos_probe"), (msg, "/rostopic_4242_1700000000"), (msg, "/gidabot_relay_Galtxagorri_Kbot"),
+               (msg, from_robot(store, "Tartalo")), (replace(msg, uid="Kbot/tour/1"), from_robot(store, "Kbot")),
+               (replace(msg, uid=make_uid("Tartalo", "tour", "ts")), from_robot(store, "Kbot")),
+               (replace(msg, uid=""), from_robot(store, "Kbot"))]
+    for m, sender in refused:
+        assert store.receive(m, sender=sender).status == "refused"
+    assert snapshot(tmp_path / "tours", hidden=True) == before
+    assert store.refusals() == {"impostor": 3, "foreign": 3, "wrong_namespace": 1, "conflict": 0, "invalid": 0}
+    assert store.stats()["refused_impostor"] == 3
+    assert store.receive(msg, sender=from_robot(store, "Kbot")).status == "accepted"     # MariSorgin's, from Kbot
+
+
+def test_only_this_robots_own_nodes_edit_its_tours(store, tmp_path) -> None:
+    before = snapshot(tmp_path / "tours", hidden=True)
+    for sender in ("/chaos_probe", from_robot(store, "Kbot")):
+        with pytest.raises(TourRejected) as err:
+            store.edit(tour_msg("visit.tour", VISIT), sender=sender)
+        assert err.value.reason in ("impostor", "foreign")
+    assert snapshot(tmp_path / "tours", hidden=True) == before and store.get("visit.tour") is None
+    assert store.edit(tour_msg("visit.tour", VISIT), sender=GUI).file_name == "visit.tour"
 
 
 def test_rejection_logs_are_rate_limited(store, log, clock) -> None:
     for _ in range(50):
-        store.receive(remote("real_world.tour", ["0, 014"], T0))
+        recv(store, remote("real_world.tour", ["0, 014"], T0))
     assert log.text("warning").count("rejected tour message") == 10
     clock.advance(61)
-    store.receive(remote("real_world.tour", ["0, 014"], T0))
+    recv(store, remote("real_world.tour", ["0, 014"], T0))
     assert "40 more 'rejected_content' warning(s) suppressed" in log.text("warning")
     assert store.counters["rejected_content"] == 51
 
 
 def test_tour_limit(faculty, tmp_path) -> None:
     s = open_store(tmp_path / "t", faculty, limits=StoreLimits(max_tours=2))
-    assert s.receive(remote("a.tour", VISIT, T0)).status == "accepted"
-    assert s.receive(remote("b.tour", VISIT, T0)).status == "accepted"
-    assert s.receive(remote("c.tour", VISIT, T0)).reason == "limit"
-    assert s.receive(remote("a.tour", VISIT[:1], T0 + 1)).status == "accepted"   # edits still apply
+    assert recv(s, remote("a.tour", VISIT, T0)).status == "accepted"
+    assert recv(s, remote("b.tour", VISIT, T0)).status == "accepted"
+    assert recv(s, remote("c.tour", VISIT, T0)).reason == "limit"
+    assert recv(s, remote("a.tour", VISIT[:1], T0 + 1)).status == "accepted"   # edits still apply
     s.close()
 
 
@@ -393,16 +442,16 @@ def test_tour_limit(faculty, tmp_path) -> None:
 def test_stray_file_is_never_overwritten_and_the_tour_waits(store, tmp_path) -> None:
     d = tmp_path / "tours"
     (d / "visit.tour").write_bytes(b"placed by hand\n")
-    out = store.receive(remote("visit.tour", VISIT, T0))
+    out = recv(store, remote("visit.tour", VISIT, T0))
     assert out.status == "accepted" and out.record.blocked
     assert (d / "visit.tour").read_bytes() == b"placed by hand\n"
     assert "visit.tour" in [e.file_name for e in store.index()]          # known and shared
     assert "visit.tour" not in [r.file_name for r in store.catalog()]    # not in the directory
     assert store.step() is False and (d / "visit.tour").read_bytes() == b"placed by hand\n"
     # a remote delete does not remove the stray file either
-    store.receive(remote("visit.tour", [], T0 + 1, deleted=True))
+    recv(store, remote("visit.tour", [], T0 + 1, deleted=True))
     assert (d / "visit.tour").read_bytes() == b"placed by hand\n"
-    store.receive(remote("visit.tour", VISIT, T0 + 2))
+    recv(store, remote("visit.tour", VISIT, T0 + 2))
     (d / "visit.tour").unlink()
     assert store.step() is True
     assert (d / "visit.tour").read_bytes() == VISIT_TEXT
@@ -422,8 +471,8 @@ def test_directories_symlinks_fifos_are_never_written(store, tmp_path, kind) -> 
     else:
         os.mkfifo(d / "visit.tour")
     before = snapshot(d)
-    assert store.receive(remote("visit.tour", VISIT, T0)).record.blocked
-    assert store.receive(remote("visit.tour", [], T0 + 1, deleted=True)).status == "accepted"
+    assert recv(store, remote("visit.tour", VISIT, T0)).record.blocked
+    assert recv(store, remote("visit.tour", [], T0 + 1, deleted=True)).status == "accepted"
     assert snapshot(d) == before
     assert target.read_bytes() == b"outside\n" and not (tmp_path / "nowhere.tour").exists()
 
@@ -434,7 +483,7 @@ def test_seeded_file_replaced_through_symlink_is_not_followed(store, tmp_path) -
     target.write_bytes(b"secret\n")
     (d / "real_world.tour").unlink()
     (d / "real_world.tour").symlink_to(target)
-    out = store.receive(remote("real_world.tour", VISIT, T0))
+    out = recv(store, remote("real_world.tour", VISIT, T0))
     assert out.record.blocked and target.read_bytes() == b"secret\n"
     assert (d / "real_world.tour").is_symlink()
 
@@ -442,7 +491,7 @@ def test_seeded_file_replaced_through_symlink_is_not_followed(store, tmp_path) -
 def test_file_changed_by_hand_while_running_is_not_replaced(store, tmp_path, log) -> None:
     d = tmp_path / "tours"
     (d / "real_world.tour").write_bytes(b"Tour\n0, 014, My own edit\n")
-    assert store.receive(remote("real_world.tour", VISIT, T0)).record.blocked
+    assert recv(store, remote("real_world.tour", VISIT, T0)).record.blocked
     assert (d / "real_world.tour").read_bytes() == b"Tour\n0, 014, My own edit\n"
     assert "real_world.tour (version" in log.text("warning") and "is blocked" in log.text("warning")
 
@@ -461,7 +510,7 @@ def reopen(store: TourStore, faculty, clock, log=None) -> TourStore:
 def test_crash_between_metadata_and_file_is_finished_at_restart(store, tmp_path, faculty, clock, monkeypatch,
                                                                op) -> None:
     d = tmp_path / "tours"
-    store.edit(tour_msg("visit.tour", VISIT))
+    store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
     edits = {"create": tour_msg("new.tour", VISIT[:1]), "replace": tour_msg("visit.tour", VISIT[:1]),
              "remove": tour_msg("visit.tour", [], deleted=True)}
     name = edits[op].file_name
@@ -473,7 +522,7 @@ def test_crash_between_metadata_and_file_is_finished_at_restart(store, tmp_path,
     with monkeypatch.context() as m:
         m.setattr(SafeDir, op, die)
         with pytest.raises(Crash):
-            store.edit(edits[op])
+            store.edit(edits[op], sender=GUI)
     assert ((d / name).read_bytes() if (d / name).exists() else None) == old_file   # file not yet changed
     clock.advance(1)
     again = reopen(store, faculty, clock)
@@ -496,7 +545,7 @@ def test_crash_after_temp_write_leaves_old_file_and_temp_is_cleaned(store, tmp_p
     with monkeypatch.context() as m:
         m.setattr(os, "rename", die)
         with pytest.raises(Crash):
-            store.edit(tour_msg("real_world.tour", VISIT))     # dies writing the metadata
+            store.edit(tour_msg("real_world.tour", VISIT), sender=GUI)     # dies writing the metadata
     assert (d / "real_world.tour").read_bytes() == before
     (d / ".gidabot-tmp-0123456789abcdef").write_bytes(b"half a tour")   # what a killed process leaves
     again = reopen(store, faculty, clock)
@@ -525,7 +574,7 @@ def test_hand_edit_while_stopped_is_adopted_and_hand_delete_is_restored(store, t
 
 def test_corrupt_metadata_is_moved_aside_and_tours_kept(store, tmp_path, faculty, clock, log) -> None:
     d = tmp_path / "tours"
-    store.edit(tour_msg("visit.tour", VISIT))
+    store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
     files = snapshot(d)
     store.close()
     (d / META_NAME).write_bytes(b'{"format": "gidabot-tour-store/1", "tou')
@@ -538,7 +587,7 @@ def test_corrupt_metadata_is_moved_aside_and_tours_kept(store, tmp_path, faculty
 
 def test_tombstones_are_pruned_after_the_ttl(faculty, tmp_path, clock) -> None:
     s = open_store(tmp_path / "t", faculty, clock=clock, seed_dir=TOURS, limits=StoreLimits(tombstone_ttl_ns=10 * NS))
-    s.edit(tour_msg("long_tour.tour", [], deleted=True))
+    s.edit(tour_msg("long_tour.tour", [], deleted=True), sender=GUI)
     clock.advance(5)
     assert s.step() is False and s.get("long_tour.tour").deleted
     clock.advance(6)
@@ -548,19 +597,22 @@ def test_tombstones_are_pruned_after_the_ttl(faculty, tmp_path, clock) -> None:
 
 # ---------------------------------------------------------------- anti-entropy
 def test_peer_index_resends_what_the_peer_lacks(store) -> None:
-    store.edit(tour_msg("visit.tour", VISIT))
+    store.edit(tour_msg("visit.tour", VISIT), sender=GUI)
     peer = [IndexEntry("long_tour.tour", SEED_VERSION, "", False),
             IndexEntry("paper_example.tour", T0 + 99, "Kbot", False),       # newer there: theirs to send
             IndexEntry("real_world.tour", SEED_VERSION, "", False)]
-    out = store.peer_index("Kbot", peer, now=100.0)
+    kbot = from_robot(store, "Kbot")
+    out = store.peer_index("Kbot", peer, now=100.0, sender=kbot)
     assert [m.file_name for m in out] == ["visit.tour"]
-    assert store.peer_index("Kbot", peer, now=101.0) == []                 # not again within resend_period
-    assert [m.file_name for m in store.peer_index("Kbot", peer, now=102.5)] == ["visit.tour"]
-    assert [m.file_name for m in store.peer_index("Tartalo", [], now=102.5)] == [
+    assert store.peer_index("Kbot", peer, now=101.0, sender=kbot) == []                 # not again within resend_period
+    assert [m.file_name for m in store.peer_index("Kbot", peer, now=102.5, sender=kbot)] == ["visit.tour"]
+    assert [m.file_name for m in store.peer_index("Tartalo", [], now=102.5, sender=from_robot(store, "Tartalo"))] == [
         "long_tour.tour", "paper_example.tour", "real_world.tour", "visit.tour"]
-    assert store.peer_index("Galtxagorri", [], now=1.0) == []             # ourselves
-    assert store.peer_index("Mallory", [], now=1.0) == []
-    assert store.counters["rejected_robot"] == 1
+    assert store.peer_index("Galtxagorri", [], now=1.0, sender=from_robot(store, "Galtxagorri")) == []   # ourselves
+    assert store.peer_index("Mallory", [], now=1.0, sender=from_robot(store, "Mallory")) == []
+    assert store.peer_index("Mallory", [], now=1.0, sender=kbot) == []          # Kbot speaks only for Kbot
+    assert store.peer_index("Tartalo", [], now=200.0, sender=kbot) == []
+    assert store.refusals()["impostor"] == 1 and store.refusals()["foreign"] == 2
 
 
 def test_index_arrays_must_match() -> None:
@@ -577,7 +629,7 @@ def test_unknown_robot_or_language_at_construction(faculty, tmp_path) -> None:
 
 
 def test_lone_surrogates_are_rejected(store) -> None:
-    out = store.receive(remote("real_world.tour", ["0, 014, L\udcffab"], T0))
+    out = recv(store, remote("real_world.tour", ["0, 014, L\udcffab"], T0))
     assert (out.status, out.reason) == ("rejected", "encoding")
-    out = store.receive(remote("real_world.tour", VISIT, T0, name="\udcff"))
+    out = recv(store, remote("real_world.tour", VISIT, T0, name="\udcff"))
     assert (out.status, out.reason) == ("rejected", "encoding")

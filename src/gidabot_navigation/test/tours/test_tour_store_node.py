@@ -11,6 +11,7 @@ from node_support import FakeRos, fake_ros, raw, spin
 from gidabot_msgs.msg import TourIndex
 from gidabot_navigation.interface import Topic, relay_end_name
 from gidabot_navigation.ros import convert
+from gidabot_navigation.senders import SCOPE_TOUR, make_uid
 from gidabot_navigation.tours import tour_store_node
 from gidabot_navigation.tours.tour_store import IndexEntry, StoreLimits, TourIndexData, TourMessage
 from gidabot_navigation.tours.tour_store_node import Params, TourStoreNode
@@ -73,8 +74,18 @@ def test_a_refused_edit_is_answered_with_its_reason(ros: FakeRos, node: TourStor
     assert ros.sent(Topic.TOURS) == [] and node.store.counters["rejected_oversized"] == 1
 
 
+def test_an_edit_from_a_node_of_no_robot_is_neither_applied_nor_answered(ros: FakeRos, node: TourStoreNode) -> None:
+    ros.feed(Topic.TOUR_EDIT, raw(convert.tour_to_msg(OPEN_DAY)), "/chaos_probe")
+    ros.feed(Topic.TOUR_EDIT, raw(convert.tour_to_msg(TourMessage(uid="Kbot/gui/tour-edit/3", file_name="x.tour",
+                                                          tour_goals_info=("a" * 5000,)))), "/chaos_probe")
+    spin(node)
+    assert ros.sent(Topic.TOUR_EDIT_RESULT) == [] and ros.sent(Topic.TOURS) == []
+    assert "open_day.tour" not in files(ros)
+    assert node.store.refusals()["impostor"] == 1 and node.store.counters["rejected_oversized"] == 1
+
+
 def test_tours_of_other_robots_are_applied_and_broken_bytes_refused(ros: FakeRos, node: TourStoreNode) -> None:
-    theirs = TourMessage(uid="Tartalo/tour/b.1", origin_robot="Tartalo", editor_robot="Tartalo",
+    theirs = TourMessage(uid=make_uid("Tartalo", SCOPE_TOUR, "ts"), origin_robot="Tartalo", editor_robot="Tartalo",
                          version=1_700_000_000_000_000_000, language="en", floor=1.0, tour_name="Open day",
                          file_name="open_day.tour", tour_goals_info=OPEN_DAY.tour_goals_info)
     ros.feed(Topic.TOURS, raw(convert.tour_to_msg(theirs)), RELAY)

@@ -12,9 +12,10 @@ import random
 from pathlib import Path
 
 import pytest
-from tour_support import T0, TOURS, ListLog, snapshot, tour_msg
+from tour_support import GUI, T0, TOURS, ListLog, from_robot, recv, snapshot, tour_msg
 
 from gidabot_navigation.errors import TourRejected
+from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.tour_store import NS, TourMessage, TourStore
 
 ROBOTS = ["Tartalo", "Kbot", "Galtxagorri", "MariSorgin"]
@@ -43,7 +44,7 @@ class World:
         self.now = 0.0                                    # monotonic s, for resend throttling
         self.rng = rng or random.Random(0)
         self.up = dict.fromkeys(ROBOTS, True)
-        self.inbox: dict[str, list[TourMessage]] = {r: [] for r in ROBOTS}
+        self.inbox: dict[str, list[tuple[str, TourMessage]]] = {r: [] for r in ROBOTS}   # (sender, message)
         self.drop = self.dup = 0.0
         self.reorder = False
         self.sent = 0
@@ -62,13 +63,13 @@ class World:
                 continue
             if self.rng.random() < self.drop:
                 continue
-            self.inbox[r].append(msg)
+            self.inbox[r].append((sender, msg))
             self.sent += 1
             if self.rng.random() < self.dup:
-                self.inbox[r].append(msg)
+                self.inbox[r].append((sender, msg))
 
     def edit(self, robot: str, msg: TourMessage) -> None:
-        rec = self.stores[robot].edit(msg)
+        rec = self.stores[robot].edit(msg, sender=GUI)
         self.publish(robot, self.stores[robot].outgoing(rec))
 
     def deliver(self) -> None:
@@ -76,8 +77,8 @@ class World:
             batch, self.inbox[r] = self.inbox[r], []
             if self.reorder:
                 self.rng.shuffle(batch)
-            for msg in batch:
-                self.stores[r].receive(msg)
+            for sender, msg in batch:       # published by the relay end of the link from sender
+                self.stores[r].receive(msg, sender=from_robot(self.stores[r], sender))
 
     def tick(self) -> None:
         """One second: every robot's index reaches every reachable peer, then messages are delivered."""
@@ -86,7 +87,9 @@ class World:
         for holder in ROBOTS:
             for peer in ROBOTS:
                 if peer != holder and self.up[holder] and self.up[peer]:
-                    for msg in self.stores[holder].peer_index(peer, self.stores[peer].index(), self.now):
+                    store = self.stores[holder]
+                    for msg in store.peer_index(peer, self.stores[peer].index(), self.now,
+                                                sender=from_robot(store, peer)):
                         self.publish(holder, msg)
         self.deliver()
         for s in self.stores.values():
@@ -184,21 +187,23 @@ def test_reordered_and_duplicated_messages(world: World) -> None:
     msgs = []
     for i, goals in enumerate(GOAL_SETS[:3]):
         world.ns += NS
-        rec = world.stores["Kbot"].edit(tour_msg("visit.tour", goals))
+        rec = world.stores["Kbot"].edit(tour_msg("visit.tour", goals), sender=GUI)
         msgs.append(world.stores["Kbot"].outgoing(rec))
         assert i == len(msgs) - 1
     world.ns += NS
-    msgs.append(world.stores["Kbot"].outgoing(world.stores["Kbot"].edit(tour_msg("visit.tour", [], deleted=True))))
+    rec = world.stores["Kbot"].edit(tour_msg("visit.tour", [], deleted=True), sender=GUI)
+    msgs.append(world.stores["Kbot"].outgoing(rec))
     for msg in [msgs[3], msgs[1], msgs[3], msgs[0], msgs[2], msgs[0]]:
         for r in ("Tartalo", "Galtxagorri", "MariSorgin"):
-            world.stores[r].receive(msg)
+            recv(world.stores[r], msg)
     assert world.converged()
     assert not any((world.dirs[r] / "visit.tour").exists() for r in ROBOTS)
     assert world.stores["Tartalo"].counters["accepted"] == 1
 
 
 def test_hostile_peer_message_never_spreads(world: World) -> None:
-    bad = tour_msg("../../escape.tour", GOAL_SETS[0], version=T0, editor="Kbot", origin="Kbot")
+    bad = tour_msg("../../escape.tour", GOAL_SETS[0], version=T0, editor="Kbot", origin="Kbot",
+                   uid=make_uid("Kbot", "tour", "ts"))
     world.publish("Kbot", bad)
     world.deliver()
     world.tick()
@@ -227,7 +232,7 @@ def test_random_edits_on_a_lossy_network_converge_to_the_largest_version(tmp_pat
             else:
                 msg = tour_msg(name, rng.choice(GOAL_SETS), language=rng.choice(["eu", "en", "es"]))
             try:
-                rec = w.stores[robot].edit(msg)
+                rec = w.stores[robot].edit(msg, sender=GUI)
             except TourRejected:              # deleting a tour this robot does not hold
                 continue
             produced.setdefault(name, []).append(rec)

@@ -10,6 +10,7 @@ from gidabot_navigation.building.model import load_building
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, Phase, global_name, relay_end_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_sim.chaos.bookkeeping import Bookkeeping
+from gidabot_sim.chaos.forgery import impostor_relay
 from gidabot_sim.chaos.table3 import expected_table3, tour_step_trips, trips_with_retries
 
 GM, NAV, PROBE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.CHAOS_PROBE))
@@ -223,3 +224,27 @@ def test_table3_counts_a_retried_step_as_the_trip_that_completed_it(faculty) -> 
     assert book.table3(fates) == expected                                                   # what the probes saw
     assert book.table3_with(expected, fates, book.retried_goals(steps)) == {
         "Tartalo": (3, 2), "Kbot": (3, 0), "Galtxagorri": (3, 0), "MariSorgin": (3, 2)}    # the bags hold T/v/3
+
+
+def test_forged_messages_about_a_real_goal_change_nothing_of_its_fate(faculty) -> None:
+    """A forger (the chaos probe, or a node named like a relay end of a link the building does not have) publishes
+    a goal with a real trip's uid and other content, a cancel of it and its GOAL_REACHED: none of them is a
+    delivery of the trip (no duplicate, no cancel, no completion), each is counted as foreign."""
+    ghost = impostor_relay("Kbot")
+    recs = _everywhere(_goal, "T/v/7", "Tartalo", 0.0, 1.0)
+    recs += _everywhere(_ev, "Kbot", "T/v/7", Phase.ACCEPTED, "K/e/7")
+    for caller in (PROBE, ghost):
+        recs.append(dict(_goal("Kbot", "T/v/7", "Tartalo", 0.0, 0.0, caller=caller), goal_id="001"))
+        recs.append({"k": "cancel", "m": "Kbot", "c": caller, "uid": "Tartalo/cancel/forge.1", "goal_uid": "T/v/7",
+                     "origin": "Tartalo", "reason": "visitor"})
+        recs.append({"k": "event", "m": "Kbot", "c": caller, "uid": f"K/e/forged{caller}", "robot": "Kbot",
+                     "goal_uid": "T/v/7", "phase": Phase.GOAL_REACHED})
+    book = Bookkeeping(faculty, recs)
+    fate = book.fates()["T/v/7"]
+    assert not fate.completed and not fate.cancelled and fate.lost and not fate.duplicated
+    assert book.foreign == {"goal": 2, "cancel": 2, "event": 2}
+    # the same trip completed by Kbot itself (its real event, relayed to the other masters)
+    recs += _everywhere(_ev, "Tartalo", "T/v/7", Phase.ACCEPTED, "T/e/7")
+    recs += _everywhere(_ev, "Kbot", "T/v/7", Phase.GOAL_REACHED, "K/e/8")
+    fate = Bookkeeping(faculty, recs).fates()["T/v/7"]
+    assert fate.completed and not fate.lost and not fate.duplicated

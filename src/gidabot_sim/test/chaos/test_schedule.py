@@ -9,6 +9,7 @@ import pytest
 from gidabot_navigation.building.model import load_building
 from gidabot_sim.chaos.hostile import hostile_by_name
 from gidabot_sim.chaos.schedule import (
+    FORGED_TRIP,
     KINDS,
     LINK_CUTS,
     MACHINES_ONLY,
@@ -38,14 +39,24 @@ def test_full_schedule_has_every_kind_the_issue_asks_for(faculty) -> None:
     assert min(f.duration for f in cuts) <= 3.0 and max(f.duration for f in cuts) >= 45.0
     assert sorted(f.robot for f in faults if f.kind == Kind.MASTER_RESTART) == sorted(r.name for r in faculty.robots)
     assert sorted(f.target for f in faults if f.kind == Kind.NODE_RESTART) == ["goal_manager", "multirobot_navigation"]
-    assert kinds.count(Kind.HOSTILE) == 10
-    assert len({f.target for f in faults if f.kind == Kind.HOSTILE}) == 10
-    assert all(hostile_by_name(f.target) for f in faults if f.kind == Kind.HOSTILE)
+    hostile = [f for f in faults if f.kind == Kind.HOSTILE and f.target != FORGED_TRIP]
+    assert len(hostile) == 10 and len({f.target for f in hostile}) == 10
+    assert all(hostile_by_name(f.target) for f in hostile)
+    # and three forgeries about the trip under way, on its origin's master (chosen when injected)
+    assert [f.robot for f in faults if f.target == FORGED_TRIP] == ["", "", ""]
     assert kinds.count(Kind.CUT_SUPERVISOR) == 1 and kinds.count(Kind.CORRIDOR) == 2 and kinds.count(Kind.FREEZE) == 2
     pairs = {(a.name, b.name) for a, b in faculty.relay_pairs()}
     assert all((f.robot, f.other) in pairs for f in faults if f.kind in LINK_CUTS[:2])
     assert all(f.gap == 0.0 for f in faults if f.kind == Kind.HOSTILE)
     assert schedule_seconds(faults) > sum(f.duration for f in faults)
+
+
+def test_forgeries_profile_has_no_fault_but_forgers(faculty) -> None:
+    assert make_schedule(1, faculty, PROFILES["forgeries"]) == []
+    assert make_schedule(1, faculty, PROFILES["forgeries"], machines=True) == []
+    assert PROFILES["forgeries"].forgers and not PROFILES["full"].forgers
+    assert [f.target for f in make_schedule(3, faculty, PROFILES["quick"]) if f.kind == Kind.HOSTILE].count(
+        FORGED_TRIP) == 2
 
 
 def test_quick_profile_has_every_kind(faculty) -> None:

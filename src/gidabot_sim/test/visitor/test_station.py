@@ -11,7 +11,8 @@ from sim_support import ListLog
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import NavEventData
-from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Node, Phase, global_name, relay_end_name
+from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.visitor.population import VisitorPlan
@@ -88,6 +89,30 @@ def test_a_population_s_events_go_to_the_visitor_of_each_trip(faculty6) -> None:
     # the answer to a request, before any trip: the visitors who asked at that robot
     station.on_event(event("Tartalo/e/2", "Tartalo", Phase.REJECTED, stamp=43.0), 43.0)
     assert station.cores["v1"].finished and not station.cores["v3"].finished
+
+
+def test_forged_goals_and_events_never_move_a_visitor(faculty6) -> None:
+    """Only a robot's own nodes speak for it, and a relay end for its peer: a probe's event, an event through
+    a relay end for another robot, an event with another robot's uid and a probe's goal are refused."""
+    plans = [VisitorPlan("v1", 0.0, "Tartalo", "stairs", goal_id="223"),
+             VisitorPlan("v2", 0.0, "Tartalo", "lift", goal_id="014")]
+    station = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0), ListLog(), plans, start_delay=0.0)
+    all_up(station, faculty6, now=0.0)
+    station.tick(1.0, 1000.0)
+    real, relay = make_uid("Tartalo", "v1", "gm"), relay_end_name("Tartalo", "Kbot")
+    station.on_goal_from("/chaos_probe", "Tartalo", real, "v2", 2.0)                   # the probe's, first
+    station.on_goal_from(global_name(Node.GOAL_MANAGER), "Tartalo", real, "v1", 2.0)    # the real goal
+    assert station._visitor_of == {real: "v1"}
+    done = event(make_uid("Tartalo", "event", "nav"), "Tartalo", Phase.GOAL_REACHED, real, stamp=3.0)
+    station.on_event_from("/chaos_probe", done, 3.0)
+    station.on_event_from(relay, done, 3.0)                                         # Kbot's relay speaks for Kbot
+    station.on_event_from(global_name(Node.MULTIROBOT_NAVIGATION),
+                          event("Kbot/event/nav.0123456789abcdef", "Tartalo", Phase.GOAL_REACHED, real), 3.0)
+    assert not station.cores["v1"].finished
+    assert station.gate.refusals() == {"impostor": 2, "foreign": 1, "wrong_namespace": 1, "conflict": 0,
+                                       "invalid": 0}
+    station.on_event_from(global_name(Node.MULTIROBOT_NAVIGATION), done, 4.0)       # Tartalo's navigation
+    assert station.cores["v1"].finished
 
 
 def test_an_event_is_seen_when_it_happened_never_later_than_now(faculty6) -> None:

@@ -10,7 +10,8 @@ import pytest
 from gidabot_msgs.msg import Goal, NavEvent, RobotStatus, Tour, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import ParamError
-from gidabot_navigation.interface import Cmd, Phase, Topic
+from gidabot_navigation.interface import Cmd, Node, Phase, Topic, global_name
+from gidabot_navigation.senders import make_uid
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.ros.convert import stamp
 from gidabot_sim.visitor import visitor_node
@@ -45,9 +46,12 @@ def test_the_visitor_asks_once_every_robot_is_up_and_the_statuses_are_dropped(ro
     assert isinstance(cmd, VisitorCommand) and (cmd.command, cmd.goal_id, cmd.uid) == (
         Cmd.REQUEST, "223", "Tartalo/sim-visitor/cmd/1")
     assert cmd.header.stamp.to_sec() == 6.0 and node.station.cores["sim-visitor"].started
-    event = NavEvent(uid="Tartalo/e/1", robot="Tartalo", phase=Phase.UNREACHABLE, goal_uid="g1", location_id="223")
+    event = NavEvent(uid=make_uid("Tartalo", "event", "nav"), robot="Tartalo", phase=Phase.UNREACHABLE, goal_uid="g1",
+                     location_id="223")
     event.header.stamp = stamp(7.0)
-    ros.deliver(Topic.NAV_EVENTS, event)
+    ros.deliver(Topic.NAV_EVENTS, event, "/chaos_probe")           # none of the robot's nodes: ignored
+    assert not node.station.cores["sim-visitor"].finished
+    ros.deliver(Topic.NAV_EVENTS, event, global_name(Node.MULTIROBOT_NAVIGATION))
     assert node.station.cores["sim-visitor"].finished
 
 
@@ -57,8 +61,9 @@ def test_a_population_follows_the_goals_and_a_tour_the_catalog(ros) -> None:
                                         "tour_file": "real_world.tour"}]})
     node = visitor_node.VisitorNode()
     assert ros.subscribed(Topic.GOALS) and ros.subscribed(Topic.TOUR_CATALOG)
-    ros.deliver(Topic.GOALS, Goal(uid="Tartalo/v1/1", visitor_id="v1"))
-    assert node.station.cores["v1"].goal_uids == ["Tartalo/v1/1"]
+    uid = make_uid("Tartalo", "v1", "gm")
+    ros.deliver(Topic.GOALS, Goal(uid=uid, visitor_id="v1", origin_robot="Tartalo"), global_name(Node.GOAL_MANAGER))
+    assert node.station.cores["v1"].goal_uids == [uid]
     lines = (ROOT / "tours" / "real_world.tour").read_text().splitlines()
     ros.deliver(Topic.TOUR_CATALOG, TourCatalog(tours=[Tour(file_name="real_world.tour", tour_name="Real-world tour",
                                                             tour_goals_info=lines[1:])]))

@@ -1,7 +1,13 @@
 """The goal manager (ROS-free core): the FIFO of pending requests of one robot (paper section 6.2).
 
 Driven by explicit events, each returning the actions for the adapter
-(:class:`~gidabot_navigation.guiding.messages.SendGoal`, ``SendCancel``, ``SendEvent``):
+(:class:`~gidabot_navigation.guiding.messages.SendGoal`, ``SendCancel``, ``SendEvent``). Every
+input names its publisher (``sender``: the ROS callerid) and is first attributed
+(:class:`~gidabot_navigation.senders.Senders`): a message speaks only for its sender, and one
+that speaks for another robot, comes from an impostor, carries a uid outside its robot's
+namespace, fails validation or reuses a handled uid with other content is refused, counted
+(:meth:`GoalManagerCore.refusals`) and never answered. Replies (REJECTED, ACCEPTED, DECLINED...)
+go only to this robot's own visitor and to the origin robot of a trip:
 
 * :meth:`GoalManagerCore.on_command` — the visitor at this robot: REQUEST a goal,
   CONTINUE after a tour step done here, CANCEL, START_TOUR, SKIP. A request becomes a
@@ -37,7 +43,6 @@ from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateEr
 from gidabot_navigation.guiding.assignment import AssignConfig, Assigned, Assigner, GaveUp, LegBook, Output, Publish
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
-    MAX_UID,
     PHASE_OF_REASON,
     START_ROBOT,
     Action,
@@ -52,7 +57,11 @@ from gidabot_navigation.guiding.messages import (
     SendGoal,
     Trip,
     UidMaker,
+    cancel_digest,
+    nav_event_digest,
+    own_event_digest,
     same_floor,
+    trip_digest,
     validate_cancel,
     validate_command,
     validate_event,
@@ -65,6 +74,7 @@ from gidabot_navigation.guiding.state import (
     str_list,
     trip_from_dict,
     trip_to_dict,
+    uid_records,
 )
 from gidabot_navigation.guiding.tour_mode import TourBook, TourWait, TourWaits, next_robot_stop
 from gidabot_navigation.guiding.trips import (
@@ -92,9 +102,11 @@ from gidabot_navigation.interface import (
     WAY_STAIRS,
     WAYS,
     Cmd,
+    Node,
     Phase,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
 from gidabot_navigation.tours.tour_file import MAX_GOALS
 from gidabot_navigation.tours.tour_store import TourMessage
 
@@ -107,7 +119,8 @@ class GoalManagerConfig:
     ``max_queue``: goals kept at most (a leg proposed beyond it is declined; one committed is refused and
     cancelled everywhere); ``assign``: the leg assignment's timeouts and bounds; ``catalog_wait``: wall s after
     the start during which a tour command waits for the tour store's first catalog (a restarted node hears
-    the visitor's replayed Continue before the catalog) instead of being refused."""
+    the visitor's replayed Continue before the catalog) instead of being refused; ``simulated``: the simulated
+    visitor (node ``visitor``) is one of this robot's own nodes (senders.SIMULATED_OWN_NODES)."""
 
     robot: str
     default_way: str = WAY_STAIRS
@@ -117,13 +130,14 @@ class GoalManagerConfig:
     catalog_wait: float = 10.0
     wait: WaitModel = field(default_factory=WaitModel)
     assign: AssignConfig = field(default_factory=AssignConfig)
+    simulated: bool = False
 
 
 class GoalManagerCore:
     """The pending requests of one robot and the visitor commands that create or end them."""
 
     def __init__(self, building: Building, cfg: GoalManagerConfig, log: Logger, now_wall: float,
-                 boot: str | None = None, planner: TripPlanner | None = None) -> None:
+                 planner: TripPlanner | None = None) -> None:
         robot = building.find_robot(cfg.robot)
         if robot is None:
             raise GuidingError(f"robot {cfg.robot!r} is not in building {building.id} "
@@ -141,7 +155,8 @@ class GoalManagerCore:
         self.log = log
         self.warn = RateLimitedLog(log)
         self.planner = planner or TripPlanner(building)
-        self.uids = UidMaker(self.me, "gm", boot)
+        self.uids = UidMaker(self.me, "gm")
+        self.gate = Gate(Senders.of_building(building, self.me, cfg.simulated), log)
         self.liveness = PeerLiveness(cfg.offline_after, now_wall)
         self.tours = TourBook(building)
         self.waits = TourWaits()
@@ -149,9 +164,9 @@ class GoalManagerCore:
         self.version = 0                                   # increases whenever the queue changes
         self.stats = Counters(received=0, accepted=0, rejected=0)
         self.pose: tuple[float, float, float] | None = None
-        self._goals_seen = SeenSet()
-        self._cancels_seen = SeenSet()
-        self._events_seen = SeenSet()
+        self._goals_seen = HandledUids()                  # uid -> the trip's content (every attempt has it)
+        self._cancels_seen = HandledUids()
+        self._events_seen = HandledUids()
         self._cancelled = SeenSet()
         self._commands_seen = SeenSet()                   # CommandData.key of the commands handled
         self._early_continues: dict[str, CommandData] = {}  # goal uid -> a tour Continue that came before its step
@@ -166,9 +181,13 @@ class GoalManagerCore:
         self._awaiting_catalog: list[CommandData | Trip] = []   # tour commands / tours going on, until it does
 
     # ------------------------------------------------------------------ inputs
-    def on_status(self, robot: str, now_wall: float, pose: tuple[float, float] | None = None) -> None:
-        """A RobotStatus of ``robot`` was received (wall time), with its position (m, its floor's map)."""
-        found = self.building.find_robot(robot) if isinstance(robot, str) else None
+    def on_status(self, robot: str, now_wall: float, pose: tuple[float, float] | None = None, *,
+                  sender: str) -> None:
+        """A RobotStatus of ``robot`` published by ``sender`` was received (wall time), with its position (m, its
+        floor's map)."""
+        if self.gate.admit(sender, Claim(as_text(robot)), "status") is None:
+            return
+        found = self.building.find_robot(robot)
         if found is None:
             return
         self.liveness.heard(robot, now_wall)
@@ -177,9 +196,13 @@ class GoalManagerCore:
             view = self.fleet.get(robot) or RobotView(found)
             self.fleet[robot] = replace(view, pose=(float(pose[0]), float(pose[1])))
 
-    def on_pending(self, robot: str, goals: Iterable[Trip], wait_new: float, now_wall: float) -> None:
-        """Another robot's /gidabot/pending: its queue (each goal checked; bad ones left out) and its wait."""
-        found = self.building.find_robot(robot) if isinstance(robot, str) else None
+    def on_pending(self, robot: str, goals: Iterable[Trip], wait_new: float, now_wall: float, *,
+                   sender: str) -> None:
+        """Another robot's /gidabot/pending published by ``sender``: its queue (each goal checked; bad ones left
+        out) and its wait."""
+        if self.gate.admit(sender, Claim(as_text(robot)), "pending list") is None:
+            return
+        found = self.building.find_robot(robot)
         if found is None or robot == self.me:
             return
         if isinstance(wait_new, bool) or not isinstance(wait_new, (int, float)) or not math.isfinite(wait_new):
@@ -200,8 +223,12 @@ class GoalManagerCore:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = (float(x), float(y), float(yaw))
 
-    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
-        """The tour store's catalog changed; the tour commands that waited for the first one are carried out."""
+    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0, *,
+                   sender: str) -> list[Action]:
+        """The tour store's catalog changed (published by ``sender``: only this robot's tour store's is taken); the
+        tour commands that waited for the first one are carried out."""
+        if not self.gate.only(sender, Node.TOUR_STORE, "tour catalog"):
+            return []
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
         self._catalog_known = True
@@ -232,9 +259,11 @@ class GoalManagerCore:
             actions += done
         return actions
 
-    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
-        """A VisitorCommand from this robot's GUI (or the simulated visitor); one replayed (same uid and
-        stamp) is ignored."""
+    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A VisitorCommand from this robot's GUI (or the simulated visitor), published by ``sender``; one
+        replayed (same uid and stamp) is ignored, one from any other node refused (never answered)."""
+        if self.gate.admit(sender, Claim(self.me), "visitor command") is None:
+            return []
         key = cmd.key
         if key and key in self._commands_seen:
             self.stats.inc("duplicate_commands")
@@ -243,7 +272,7 @@ class GoalManagerCore:
             cmd = validate_command(cmd)
         except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
-            self.warn.warning("command", f"visitor command refused: {err}")
+            self.gate.refuse(INVALID, f"visitor command from {sender[:80]!r}: {err}")
             return [self._event(Phase.REJECTED, None, now_ros, detail=f"command refused: {err}")]
         waiting = len(self._awaiting_catalog)
         actions = self._command(cmd, now_ros, now_wall)
@@ -266,21 +295,28 @@ class GoalManagerCore:
             return self._start_tour(cmd, now_ros, now_wall)
         return self._skip(cmd, now_ros, now_wall)
 
-    def on_goal(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
-        """A goal from /gidabot/goals (or made here): the newest assignment of a trip decides whether this robot
-        holds it; a leg newly proposed here is answered."""
-        uid = trip.uid if isinstance(trip.uid, str) and len(trip.uid) <= MAX_UID else ""
-        if uid and uid not in self._goals_seen:      # a trip's goal comes again per attempt: counted once
+    def on_goal(self, trip: Trip, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A goal from /gidabot/goals published by ``sender`` (this robot's own included): the newest assignment
+        of a trip decides whether this robot holds it; a leg newly proposed here is answered. Only the trip's
+        origin robot speaks for it (its own goal manager here, its relay end elsewhere)."""
+        who = self.gate.admit(sender, Claim(as_text(trip.origin_robot), as_text(trip.uid)), "goal")
+        if who is None:
+            return []
+        uid = trip.uid
+        if uid not in self._goals_seen:      # a trip's goal comes again per attempt: counted once
             self.stats.inc("received")
         try:
             trip = validate_trip(self.building, trip)
         except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
-            self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
-            if trip.origin_robot == self.me:
+            self.gate.refuse(INVALID, f"goal {uid[:80]!r} of {who.robot}: {err}")
+            if who.own:                       # a goal of this robot's own: its visitor is told
                 return [self._event(Phase.REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
+            return []                         # another robot's trip: never answered here
+        digest = trip_digest(trip)
+        if self.gate.conflict(self._goals_seen, trip.uid, digest, "goal"):
             return []
-        self._goals_seen.add(trip.uid)
+        self._goals_seen.add(trip.uid, digest)
         return self._on_snapshot(trip, now_ros, now_wall)
 
     def _on_snapshot(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
@@ -329,7 +365,7 @@ class GoalManagerCore:
             self.warn.warning("queue_full", f"queue of {self.me} is full ({self.cfg.max_queue} goals); "
                                             f"goal {trip.uid} is cancelled")
             cancel = self._new_cancel(trip.uid, REASON_ADMIN, f"the queue of {self.me} is full", now_ros)
-            self._cancels_seen.add(cancel.uid)
+            self._cancels_seen.add(cancel.uid, cancel_digest(cancel))
             self._cancelled.add(trip.uid)
             self.assigner.close(trip.uid)
             phase = Phase.REJECTED if trip.origin_robot == self.me else Phase.CANCELLED_HERE
@@ -419,38 +455,40 @@ class GoalManagerCore:
         last = self.liveness.last_heard(robot)
         return f"{robot}: no status for {now_wall - last:.0f} s" if last is not None else f"{robot}: never heard"
 
-    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
-        """A Cancel from /gidabot/cancels: drop the goal, queued or running, and tell the visitor why."""
+    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A Cancel from /gidabot/cancels published by ``sender``: drop the goal, queued or running, and tell the
+        visitor why. It speaks for the robot that issued it (``origin_robot``)."""
+        if self.gate.admit(sender, Claim(as_text(cancel.origin_robot), as_text(cancel.uid)), "cancel") is None:
+            return []
         try:
             cancel = validate_cancel(self.building, cancel)
         except GoalRejected as err:
             self._count_rejection(err)
-            self.warn.warning("cancel", f"cancel rejected: {err}")
+            self.gate.refuse(INVALID, f"cancel {as_text(cancel.uid)[:80]!r}: {err}")
             return []
-        if from_relay and cancel.origin_robot == self.me:
-            self.stats.inc("rejected_spoofed")
-            self.warn.warning("spoofed", f"cancel {cancel.uid} claims to come from {self.me} but came through a relay")
+        if self.gate.conflict(self._cancels_seen, cancel.uid, cancel_digest(cancel), "cancel"):
             return []
         return self._apply_cancel(cancel, now_ros, here=False)
 
-    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float,
-                     from_relay: bool = False) -> list[Action]:
-        """A NavEvent of any robot (this robot's navigation included)."""
+    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A NavEvent of any robot (this robot's navigation included) published by ``sender``; it speaks for the
+        robot that emits it (``robot``): an answer to a proposal counts only from the robot proposed."""
+        if self.gate.admit(sender, Claim(as_text(ev.robot), as_text(ev.uid)), "nav event") is None:
+            return []
         try:
             ev = validate_event(self.building, ev)
         except GoalRejected as err:
             self._count_rejection(err)
-            self.warn.warning("event", f"nav event rejected: {err}")
+            self.gate.refuse(INVALID, f"nav event {as_text(ev.uid)[:80]!r}: {err}")
+            return []
+        digest = nav_event_digest(ev)
+        if self.gate.conflict(self._events_seen, ev.uid, digest, "nav event"):
             return []
         answer = bool(ev.leg) and ev.goal_uid in self.assigner    # about a leg this robot is assigning
         if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != Phase.REJECTED)
                                    or answer):
             return []        # nothing here depends on it: not even remembered, so it changes no state
-        if not self._events_seen.add(ev.uid):
-            return []
-        if ev.robot == self.me and from_relay:
-            self.stats.inc("rejected_spoofed")
-            self.warn.warning("spoofed", f"event {ev.uid} claims to come from {self.me} but came through a relay")
+        if not self._events_seen.add(ev.uid, digest):
             return []
         if ev.phase in RELEASE_PHASES:
             self._releases[ev.goal_uid] = now_ros
@@ -541,8 +579,9 @@ class GoalManagerCore:
 
     def _load_state(self, state: dict[str, Any]) -> None:
         queue = [trip_from_dict(t) for t in state.get("queue", [])]
-        seen = {name: str_list(state.get(name, []), name) for name in
-                ("goals_seen", "cancels_seen", "events_seen", "cancelled", "commands_seen")}
+        seen: dict[str, list] = {name: uid_records(state.get(name, []), name) for name in
+                                 ("goals_seen", "cancels_seen", "events_seen")}
+        seen.update({name: str_list(state.get(name, []), name) for name in ("cancelled", "commands_seen")})
         phase_raw = state.get("phase", {})
         if not isinstance(phase_raw, dict):
             raise GuidingStateError("phase: expected an object")
@@ -723,7 +762,7 @@ class GoalManagerCore:
                     # to serve: the others may still hold it
                     cancel = self._new_cancel(cmd.goal_uid, REASON_VISITOR, f"the visitor cancelled at {self.me}",
                                               now_ros)
-                    self._cancels_seen.add(cancel.uid)
+                    self._cancels_seen.add(cancel.uid, cancel_digest(cancel))
                     self._cancelled.add(cmd.goal_uid)
                     self.assigner.close(cmd.goal_uid)
                     return [SendCancel(cancel), self._event(Phase.CANCELLED_HERE, None, now_ros, goal_uid=cmd.goal_uid)]
@@ -750,7 +789,7 @@ class GoalManagerCore:
                            tour_step=wait.step, language=wait.language, way=wait.way, detail="tour ended")
 
     def _apply_cancel(self, cancel: CancelData, now_ros: float, here: bool, quiet: bool = False) -> list[Action]:
-        if not self._cancels_seen.add(cancel.uid):
+        if not self._cancels_seen.add(cancel.uid, cancel_digest(cancel)):
             self.stats.inc("duplicate_cancels")
             return []
         self._cancelled.add(cancel.goal_uid)
@@ -805,6 +844,10 @@ class GoalManagerCore:
         self.stats.inc("rejected")
         self.stats.inc(f"rejected_{err.reason}")
 
+    def refusals(self) -> dict[str, int]:
+        """Messages refused so far, by kind (impostor, foreign, wrong_namespace, conflict, invalid)."""
+        return self.gate.refusals()
+
     def _event(self, phase: int, trip: Trip | None, now_ros: float, **fields: object) -> SendEvent:
         ev = NavEventData(uid=self.uids.event(), robot=self.me, floor=self.robot.floor,
                           goal_uid=trip.uid if trip else "", phase=phase,
@@ -817,5 +860,5 @@ class GoalManagerCore:
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
         if ev.goal_uid and phase != Phase.REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
-            self._events_seen.add(ev.uid)
+            self._events_seen.add(ev.uid, own_event_digest(self.building, ev))
         return SendEvent(ev)

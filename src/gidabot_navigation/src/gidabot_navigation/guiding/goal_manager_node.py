@@ -25,7 +25,7 @@ from gidabot_navigation.guiding.trips import WaitModel
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros import convert
-from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, refusal_values, sender, simulated
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_loop, run_node
@@ -68,7 +68,7 @@ class Params:
                                 default_language=param_text("~default_language", DEFAULT_LANGUAGE),
                                 offline_after=param_number("~offline_after", 5.0),
                                 max_queue=int(param_number("~max_queue", 50, low=1, strict=False)), wait=wait,
-                                assign=assign)
+                                assign=assign, simulated=simulated())
         state_dir = param_text("~state_dir", "") or default_state_dir(robot)
         return Params(building, cfg, 1.0 / param_number("~pending_rate", 1.0), state_dir,
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
@@ -105,7 +105,11 @@ class GoalManagerNode:
       - ``/gidabot/pending`` (gidabot_msgs/PendingRequests, state, latched): the queue with eta per
         goal and wait_new (s); on change and every ``1/~pending_rate`` wall s.
       - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``guiding: goal_manager <robot>`` counters
-        (received, accepted, rejected_<reason>, duplicates, ...), with the pending list.
+        (received, accepted, rejected_<reason>, duplicates, ...; ``refused_<kind>``: the messages refused by
+        kind, impostor, foreign, wrong_namespace, conflict, invalid), with the pending list.
+
+    Every input is handed to the core with its publisher (the callerid): a message that is not its sender's to
+    send (gidabot_navigation.senders) is refused and counted, never answered.
 
     Parameters:
       - ``~building`` (str, required), ``~robot`` (str, required).
@@ -207,24 +211,25 @@ class GoalManagerNode:
                 self.publish_diagnostics()
 
     def handle(self, kind: str, msg: object) -> list[Action]:
+        """Hand one input to the core with its publisher (the core refuses what is not the sender's to send)."""
         now_ros, now_wall = rospy.get_time(), time.monotonic()
-        core = self.core
+        core, by = self.core, sender(msg)
         if kind == "command":
-            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall)
+            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "goal":
-            return core.on_goal(convert.trip_from_msg(msg), now_ros, now_wall)
+            return core.on_goal(convert.trip_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "cancel":
-            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "event":
-            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "status":
             status = convert.status_from_msg(msg)
-            core.on_status(status.robot, now_wall, (status.x, status.y))
+            core.on_status(status.robot, now_wall, (status.x, status.y), sender=by)
         elif kind == "pending":
             pending = convert.pending_from_msg(msg)
-            core.on_pending(pending.robot, pending.goals, pending.wait_new, now_wall)
+            core.on_pending(pending.robot, pending.goals, pending.wait_new, now_wall, sender=by)
         elif kind == "catalog":
-            return core.on_catalog(convert.catalog_from_msg(msg).tours, now_ros, now_wall)
+            return core.on_catalog(convert.catalog_from_msg(msg).tours, now_ros, now_wall, sender=by)
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
@@ -247,6 +252,7 @@ class GoalManagerNode:
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
         stats.update(self.loop.values())
+        stats.update(refusal_values(self.core.refusals()))
         stats.update(queue_dropped=self.inbox.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
                      plans=self.core.planner.plans,
                      state_saves=self.store.saves if self.store else 0,

@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
-from collections import OrderedDict
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 
@@ -46,6 +44,7 @@ from gidabot_navigation.interface import (
     WAYS,
     Phase,
 )
+from gidabot_navigation.senders import MAX_UID, SCOPE_CANCEL, SCOPE_EVENT, HandledUids, fingerprint, make_uid
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
@@ -53,11 +52,10 @@ PHASE_OF_REASON = {REASON_VISITOR: Phase.CANCELLED_ELSEWHERE, REASON_UNREACHABLE
                    REASON_TIMEOUT: Phase.TIMEOUT, REASON_OFFLINE: Phase.PARTNER_OFFLINE,
                    REASON_ADMIN: Phase.CANCELLED_ELSEWHERE}
 
-# -- limits of untrusted text -------------------------------------------------------
-MAX_UID = 160
+# -- limits of untrusted text (uids: senders.UID_FORMAT; who may use which uid: senders.Senders) ------
 MAX_ID = 64          # robot, visitor, location, connector ids
 MAX_DETAIL = 400
-_UID_RE = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}\Z")
+_UID_RE = re.compile(r"^[A-Za-z0-9_.:/@+-]{1,160}\Z")    # a uid's charset and length (uids: MAX_UID)
 _ID_RE = re.compile(r"^[A-Za-z0-9_.:@+-]{1,64}\Z")
 START_ROBOT = "robot"     # Goal.start_id when the trip starts at the robot's pose
 POSE_TOLERANCE = 1.0      # m: a goal_pose this far from its location's pose means the buildings differ
@@ -307,31 +305,23 @@ Action = SendGoal | SendCancel | SendEvent | MoveTo | StopMoving
 # ---------------------------------------------------------------------------
 
 class UidMaker:
-    """Globally unique ids: ``<robot>/event/<tag>.<boot>.<n>``, ``<robot>/cancel/...``,
-    ``<robot>/<visitor>/<boot>.<n>`` for goals.
+    """This robot's uids (:data:`~gidabot_navigation.senders.UID_FORMAT`): ``<robot>/event/<tag>.<token>``,
+    ``<robot>/cancel/<tag>.<token>``, and ``<robot>/<visitor>/<tag>.<token>`` for goals (the GUI knows its
+    visitor's trips by that prefix). Every token is drawn at random: a restarted node never reuses a uid, and
+    nobody can tell the next one before it is published."""
 
-    ``boot`` tells apart the runs of one node (default: the wall clock at start in
-    base 36), so a restarted node never reuses an id that receivers would ignore.
-    """
-
-    def __init__(self, robot: str, tag: str, boot: str | None = None) -> None:
+    def __init__(self, robot: str, tag: str) -> None:
         self.robot = robot
         self.tag = tag
-        self.boot = boot if boot is not None else base36(time.time_ns() // 1_000_000)
-        self._n = 0
-
-    def _next(self) -> str:
-        self._n += 1
-        return f"{self.tag}.{self.boot}.{self._n}"
 
     def event(self) -> str:
-        return f"{self.robot}/event/{self._next()}"
+        return make_uid(self.robot, SCOPE_EVENT, self.tag)
 
     def cancel(self) -> str:
-        return f"{self.robot}/cancel/{self._next()}"
+        return make_uid(self.robot, SCOPE_CANCEL, self.tag)
 
     def goal(self, visitor_id: str) -> str:
-        return f"{self.robot}/{visitor_id}/{self._next()}"
+        return make_uid(self.robot, visitor_id, self.tag)
 
 
 def base36(number: int) -> str:
@@ -345,42 +335,31 @@ def base36(number: int) -> str:
             return out
 
 
-class SeenSet:
-    """A bounded set of ids (oldest forgotten first): uids already handled."""
+# the fields of a Goal that change with each attempt of its assignment: not part of the trip's content
+ASSIGNMENT_FIELDS = ("start_robot", "start_state", "goal_robot", "goal_state", "attempt")
 
-    def __init__(self, limit: int = 20000) -> None:
-        self.limit = limit
-        self._items: OrderedDict[str, None] = OrderedDict()
 
-    def __contains__(self, item: object) -> bool:
-        return item in self._items
+def trip_digest(trip: Trip) -> str:
+    """The content of a (validated) goal, the same for every attempt of its assignment (its stamp left out)."""
+    return fingerprint(trip, ("stamp", *ASSIGNMENT_FIELDS))
 
-    def __len__(self) -> int:
-        return len(self._items)
 
-    def add(self, item: str) -> bool:
-        """Add ``item``; False if it was already there."""
-        if item in self._items:
-            return False
-        self._items[item] = None
-        while len(self._items) > self.limit:
-            self._items.popitem(last=False)
-        return True
+def nav_event_digest(ev: NavEventData) -> str:
+    """The content of a (validated) NavEvent (its stamp and free-text detail left out)."""
+    return fingerprint(ev, ("stamp", "detail"))
 
-    def discard(self, item: str) -> None:
-        self._items.pop(item, None)
 
-    def recent(self, n: int) -> list[str]:
+def cancel_digest(cancel: CancelData) -> str:
+    """The content of a (validated) Cancel (its stamp and free-text detail left out)."""
+    return fingerprint(cancel, ("stamp", "detail"))
+
+
+class SeenSet(HandledUids):
+    """A bounded set of ids (oldest forgotten first), without content: ids already handled."""
+
+    def recent(self, n: int) -> list[str]:  # type: ignore[override]
         """The ``n`` most recently added ids, oldest first (what a restarted node must remember)."""
-        if n <= 0:
-            return []
-        items = list(self._items)
-        return items[-n:]
-
-    def update(self, items: Iterable[str]) -> None:
-        for item in items:
-            if isinstance(item, str):
-                self.add(item)
+        return [uid for uid, _ in super().recent(n)]
 
 
 class Counters(dict):
@@ -625,6 +604,15 @@ def validate_command(cmd: CommandData) -> CommandData:
         raise GoalRejected("type", f"tour_step {show(cmd.tour_step)} is not an integer")
     return replace(cmd, visitor_id=visitor, goal_id=goal_id, way=way, language=language, goal_uid=goal_uid,
                    tour_file=tour_file)
+
+
+def own_event_digest(building: Building, ev: NavEventData) -> str:
+    """:func:`nav_event_digest` of an event made here, as a receiver computes it from the validated event
+    ("": content unknown, for an event that would not validate)."""
+    try:
+        return nav_event_digest(validate_event(building, ev))
+    except GoalRejected:
+        return ""
 
 
 def uids(items: Iterable[Trip]) -> list[str]:

@@ -27,7 +27,11 @@ returns; the goal-floor robot gives up after ``partner_timeout`` wall s
 
 Inputs are explicit events (:meth:`NavigationCore.on_pending`, ``on_move_base_result``,
 ``on_continue``, ``on_cancel``, ``on_nav_event``, ``on_status``, ``tick``); each returns
-actions (MoveTo, StopMoving, SendEvent, SendCancel) for the adapter.
+actions (MoveTo, StopMoving, SendEvent, SendCancel) for the adapter. Every message names its
+publisher (``sender``, the ROS callerid) and speaks only for it
+(:class:`~gidabot_navigation.senders.Senders`): the pending list only from this robot's goal
+manager, Continue only from this robot's GUI or visitor, a cancel, event or status only from
+the robot it names; anything else is refused and counted (:meth:`NavigationCore.refusals`).
 """
 
 from __future__ import annotations
@@ -57,10 +61,20 @@ from gidabot_navigation.guiding.messages import (
     StopMoving,
     Trip,
     UidMaker,
+    cancel_digest,
+    nav_event_digest,
+    own_event_digest,
     validate_cancel,
     validate_event,
 )
-from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
+from gidabot_navigation.guiding.state import (
+    REMEMBERED_UIDS,
+    number,
+    str_list,
+    trip_from_dict,
+    trip_to_dict,
+    uid_records,
+)
 from gidabot_navigation.guiding.tour_mode import TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
@@ -74,10 +88,12 @@ from gidabot_navigation.interface import (
     REASON_UNREACHABLE,
     RELEASE_PHASES,
     Cmd,
+    Node,
     Phase,
     RobotState,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
 from gidabot_navigation.tours.tour_store import TourMessage
 
 # move_base (actionlib) terminal states, as the adapter names them
@@ -124,7 +140,8 @@ STATE_OF_STAGE = {Stage.PICKUP: RobotState.TO_MEETING, Stage.GUIDING: RobotState
 @dataclass(frozen=True)
 class NavigationConfig:
     """Times: ``continue_timeout``, ``nav_lost_timeout`` in ROS s; ``partner_timeout``, ``offline_after``
-    in wall s; ``pickup_distance`` in m."""
+    in wall s; ``pickup_distance`` in m; ``simulated``: the simulated visitor (node ``visitor``) is one of this
+    robot's own nodes (it presses Continue)."""
 
     robot: str
     continue_timeout: float = 300.0
@@ -132,6 +149,7 @@ class NavigationConfig:
     offline_after: float = 5.0
     pickup_distance: float = 1.5
     nav_lost_timeout: float = 30.0
+    simulated: bool = False
 
     def __post_init__(self) -> None:
         for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout"):
@@ -161,8 +179,7 @@ class Leg:
 class NavigationCore:
     """Runs the head of this robot's pending list (Algorithm 1)."""
 
-    def __init__(self, building: Building, cfg: NavigationConfig, log: Logger, now_wall: float,
-                 boot: str | None = None) -> None:
+    def __init__(self, building: Building, cfg: NavigationConfig, log: Logger, now_wall: float) -> None:
         robot = building.find_robot(cfg.robot)
         if robot is None:
             raise GuidingError(f"robot {cfg.robot!r} is not in building {building.id} "
@@ -174,7 +191,8 @@ class NavigationCore:
         self.floor = robot.floor
         self.log = log
         self.warn = RateLimitedLog(log)
-        self.uids = UidMaker(self.me, "nav", boot)
+        self.uids = UidMaker(self.me, "nav")
+        self.gate = Gate(Senders.of_building(building, self.me, cfg.simulated), log)
         self.liveness = PeerLiveness(cfg.offline_after, now_wall)
         self.tours = TourBook(building)
         self.stats = Counters()
@@ -189,8 +207,8 @@ class NavigationCore:
         self._unavailable_since: float | None = None
         self._finished = SeenSet()
         self._cancelled = SeenSet()
-        self._cancels_seen = SeenSet()
-        self._events_seen = SeenSet()
+        self._cancels_seen = HandledUids()
+        self._events_seen = HandledUids()
         self._early_continue: set[str] = set()
         self._commands_seen = SeenSet()     # CommandData.key of the Continues handled
         self._releases: OrderedDict[str, tuple[str, float]] = OrderedDict()   # goal uid -> (robot, ROS s)
@@ -210,11 +228,15 @@ class NavigationCore:
         if isinstance(fraction, (int, float)) and math.isfinite(fraction):
             self.battery = min(1.0, max(0.0, float(fraction)))
 
-    def on_status(self, robot: str, now_wall: float) -> None:
-        if isinstance(robot, str) and self.building.find_robot(robot) is not None:
+    def on_status(self, robot: str, now_wall: float, *, sender: str) -> None:
+        """A RobotStatus of ``robot`` published by ``sender``: that robot is online."""
+        if self.gate.admit(sender, Claim(as_text(robot)), "status") and self.building.find_robot(robot) is not None:
             self.liveness.heard(robot, now_wall)
 
-    def on_catalog(self, entries: Iterable[TourMessage]) -> None:
+    def on_catalog(self, entries: Iterable[TourMessage], *, sender: str) -> None:
+        """The tour store's catalog (published by ``sender``: only this robot's tour store's is taken)."""
+        if not self.gate.only(sender, Node.TOUR_STORE, "tour catalog"):
+            return
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
 
@@ -226,8 +248,14 @@ class NavigationCore:
             self._unavailable_since = now_ros
         self.available = available
 
-    def on_pending(self, goals: Sequence[Trip], eta_last: float, now_ros: float, now_wall: float) -> list[Action]:
-        """This robot's pending list changed (from its goal manager)."""
+    def on_pending(self, goals: Sequence[Trip], eta_last: float, now_ros: float, now_wall: float, *, robot: str,
+                   sender: str) -> list[Action]:
+        """The pending list of ``robot`` published by ``sender``: this robot's list from its goal manager is the
+        queue to run; another robot's is not this node's business; any other publisher is refused."""
+        if robot != self.me:
+            return []
+        if not self.gate.only(sender, Node.GOAL_MANAGER, "pending list"):
+            return []
         self.queue = list(goals)
         self._eta_last = eta_last if math.isfinite(eta_last) else 0.0
         self._eta_at = now_ros
@@ -245,18 +273,19 @@ class NavigationCore:
                 actions += self._hand_over(leg, now_ros)
         return actions + self._advance(now_ros, now_wall)
 
-    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
-        """A Cancel (from this robot or another): stop the trip at once if it runs here."""
+    def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A Cancel (from this robot or another) published by ``sender``: stop the trip at once if it runs here."""
+        if not self.gate.admit(sender, Claim(as_text(cancel.origin_robot), as_text(cancel.uid)), "cancel"):
+            return []
         try:
             cancel = validate_cancel(self.building, cancel)
         except GoalRejected as err:
             self.stats.inc(f"rejected_{err.reason}")
-            self.warn.warning("cancel", f"cancel rejected: {err}")
+            self.gate.refuse(INVALID, f"cancel {as_text(cancel.uid)[:80]!r}: {err}")
             return []
-        if from_relay and cancel.origin_robot == self.me:
-            self.stats.inc("rejected_spoofed")
-            return []
-        if not self._cancels_seen.add(cancel.uid):
+        digest = cancel_digest(cancel)
+        if self.gate.conflict(self._cancels_seen, cancel.uid, digest, "cancel") \
+                or not self._cancels_seen.add(cancel.uid, digest):
             return []
         self._cancelled.add(cancel.goal_uid)
         self._early_continue.discard(cancel.goal_uid)
@@ -268,17 +297,20 @@ class NavigationCore:
         self._finish(leg.trip)
         return actions + self._advance(now_ros, now_wall)
 
-    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
-        """A visitor command at this robot: a Continue (:meth:`on_continue`); the others are the goal manager's."""
+    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A visitor command at this robot published by ``sender``: a Continue (:meth:`on_continue`); the others
+        are the goal manager's."""
         if cmd.command != Cmd.CONTINUE:
             return []
-        return self.on_continue(cmd.goal_uid, now_ros, now_wall, key=cmd.key)
+        return self.on_continue(cmd.goal_uid, now_ros, now_wall, key=cmd.key, sender=sender)
 
-    def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "") -> list[Action]:
-        """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here).
+    def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "", *,
+                    sender: str) -> list[Action]:
+        """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here): a VisitorCommand
+        published by ``sender``, which must be this robot's GUI or visitor.
 
         ``key`` (:attr:`CommandData.key`): a Continue replayed to a restarted node is ignored."""
-        if not isinstance(goal_uid, str):
+        if not self.gate.admit(sender, Claim(self.me), "Continue") or not isinstance(goal_uid, str):
             return []
         if key and not self._commands_seen.add(key):
             self.stats.inc("duplicate_commands")
@@ -294,14 +326,20 @@ class NavigationCore:
             self._early_continue.add(goal_uid)
         return []
 
-    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
-        """Any robot's NavEvent: a start robot's GO_TO_FLOOR releases the visitor towards this floor."""
+    def on_nav_event(self, ev: NavEventData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """Any robot's NavEvent published by ``sender``: a start robot's GO_TO_FLOOR releases the visitor towards
+        this floor."""
+        if not self.gate.admit(sender, Claim(as_text(ev.robot), as_text(ev.uid)), "nav event"):
+            return []
         try:
             ev = validate_event(self.building, ev)
         except GoalRejected as err:
             self.stats.inc(f"rejected_{err.reason}")
+            self.gate.refuse(INVALID, f"nav event {as_text(ev.uid)[:80]!r}: {err}")
             return []
-        if not self._events_seen.add(ev.uid):
+        digest = nav_event_digest(ev)
+        if self.gate.conflict(self._events_seen, ev.uid, digest, "nav event") \
+                or not self._events_seen.add(ev.uid, digest):
             return []
         if ev.phase in RELEASE_PHASES and ev.goal_uid and ev.robot != self.me:
             self._releases[ev.goal_uid] = (ev.robot, now_ros)
@@ -401,8 +439,9 @@ class NavigationCore:
                       continued=bool(raw.get("continued")),
                       partner=raw["partner"] if isinstance(raw.get("partner"), str) else None,
                       started=number(raw.get("started", 0.0), "started"), resend=True)
-        seen = {name: str_list(state.get(name, []), name) for name in
-                ("finished", "cancelled", "cancels_seen", "events_seen", "commands_seen", "early_continue")}
+        seen: dict[str, list] = {name: str_list(state.get(name, []), name) for name in
+                                 ("finished", "cancelled", "commands_seen", "early_continue")}
+        seen.update({name: uid_records(state.get(name, []), name) for name in ("cancels_seen", "events_seen")})
         releases = [(str(r[0]), str(r[1]), number(r[2], "release")) for r in state.get("releases", [])]
         token = int(number(state.get("token", 0), "token"))
         self.queue = queue
@@ -609,6 +648,10 @@ class NavigationCore:
                 SendCancel(self._cancel(trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
 
     # ------------------------------------------------------------------ helpers
+    def refusals(self) -> dict[str, int]:
+        """Messages refused so far, by kind (impostor, foreign, wrong_namespace, conflict, invalid)."""
+        return self.gate.refusals()
+
     def _new_leg(self, trip: Trip, r: Role, stage: Stage, target: Pose2D, partner: str | None,
                  now_ros: float) -> Leg:
         self._token += 1
@@ -660,7 +703,7 @@ class NavigationCore:
     def _cancel(self, trip: Trip, reason: str, detail: str, now_ros: float) -> CancelData:
         cancel = CancelData(uid=self.uids.cancel(), goal_uid=trip.uid, origin_robot=self.me, reason=reason,
                             detail=detail, stamp=now_ros)
-        self._cancels_seen.add(cancel.uid)
+        self._cancels_seen.add(cancel.uid, cancel_digest(cancel))
         self._cancelled.add(trip.uid)
         return cancel
 
@@ -672,6 +715,6 @@ class NavigationCore:
                           attempt=trip.attempt)
         if fields:
             ev = replace(ev, **fields)
-        self._events_seen.add(ev.uid)
+        self._events_seen.add(ev.uid, own_event_digest(self.building, ev))
         self.stats.inc(f"events_{phase}")
         return SendEvent(ev)

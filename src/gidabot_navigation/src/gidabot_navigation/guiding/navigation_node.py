@@ -37,10 +37,10 @@ from gidabot_navigation.guiding.navigation import (
     freshest_time,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
-from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
 from gidabot_navigation.ros import convert
-from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay, sender
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, refusal_values, sender, simulated
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_loop, run_node
@@ -68,7 +68,6 @@ class Params:
     pose_rate: float
     move_base: str
     frame_id: str
-    goal_manager: str
     state_dir: str = ""
     state_max_age: float = DEFAULT_MAX_AGE
     replay_window: float = DEFAULT_WINDOW
@@ -81,11 +80,10 @@ class Params:
                                partner_timeout=param_number("~partner_timeout", 120.0),
                                offline_after=param_number("~offline_after", 5.0),
                                pickup_distance=param_number("~pickup_distance", 1.5),
-                               nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
+                               nav_lost_timeout=param_number("~nav_lost_timeout", 30.0), simulated=simulated())
         return Params(building, cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
-                      param_text("~goal_manager", global_name(Node.GOAL_MANAGER), required=True),
                       param_text("~state_dir", "") or default_state_dir(cfg.robot),
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
                       param_number("~replay_window", DEFAULT_WINDOW, strict=False))
@@ -101,8 +99,11 @@ class NavigationNode:
         is sent again.
 
     Subscribed topics:
-      - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): this robot's queue, only from the local
-        ``~goal_manager`` node.
+      - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): this robot's queue, only from its own
+        ``goal_manager`` node.
+
+    Every input is handed to the core with its publisher (the callerid): a message that is not its sender's to
+    send (gidabot_navigation.senders) is refused and counted, never answered.
       - ``/gidabot/cancels`` (gidabot_msgs/Cancel): stop the running trip at once.
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): the start robot's GO_TO_FLOOR (starts the
         Continue timeout of the goal-floor robot).
@@ -123,7 +124,8 @@ class NavigationNode:
         (unreachable, timeout, offline), so the other robots drop it too.
       - ``/gidabot/status`` (gidabot_msgs/RobotStatus, state): at ``~status_rate`` (ROS time).
       - ``/gidabot/poses`` (gidabot_msgs/NavPose, state): at ``~pose_rate`` (ROS time), once localised.
-      - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall.
+      - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall; ``refused_<kind>``: the
+        messages refused by kind (impostor, foreign, wrong_namespace, conflict, invalid).
 
     Parameters:
       - ``~building`` (str, required), ``~robot`` (str, required).
@@ -134,7 +136,7 @@ class NavigationNode:
       - ``~pickup_distance`` (m, 1.5): farther from the request point, the robot first picks the visitor up.
       - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
       - ``~status_rate`` (Hz, 2), ``~pose_rate`` (Hz, 5), ROS time.
-      - ``~move_base`` (move_base), ``~frame_id`` (map), ``~goal_manager`` (/goal_manager).
+      - ``~move_base`` (move_base), ``~frame_id`` (map).
       - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``multirobot_navigation.json``
         there keeps the running leg and the handled uids across a restart (the leg goes on: its
         move_base goal is sent again); ``~state_max_age`` (wall s, 600); ``~replay_window`` (wall s, 60).
@@ -157,7 +159,6 @@ class NavigationNode:
         self.inbox = Inbox(QUEUE_SIZE)
         self.loop = LoopMeter(1.0 / LOOP_PERIOD)
         self._next_diag = time.monotonic() + 1.0
-        self.rejected_pending_sender = 0    # a pending list of this robot not from its goal manager
         self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
         self._handles: dict[int, tuple[actionlib.ClientGoalHandle, int]] = {}   # token -> (handle, sends)
@@ -193,12 +194,8 @@ class NavigationNode:
         self.inbox.put(kind, msg)
 
     def _on_pending(self, msg: PendingRequests) -> None:
-        if msg.robot != self.robot:
-            return
-        if sender(msg) != self.params.goal_manager:
-            self.rejected_pending_sender += 1
-            return
-        self._enqueue(msg, "pending")
+        if msg.robot == self.robot:       # the other robots' lists (1 Hz each) are not this node's business
+            self._enqueue(msg, "pending")
 
     # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
@@ -268,13 +265,14 @@ class NavigationNode:
         if kind == "pending":
             pending = convert.pending_from_msg(msg)
             eta_last = float(pending.eta[-1]) if pending.eta else 0.0
-            return core.on_pending(list(pending.goals), eta_last, now_ros, now_wall)
+            return core.on_pending(list(pending.goals), eta_last, now_ros, now_wall, robot=pending.robot,
+                                   sender=sender(msg))
         if kind == "cancel":
-            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, sender=sender(msg))
         if kind == "event":
-            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, sender=sender(msg))
         if kind == "command":
-            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall)
+            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall, sender=sender(msg))
         if kind == "result":
             token, sends, status, text, done_ros = msg
             if self._handles.get(token, (None, -1))[1] != sends:
@@ -284,9 +282,9 @@ class NavigationNode:
                 self._active = None
             return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
-            core.on_status(convert.status_from_msg(msg).robot, now_wall)
+            core.on_status(convert.status_from_msg(msg).robot, now_wall, sender=sender(msg))
         elif kind == "catalog":
-            core.on_catalog(convert.catalog_from_msg(msg).tours)
+            core.on_catalog(convert.catalog_from_msg(msg).tours, sender=sender(msg))
         elif kind == "tick":
             self.publish_status()
         elif kind == "pose_tick":
@@ -382,7 +380,8 @@ class NavigationNode:
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
         stats.update(self.loop.values())
-        stats.update(queue_dropped=self.inbox.dropped, rejected_pending_sender=self.rejected_pending_sender,
+        stats.update(refusal_values(self.core.refusals()))
+        stats.update(queue_dropped=self.inbox.dropped,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
         now = rospy.get_time()
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,

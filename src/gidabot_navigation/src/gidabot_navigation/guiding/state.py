@@ -143,6 +143,15 @@ def str_list(value: object, what: str) -> list[str]:
     return value
 
 
+def uid_records(value: object, what: str) -> list[str | list[str]]:
+    """Handled uids as ``senders.HandledUids.recent`` wrote them: ``[uid, digest]`` pairs (or bare uids)."""
+    if not isinstance(value, list) or not all(
+            isinstance(v, str) or (isinstance(v, list) and len(v) == 2 and all(isinstance(x, str) for x in v))
+            for v in value):
+        raise GuidingStateError(f"{what}: expected a list of [uid, digest] pairs")
+    return value
+
+
 def number(value: object, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise GuidingStateError(f"{what}: {value!r} is not a finite number")

@@ -19,12 +19,17 @@ the :class:`Send` / :class:`Close` actions it returns and the deliveries it hand
   all re-sent on every new connection; the receiver publishes them latched.
 - **No loops**: messages whose publisher is a relay (``/gidabot_relay_*``) are never
   forwarded, so a message crosses exactly one relay.
+- **A message speaks only for its sender** (:mod:`gidabot_navigation.senders`): only this
+  robot's own nodes' messages are forwarded (the adapter passes each message's callerid;
+  any other publisher is an ``impostor``), and only if they speak for this robot; a message
+  the peer sends must speak for the peer. "Speaks for" is the table
+  ``senders.SPEAKS_FOR`` (a goal's or cancel's ``origin_robot``, an event's, status', pose's,
+  pending list's or tour index's ``robot``, a tour's uid); an event's uid must be in that
+  robot's namespace. Else refused: ``foreign`` (another robot), ``wrong_namespace`` (uid).
 - **Security and hygiene**: HMAC-SHA256 on every frame when a secret is configured,
-  size limits, whitelist of topics and types (md5); a robot's state (status, pose, pending
-  list, tour index: their ``robot`` field) crosses only from that robot: a local state that
-  speaks for another robot, or a peer's state that does not speak for the peer, is refused;
-  anything rejected is counted by reason (auth, oversize, malformed, type, foreign) and
-  logged at a limited rate; a bad frame closes that connection, never the end.
+  size limits, whitelist of topics and types (md5); anything rejected is counted by reason
+  (:data:`REJECT_REASONS`) and logged at a limited rate; a bad frame closes that connection,
+  never the end.
 - **Liveness** in monotonic wall time: heartbeats every ``heartbeat`` s; a connection
   with no frame for ``link_timeout`` s is closed (detected within 3 s with the defaults).
 """
@@ -62,8 +67,9 @@ from gidabot_navigation.relay.protocol import (
     hello_key,
     session_keys,
 )
+from gidabot_navigation.senders import FOREIGN, IMPOSTOR, WRONG_NAMESPACE, Claim, Senders, explain
 
-REJECT_REASONS = ("auth", "oversize", "malformed", "type", "foreign")
+REJECT_REASONS = ("auth", "oversize", "malformed", "type", IMPOSTOR, FOREIGN, WRONG_NAMESPACE)
 # how an end process tells its supervisor (gidabot_navigation.relay.supervisor) why it stopped
 EXIT_CONFIG = 2                          # bad options: restarting will not help
 EXIT_PORT = 3                            # end b cannot bind the building's link port (taken, or not its address)
@@ -137,6 +143,9 @@ class RelayEndConfig:
     state_rate: float = 10.0                    # Hz, max sends per (state topic, publisher)
     max_pending_connections: int = 8            # connections not yet authenticated
     header_topics: frozenset[str] = frozenset()  # event topics whose type starts with std_msgs/Header
+    # node names of this robot's relay ends (its links to every other robot): a local publisher named like a relay
+    # end but none of them is an impostor (refused, counted); empty: every relay-named publisher is taken for one
+    robot_ends: frozenset[str] = frozenset()
 
     def __post_init__(self) -> None:
         if self.side not in ("a", "b"):
@@ -243,12 +252,14 @@ class RelayEndCore:
 
     ``validate(topic, payload)`` returns None if the payload is a well-formed message of
     the topic's type, else a short description of what is wrong; ``speaker(topic, payload)``
-    the robot a state message speaks for (its ``robot`` field; None: not known, not checked).
+    whom a (well-formed) message speaks for: ``senders.claim_of(topic, <the decoded message>)``,
+    a :class:`~gidabot_navigation.senders.Claim` for every shared topic (None: the payload does
+    not say; not checked).
     """
 
     def __init__(self, cfg: RelayEndConfig, journal: Journal, clock: Callable[[], float], log: Logger,
                  validate: Callable[[str, bytes], str | None] | None = None,
-                 speaker: Callable[[str, bytes], str | None] | None = None) -> None:
+                 speaker: Callable[[str, bytes], Claim | None] | None = None) -> None:
         self.cfg = cfg
         self.journal = journal
         self.clock = clock
@@ -257,6 +268,7 @@ class RelayEndCore:
         self.validate = validate or (lambda topic, payload: None)
         self.speaker = speaker or (lambda topic, payload: None)
         self.topics = {t.name: t for t in cfg.topics}
+        self.senders = Senders(cfg.robot, {cfg.node_name: cfg.peer_robot})
         self.key_hello = hello_key(cfg.secret) if cfg.secret else None
         self.max_body = cfg.max_message_bytes + FRAME_OVERHEAD
         self.state: JournalState = journal.open()
@@ -301,13 +313,18 @@ class RelayEndCore:
         conn.tx_count += 1
         return Send(conn.id, data)
 
-    def _speaks_for(self, topic: str, payload: bytes, robot: str, origin: str) -> bool:
-        """Whether a state message speaks for ``robot`` (or does not say): else rejected and counted."""
-        who = self.speaker(topic, payload)
-        if who is None or who == robot:
+    def _speaks_for(self, topic: str, payload: bytes, callerid: str, origin: str) -> bool:
+        """Whether a message its publisher ``callerid`` (a local node, or this link's node name for the peer's)
+        may send speaks for the robot that publisher may speak for (or does not say): else rejected, counted."""
+        claim = self.speaker(topic, payload)
+        if claim is None:
             return True
-        self._reject("foreign", f"{origin} {topic} speaks for {who[:64]!r}, not for {robot}: a robot's state "
-                                f"crosses only from that robot")
+        sender = self.senders.attribute(callerid)
+        kind = self.senders.refusal(sender, claim)
+        if kind is None:
+            return True
+        self._reject(kind, f"{origin} {topic}: {explain(kind, sender, claim)}: a message crosses only from the robot "
+                           f"it speaks for")
         return False
 
     def _check_size(self, topic: str, payload: bytes, origin: str) -> bool:
@@ -319,9 +336,19 @@ class RelayEndCore:
 
     # -- local messages (from this end's master) -------------------------------------------
     def local_message(self, topic: str, callerid: str, type_: str, md5: str, payload: bytes) -> list[Action]:
-        """A message a local node published on a shared topic; returns frames to send now."""
+        """A message the local node ``callerid`` published on a shared topic; returns frames to send now. Only this
+        robot's own nodes are forwarded, and only what speaks for this robot."""
         if is_relay_end(callerid):
-            self.stats.ignored_relay += 1
+            if self.cfg.robot_ends and callerid not in self.cfg.robot_ends:
+                self._reject(IMPOSTOR, f"local publisher {callerid[:80]!r} on {topic} is named like a relay end but "
+                                       f"is none of {self.cfg.robot}'s: not forwarded")
+                return []
+            self.stats.ignored_relay += 1       # another link's end published what its robot sent: not again
+            return []
+        sender = self.senders.attribute(callerid)
+        if not sender.own:
+            self._reject(IMPOSTOR, f"local publisher {callerid[:80]!r} on {topic} is not one of {self.cfg.robot}'s "
+                                   f"nodes: not forwarded")
             return []
         spec = self.topics.get(topic)
         if spec is None:
@@ -337,9 +364,9 @@ class RelayEndCore:
         if problem:
             self._reject("malformed", f"local publisher {callerid} on {topic}: {problem}")
             return []
+        if not self._speaks_for(topic, payload, callerid, f"local publisher {callerid}'s"):
+            return []
         if spec.kind == STATE:
-            if not self._speaks_for(topic, payload, self.cfg.robot, f"local publisher {callerid}'s"):
-                return []
             return self._local_state(Message(topic, callerid, md5, payload))
         digest = event_digest(topic, payload, 4 if topic in self.cfg.header_topics else 0)
         if digest in self.state.recent_out:
@@ -588,8 +615,7 @@ class RelayEndCore:
         if problem:
             self._reject("malformed", f"{self.cfg.peer_robot} on {m.topic}: {problem}")
             return False
-        return kind != STATE or self._speaks_for(m.topic, m.payload, self.cfg.peer_robot,
-                                                 f"{self.cfg.peer_robot}'s")
+        return self._speaks_for(m.topic, m.payload, self.cfg.node_name, f"{self.cfg.peer_robot}'s")
 
     def _peer_event(self, m: Message) -> bool:
         st = self.state
@@ -725,6 +751,10 @@ class RelayEndCore:
         return out
 
     # -- diagnostics ----------------------------------------------------------------------
+    def refusals(self) -> dict[str, int]:
+        """Frames and messages refused so far, by reason (:data:`REJECT_REASONS`)."""
+        return dict(self.stats.rejected)
+
     def snapshot(self) -> dict[str, object]:
         s = self.stats
         now = self.clock()
@@ -758,7 +788,7 @@ class RelayEndCore:
             "connections": s.connections,
             "link_losses": s.link_losses,
             "rejected": sum(s.rejected.values()),
-            **{f"rejected_{k}": v for k, v in s.rejected.items()},
+            **{f"rejected_{k}": v for k, v in self.refusals().items()},
             "out_epoch": f"{self.state.out_epoch:#x}",
             "next_seq": self.state.next_seq,
             "in_last": self.state.in_last,

@@ -47,6 +47,7 @@ from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, bound_master_calls, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
 from gidabot_navigation.ros.rospy_internals import close_connections_from, connected_subscribers, publisher_lock
+from gidabot_navigation.senders import SPEAKS_FOR, Claim, claim_of
 
 
 @dataclass(frozen=True)
@@ -71,6 +72,7 @@ class Params:
     diagnostics_rate: float
     replay_window: float = DEFAULT_WINDOW
     replay_limit: int = 500
+    robot_ends: str = ""
 
     @staticmethod
     def parse(argv: list[str]) -> Params:
@@ -99,6 +101,7 @@ class Params:
         ap.add_argument("--diagnostics_rate", type=float, default=1.0)
         ap.add_argument("--replay_window", type=float, default=DEFAULT_WINDOW)
         ap.add_argument("--replay_limit", type=int, default=500)
+        ap.add_argument("--robot_ends", default="")
         args = [a for a in argv if ":=" not in a]
         try:
             ns = ap.parse_args(args)
@@ -160,20 +163,20 @@ def make_validator(classes: dict[str, type]) -> Callable[[str, bytes], str | Non
     return validate
 
 
-def make_speaker(classes: dict[str, type]) -> Callable[[str, bytes], str | None]:
-    """speaker(topic, payload): the ``robot`` field of a message whose type has one (the state topics), else
-    None (also for a payload that does not decode: the validator reports that)."""
+def make_speaker(classes: dict[str, type]) -> Callable[[str, bytes], Claim | None]:
+    """speaker(topic, payload): whom a message speaks for and its uid (``senders.claim_of`` of the decoded
+    message: every shared topic of ``senders.SPEAKS_FOR``), else None (also for a payload that does not decode:
+    the validator reports that)."""
 
-    def speaker(topic: str, payload: bytes) -> str | None:
-        cls = classes[topic]
-        if "robot" not in getattr(cls, "__slots__", ()):
+    def speaker(topic: str, payload: bytes) -> Claim | None:
+        if topic not in SPEAKS_FOR:
             return None
-        msg = cls()
+        msg = classes[topic]()
         try:
             msg.deserialize(payload)
         except (genpy.DeserializationError, struct.error, ValueError, TypeError, IndexError, UnicodeError):
             return None
-        return msg.robot if isinstance(msg.robot, str) else None
+        return claim_of(topic, msg)
 
     return speaker
 
@@ -236,6 +239,9 @@ class RelayEndNode:
       - ``--bind_ip`` (IPv4, default ``$ROS_IP``): end a's source address.
       - ``--topics_file`` (path, default the package's ``config/shared_topics.yaml``): the shared topics whitelist.
       - ``--secret_file`` (path, default ''): shared secret (>= 16 bytes); '' = no authentication.
+      - ``--robot_ends`` (comma-separated node names, default ''): this robot's relay ends, this one included (the
+        supervisor passes them): a local publisher named like a relay end but none of them is an impostor,
+        refused and counted (``rejected_impostor``); '' = any relay-named publisher is taken for one.
       - ``--state_dir`` (path, required): where the journal ``<A>_<B>.<side>.journal`` lives.
       - ``--max_message_bytes`` (bytes, 1048576), ``--max_queue`` (events, 10000: unacknowledged
         outbound), ``--max_inbound`` (events, 10000: received, not yet published),
@@ -427,7 +433,8 @@ def end_config(params: Params, specs: tuple[TopicSpec, ...], classes: dict[str, 
                           heartbeat=params.heartbeat, link_timeout=params.link_timeout,
                           state_rate=params.state_rate,
                           header_topics=frozenset(s.name for s in specs
-                                                  if s.kind == EVENT and classes[s.name]._has_header))
+                                                  if s.kind == EVENT and classes[s.name]._has_header),
+                          robot_ends=frozenset(n for n in params.robot_ends.split(",") if n))
 
 
 def diagnostic_status(cfg: RelayEndConfig, snap: dict[str, object], down_for: float | None) -> DiagnosticStatus:

@@ -100,6 +100,7 @@ class EndOptions:
     secret_file: str = ""
     topics_file: str = ""
     extra: tuple[tuple[str, str], ...] = ()     # further end options (tuning): (name, value)
+    robot_ends: tuple[str, ...] = ()            # node names of every end of this robot (its links)
 
 
 def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> list[str]:
@@ -109,6 +110,8 @@ def end_argv(spec: EndSpec, opts: EndOptions, python: str = sys.executable) -> l
             "--state_dir", opts.state_dir, "--secret_file", opts.secret_file]
     if opts.topics_file:
         argv += ["--topics_file", opts.topics_file]
+    if opts.robot_ends:
+        argv += ["--robot_ends", ",".join(opts.robot_ends)]
     for k, v in opts.extra:
         argv += [f"--{k}", v]
     return argv

@@ -10,7 +10,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -57,7 +57,7 @@ class RelaySupervisorNode:
         building = load_building(params.building)
         building.robot(self.robot)                    # KeyError with the known names
         ends = plan_relays(building, self.robot)
-        self.sup = RelaySupervisor(ends, params.end_options(), self._log)
+        self.sup = RelaySupervisor(ends, params.end_options(ends), self._log)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         rospy.loginfo(f"relay_supervisor of {self.robot}: {len(ends)} relay end(s)"
                       f"{': ' + ', '.join(_describe(e) for e in ends) if ends else ' (the only robot)'}; "
@@ -120,11 +120,12 @@ class Params:
                       topics_file=str(get_param("~topics_file", "") or ""),
                       end_params=tuple((str(k), str(v)) for k, v in extra.items()))
 
-    def end_options(self) -> EndOptions:
-        """What every end gets; creates the state directory."""
+    def end_options(self, ends: Sequence[EndSpec] = ()) -> EndOptions:
+        """What every end of ``ends`` (this robot's) gets; creates the state directory."""
         Path(self.state_dir).mkdir(parents=True, exist_ok=True)
         return EndOptions(state_dir=str(Path(self.state_dir).resolve()), secret_file=self.secret_file,
-                          topics_file=self.topics_file, extra=self.end_params)
+                          topics_file=self.topics_file, extra=self.end_params,
+                          robot_ends=tuple(e.node_name for e in ends))
 
 
 def diagnostic_status(robot: str, rows: list[tuple[str, int | None, int, int | None, str]]) -> DiagnosticStatus:

@@ -2,8 +2,9 @@
 callbacks fill, carrying out a core's actions with its state kept, and their diagnostics.
 
 A callback copies or enqueues and returns (:class:`Inbox`); the node's one loop takes the inputs out and
-hands them to its core. The sender of a message is the callerid in its connection header: a relay end's
-name means the message came from another robot (:func:`from_relay`).
+hands them to its core with their sender: the callerid in the message's connection header (:func:`sender`),
+which the core attributes (:class:`~gidabot_navigation.senders.Senders`: one of this robot's own nodes, the
+relay end of one of its links, or an impostor) before anything else.
 """
 
 from __future__ import annotations
@@ -12,11 +13,11 @@ import queue
 from collections.abc import Callable, Mapping
 from typing import Any
 
+import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_navigation.guiding.messages import Action
 from gidabot_navigation.guiding.state import StateFile
-from gidabot_navigation.interface import is_relay_end
 from gidabot_navigation.ros.convert import ros_time
 
 
@@ -26,9 +27,17 @@ def sender(msg: object) -> str:
     return str(header.get("callerid", ""))
 
 
-def from_relay(msg: object) -> bool:
-    """True when ``msg`` was published by a relay end, i.e. it came from another robot."""
-    return is_relay_end(sender(msg))
+def simulated() -> bool:
+    """True when this master runs a simulated floor (``/use_sim_time``): the simulated visitor is then one of
+    this robot's own nodes (:data:`~gidabot_navigation.senders.SIMULATED_OWN_NODES`)."""
+    return bool(rospy.get_param("/use_sim_time", False))
+
+
+def refusal_values(refusals: Mapping[str, int]) -> dict[str, int]:
+    """A core's refusals by kind as diagnostics values: ``refused_<kind>`` each, and ``refused`` in all."""
+    values = {f"refused_{kind}": n for kind, n in refusals.items()}
+    values["refused"] = sum(refusals.values())
+    return values
 
 
 class Inbox:

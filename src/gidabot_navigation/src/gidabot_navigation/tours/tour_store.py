@@ -23,6 +23,13 @@ safety rules) is in ``docs/tours.md``; in short:
   directory, a symlink, a FIFO with a tour's name are never touched: the tour
   is then *blocked* (kept in the metadata, shared, but not in the directory)
   until the name is free.
+- **Who speaks** (:class:`~gidabot_navigation.senders.Senders`): every input names its
+  publisher (``sender``, the ROS callerid). A Tour speaks for the robot whose uid it
+  carries (the robot that sends it: anti-entropy shares other robots' tours), a TourIndex
+  for its ``robot``; only that robot's relay end (or, for this robot, its own tour store)
+  may publish them, and only this robot's own nodes (the GUI) may edit. A uid is
+  remembered only for a valid message of its rightful sender; the same uid with other
+  content is a conflict. Refusals are counted by kind (:meth:`TourStore.refusals`).
 - **Remote input** is validated exactly like a local file
   (:func:`~gidabot_navigation.tours.tour_file.check_tour_file_name`,
   :func:`~gidabot_navigation.tours.tour_file.parse_tour` against the building) plus the
@@ -43,15 +50,31 @@ import json
 import math
 import os
 import unicodedata
-from collections import Counter, OrderedDict
+from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import TourError, TourNameError, TourRejected, TourStoreError
-from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Topic
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.senders import (
+    CONFLICT,
+    DUPLICATE,
+    INVALID,
+    SCOPE_TOUR,
+    SENDER_REFUSALS,
+    Claim,
+    Gate,
+    HandledUids,
+    Senders,
+    as_text,
+    claim_of,
+    explain,
+    fingerprint,
+    make_uid,
+)
 from gidabot_navigation.tours.safe_dir import Entry, SafeDir, sha256
 from gidabot_navigation.tours.tour_file import (
     MAX_GOALS,
@@ -196,8 +219,8 @@ class TourRecord:
 class Outcome:
     """What :meth:`TourStore.receive` did with a message."""
 
-    status: str                   # "accepted", "duplicate", "stale" or "rejected"
-    reason: str = ""              # rejection category (counter name) or note
+    status: str                   # "accepted", "duplicate", "stale", "rejected" (invalid) or "refused" (sender, uid)
+    reason: str = ""              # rejection category (counter name), refusal kind, or note
     message: str = ""             # human-readable explanation
     record: TourRecord | None = None
 
@@ -221,6 +244,11 @@ def _encodable(text: str) -> bool:
 def _short(value: object, limit: int = 60) -> str:
     text = repr(value)
     return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def tour_digest(msg: TourMessage) -> str:
+    """The content of a Tour message (all but its uid), to tell a repeat from a conflict."""
+    return fingerprint(msg, ("uid",))
 
 
 def message_size(msg: TourMessage) -> int:
@@ -268,11 +296,10 @@ class TourStore:
         self.records: dict[str, TourRecord] = {}
         self.last_rejection = ""
         self._warn = RateLimitedLog(log, lambda: wall_ns() / NS)
-        self._seen: OrderedDict[str, None] = OrderedDict()
+        self._seen = HandledUids(self.limits.seen_uids)     # uid -> the content it came with
+        self.gate = Gate(Senders.of_building(building, robot), log, lambda: wall_ns() / NS)
         self._sent: dict[tuple[str, str], tuple[tuple, float]] = {}
         self.peers: dict[str, list[IndexEntry]] = {}
-        self._boot = wall_ns()
-        self._seq = 0
         self._dir: SafeDir | None = None
         self._lock_fd = -1
         self._read_limit = MAX_TOUR_BYTES
@@ -602,12 +629,17 @@ class TourStore:
         return make_record(name, msg.version, msg.editor_robot, msg.origin_robot, language, tour)
 
     # ------------------------------------------------------------------ local admin actions
-    def edit(self, msg: TourMessage) -> TourRecord:
-        """Create, edit or (``deleted``) delete a tour from the admin GUI; return the record to share.
+    def edit(self, msg: TourMessage, *, sender: str) -> TourRecord:
+        """Create, edit or (``deleted``) delete a tour from the admin GUI (``sender``: the publisher, one of this
+        robot's own nodes); return the record to share.
 
-        Raises :class:`TourRejected` (invalid, in the way, unknown, limit) or
-        :class:`TourStoreError` (cannot write); nothing changes then.
+        Raises :class:`TourRejected` (invalid, in the way, unknown, limit; a refused sender: its refusal kind)
+        or :class:`TourStoreError` (cannot write); nothing changes then.
         """
+        claim = Claim(self.robot)
+        who, kind = self.gate.check(sender, claim, "tour edit")
+        if kind is not None:
+            raise TourRejected(kind, f"tour edit refused: {explain(kind, who, claim)}")
         try:
             candidate = self.validate(msg, remote=False)
         except TourRejected as err:
@@ -638,13 +670,16 @@ class TourStore:
         self.log.info(f"{'deleted' if rec.deleted else 'saved'} tour {name} (version {version})")
         return done
 
-    def admin_edit(self, msg: TourMessage) -> tuple[EditResultData, TourMessage | None]:
-        """Carry out an admin action (:meth:`edit`): the result to answer the GUI with, and the message that
-        shares the new record with the other robots (None when the action was refused, which is logged)."""
+    def admin_edit(self, msg: TourMessage, *, sender: str) -> tuple[EditResultData | None, TourMessage | None]:
+        """Carry out an admin action published by ``sender`` (:meth:`edit`): the result to answer the GUI with, and
+        the message that shares the new record with the other robots (None when the action was refused, which is
+        logged). An action whose sender may not speak for this robot is not answered either (result None)."""
         what = "delete" if msg.deleted else "edit"
         try:
-            rec = self.edit(msg)
+            rec = self.edit(msg, sender=sender)
         except TourRejected as err:
+            if err.reason in SENDER_REFUSALS:
+                return None, None             # counted and logged by the gate: never answered
             self.log.warning(f"admin {what} of tour {_short(msg.file_name)} refused: {err}")
             return edit_result(msg, None, err.reason, str(err)), None
         except TourStoreError as err:
@@ -661,46 +696,53 @@ class TourStore:
         return TourIndexData(self.robot, tuple(self.index()))
 
     # ------------------------------------------------------------------ remote records
-    def next_uid(self) -> str:
-        self._seq += 1
-        uid = f"{self.robot}/tour/{self._boot}.{self._seq}"
-        self._remember(uid)
-        return uid
-
     def outgoing(self, rec: TourRecord) -> TourMessage:
-        """The message that shares ``rec`` (fresh uid)."""
+        """The message that shares ``rec`` (a fresh uid of this robot: its echo is a duplicate)."""
         self.counters["published"] += 1
-        return rec.message(self.next_uid())
-
-    def _remember(self, uid: str) -> bool:
-        """Remember ``uid``; False if it was already seen."""
-        if uid in self._seen:
-            self._seen.move_to_end(uid)
-            return False
-        self._seen[uid] = None
-        while len(self._seen) > self.limits.seen_uids:
-            self._seen.popitem(last=False)
-        return True
+        msg = rec.message(make_uid(self.robot, SCOPE_TOUR, "ts"))
+        self._seen.add(msg.uid, tour_digest(msg))
+        return msg
 
     def reject(self, reason: str, text: str) -> Outcome:
-        """Count and log a rejected remote message (also used by the node for undecodable messages)."""
+        """Count and log a rejected remote message (also used by the node for undecodable messages): a refusal of
+        kind ``invalid``."""
         self.counters["rejected"] += 1
         self.counters[f"rejected_{reason}"] += 1
         self.last_rejection = text
         self._warn.warning(f"rejected_{reason}", f"rejected tour message: {text}")
         return Outcome("rejected", reason, text)
 
-    def receive(self, msg: TourMessage) -> Outcome:
-        """Apply a tour message from another robot (or our own echo) if valid and newer."""
+    def oversized(self, edit: bool, size: int, sender: str) -> EditResultData | None:
+        """A message of ``size`` bytes (over the limit: not decoded) published by ``sender``: counted and logged;
+        the answer to send when it was an admin edit from one of this robot's own nodes (else None)."""
+        self.reject("oversized", f"{'edit' if edit else 'tour'} message of {size} bytes from {_short(sender, 80)} is "
+                                 f"larger than the {self.limits.max_message_bytes} bytes allowed; not decoded")
+        if not edit or not self.gate.senders.attribute(sender).own:
+            return None
+        return edit_result(TourMessage(), None, "oversized", f"message of {size} bytes is too large")
+
+    def receive(self, msg: TourMessage, *, sender: str) -> Outcome:
+        """Apply a tour message published by ``sender`` (another robot's relay end, or our own echo) if its sender
+        may speak for the robot whose uid it carries, and it is valid and newer."""
         self.counters["received"] += 1
-        if isinstance(msg.uid, str) and msg.uid and not self._remember(msg.uid):
+        claim = claim_of(Topic.TOURS, msg) or Claim("")
+        who, kind = self.gate.check(sender, claim, "tour")
+        if kind is not None:
+            return Outcome("refused", kind, explain(kind, who, claim))
+        uid, digest = as_text(msg.uid), tour_digest(msg)
+        seen = self._seen.check(uid, digest)
+        if seen == DUPLICATE:
             self.counters["duplicate"] += 1
             return Outcome("duplicate", "uid")
+        if seen == CONFLICT:
+            self.gate.conflict(self._seen, uid, digest, "tour")
+            return Outcome("refused", CONFLICT, f"uid {_short(uid, 80)} was handled with other content")
         try:
             rec = self.validate(msg, remote=True)
         except TourRejected as err:
-            sender = msg.editor_robot if isinstance(msg.editor_robot, str) else "?"
-            return self.reject(err.reason, f"{err} (uid {_short(msg.uid, 80)}, editor {_short(sender, 40)})")
+            editor = msg.editor_robot if isinstance(msg.editor_robot, str) else "?"
+            return self.reject(err.reason, f"{err} (uid {_short(msg.uid, 80)}, editor {_short(editor, 40)})")
+        self._seen.add(uid, digest)           # only now: a forged message never takes the uid of a real one
         old = self.records.get(rec.file_name)
         if old is not None and rec.key == old.key:
             self.counters["duplicate"] += 1
@@ -724,13 +766,14 @@ class TourStore:
                       f"{' (blocked)' if done.blocked else ''}")
         return Outcome("accepted", what, record=done)
 
-    def peer_index(self, peer: str, entries: Sequence[IndexEntry], now: float) -> list[TourMessage]:
-        """Anti-entropy: records ``peer`` lacks or holds in an older version, to re-publish.
+    def peer_index(self, peer: str, entries: Sequence[IndexEntry], now: float, *, sender: str) -> list[TourMessage]:
+        """Anti-entropy: records ``peer`` lacks or holds in an older version, to re-publish (``sender``: the
+        publisher of ``peer``'s TourIndex, which must be ``peer``'s relay end).
 
         ``now`` is a monotonic time in s; one record is re-sent to one peer at most every
         ``StoreLimits.resend_period`` s while the peer's index still shows it lacks it.
         """
-        if peer == self.robot:
+        if self.gate.admit(sender, Claim(as_text(peer)), "tour index") is None or peer == self.robot:
             return []
         if peer not in self.robots:
             self.reject("robot", f"tour index from {_short(peer)}, which is not a robot of building "
@@ -782,10 +825,14 @@ class TourStore:
                 self.log.error(str(err))
         return changed
 
+    def refusals(self) -> dict[str, int]:
+        """Messages refused so far, by kind (impostor, foreign, wrong_namespace, conflict; invalid: rejected)."""
+        return {**self.gate.refusals(), INVALID: self.counters["rejected"]}
+
     def stats(self) -> dict[str, int]:
         live = sum(1 for r in self.records.values() if not r.deleted)
         return {"tours": live, "tombstones": len(self.records) - live, "blocked": len(self.blocked()),
-                **dict(self.counters)}
+                **dict(self.counters), **{f"refused_{k}": v for k, v in self.refusals().items()}}
 
 
 def edit_result(msg: TourMessage, rec: TourRecord | None, reason: str, error: str) -> EditResultData:

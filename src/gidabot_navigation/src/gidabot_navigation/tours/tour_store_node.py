@@ -34,7 +34,6 @@ from gidabot_navigation.tours.tour_store import (
     StoreLimits,
     TourMessage,
     TourStore,
-    edit_result,
 )
 
 QUEUE_SIZE = 1000
@@ -155,7 +154,7 @@ class TourStoreNode:
         if len(raw) > self.params.limits.max_message_bytes:
             raw = len(raw).to_bytes(8, "little")     # only the size travels on
             kind = OVERSIZED + kind
-        self.inbox.put(kind, (raw, sender(msg) or "?"))
+        self.inbox.put(kind, (raw, sender(msg)))
 
     # -- the loop that owns the store ---------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
@@ -178,10 +177,9 @@ class TourStoreNode:
         if kind.startswith(OVERSIZED):
             size = int.from_bytes(raw, "little")
             kind = kind[len(OVERSIZED):]
-            self.store.reject("oversized", f"{kind} message of {size} bytes from {sender} is larger than "
-                                           f"the {self.params.limits.max_message_bytes} bytes allowed; not decoded")
-            if kind == "edit":
-                self._answer(edit_result(TourMessage(), None, "oversized", f"message of {size} bytes is too large"))
+            answer = self.store.oversized(kind == "edit", size, sender)
+            if answer is not None:
+                self._answer(answer)
             return False
         try:
             msg = decode(TourIndex if kind == "index" else Tour, raw)
@@ -189,18 +187,19 @@ class TourStoreNode:
             self.store.reject("encoding", f"{err} from {sender}")
             return False
         if kind == "tour":
-            return self.store.receive(convert.tour_from_msg(msg)).changed
+            return self.store.receive(convert.tour_from_msg(msg), sender=sender).changed
         if kind == "index":
             try:
                 index = convert.index_from_msg(msg)
             except ValueError as err:
                 self.store.reject("index", f"tour index of {msg.robot!r} from {sender}: {err}")
                 return False
-            for out in self.store.peer_index(index.robot, index.entries, time.monotonic()):
+            for out in self.store.peer_index(index.robot, index.entries, time.monotonic(), sender=sender):
                 self._share(out)
             return False
-        result, out = self.store.admin_edit(convert.tour_from_msg(msg))
-        self._answer(result)
+        result, out = self.store.admin_edit(convert.tour_from_msg(msg), sender=sender)
+        if result is not None:                # an edit that was not its sender's to send is not answered
+            self._answer(result)
         if out is None:
             return False
         self._share(out)

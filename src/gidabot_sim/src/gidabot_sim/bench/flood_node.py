@@ -4,6 +4,11 @@ node).
 Run by the benchmark as ``python -m gidabot_sim.bench.flood_node --building B --robot R --rate HZ`` (a
 :class:`~gidabot_sim.bench.workers.Worker`): timed requests, each cancelled once answered, with or without
 ``--rate`` invalid messages per second published on the master meanwhile.
+
+The worker is named like the robot's GUI (``Node.GUI``; the benchmark runs none): only this robot's own nodes may
+send its visitor commands (gidabot_navigation.senders), and the flood, coming from one of them, reaches the
+cores' validation instead of being refused by name: goals and events of robots the GUI may not speak for
+(``refused_foreign``), invalid ones of its own robot (``refused_invalid``).
 """
 
 from __future__ import annotations
@@ -48,7 +53,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     places = [loc.id for loc in building.locations if loc.floor == me.floor][:6]
     if len(places) < 2:
         raise SystemExit(f"bench_flood worker: floor {me.floor:g} of {args.robot} has fewer than 2 places")
-    rospy.init_node(f"bench_flood_{args.robot}", disable_signals=True, disable_rostime=True)
+    rospy.init_node(Node.GUI, disable_signals=True, disable_rostime=True)      # one master per robot
 
     answered = threading.Event()
     answer: dict[str, str] = {}

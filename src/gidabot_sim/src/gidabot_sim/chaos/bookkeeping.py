@@ -38,8 +38,8 @@ from gidabot_navigation.interface import (
     Node,
     Phase,
     global_name,
-    is_relay_end,
     phase_name,
+    relay_end_name,
 )
 from gidabot_sim.chaos.table3 import fold_table3
 
@@ -132,9 +132,14 @@ class Bookkeeping:
         self.cancel_records: dict[str, list[dict[str, Any]]] = defaultdict(list)
         self.events: dict[str, dict[str, Any]] = {}                                   # event uid -> record
         self.foreign = Counter()                                                      # hostile / unknown records
+        # each master's relay ends (a name in either order: the building's order makes the real one)
+        self.relay_ends = {m: {relay_end_name(a, b) for o in self.robots if o != m for a, b in ((m, o), (o, m))}
+                           for m in self.robots}
         for rec in records:
             kind = rec.get("k")
-            if kind == "goal":
+            if kind in ("goal", "cancel") and not self._legit_publisher(rec):
+                self.foreign[kind] += 1          # a probe's, a forger's: it speaks for nobody
+            elif kind == "goal":
                 self.goal_records[str(rec.get("uid"))].append(rec)
             elif kind == "cancel":
                 self.cancel_records[str(rec.get("uid"))].append(rec)
@@ -144,13 +149,19 @@ class Bookkeeping:
                 else:
                     self.foreign["event"] += 1
 
+    def _legit_publisher(self, rec: dict[str, Any]) -> bool:
+        """A record published by one of its master's guiding nodes or relay ends (the nodes that may speak on a
+        master, gidabot_navigation.senders), not by a probe or a node named like a relay end of another link."""
+        caller = str(rec.get("c", ""))
+        return caller in GUIDING_CALLERIDS or caller in self.relay_ends.get(str(rec.get("m")), ())
+
     def _legit_event(self, rec: dict[str, Any]) -> bool:
         robot, phase, caller = rec.get("robot"), rec.get("phase"), str(rec.get("c", ""))
         if robot not in self.robots or not isinstance(phase, int) or phase not in PHASE_NAMES:
             return False
         if rec.get("m") == robot:
             return caller in GUIDING_CALLERIDS
-        return is_relay_end(caller)
+        return caller in self.relay_ends.get(str(rec.get("m")), ())
 
     # -- goals ----------------------------------------------------------------------------
     def accepted(self) -> dict[str, dict[str, Any]]:

@@ -35,7 +35,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import BuildingError
@@ -71,7 +71,8 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                    help="tour to run (default: tours/long_tour.tour, the paper's Table 2)")
     p.add_argument("--profile", choices=sorted(PROFILES), default="full",
                    help="how many faults: full = every kind, several of most (about 26), quick = one or two of "
-                        "each kind")
+                        "each kind, forgeries = none, but a forger on every master forges messages about every "
+                        "real trip")
     p.add_argument("--speed", type=float, default=None,
                    help="sim seconds per wall second (default: slow enough for the tour to outlast the faults)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS)
@@ -129,9 +130,10 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
         injector.clear_network_faults()
         hostile = run.hostile_counters() if run.probes and not error else {}
         relays = run.relay_counters() if run.probes and not error else {}
+        forged = [a.row() for a in run.forgery_accounts()] if run.forgers and not error else []
         run.mark_logs()
         began = time.monotonic()
-        for p in run.probes.values():
+        for p in [*run.probes.values(), *run.forgers.values()]:
             p.close()
         if run.sim is not None:
             run.sim.stop()
@@ -139,10 +141,11 @@ def run_chaos(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
                     + (f"; ignored SIGINT: {', '.join(run.sim.forced)}" if run.sim.forced else ""))
     if run.sim is None or run.sim.building is None:
         return EXIT_FAILED
-    return finish(run, hostile, relays, error, out)
+    return finish(run, hostile, relays, error, out, forged)
 
 
-def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error: str, out: TextIO) -> int:
+def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error: str, out: TextIO,
+           forged: list[dict[str, Any]] | None = None) -> int:
     args = run.args
     assert run.sim is not None and run.sim.building is not None
     records = [rec for p in run.probes.values() for rec in p.records()]
@@ -192,7 +195,7 @@ def finish(run: ChaosRun, hostile: dict[str, int], relays: dict[str, int], error
         run_folder=str(run.run_dir), wall_s=wall_s, sim_s=sim_s, steps=steps,
         table3_bags_expected=book.table3_with(expected, fates, book.retried_goals(steps)), bags_error=bags_error,
         machines=bool(args.machines), relay_counters=relays,
-        table3_tour=expected_table3(run.building, run.trips))
+        table3_tour=expected_table3(run.building, run.trips), forgeries=forged or [])
     problems = run.tours_problems() if run.tours_before else ["the tour directories were never read"]
     result.tours_intact, result.tours_problems = not problems, problems
     doc = result.to_json()

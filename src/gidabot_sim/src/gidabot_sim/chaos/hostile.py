@@ -6,6 +6,12 @@ exist; cancels of goals nobody knows; tours with path or device file names; even
 poses and pending lists with NaN numbers; visitor commands of unknown kinds; an ``initialpose`` and an obstacle
 with NaN coordinates. A message is a template (:class:`Hostile`); :func:`fill_placeholders` makes it for one
 master's robot, and the chaos probe (``gidabot_sim.chaos.probe_node``) publishes it.
+
+The chaos probe is none of the robot's nodes nor one of its relay ends: whatever it publishes is an impostor's
+(gidabot_navigation.senders), refused before its content is read and counted as ``refused_impostor`` by the
+guiding nodes and the tour store, ``rejected_impostor`` by the relay ends (which do not forward it).
+Its content still matters where no sender rule applies (``initialpose``, the simulator's obstacles) and to the
+nodes that validate first. The forgeries about real trips are :mod:`gidabot_sim.chaos.forgery`'s.
 """
 
 from __future__ import annotations
@@ -15,8 +21,9 @@ from typing import Any
 
 from gidabot_navigation.interface import Topic
 
-# counters by which a node says it refused (or, for a cancel of a goal never seen, kept aside) a message
-HOSTILE_COUNTERS = ("rejected_", "cancel_unknown")
+# counters by which a node says it refused (``refused_<kind>``: not its sender's to send, or invalid), rejected (or,
+# for a cancel of a goal never seen, kept aside) a message
+HOSTILE_COUNTERS = ("refused_", "rejected_", "cancel_unknown")
 
 
 @dataclass(frozen=True)

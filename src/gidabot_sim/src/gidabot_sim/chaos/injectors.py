@@ -17,12 +17,14 @@ import time
 from collections.abc import Callable, Iterator
 
 from gidabot_navigation.interface import Node, RobotState, global_name
+from gidabot_navigation.senders import uid_robot
 from gidabot_sim.chaos.faults import LinkCuts
+from gidabot_sim.chaos.forgery import grown, reaching, refusals
 from gidabot_sim.chaos.hostile import HOSTILE_COUNTERS, fill_placeholders, hostile_by_name
 from gidabot_sim.chaos.obstacle import choose_obstacle
 from gidabot_sim.chaos.result import FaultResult
 from gidabot_sim.chaos.run import ChaosRun, latest, wall_time
-from gidabot_sim.chaos.schedule import MASTER, Fault, Kind
+from gidabot_sim.chaos.schedule import FORGED_TRIP, MASTER, Fault, Kind
 from gidabot_sim.errors import ChaosError, FaultError, MachinesError, ProcessError
 from gidabot_sim.runner.machines import Machines
 
@@ -271,7 +273,11 @@ class Injector:
 
     def _hostile(self, f: Fault, res: FaultResult) -> None:
         """One hostile message on one master, accounted for: which node of that master rejected and counted
-        it (a ``rejected*`` counter of its /diagnostics that grew; one hostile message at a time)."""
+        it (a ``rejected*`` or ``refused*`` counter of its /diagnostics that grew; one hostile message at a time).
+        The chaos probe is none of the robot's nodes: its messages are an impostor's."""
+        if f.target == FORGED_TRIP:
+            self._forged_trip(f, res)
+            return
         h = hostile_by_name(f.target)
         other = next(r.name for r in self.run.building.robots if r.name != f.robot)
         msg = fill_placeholders(h.msg, f.robot, other)
@@ -293,6 +299,40 @@ class Injector:
                 break
             self.run.pause(0.3)
         res.accounted = grew
+
+    def _forged_trip(self, f: Fault, res: FaultResult) -> None:
+        """The forgeries about the tour's latest goal (``forgery.forgeries``: its uid and the next ones), on the
+        master of its origin robot, accounted for: every node there that receives them counted at least as many
+        refusals as forged messages reached it (else ``accounted`` stays empty: a failure)."""
+        uids = list(self.run.watch.floors)            # the tour's goals, in the order seen
+        if not uids:
+            res.skipped = "no goal of the tour yet"
+            return
+        uid = uids[-1]
+        origin = uid_robot(uid) or ""
+        if origin not in self.run.probes:
+            res.skipped = f"goal {uid[:80]!r} has no origin robot of the building"
+            return
+        probe = self.run.probes[origin]
+        res.fault = Fault(f.kind, origin, target=f.target)
+        before = refusals(probe.call("counters")["status"], origin)
+        res.injected = wall_time()
+        want = reaching(probe.call("forge", uid=uid, origin=origin)["sent"])
+        res.cleared = wall_time()
+        res.detail = f"forged about {uid}: " + ", ".join(f"{n} to {node}" for node, n in want.items())
+        deadline = time.monotonic() + HOSTILE_WAIT + 2.0
+        got: dict[str, int] = {}
+        while time.monotonic() < deadline and not self.run.stopped():
+            after = probe.call("counters")
+            got = grown(before, refusals(after["status"], origin))
+            if all(got.get(node, 0) >= n for node, n in want.items()) and \
+                    all(t > res.cleared + 1.0 for t in after["heard"].values()):
+                break
+            self.run.pause(0.3)
+        ok = all(got.get(node, 0) >= n for node, n in want.items())
+        res.accounted = {f"{node}.refused": got.get(node, 0) for node in want} if ok else {}
+        if not ok:
+            res.detail += "; refused: " + ", ".join(f"{got.get(node, 0)} by {node}" for node in want)
 
     # -- overlapping faults -------------------------------------------------------------------
     def _masters_down(self, f: Fault, res: FaultResult) -> None:

@@ -28,14 +28,16 @@ class ChaosProbeClient:
     ``command`` runs its command line where that master is (a robot's machine)."""
 
     def __init__(self, robot: str, env: dict[str, str], out: Path, log: Path, timeout: float = 30.0,
-                 command: Callable[[list[str]], list[str]] = list) -> None:
+                 command: Callable[[list[str]], list[str]] = list, name: str = "", forge: bool = False) -> None:
+        """``name``: the probe's node name (default ``chaos_probe``); ``forge``: it forges messages about every
+        real goal uid it sees (``gidabot_sim.chaos.forgery``)."""
         self.robot = robot
         self.out = out
         self.timeout = timeout
         out.parent.mkdir(parents=True, exist_ok=True)
         self._log = open(log, "ab")  # noqa: SIM115 - closed in close()
         argv = command([sys.executable, node_executable("gidabot_sim", "chaos_probe"), "--robot", robot,
-                        "--out", str(out)])
+                        "--out", str(out), *(["--name", name] if name else []), *(["--forge"] if forge else [])])
         self.proc = subprocess.Popen(argv, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self._log,
                                      start_new_session=True, text=True, bufsize=1)
         self._read(60.0, "start")

@@ -17,12 +17,20 @@ It watches what its master delivers and acts on it when the chaos runner asks:
   master);
 * reads the ``/diagnostics`` counters of its master's nodes (rejected input, the relays' link
   losses and resent events): it keeps the latest values of every status it hears (a subscription
-  made at start), so the runner can tell which node counted a hostile message it just sent.
+  made at start), so the runner can tell which node counted a hostile message it just sent;
+* forges messages about real trips (:mod:`gidabot_sim.chaos.forgery`): on request for one goal uid
+  (``forge``), or, with ``--forge``, for every goal uid a robot's own node or relay end publishes on its
+  master, as soon as it is seen; it counts what it sent per topic and, per node of its robot, the
+  refusals those nodes counted since it started (``forged``; a node that restarted counts from 0 again).
+
+Node name ``/chaos_probe`` (its caller id tells its own hostile messages apart), or ``--name`` (a forger
+named like an impostor relay end, ``forgery.impostor_relay``). None of them is a node of the robot:
+every message it publishes on a shared topic is an impostor's, refused and counted by the nodes that
+receive it.
 
 Driven by JSON lines on stdin, one JSON reply per line on stdout (``ChaosProbeClient``
 in :mod:`gidabot_sim.chaos.probe_client`). The probe keeps itself registered across master restarts
-(``keep_registered``). Node name ``/chaos_probe`` (its caller id tells its own hostile
-messages apart).
+(``keep_registered``).
 
     {"op": "deliveries", "topic": "status", "since": T, "stamped": S}
                               -> {"first": {robot: wall time}} of the first received at or after wall time T,
@@ -34,6 +42,10 @@ messages apart).
     {"op": "obstacle", "action": "add"|"remove", "id": I, "x": X, "y": Y, "radius": R}
     {"op": "counters"}                                      -> {"status": {name: {key: int}} (whole numbers),
                                                                 "heard": {name: wall time of its latest status}}
+    {"op": "forge", "uid": U, "origin": R}                  -> {"sent": {topic: n}} the forgeries of goal U of R
+    {"op": "forged"}                                        -> {"sent": {topic: n}, "refused": {node: n},
+                                                                "uids": n, "last": wall time of the last one,
+                                                                "pending": uids seen, not yet forged about}
     {"op": "quit"}
 """
 
@@ -49,7 +61,9 @@ import time
 from collections import defaultdict
 from typing import Any
 
-from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.interface import GUIDING_CALLERIDS, Node, Topic, is_relay_end
+from gidabot_navigation.senders import uid_robot
+from gidabot_sim.chaos.forgery import Forged, forgeries, refusals
 
 MAX_RECEIPTS = 20000         # per (topic, robot): far more than a run needs
 
@@ -89,7 +103,7 @@ class ChaosProbeNode:
     ``move_base/NavfnROS/plan``, ``/diagnostics``; publishes hostile messages on any topic
     it is asked to and ``/sim/obstacle``."""
 
-    def __init__(self, robot: str, out_path: str) -> None:
+    def __init__(self, robot: str, out_path: str, forge: bool = False) -> None:
         import rospy
         from geometry_msgs.msg import PoseWithCovarianceStamped
         from nav_msgs.msg import Path
@@ -98,6 +112,16 @@ class ChaosProbeNode:
 
         self.rospy = rospy
         self.robot = robot
+        self.name = rospy.get_name()
+        self.forge_all = forge
+        self.forged_uids: set[str] = set()
+        self.forge_queue: list[tuple[str, str]] = []
+        self.forge_cv = threading.Condition()
+        self.forging = 0                                      # 1 while a uid's forgeries are being published
+        self.sent: dict[str, int] = defaultdict(int)       # topic -> forged messages published
+        self.last_forged = 0.0
+        self.refused_total: dict[str, int] = {}             # node -> refusals counted since this probe started
+        self.refused_last: dict[str, int] = {}              # node -> its latest reading
         self.lock = threading.Lock()
         self.out = open(out_path, "a", encoding="utf-8")  # noqa: SIM115 - closed in close()
         # topic -> robot -> [(wall time received, header stamp)]
@@ -136,6 +160,8 @@ class ChaosProbeNode:
         for h in HOSTILE_MESSAGES:
             self._publisher(h.topic, h.type)
         self._publisher(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle")
+        self.forger = threading.Thread(target=self._forge_loop, daemon=True)
+        self.forger.start()
 
     # -- recording --------------------------------------------------------------------------
     def _write(self, kind: str, msg: Any, **data: Any) -> None:
@@ -160,7 +186,22 @@ class ChaosProbeNode:
     def _clip(text: Any, n: int = 160) -> str:
         return text[:n] if isinstance(text, str) else ""
 
+    def _to_forge(self, m: Any, uid: str, origin: str) -> None:
+        """With ``--forge``: queue the forgeries about goal ``uid`` of ``origin``, named by a message ``m`` of a
+        guiding node or relay end of this master (a goal, or an event about it: a goal missed is still forged
+        about), once per uid."""
+        caller = str(getattr(m, "_connection_header", {}).get("callerid", ""))
+        legit = caller in GUIDING_CALLERIDS or (is_relay_end(caller) and caller != self.name)
+        if not (self.forge_all and uid and legit):
+            return
+        with self.forge_cv:
+            if uid not in self.forged_uids:
+                self.forged_uids.add(uid)
+                self.forge_queue.append((uid, origin))
+                self.forge_cv.notify()
+
     def _on_goal(self, m: Any) -> None:
+        self._to_forge(m, m.uid, m.origin_robot)
         self._write("goal", m, uid=self._clip(m.uid), origin=self._clip(m.origin_robot, 64),
                     initial_floor=_num(m.initial_floor), goal_floor=_num(m.goal_floor),
                     goal_id=self._clip(m.goal_id, 64), connector=self._clip(m.connector, 64),
@@ -173,6 +214,7 @@ class ChaosProbeNode:
                     origin=self._clip(m.origin_robot, 64), reason=self._clip(m.reason, 32))
 
     def _on_event(self, m: Any) -> None:
+        self._to_forge(m, m.goal_uid, uid_robot(m.goal_uid) or "")
         self._write("event", m, uid=self._clip(m.uid), robot=self._clip(m.robot, 64), goal_uid=self._clip(m.goal_uid),
                     phase=int(m.phase), s=_num(m.header.stamp.to_sec()), tour_file=self._clip(m.tour_file, 64),
                     tour_step=int(m.tour_step), leg=self._clip(m.leg, 8), attempt=int(m.attempt),
@@ -211,6 +253,10 @@ class ChaosProbeNode:
             with self.lock:
                 self.counters[st.name] = values
                 self.heard[st.name] = now
+                for node, n in refusals({st.name: values}, self.robot).items():
+                    last = self.refused_last.get(node, 0)
+                    self.refused_total[node] = self.refused_total.get(node, 0) + (n - last if n >= last else n)
+                    self.refused_last[node] = n
 
     def _on_pose(self, m: Any) -> None:
         from gidabot_navigation.building.geometry import quaternion_to_yaw
@@ -267,7 +313,48 @@ class ChaosProbeNode:
             with self.lock:
                 return {"ok": True, "status": {k: dict(v) for k, v in self.counters.items()},
                         "heard": dict(self.heard)}
+        if op == "forge":
+            return {"ok": True, "sent": self.forge(str(cmd["uid"]), str(cmd["origin"]))}
+        if op == "forged":
+            with self.lock:
+                return {"ok": True, "sent": dict(self.sent), "refused": dict(self.refused_total),
+                        "uids": len(self.forged_uids), "last": self.last_forged,
+                        "pending": len(self.forge_queue) + self.forging}
         raise ValueError(f"unknown op {op!r}")
+
+    # -- forging ----------------------------------------------------------------------------
+    def forge(self, uid: str, origin: str) -> dict[str, int]:
+        """Publish the forgeries of goal ``uid`` of ``origin`` (each once every subscriber is connected)."""
+        sent: dict[str, int] = defaultdict(int)
+        with self.lock:
+            serial = sum(self.sent.values())
+        for f in forgeries(uid, origin, serial):
+            self._forge_one(f)
+            sent[f.topic] += 1
+        return dict(sent)
+
+    def _forge_one(self, f: Forged) -> None:
+        self.publish(f.topic, f.type, dict(f.msg), 3.0)
+        with self.lock:
+            self.sent[f.topic] += 1
+            self.last_forged = time.time()
+
+    def _forge_loop(self) -> None:
+        """With ``--forge``: the forgeries of every real goal uid seen, in the order seen."""
+        while not self.rospy.is_shutdown():
+            with self.forge_cv:
+                while not self.forge_queue:
+                    self.forge_cv.wait(0.5)
+                    if self.rospy.is_shutdown():
+                        return
+                uid, origin = self.forge_queue.pop(0)
+                self.forging = 1
+            try:
+                self.forge(uid, origin)
+            except Exception as err:  # noqa: BLE001 - a master away: the forger goes on with the next uid
+                self.rospy.logwarn(f"forging for {uid}: {type(err).__name__}: {err}")
+            finally:
+                self.forging = 0
 
     def _publisher(self, topic: str, type_: str) -> tuple[Any, type]:
         import roslib.message
@@ -277,25 +364,30 @@ class ChaosProbeNode:
             raise ValueError(f"unknown message type {type_}")
         key = f"{topic} {type_}"
         if key not in self.pubs:
-            self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=10)
+            self.pubs[key] = self.rospy.Publisher(topic, cls, queue_size=1000)   # bursts of forgeries: none dropped
         return self.pubs[key], cls
 
-    def _subscribers(self, topic: str) -> int:
-        """How many nodes the master lists as subscribers of ``topic`` (0 if it does not answer)."""
+    def _subscribers(self, topic: str) -> set[str]:
+        """The nodes the master lists as subscribers of ``topic`` (none if it does not answer); for a probe named
+        like a relay end, the relay ends left out (they close their connections to such a publisher)."""
         import rosgraph
 
         try:
             _, subs, _ = rosgraph.Master(self.rospy.get_name()).getSystemState()
         except Exception:  # noqa: BLE001 - rosgraph raises several types; a master away means "unknown"
-            return 0
+            return set()
         name = self.rospy.resolve_name(topic)
-        return next((len(nodes) for t, nodes in subs if t == name), 0)
+        nodes = next((nodes for t, nodes in subs if t == name), [])
+        return {n for n in nodes if not (is_relay_end(self.name) and is_relay_end(n))}
 
     def publish(self, topic: str, type_: str, data: dict[str, Any], wait: float) -> None:
+        from gidabot_navigation.ros.rospy_internals import connected_subscribers
+
         pub, cls = self._publisher(topic, type_)
-        want = max(1, self._subscribers(topic))
+        want = self._subscribers(topic) or {""}       # (nobody listed: wait for a first connection)
         deadline = time.monotonic() + wait
-        while pub.get_num_connections() < want and time.monotonic() < deadline:
+        while time.monotonic() < deadline and not (want <= connected_subscribers(pub) if "" not in want
+                                                   else pub.get_num_connections() >= 1):
             time.sleep(0.02)
         header = data.pop("header", None)
         msg = build_message(cls, data)
@@ -319,6 +411,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog=Node.CHAOS_PROBE)
     ap.add_argument("--robot", required=True)
     ap.add_argument("--out", required=True)
+    ap.add_argument("--name", default=Node.CHAOS_PROBE, help="node name (default chaos_probe)")
+    ap.add_argument("--forge", action="store_true", help="forge messages about every real goal uid seen")
     args = ap.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
     # replies own the real stdout; everything else (rospy's log lines) goes to stderr
     replies = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
@@ -328,10 +422,10 @@ def main(argv: list[str] | None = None) -> int:
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
-    rospy.init_node(Node.CHAOS_PROBE, disable_signals=True, disable_rostime=True)
+    rospy_exit_guard(args.name)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
+    rospy.init_node(args.name, disable_signals=True, disable_rostime=True)
     keep_registered()
-    node = ChaosProbeNode(args.robot, args.out)
+    node = ChaosProbeNode(args.robot, args.out, forge=args.forge)
     replies.write(json.dumps({"ok": True, "ready": True}) + "\n")
     for line in sys.stdin:
         if not line.strip():

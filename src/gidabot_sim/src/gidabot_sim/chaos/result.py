@@ -76,6 +76,7 @@ class ChaosResult:
     relay_counters: dict[str, int] = field(default_factory=dict)   # RELAY_COUNTERS summed over every relay end
     republished_cancels: dict[str, list[str]] = field(default_factory=dict)   # published again by their node
     table3_tour: dict[str, tuple[int, int]] = field(default_factory=dict)     # the tour's, before retries
+    forgeries: list[dict[str, Any]] = field(default_factory=list)   # the forgers' messages, per master and node
 
     # -- derived --------------------------------------------------------------------------
     def injected(self) -> list[FaultResult]:
@@ -119,6 +120,11 @@ class ChaosResult:
         """Hostile messages injected that no node of the master they were sent to rejected and counted."""
         return [f.fault.label() for f in self.injected() if f.fault.kind == Kind.HOSTILE and not f.accounted]
 
+    def unaccounted_forgeries(self) -> list[str]:
+        """Nodes that counted fewer refusals than the forgers' messages that reached them."""
+        return [f"{a['node']}@{a['robot']}: {a['refused']} refused of {a['sent']}" for a in self.forgeries
+                if not a["accounted"]]
+
     def unfinished_steps(self) -> list[StepFate]:
         return [st for st in self.steps if not st.passed]
 
@@ -147,6 +153,8 @@ class ChaosResult:
         if self.unaccounted_hostile():
             out.append(f"{len(self.unaccounted_hostile())} hostile message(s) not rejected and counted by any node: "
                        + "; ".join(self.unaccounted_hostile()))
+        if self.unaccounted_forgeries():
+            out.append("forged messages not all refused and counted: " + "; ".join(self.unaccounted_forgeries()))
         if not self.tours_intact:
             out.append("a tour directory changed")
         if self.partner_answered < self.partner_lost:
@@ -192,6 +200,7 @@ class ChaosResult:
             "tours_intact": self.tours_intact, "tours_problems": self.tours_problems,
             "hostile_rejected": self.hostile_rejected,
             "hostile_unaccounted": self.unaccounted_hostile(),
+            "forgeries": self.forgeries, "forgeries_unaccounted": self.unaccounted_forgeries(),
             "relay_counters": self.relay_counters,
             "partner_lost": self.partner_lost, "partner_lost_answered": self.partner_answered,
             "tour_completed": self.tour_completed, "outcome": self.outcome,
@@ -239,6 +248,9 @@ class ChaosResult:
                   + (", ".join(f"{f.fault.target}@{f.fault.robot} -> "
                                + (",".join(f"{k} +{v}" for k, v in sorted((f.accounted or {}).items())) or "NOTHING")
                                for f in self.injected() if f.fault.kind == Kind.HOSTILE) or "-"),
+                  *(["Forged messages (forgers on every master) sent / refused, per node: "
+                     + ", ".join(f"{a['node']}@{a['robot']} {a['sent']} / {a['refused']}" for a in self.forgeries)]
+                    if self.forgeries else []),
                   "Relay ends (all links, summed): "
                   + (", ".join(f"{k} {self.relay_counters.get(k, 0)}" for k in RELAY_COUNTERS)
                      if self.relay_counters else "-"),
@@ -263,6 +275,7 @@ class ChaosResult:
         lines += ["", f"Tour: {self.outcome}"]
         failures = self.failures()
         lines.append("RESULT: " + ("PASSED (every request completed, 0 lost, 0 duplicated, recoveries within 5 s, "
-                                   "Table 3 as expected from probes and bags, every hostile message counted, no "
-                                   "crash, tours intact)" if not failures else "FAILED: " + "; ".join(failures)))
+                                   "Table 3 as expected from probes and bags, every hostile and forged message "
+                                   "counted, no crash, tours intact)"
+                                   if not failures else "FAILED: " + "; ".join(failures)))
         return "\n".join(lines)

@@ -22,6 +22,7 @@ from typing import Any, TextIO
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.tours.tour_file import Tour
 from gidabot_sim.chaos.crashes import log_sizes, scan_logs
+from gidabot_sim.chaos.forgery import NodeAccount, account, impostor_relay
 from gidabot_sim.chaos.probe_client import ChaosProbeClient
 from gidabot_sim.chaos.result import RELAY_COUNTERS, FaultResult
 from gidabot_sim.chaos.schedule import PROFILES, Fault, Kind, clock_offsets, make_schedule, schedule_seconds
@@ -65,12 +66,13 @@ class ChaosRun:
         sched_s = schedule_seconds(self.schedule)
         if args.speed is None:   # the tour must outlast the faults: ~100 s of sim time per goal; the faults take
             # longer than their schedule on a loaded machine (a relay supervisor respawns in seconds): 2x margin
-            args.speed = round(min(20.0, max(1.5, SIM_S_PER_GOAL * len(tour.goals) / (2.0 * sched_s))), 1)
+            args.speed = round(min(20.0, max(1.5, SIM_S_PER_GOAL * len(tour.goals) / (2.0 * max(sched_s, 1.0)))), 1)
         if args.timeout is None:
             args.timeout = 240.0 + sched_s + 3.0 * SIM_S_PER_GOAL * len(tour.goals) / args.speed
         self.run_dir = run_folder(args.out, f"chaos-{Path(tour.file_name).stem}-seed{args.seed}")
         self.results: list[FaultResult] = []
         self.probes: dict[str, ChaosProbeClient] = {}
+        self.forgers: dict[str, ChaosProbeClient] = {}     # with the profile's forgers: one per master
         self.killed: set[int] = set()           # pids this run killed on purpose (expected deaths)
         self.begin = wall_time()
         self.log_sizes: dict[Path, int] = {}
@@ -103,6 +105,11 @@ class ChaosRun:
                 r.name, self.sim.env(r.name), self.run_dir / "chaos" / f"{r.name}.jsonl",
                 self.run_dir / "logs" / f"probe_{r.name}.log",
                 command=lambda argv, robot=r.name: self.sim.command(robot, argv))  # type: ignore[union-attr]
+            if self.profile.forgers:     # named like a relay end of a link the building does not have
+                self.forgers[r.name] = ChaosProbeClient(
+                    r.name, self.sim.env(r.name), self.run_dir / "chaos" / f"forger_{r.name}.jsonl",
+                    self.run_dir / "logs" / f"forger_{r.name}.log", name=impostor_relay(r.name).lstrip("/"), forge=True,
+                    command=lambda argv, robot=r.name: self.sim.command(robot, argv))  # type: ignore[union-attr]
         self.tail = Tail([p.out for p in self.probes.values()])
         for robot, offset in self.clock_offsets.items():      # a setting of the whole run, listed with the faults
             self.results.append(FaultResult(Fault(Kind.CLOCK_OFFSET, robot, target=f"{offset:+g} s"),
@@ -141,7 +148,7 @@ class ChaosRun:
         for name in self.sim.dead():
             if not name.startswith("master_"):
                 raise ChaosError(f"{name} stopped unexpectedly (see {self.run_dir / 'logs'})")
-        for p in self.probes.values():
+        for p in [*self.probes.values(), *self.forgers.values()]:
             if p.proc.poll() is not None:
                 raise ChaosError(f"the chaos probe of {p.robot} exited with {p.proc.returncode}")
 
@@ -293,6 +300,21 @@ class ChaosRun:
                         if k.startswith("rejected_") and v:
                             total[f"{who}.{k}"] = total.get(f"{who}.{k}", 0) + v
         return total
+
+    def forgery_accounts(self, settle: float = 30.0) -> list[NodeAccount]:
+        """Per master and node receiving them: the forgers' messages against the refusals that node counted since
+        the forger started (waiting up to ``settle`` s for the forgeries still due and for counters published after
+        the last one)."""
+        deadline = time.monotonic() + settle
+        while True:
+            docs = {r: f.call("forged") for r, f in self.forgers.items()}
+            heard_after = all(doc["pending"] == 0 for doc in docs.values()) and \
+                all(t > doc["last"] + 1.0 for r, doc in docs.items()
+                    for t in self.forgers[r].call("counters")["heard"].values())
+            accounts = [a for r, doc in docs.items() for a in account(r, doc["sent"], doc["refused"])]
+            if (heard_after and all(a.accounted for a in accounts)) or time.monotonic() > deadline:
+                return accounts
+            time.sleep(0.5)
 
     def relay_counters(self) -> dict[str, int]:
         """What the relay ends of every robot did, summed: link losses, events resent, acknowledged on

@@ -72,6 +72,8 @@ class Profile:
     corridors: int = 2
     corridor_s: tuple[float, float] = (5.0, 20.0)
     hostile: int = 10
+    forged_trips: int = 3              # hostile messages that are forgeries about the trip under way (forgery.py)
+    forgers: bool = False              # a forger on every master forges about every real goal uid it sees
     gap_s: tuple[float, float] = (3.0, 7.0)
     # overlapping faults
     masters_down: int = 1                  # two masters down at once
@@ -101,8 +103,14 @@ PROFILES = {
                      freeze_s=(2.0, 3.0), corridor_s=(4.0, 6.0), gap_s=(2.0, 3.0), masters_down=1,
                      cut_master_restarts=1, long_partitions=0, partitions=1, partition_s=(3.0, 6.0), flaps=1,
                      flap_s=(6.0, 8.0), one_way=1, one_way_s=(3.0, 5.0), lossy=1, lossy_s=(4.0, 6.0),
-                     machine_downs=1, machine_down_s=15.0),
+                     machine_downs=1, machine_down_s=15.0, forged_trips=2),
+    # no fault: the tour with a forger on every master, about every trip (tests/chaos/test_forgeries.py)
+    "forgeries": Profile(iptables_cuts=0, relay_end_cuts=0, supervisor_kills=0, master_restarts=0, node_restarts=0,
+                         freezes=0, corridors=0, hostile=0, forged_trips=0, forgers=True, masters_down=0,
+                         cut_master_restarts=0, long_partitions=0, partitions=0, flaps=0, one_way=0, lossy=0,
+                         machine_downs=0),
 }
+FORGED_TRIP = "forged_trip"            # the target of a hostile message that is a forgery about the trip under way
 
 
 def clock_offsets(seed: int, building: Building, profile: Profile) -> dict[str, float]:
@@ -206,6 +214,9 @@ def make_schedule(seed: int, building: Building, profile: Profile, machines: boo
     hostile = [Fault(Kind.HOSTILE, rng.choice(robots), target=names[i % len(names)]) for i in range(p.hostile)]
     for h in hostile:                  # between the others, at random places
         faults.insert(rng.randrange(len(faults) + 1), h)
+    forged = random.Random(seed * 7907 + 3)       # (the other faults stay those the seed always gave)
+    for _ in range(p.forged_trips):    # the robot is the trip's origin, chosen when injected
+        faults.insert(forged.randrange(len(faults) + 1), Fault(Kind.HOSTILE, "", target=FORGED_TRIP))
     # half the link cuts, every node restart and freeze of a guiding node hit the trip under way
     out, cut = [], 0
     for f in faults:

@@ -31,8 +31,9 @@ from typing import Any
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CommandData, NavEventData, Trip
-from gidabot_navigation.interface import WAYS
+from gidabot_navigation.interface import WAYS, Topic
 from gidabot_navigation.logs import Logger
+from gidabot_navigation.senders import Claim, Gate, Senders, claim_of
 from gidabot_navigation.tours.tour_file import tour_from_lines
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
@@ -81,6 +82,8 @@ class VisitorStation:
             cancel_after_s=p.cancel_after_s, no_show=p.no_show, patience_s=p.patience_s)) for p in population} \
             or {cfg.visitor_id: VisitorCore(cfg)}
         self.robots = {r.name for r in building.robots}
+        # whose events it takes: a robot's own nodes for that robot, a relay end for its peer (senders.py)
+        self.gate = Gate(Senders.of_building(building, cfg.robot, simulated=True), log)
         self.screen: Screen | None = None
         if any(c.cfg.patience_s >= 0 for c in self.cores.values()):
             self.screen = screen or Screen(building)
@@ -117,6 +120,12 @@ class VisitorStation:
         return bool(self._tours_missing)
 
     # -- inputs (any thread) ----------------------------------------------------------------------------
+    def on_goal_from(self, sender: str, origin_robot: str, goal_uid: str, visitor_id: str, now: float) -> None:
+        """A Goal published by ``sender``: taken (:meth:`on_goal`) only when its sender may speak for its origin
+        robot and its uid is that robot's (else refused and counted), so a forged goal never takes a trip's uid."""
+        if self.gate.admit(sender, Claim(origin_robot, goal_uid), "goal") is not None:
+            self.on_goal(goal_uid, visitor_id, now)
+
     def on_goal(self, goal_uid: str, visitor_id: str, now: float) -> None:
         """Population: the trip ``goal_uid`` is for ``visitor_id``; its events held back so far go to it."""
         with self._lock:
@@ -129,6 +138,13 @@ class VisitorStation:
             for event in held:
                 self._unrouted.remove(event)
                 self._deliver(core, event, now)
+
+    def on_event_from(self, sender: str, event: NavEventData, now: float) -> None:
+        """A NavEvent published by ``sender`` on this robot's master: taken (:meth:`on_event`) only when it speaks
+        for a robot its sender may speak for, with a uid of that robot (else refused and counted:
+        ``self.gate.refusals()``), so a forged event never moves a visitor."""
+        if self.gate.admit(sender, claim_of(Topic.NAV_EVENTS, event) or Claim(""), "nav event") is not None:
+            self.on_event(event, now)
 
     def on_event(self, event: NavEventData, now: float) -> None:
         with self._lock:

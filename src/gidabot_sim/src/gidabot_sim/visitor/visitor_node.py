@@ -16,6 +16,7 @@ from gidabot_msgs.msg import Goal, NavEvent, PendingRequests, RobotStatus, TourC
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
+from gidabot_navigation.ros.adapter import sender
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
@@ -101,10 +102,10 @@ class VisitorNode:
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
     def _on_goal(self, msg: Goal) -> None:
-        self.station.on_goal(msg.uid, msg.visitor_id, rospy.get_time())
+        self.station.on_goal_from(sender(msg), msg.origin_robot, msg.uid, msg.visitor_id, rospy.get_time())
 
     def _on_event(self, msg: NavEvent) -> None:
-        self.station.on_event(convert.nav_event_of(msg), rospy.get_time())
+        self.station.on_event_from(sender(msg), convert.nav_event_of(msg), rospy.get_time())
 
     def _on_catalog(self, msg: TourCatalog) -> None:
         self.station.on_catalog(convert.tours_of(msg))
