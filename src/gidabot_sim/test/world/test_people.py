@@ -16,9 +16,9 @@ from sim_support import ListLog
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
-from gidabot_navigation.interface import PERSON_ID_PREFIX, Topic
+from gidabot_navigation.interface import PERSON_ID_PREFIX
 from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore, SensedRobot
-from gidabot_sim.visitor.behaviour import Behaviour, Bystander
+from gidabot_sim.visitor.behaviour import TIDY, Behaviour, Bystander
 from gidabot_sim.world import floor_sim as fs
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.people import FOLLOW, GONE, LEAVE, PERSON_RADIUS, Crowd, Directive, RobotDisc
@@ -49,7 +49,7 @@ def drive(crowd: Crowd, world: World, t0: float, seconds: float, speed: float, o
     return t
 
 
-def setup(behaviour: Behaviour = Behaviour()) -> tuple[Crowd, World]:
+def setup(behaviour: Behaviour = TIDY) -> tuple[Crowd, World]:
     world = World(hall(), rng=np.random.default_rng(1))
     world.add_robot(RobotSpec("R", 0.3, LIMITS, LaserSpec(noise=0.0, fov=2 * math.pi)), Pose2D(3.0, 2.5, 0.0))
     crowd = Crowd(world.clearance)

@@ -38,10 +38,10 @@ from gidabot_navigation.errors import GidaBotError, PlanningError
 from gidabot_navigation.interface import Topic
 from gidabot_navigation.logs import Logger
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
+from gidabot_sim.visitor.behaviour import draw_bystanders
 from gidabot_sim.world.clock import Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits, Twist2D
 from gidabot_sim.world.lockstep import CONTROLLERS, Lockstep, Stepper
-from gidabot_sim.visitor.behaviour import draw_bystanders
 from gidabot_sim.world.mates import Mates, MateState, mate_motion
 from gidabot_sim.world.people import PERSON_RADIUS, Crowd, Directive, RobotDisc
 from gidabot_sim.world.rejections import CountingLog

@@ -164,7 +164,8 @@ class SimNode:
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1);
       ``~deadlock_time`` (sim s, 30); ``~people`` (0..100, 0) bystanders walking the floor between its places (the
-        simulator of the floor's first robot by name walks them), drawn from ``~people_seed`` (1); ``~mates`` (path of the building's mates file, '' = none: the other robots
+        simulator of the floor's first robot by name walks them), drawn from ``~people_seed`` (1);
+      ``~mates`` (path of the building's mates file, '' = none: the other robots
         of this floor, each simulated by its own simulator on its own master, share the floor through it,
         :mod:`gidabot_sim.world.mates`: this node writes its robot's motion there after each step and reads
         theirs before each, into its world; ``robots_seen`` is then published for its robot too).
