@@ -12,8 +12,9 @@ robot's laser sees in its ``robots_seen`` (its move_base's obstacle layer), ids 
 * ``FOLLOW`` robot R: it appears (when not on this floor yet) next to ``(x, y)``, or next to R when that is not a
   number (at R's screen, or at the meeting point where R waits for it, come from the stairs or the lift) and
   walks at its behaviour's speed along R's path (the points R drove through, recorded here: free of walls),
-  until it is its ``gap`` behind R; it stands while a pause of its behaviour lasts, and when its behaviour wanders off it walks back along R's path and leaves the floor (for
-  good); a group is several bodies, each a little further behind;
+  until it is its ``gap`` behind R; it stands while a pause of its behaviour lasts, and when its behaviour
+  wanders off it walks back along R's path and leaves the floor (for good); a group is several bodies, each
+  a little further behind;
 * ``LEAVE``: it walks towards ``(x, y)`` (the stairs or the lift; not a number: it stands) and leaves the floor
   there, at the latest after :data:`LEAVE_S`;
 * ``GONE``: the visit is over, it leaves the floor.
