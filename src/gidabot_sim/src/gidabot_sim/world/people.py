@@ -183,9 +183,9 @@ class Crowd:
 
     def _free_spot(self, x: float, y: float, robots: Sequence[RobotDisc],
                    taken: Sequence[tuple[float, float]]) -> tuple[float, float]:
-        """The nearest spot to (x, y) on rings of 0.6..2.4 m where a body fits clear of walls, robots and ``taken``
-        (a robot usually stands at (x, y)); (x, y) when none does."""
-        for ring in (0.6, 0.9, 1.2, 1.6, 2.0, 2.4):
+        """A spot near (x, y) on rings of 1.0..2.4 m (then 0.8 m) where a body fits clear of walls, robots and
+        ``taken`` (a robot usually stands at (x, y): a metre leaves its costmap a way out); (x, y) when none does."""
+        for ring in (1.0, 1.3, 1.6, 2.0, 2.4, 0.8):
             for k in range(16):
                 a = math.pi + k * math.pi / 8.0
                 px, py = x + ring * math.cos(a), y + ring * math.sin(a)
