@@ -49,8 +49,8 @@ def _floor(procs: ProcessGroup, tmp_path: Path, fov: float = 1.5 * math.pi, *arg
     building.write_text(yaml.safe_dump(doc, sort_keys=False))
     env = ros_env(uri, ip, log_dir=tmp_path / "ros")
     procs.start("floor", ["roslaunch", "--skip-log-check", str(SIM_LAUNCH), f"building:={building}",
-                          f"robot:={ROBOT}", f"initial_pose:=[{ROBOT_AT[0]}, {ROBOT_AT[1]}, 0.0]", "seed:=5", f"laser_fov:={fov}",
-                          *args], env)
+                          f"robot:={ROBOT}", f"initial_pose:=[{ROBOT_AT[0]}, {ROBOT_AT[1]}, 0.0]", "seed:=5",
+                          f"laser_fov:={fov}", *args], env)
     return building, env
 
 
