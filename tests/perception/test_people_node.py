@@ -119,7 +119,7 @@ def test_the_people_tracker_tracks_the_simulated_visitor_s_body_behind_the_guidi
                    "the robot at its goal")
         since = len(probe.msgs(Topic.PEOPLE_VISITOR))
         late = probe.wait(Topic.PEOPLE_VISITOR, lambda m: m["sight"] == Sight.SEEN and m["behind"] > 0.5, 30,
-                          "the visitor seen behind the robot at the goal")
+                          "the visitor seen behind the robot at the goal", since)
         assert late["id"] == seen["id"]                     # the same track all the way
         assert late["position"]["x"] > ROBOT_AT[0] + 5.0    # it followed
         sights = [m["sight"] for m in probe.msgs(Topic.PEOPLE_VISITOR)]

@@ -112,8 +112,10 @@ def test_the_laser_sees_a_body_and_a_robot_driving_into_it_is_stopped_and_counte
     ahead = int(np.argmin(np.abs(world.robots[0].spec.laser.angles())))
     assert ranges[ahead] == pytest.approx(6.0 - 3.1 - PERSON_RADIUS, abs=0.01)
     assert world.seen_people(0) == [0]
-    world.set_people([("person/v1", 6.0, 2.5, PERSON_RADIUS), ("person/v2", 8.0, 2.5, PERSON_RADIUS)])
-    assert world.seen_people(0) == [0]                  # the second hides behind the first
+    world.set_people([("person/v1", 6.0, 2.5, PERSON_RADIUS), ("person/v2", 8.0, 2.5, PERSON_RADIUS),
+                      ("person/v3", 1.5, 2.5, PERSON_RADIUS)])
+    assert world.seen_people(0) == [0]                  # the second hides behind the first, the third is behind
+    assert world.seen_people(0, world.scan(0, noisy=False)) == [0]
     for _ in range(400):
         world.set_command(0, 0.7, 0.0, 0.0)
         world.step()
@@ -167,7 +169,7 @@ def faculty():
 
 
 def test_the_floor_takes_directives_lists_the_people_seen_and_counts_collisions(faculty) -> None:
-    floor = Floor(faculty)
+    floor = Floor(faculty, laser=LaserSpec(fov=2 * math.pi))       # the body may stand right behind the robot
     wall = floor.run(100.0, 5)
     floor.sim.post(fs.VISITOR_BODY, -1, lambda: Directive("v1", FOLLOW, "Kbot", math.nan, math.nan, Behaviour(),
                                                           floor.sim.world.time))

@@ -449,20 +449,27 @@ class World:
 
     def seen_people(self, index: int, ranges: np.ndarray | None = None) -> list[int]:
         """Indices (into :attr:`people`) of the people robot ``index``'s laser sees now: a beam hits their disc
-        before anything else within range. ``ranges``: a noise-free scan of it with them, if at hand."""
+        before anything else within range. ``ranges``: a noise-free scan of it with them, if at hand (else only the
+        beams that hit a person are cast)."""
         if not self.people:
             return []
         laser = self.robot(index).spec.laser
         origin = self.laser_pose(index)
         angles = laser.angles() + origin.yaw
-        if ranges is None:
-            ranges = self._cast(index, origin, angles, laser.range_max)
         seen = []
         for k, (_pid, x, y, r) in enumerate(self.people):
             if math.hypot(x - origin.x, y - origin.y) - r > laser.range_max:
                 continue
             hits = disc_hits(origin.x, origin.y, angles, x, y, r)
-            if bool((hits <= ranges + 1e-9).any()):
+            beams = hits <= laser.range_max
+            if not beams.any():
+                continue
+            if ranges is not None:
+                first = ranges[beams]
+            else:
+                discs = [d for j, d in enumerate(self._discs(index)) if j != len(self.robots) - 1 + k]
+                first = self.caster.cast(origin.x, origin.y, angles[beams], laser.range_max, discs)
+            if bool((hits[beams] <= first + 1e-9).any()):
                 seen.append(k)
         return seen
 
