@@ -113,6 +113,9 @@ class Topic:
     SIM_OBSTACLES = "/sim/obstacles"
     # several robots on a floor: the other robots a robot's laser sees (/sim publishes, its move_base marks them)
     ROBOTS_SEEN = "robots_seen"
+    # the simulator only: what a simulated visitor's body does on a floor (gidabot_msgs/VisitorBody), from the visitor
+    # node of the floor's robot to its simulator (docs/simulator.md, "People")
+    SIM_VISITOR_BODY = "/sim/visitor_body"
     # the lockstep participants' answers to their floor's simulator (gidabot_msgs/StepDone; docs/simulator.md)
     SIM_STEP_DONE = "/sim/step_done"
     # ROS-wide
@@ -247,6 +250,10 @@ class RobotState(StrEnum):
 
 
 # -- gidabot_msgs/Goal ways: how a visitor changes floors (also the kinds of a building's connectors)
+# the simulator's people in a robot's ``robots_seen`` (its move_base's obstacle layer): their ids start so; robots
+# are named by their names, which never do (a building's robot names are identifiers)
+PERSON_ID_PREFIX = "person/"
+
 WAY_LIFT = "lift"
 WAY_STAIRS = "stairs"
 WAYS = (WAY_LIFT, WAY_STAIRS)

@@ -40,7 +40,7 @@ from gidabot_navigation.ros import convert
 from gidabot_navigation.tours.tour_store import CatalogData, EditResultData, IndexEntry, TourIndexData, TourMessage
 
 REPO = Path(__file__).resolve().parents[4]
-SIMULATOR_MESSAGES = {"Obstacle", "ObstacleArray", "StepDone"}     # converted in gidabot_sim
+SIMULATOR_MESSAGES = {"Obstacle", "ObstacleArray", "StepDone", "VisitorBody"}     # converted in gidabot_sim
 ELEMENT_MESSAGES = {"Person"}                                       # converted inside PersonArray
 
 # samples: every field set to a value other than its default, numbers exact in float32

@@ -21,13 +21,15 @@ from gidabot_navigation.building.occupancy import load_map
 from gidabot_navigation.building.planning import Circle, Path, Rectangle
 from gidabot_navigation.guiding.messages import CommandData
 from gidabot_navigation.interface import Cmd, Phase, Topic
-from gidabot_sim.errors import NavGoalRejected, ObstacleRejected, PoseRejected
+from gidabot_sim.errors import NavGoalRejected, ObstacleRejected, PoseRejected, SimConfigError
 from gidabot_sim.navstack.amcl import Estimate
 from gidabot_sim.navstack.move_base import SensedRobot
 from gidabot_sim.ros import convert
+from gidabot_sim.visitor.behaviour import Behaviour
 from gidabot_sim.world import floor_sim as fs
 from gidabot_sim.world.kinematics import Twist2D
 from gidabot_sim.world.lockstep import Answer
+from gidabot_sim.world.people import FOLLOW, Directive
 from gidabot_sim.world.rejections import CountingLog
 from gidabot_sim.world.world import BatteryModel, LaserSpec
 
@@ -165,3 +167,20 @@ def test_answers_plans_estimates_and_the_visitor_s_messages() -> None:
     assert (robot, trips[0].uid, wait) == ("Kbot", "K/v/1", 12.0)
     event = NavEvent(uid="K/e/1", robot="Kbot", phase=Phase.WAITING_VISITOR, detail="waiting", eta=3.0)
     assert (convert.nav_event_of(event).detail, convert.nav_event_of(event).eta) == ("waiting", 3.0)
+
+
+def test_a_visitor_body_directive_both_ways_and_a_bad_one_named() -> None:
+    d = Directive("v1", FOLLOW, "Kbot", math.nan, 2.0, Behaviour(speed=0.6, gap=1.2, group=2,
+                                                                  pauses=((10.0, 5.0),), wander_at=90.0), 12.5)
+    back = convert.visitor_body_of(convert.visitor_body_msg(d))
+    assert (back.visitor_id, back.mode, back.robot, back.y, back.started) == ("v1", FOLLOW, "Kbot", 2.0, 12.5)
+    assert math.isnan(back.x) and back.behaviour == Behaviour(speed=0.6, gap=1.2, group=2, pauses=((10.0, 5.0),),
+                                                               wander_at=90.0)
+    msg = convert.visitor_body_msg(d)
+    msg.mode, msg.speed, msg.pause_durations = 9, 3.0, []
+    with pytest.raises(SimConfigError, match=r"mode 9.*pauses: 1 starts, 0 durations"):
+        convert.visitor_body_of(msg)
+    msg = convert.visitor_body_msg(d)
+    msg.speed = 3.0
+    with pytest.raises(SimConfigError, match="speed 3.0"):
+        convert.visitor_body_of(msg)

@@ -15,8 +15,10 @@ from gidabot_navigation.interface import Cmd, Node, Phase, global_name, relay_en
 from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.visitor.behaviour import TIDY, draw_behaviour
 from gidabot_sim.visitor.population import VisitorPlan
 from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config
+from gidabot_sim.world.people import FOLLOW, GONE, LEAVE
 
 MAPS = Path(__file__).resolve().parents[4] / "maps"
 TOUR = (Path(__file__).resolve().parents[4] / "tours" / "real_world.tour").read_text().splitlines()
@@ -161,3 +163,44 @@ def test_a_patient_visitor_sees_the_waits_and_what_it_chose_is_recorded(faculty6
     lines = [json.loads(line) for line in record.read_text().splitlines()]
     assert [(r["visitor"], r["event"]) for r in lines] == [("quick", "left"), ("calm", "asked")]
     assert lines[0]["shown"][1] > 1.0 and lines[0]["wall"] == 1000.0 and lines[0]["sim"] == 1.0
+
+
+def test_the_visitor_s_body_follows_the_robot_it_is_with_leaves_and_is_gone(faculty6) -> None:
+    start = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0, goal_id="223"), ListLog())
+    goal = VisitorStation(faculty6, station_config(faculty6, "Galtxagorri", 0.0, goal_id="223",
+                                                   stairs_s_per_floor=20.0), ListLog())
+    assert start.bodies(5.0) == [] and goal.bodies(5.0) == []        # not before the visit starts
+    for station in (start, goal):
+        all_up(station, faculty6)
+    start.tick(20.0, 1000.0)
+    (follow,) = start.bodies(20.0)
+    assert (follow.visitor_id, follow.mode, follow.robot, follow.started) == ("sim-visitor", FOLLOW, "Tartalo", 20.0)
+    assert follow.behaviour == TIDY and start.bodies(21.0) == []      # each change once
+    go = event("e1", "Tartalo", Phase.GO_TO_FLOOR, "g1", stamp=100.0, floor=0.0, target_floor=2.0)
+    waiting = event("e2", "Galtxagorri", Phase.WAITING_VISITOR, "g1", stamp=110.0, floor=2.0)
+    for station in (start, goal):
+        station.on_event(go, 100.0)
+        station.on_event(waiting, 110.0)
+    assert [d.mode for d in start.bodies(101.0)] == [LEAVE]
+    goal.tick(120.0, 1000.0)
+    assert goal.bodies(120.0) == []                                  # still on the stairs (40 s for two floors)
+    goal.tick(141.0, 1000.0)
+    (arrived,) = goal.bodies(141.0)
+    assert (arrived.mode, arrived.robot, arrived.started) == (FOLLOW, "Galtxagorri", 100.0)
+    goal.on_event(event("e3", "Galtxagorri", Phase.GOAL_REACHED, "g1", stamp=200.0, floor=2.0), 200.0)
+    assert [d.mode for d in goal.bodies(200.0)] == [GONE]
+
+
+def test_a_visitor_who_wanders_off_presses_nothing_more(faculty6) -> None:
+    seed = next(s for s in range(1000) if draw_behaviour(s).wanders)
+    wander_at = draw_behaviour(seed).wander_at
+    station = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0, goal_id="223",
+                                                      behaviour_seed=seed), ListLog())
+    all_up(station, faculty6)
+    assert [c.command for c in station.tick(20.0, 1000.0)] == [Cmd.REQUEST]
+    core = station.cores["sim-visitor"]
+    assert not core.wandered(20.0 + wander_at - 0.1) and core.wandered(20.0 + wander_at)
+    station.on_event(event("e1", "Tartalo", Phase.TOUR_STEP_DONE, "g1", stamp=21.0), 21.0)
+    station.on_event(event("e2", "Tartalo", Phase.WAITING_VISITOR, "g1", stamp=20.0 + wander_at + 1), 21.0)
+    assert station.tick(20.0 + wander_at + 10, 1000.0) == []
+    assert core.outcome == "wandered off for good" and not core.finished

@@ -66,7 +66,7 @@ def test_the_node_converts_what_it_receives_and_publishes_what_the_core_emits(ro
     assert set(ros.pubs) >= {Topic.ODOM, Topic.BASE_POSE_GROUND_TRUTH, Topic.BASE_SCAN, Topic.BATTERY, Topic.CLOCK,
                              Topic.TF, Topic.TF_STATIC, Topic.MAP, Topic.MAP_METADATA, Topic.SIM_OBSTACLES,
                              Topic.DIAGNOSTICS}
-    assert Topic.ROBOTS_SEEN not in ros.pubs                     # one robot: nobody else to see
+    assert Topic.ROBOTS_SEEN in ros.pubs          # one robot too: the people on its floor (gidabot_sim.world.people)
     assert ros.services[Service.STATIC_MAP](None).map.info.width > 0
     cmd = Twist()
     cmd.linear.x = 0.5

@@ -58,6 +58,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=1,
                    help="seed of the simulated sensor and localisation noise (robot i: SEED + i) and, with --visitors, "
                         "of the population (default 1)")
+    p.add_argument("--people", type=int, default=0, metavar="N",
+                   help="N bystanders on every floor with a robot, walking between its places (some standing a while "
+                        "in a corridor), nobody's visitor (deterministic from --seed; default 0)")
     p.add_argument("--mean-gap", type=float, default=30.0, metavar="S",
                    help="with --visitors: mean sim seconds between two arrivals (default 30)")
     p.add_argument("--patience", type=_patience, default=PATIENCE_S, metavar="LOW-HIGH",
@@ -160,6 +163,8 @@ def _validate(args: argparse.Namespace, building: Building, start_floor: float) 
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
     if not (math.isfinite(args.clock_rate) and 1 <= args.clock_rate <= 1000):
         raise DemoError(f"--clock-rate {args.clock_rate:g}: expected 1..1000 messages per wall second")
+    if not 0 <= args.people <= 100:
+        raise DemoError(f"--people {args.people}: expected 0..100 bystanders per floor")
     if not (math.isfinite(args.visit_time) and args.visit_time >= 0):
         raise DemoError(f"--visit-time {args.visit_time:g}: expected sim seconds >= 0")
     if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):

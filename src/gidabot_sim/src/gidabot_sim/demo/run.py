@@ -74,7 +74,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     wall_begin, machine_begin = time.time(), machine_busy_s()
     run_dir = run_folder(args.out, label)
     seed = seed_tours(run_dir, args.tour if tour_name else None, tour_name)
-    launch_args = {"gui_fullscreen": "false", **state_rate_args(speed), "sim_clock_rate": f"{args.clock_rate:g}"}
+    launch_args = {"gui_fullscreen": "false", **state_rate_args(speed), "sim_clock_rate": f"{args.clock_rate:g}",
+                   "sim_people": str(args.people), "sim_people_seed": str(1 if args.seed is None else args.seed)}
     start_delay = round(START_SETTLE_WALL_S * speed, 3)
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
                "start_floor": start_floor, "visit_time": args.visit_time, "start_delay": start_delay}

@@ -27,6 +27,7 @@ from gidabot_msgs.msg import (
     RobotStatus,
     StepDone,
     TourCatalog,
+    VisitorBody,
     VisitorCommand,
 )
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw, yaw_to_quaternion
@@ -37,9 +38,10 @@ from gidabot_navigation.guiding.messages import CommandData, NavEventData, Trip
 from gidabot_navigation.interface import Topic
 from gidabot_navigation.ros.convert import catalog_from_msg, command_to_msg, event_from_msg, trip_from_msg
 from gidabot_navigation.tours.tour_store import TourMessage
-from gidabot_sim.errors import NavGoalRejected, ObstacleRejected, PoseRejected
+from gidabot_sim.errors import NavGoalRejected, ObstacleRejected, PoseRejected, SimConfigError
 from gidabot_sim.navstack.amcl import Estimate
 from gidabot_sim.navstack.move_base import SensedRobot
+from gidabot_sim.visitor.behaviour import Behaviour
 from gidabot_sim.world.floor_sim import (
     ADD,
     CLEAR,
@@ -57,6 +59,7 @@ from gidabot_sim.world.floor_sim import (
 )
 from gidabot_sim.world.kinematics import Twist2D
 from gidabot_sim.world.lockstep import Answer
+from gidabot_sim.world.people import MODES, Directive
 
 MAP_FRAMES = ("map", "/map", "")
 ODOM_COVARIANCE = tuple(1e-4 if i in (0, 7, 35) else 0.0 for i in range(36))
@@ -391,3 +394,35 @@ def tours_of(msg: TourCatalog) -> tuple[TourMessage, ...]:
 
 def command_msg(c: CommandData) -> VisitorCommand:
     return command_to_msg(c)
+
+
+# -- the simulated visitor's body (/sim/visitor_body) ---------------------------------------------------------------
+def visitor_body_msg(d: Directive) -> VisitorBody:
+    msg = VisitorBody()
+    msg.header.stamp = genpy.Time.from_sec(max(d.started, 0.0))
+    msg.header.frame_id = "map"
+    msg.visitor_id, msg.mode, msg.robot, msg.x, msg.y, msg.started = d.visitor_id, d.mode, d.robot, d.x, d.y, d.started
+    b = d.behaviour
+    msg.speed, msg.gap, msg.group, msg.wander_at = b.speed, b.gap, b.group, b.wander_at
+    msg.pause_starts = [start for start, _ in b.pauses]
+    msg.pause_durations = [duration for _, duration in b.pauses]
+    return msg
+
+
+def visitor_body_of(msg: VisitorBody) -> Directive:
+    """A visitor node's directive; :class:`SimConfigError` naming what is wrong (mode, id, behaviour)."""
+    check_map_frame(msg.header.frame_id, f"visitor body {msg.visitor_id[:64]!r}", SimConfigError)
+    problems = []
+    if msg.mode not in MODES:
+        problems.append(f"mode {msg.mode!r}: expected one of {MODES}")
+    if not msg.visitor_id or len(msg.visitor_id) > 64:
+        problems.append(f"visitor_id {msg.visitor_id[:80]!r}: expected 1..64 characters")
+    if len(msg.pause_starts) != len(msg.pause_durations):
+        problems.append(f"pauses: {len(msg.pause_starts)} starts, {len(msg.pause_durations)} durations")
+    if not math.isfinite(msg.started):
+        problems.append(f"started {msg.started!r}: expected a finite sim time")
+    if problems:
+        raise SimConfigError(f"visitor body {msg.visitor_id[:64]!r}: {'; '.join(problems)}")
+    behaviour = Behaviour(speed=msg.speed, gap=msg.gap, group=int(msg.group), wander_at=msg.wander_at,
+                          pauses=tuple(zip(msg.pause_starts, msg.pause_durations, strict=True)))
+    return Directive(msg.visitor_id, int(msg.mode), msg.robot, msg.x, msg.y, behaviour, msg.started)

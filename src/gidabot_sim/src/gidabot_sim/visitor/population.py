@@ -8,7 +8,8 @@ waiting there gives up: ``TIMEOUT``). Each has a *patience*: the longest wait it
 shows, before it confirms, how long until the robots of its trip are there (the paper's
 pending requests); a longer one and it does not confirm, it leaves. The same building,
 tours, K and seed give the same visitors, so a run can be repeated and its numbers compared
-(the patience and the robot of a floor with several come from streams of their own: see
+(the patience, the robot of a floor with several and how the visitor walks, its ``behaviour_seed``
+(:func:`gidabot_sim.visitor.behaviour.draw_behaviour`), come from streams of their own: see
 :func:`make_population`).
 
 A plan says what the visitor *chooses* (:attr:`VisitorPlan.intent`): ``complete`` (the trip
@@ -44,6 +45,7 @@ class VisitorPlan:
     cancel_after_s: float = -1.0    # >= 0: presses Cancel this long after asking, if not done by then
     no_show: bool = False           # never turns up at a meeting point on another floor
     patience_s: float = -1.0        # >= 0: does not confirm when a wait shown before confirming is longer (sim s)
+    behaviour_seed: int = -1        # how its body walks (gidabot_sim.visitor.behaviour.draw_behaviour; -1: tidy)
 
     @property
     def intent(self) -> str:
@@ -68,7 +70,8 @@ class VisitorPlan:
                                tour_file=str(raw.get("tour_file", "")),
                                cancel_after_s=float(raw.get("cancel_after_s", -1.0)),
                                no_show=raw.get("no_show", False) is True,
-                               patience_s=float(raw.get("patience_s", -1.0)))
+                               patience_s=float(raw.get("patience_s", -1.0)),
+                               behaviour_seed=int(raw.get("behaviour_seed", -1)))
         except (KeyError, TypeError, ValueError) as err:
             raise SimConfigError(f"visitor plan {raw.get('visitor_id')!r}: {err!r}") from err
         if not (math.isfinite(plan.arrive_s) and plan.arrive_s >= 0 and math.isfinite(plan.cancel_after_s)
@@ -122,6 +125,7 @@ def make_population(building: Building, count: int, seed: int, tours: Mapping[st
         raise SimConfigError(f"patience {patience_s!r}: expected (low, high) s with 0 <= low <= high")
     floors = sorted({r.floor for r in building.robots})
     screen_rng = random.Random(f"screen {seed}")
+    behaviour_rng = random.Random(f"behaviour {seed}")
     locations = sorted(building.locations, key=lambda loc: loc.id)
     tour_files = sorted(tours or {})
     width = len(str(count))
@@ -140,5 +144,6 @@ def make_population(building: Building, count: int, seed: int, tours: Mapping[st
         patience = round(patience_rng.uniform(*patience_s), 1) if patience_s is not None else -1.0
         plans.append(VisitorPlan(visitor_id=f"visitor{i + 1:0{width}d}", arrive_s=round(t, 1), robot=robot.name,
                                  way=way, goal_id=target, tour_file=tour, cancel_after_s=round(cancel, 1),
-                                 no_show=no_show, patience_s=patience))
+                                 no_show=no_show, patience_s=patience,
+                                 behaviour_seed=behaviour_rng.randrange(1 << 30)))
     return tuple(plans)

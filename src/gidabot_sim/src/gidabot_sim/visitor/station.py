@@ -13,6 +13,10 @@ this robot's screen: the one visitor of the node's parameters, or each visitor o
   waits the screen shows (:class:`~gidabot_sim.visitor.visitor.Screen`) and may leave instead; what it
   chose is appended to the record file (the demo's monitor.jsonl);
 * numbers the buttons the visitors press, as the GUI's commands (:meth:`VisitorStation.tick`);
+* says what the visitors' bodies do on this robot's floor (:meth:`VisitorStation.bodies`: the directives
+  of :mod:`gidabot_sim.world.people` for the floor's simulator): a visitor who is with this robot (its visit
+  started here, or it arrived here from another floor) follows it; one who left for another floor walks off
+  towards the stairs or the lift; one whose visit is over leaves the floor;
 * says which inputs it still needs: every robot's status until all are up (and for good when a screen
   shows waits), the tour catalog until its tours are known.
 
@@ -22,6 +26,7 @@ Times are passed in (sim s for the visit, wall s for the screen's waits and the 
 from __future__ import annotations
 
 import json
+import math
 import threading
 from collections import deque
 from collections.abc import Iterable, Sequence
@@ -39,6 +44,7 @@ from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
 from gidabot_sim.visitor.population import VisitorPlan
 from gidabot_sim.visitor.visitor import ButtonPress, Screen, VisitorConfig, VisitorCore
+from gidabot_sim.world.people import FOLLOW, GONE, LEAVE, Directive
 
 MAX_UNROUTED = 2000      # events of trips whose goal was not seen yet, kept (the oldest are dropped)
 
@@ -79,7 +85,8 @@ class VisitorStation:
         self.cores = {p.visitor_id: VisitorCore(replace(
             cfg, start_floor=building.robot(p.robot).floor, start_robot=p.robot, way=p.way, goal_id=p.goal_id,
             tour_file=p.tour_file, skips=(), visitor_id=p.visitor_id, arrive_s=p.arrive_s,
-            cancel_after_s=p.cancel_after_s, no_show=p.no_show, patience_s=p.patience_s)) for p in population} \
+            cancel_after_s=p.cancel_after_s, no_show=p.no_show, patience_s=p.patience_s,
+            behaviour_seed=p.behaviour_seed)) for p in population} \
             or {cfg.visitor_id: VisitorCore(cfg)}
         self.robots = {r.name for r in building.robots}
         # whose events it takes: a robot's own nodes for that robot, a relay end for its peer (senders.py)
@@ -98,6 +105,7 @@ class VisitorStation:
         self._tours_missing = {c.cfg.tour_file for c in self.cores.values() if c.cfg.tour_file}
         self._first_stop: dict[str, str] = {}          # tour file -> the room of its first stop (the screen)
         self._seq = 0
+        self._bodies: dict[str, int] = {}               # visitor id -> the mode last directed for its body here
 
     # -- which inputs ---------------------------------------------------------------------------------
     @property
@@ -218,6 +226,24 @@ class VisitorStation:
                         self._write_record(core, now, wall)
                 presses += [(core.cfg, cmd) for cmd in commands]
         return [self._command(cfg, press, now) for cfg, press in presses]
+
+    def bodies(self, now: float) -> list[Directive]:
+        """What changed for the visitors' bodies on this robot's floor at sim time ``now`` (see the module
+        docstring); each change once."""
+        out = []
+        with self._lock:
+            for vid, core in self.cores.items():
+                here = core.present and (core.started or not core.on_start_floor) and not core.left
+                last = self._bodies.get(vid)
+                mode = GONE if core.finished and last is not None else FOLLOW if here else \
+                    LEAVE if last == FOLLOW else last
+                if mode is None or mode == last:
+                    continue
+                self._bodies[vid] = mode
+                start = core.visit_start
+                out.append(Directive(vid, mode, self.cfg.robot, math.nan, math.nan, core.behaviour,
+                                     now if start is None else start))
+        return out
 
     def _shown(self, core: VisitorCore, wall: float) -> tuple[float | None, ...]:
         """The waits this robot's screen shows the visitor before it confirms (its trip's legs)."""

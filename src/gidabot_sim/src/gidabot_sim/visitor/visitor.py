@@ -28,6 +28,10 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
   (or target) ``retry_s`` after being on a floor with a robot: the node of the floor the
   person is on, or arrives at (when the ``GO_TO_FLOOR`` of that trip comes), asks.
 
+The visitor's body (:mod:`gidabot_sim.world.people`) walks as its behaviour says
+(:mod:`gidabot_sim.visitor.behaviour`, from ``behaviour_seed``; -1: the tidy default): one that wanders off
+for good does nothing more from then on (:meth:`VisitorCore.wandered`): it presses no button, turns up nowhere.
+
 One visitor of a population (``gidabot demo --visitors K``; each node then runs one core per
 visitor, fed only the events of that visitor's trips) may also choose to cancel: at its start
 robot's screen, ``cancel_after_s`` after asking, it presses Cancel for its latest trip unless the
@@ -52,6 +56,7 @@ from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.guiding.trips import RobotView, TripPlanner, WaitModel, preview_trip
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_LIFT, WAY_STAIRS, Cmd, Phase
+from gidabot_sim.visitor.behaviour import Behaviour, draw_behaviour
 
 ENDS = {Phase.UNREACHABLE, Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
         Phase.REJECTED, Phase.TOUR_FINISHED}
@@ -82,6 +87,7 @@ class VisitorConfig:
     cancel_after_s: float = -1.0     # >= 0: presses Cancel this long after asking, if the visit is not over
     no_show: bool = False            # never turns up at a meeting point on another floor (that robot times out)
     patience_s: float = -1.0         # >= 0: does not confirm when a wait shown before confirming is longer
+    behaviour_seed: int = -1         # how its body walks (gidabot_sim.visitor.behaviour; -1: tidy)
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -132,9 +138,23 @@ class VisitorCore:
     cancel_sent: bool = False
     left: bool = False                                         # did not confirm: a wait shown was too long
     shown: tuple[float | None, ...] = ()                       # the waits shown before confirming (s, None unknown)
+    first_seen: float | None = None                            # the first event of this visit seen here
+    behaviour: Behaviour = field(init=False)
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
+        self.behaviour = draw_behaviour(self.cfg.behaviour_seed)
+
+    @property
+    def visit_start(self) -> float | None:
+        """When the visit started (the button pressed at its start robot; on another floor: its first event seen
+        here): its behaviour's times count from there."""
+        return self.asked_at if self.asked_at is not None else self.first_seen
+
+    def wandered(self, now: float) -> bool:
+        """It wandered off for good by ``now``: it does nothing more."""
+        start = self.visit_start
+        return start is not None and self.behaviour.wandered(now - start)
 
     # -- inputs ------------------------------------------------------------
     @property
@@ -187,6 +207,10 @@ class VisitorCore:
             self._handled.add(uid)
         mine = robot == self.cfg.robot
         ours = self.concerns_visit(goal_uid, self.cfg.tour_file if tour_file is None else tour_file, location_id)
+        if ours and self.first_seen is None:
+            self.first_seen = now
+        if self.wandered(now):
+            return
         if phase in ENDS and not ours:
             return
         if phase == Phase.PARTNER_OFFLINE and mine and not goal_uid and not self.finished:
@@ -296,6 +320,11 @@ class VisitorCore:
 
     def step(self, now: float) -> list[ButtonPress]:
         """Commands due at ``now``."""
+        if self.wandered(now):
+            self._due.clear()
+            if not self.outcome:
+                self.outcome = "wandered off for good"
+            return []
         for goal_uid in sorted(self.waiting):
             arrival = self.arrivals.get(goal_uid)
             if arrival is not None and now >= arrival:

@@ -12,7 +12,7 @@ import time
 
 import rospy
 
-from gidabot_msgs.msg import Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorBody, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
@@ -42,6 +42,9 @@ class VisitorNode:
     Publishes:
       visitor/command (gidabot_msgs/VisitorCommand) Continue / skip / start, as the GUI would (the last 60 s
                                                     are sent again to a late subscriber: a restarted node)
+      /sim/visitor_body (gidabot_msgs/VisitorBody)  simulator only: what the visitors' bodies do on this robot's
+                                                    floor (follow this robot, leave, gone), at each change (the
+                                                    last 60 s again to a late subscriber: a restarted simulator)
     Params:
       ~building (str)             building.yaml path;  ~robot (str) this node's robot
       ~start_floor (float, 0)     where the visitor starts: the node of its first robot starts the visit
@@ -90,6 +93,7 @@ class VisitorNode:
         rate = param_number("~rate", 1.0)
         # a restarted guiding node gets the commands of the last minute again (it ignores those it handled)
         self.pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=50)
+        self.body_pub = ReplayPublisher(Topic.SIM_VISITOR_BODY, VisitorBody, queue_size=50)
         if self.station.needs_goals:
             rospy.Subscriber(Topic.GOALS, Goal, self._on_goal, queue_size=200)
         rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._on_event, queue_size=100)
@@ -123,8 +127,11 @@ class VisitorNode:
         if self._catalog_sub is not None and not self.station.needs_catalog:
             self._catalog_sub.unregister()
             self._catalog_sub = None
-        for command in self.station.tick(rospy.get_time(), time.time()):
+        now = rospy.get_time()
+        for command in self.station.tick(now, time.time()):
             self.pub.publish(convert.command_msg(command))
+        for directive in self.station.bodies(now):
+            self.body_pub.publish(convert.visitor_body_msg(directive))
 
 
 def main() -> None:

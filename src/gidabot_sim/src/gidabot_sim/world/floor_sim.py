@@ -33,15 +33,17 @@ import numpy as np
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, Robot
-from gidabot_navigation.building.planning import Circle, Shape
-from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.building.planning import Circle, GridPlanner, Shape
+from gidabot_navigation.errors import GidaBotError, PlanningError
 from gidabot_navigation.interface import Topic
 from gidabot_navigation.logs import Logger
 from gidabot_sim.errors import ObstacleRejected, SimConfigError, SimError
+from gidabot_sim.visitor.behaviour import draw_bystanders
 from gidabot_sim.world.clock import Pacer, Periodic
 from gidabot_sim.world.kinematics import Limits, Twist2D
 from gidabot_sim.world.lockstep import CONTROLLERS, Lockstep, Stepper
 from gidabot_sim.world.mates import Mates, MateState, mate_motion
+from gidabot_sim.world.people import PERSON_RADIUS, Crowd, Directive, RobotDisc
 from gidabot_sim.world.rejections import CountingLog
 from gidabot_sim.world.timeline import Clock as TimelineClock
 from gidabot_sim.world.timeline import Timeline
@@ -54,6 +56,7 @@ IDLE_SLEEP = 0.01             # wall s an idle floor sleeps at least when ahead 
 START_POLL = 0.05             # wall s between two looks at the inputs before ``start_wall``
 # the kinds of input (:meth:`FloorSim.post`), also the keys of the rejection counts
 CMD_VEL, INITIALPOSE, OBSTACLE, STEP_DONE = Topic.CMD_VEL, Topic.INITIALPOSE, "obstacle", "step_done"
+VISITOR_BODY = "visitor_body"
 ADD, REMOVE, CLEAR = "add", "remove", "clear"       # obstacle changes
 OK, WARN, ERROR = 0, 1, 2                           # diagnostics levels (diagnostic_msgs/DiagnosticStatus)
 REQUIRED = "~building (building.yaml or its directory) and ~robot (a robot name) or ~robots (a list of robot names) " \
@@ -122,6 +125,8 @@ class SimConfig:
     diagnostics_period: float = 1.0       # wall s
     deadlock_time: float = 30.0           # sim s
     mates: str = ""
+    people: int = 0                       # bystanders walking this floor (simulated by its first robot's simulator)
+    people_seed: int = 1                  # their choices
 
     def __post_init__(self) -> None:
         if not isinstance(self.building, str) or not self.building:
@@ -327,12 +332,32 @@ class FloorSim:
         self.lockstep = self.stepper.lockstep
         self.world.start_at(resume)
         self.sees_robots = len(self.world.robots) > 1    # other robots for a laser to see: robots_seen published
+        self.crowd = self._crowd(building)
+        self._people_seen = False          # a robots_seen listed people: one more is published once they are gone
         self.started = False
         self.scans = 0
         self._said_waiting = False
         self._clock_wall = -math.inf       # wall time of the latest /clock
         self._heartbeat = -math.inf        # ... and of the latest timeline write
         self._diag = {"wall": wall, "sim": resume, "next": wall + c.diagnostics_period, "behind": 0.0}
+
+    def _crowd(self, building: Building) -> Crowd:
+        """The floor's people: visitors' bodies as their nodes direct, and ``people`` bystanders when this simulator
+        has the floor's first robot (by name: one simulator of the floor walks them)."""
+        c = self.config
+        first = min((r.name for r in building.robots_on(self.floor.id)), default="")
+        if c.people <= 0 or first not in c.robots:
+            return Crowd(self.world.clearance)
+        planner = GridPlanner(self.floor.map, PERSON_RADIUS, inflation_radius=PERSON_RADIUS + 0.3)
+
+        def plan(a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]] | None:
+            try:
+                return planner.plan(a, b).densified(0.5)
+            except PlanningError:
+                return None
+        places = [(loc.pose.x, loc.pose.y) for loc in building.locations_on(self.floor.id)]
+        places += [(m.x, m.y) for conn in building.connectors for f, m in conn.meeting.items() if f == self.floor.id]
+        return Crowd(self.world.clearance, plan, places, draw_bystanders(c.people, c.people_seed, self.floor.label))
 
     def _spec(self, robot: Robot) -> RobotSpec:
         return RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), self.config.laser, self.config.battery)
@@ -369,7 +394,7 @@ class FloorSim:
         map frame) or OBSTACLE (an :class:`ObstacleChange`), for robot ``index``. ``value()`` runs when the input
         is applied, in :meth:`tick`; a :class:`GidaBotError`, ValueError or TypeError it (or applying it) raises
         is counted and logged as a rejected ``kind``."""
-        if kind in (CMD_VEL, STEP_DONE):
+        if kind in (CMD_VEL, STEP_DONE, VISITOR_BODY):
             self._lock_inputs.put((kind, index, value, caller))
         else:
             self._inputs.put((kind, index, value))
@@ -384,6 +409,8 @@ class FloorSim:
                 if kind == CMD_VEL:
                     self.lockstep.command(caller)
                     self.world.set_command(index, *value())
+                elif kind == VISITOR_BODY:
+                    self._visitor_body(value())
                 else:
                     self.lockstep.answer(value(), wall)
             except (GidaBotError, ValueError, TypeError) as err:
@@ -411,6 +438,13 @@ class FloorSim:
             self.log.info(f"sim: {node} answers again")
         self.lockstep.timed_out.clear()
         self.lockstep.rejoined.clear()
+
+    def _visitor_body(self, directive: Directive) -> None:
+        self.crowd.direct(directive, self._robot_discs())
+        self.log.info(f"sim: visitor {directive.visitor_id}: {directive.mode} {directive.robot}")
+
+    def _robot_discs(self) -> list[RobotDisc]:
+        return [RobotDisc(r.spec.name, r.pose.x, r.pose.y, r.spec.radius) for r in self.world.robots]
 
     def _relocate(self, index: int, wanted: Pose2D) -> None:
         placed = self.world.teleport(index, wanted)
@@ -455,7 +489,10 @@ class FloorSim:
         if wait is None:
             self._read_mates(wall)
             self.world.advance_to(s.advance(wall))
-            if self.sees_robots:
+            if self.crowd:
+                self.crowd.step(self.world.time, self._robot_discs())
+                self.world.set_people([(b.person_id, b.x, b.y, b.radius) for b in self.crowd.bodies])
+            if self.sees_robots or self.world.events:
                 self._pairs()
             self._stop(wall)
             self._diagnostics(wall)
@@ -537,13 +574,18 @@ class FloorSim:
                 self.lockstep.published(self.truth_topics[i], t)
             if tf:
                 frames.append(Frame(self.frames[i]["odom"], self.frames[i]["base_footprint"], robot.odom, t))
+            exact: list[np.ndarray] | None = [] if world.people else None
             if laser_due and wanted(Topic.BASE_SCAN, i):
-                emit(Scan(i, robot.spec.laser, world.scan(i), t, 1.0 / self.config.laser_rate))
+                emit(Scan(i, robot.spec.laser, world.scan(i, exact=exact), t, 1.0 / self.config.laser_rate))
                 self.scans += 1
-            if laser_due and self.sees_robots and wanted(Topic.ROBOTS_SEEN, i):
+            people = bool(world.people) or self._people_seen
+            if laser_due and (self.sees_robots or people) and wanted(Topic.ROBOTS_SEEN, i):
                 seen = world.robots
+                bodies = tuple((world.people[k][0], Circle(*world.people[k][1:]))
+                               for k in world.seen_people(i, exact[0] if exact else None))
+                self._people_seen = bool(world.people)
                 emit(Seen(i, tuple((seen[j].spec.name, Circle(seen[j].pose.x, seen[j].pose.y, seen[j].spec.radius))
-                                   for j in world.seen_robots(i)), t))
+                                   for j in world.seen_robots(i)) + bodies, t))
             if battery_due:
                 emit(self._battery(i, robot, t))
         if frames:
@@ -621,7 +663,7 @@ class FloorSim:
         }
         for node, stats in self.lockstep.stats().items():
             values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))
-        for kind in (CMD_VEL, INITIALPOSE, OBSTACLE, STEP_DONE):
+        for kind in (CMD_VEL, INITIALPOSE, OBSTACLE, STEP_DONE, VISITOR_BODY):
             values[f"rejected_{kind}"] = str(self.rejected.counts.get(kind, 0))
         for robot in own:
             values[f"battery_{robot.spec.name}"] = f"{robot.battery:.4f}"
@@ -630,6 +672,8 @@ class FloorSim:
         # the contacts in which this node's robot was stopped by another robot of the floor
         values["robot_collisions"] = str(world.robot_collisions)
         values["robot_deadlocks"] = str(world.deadlocks)
+        values["people_collisions"] = str(world.people_collisions)     # a robot of this node stopped by a person
+        values["people"] = str(len(world.people))
         values["deadlocked"] = ", ".join(f"{a}+{b}" for a, b in deadlocked)
         values["floor_robots"] = ",".join(r.spec.name for r in world.robots)
         absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)

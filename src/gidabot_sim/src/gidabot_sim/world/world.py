@@ -22,6 +22,11 @@ world never moves them by its physics, it carries each along the velocity its si
 with it (counted here when this world's robot is the one stopped; a contact where both robots drove
 counts in both worlds), deadlocks with it are watched. Pairs of two mates are their own worlds' business.
 
+*People* (:meth:`World.set_people`: the bodies of :mod:`gidabot_sim.world.people`, moved by their crowd at every
+stop) are discs every laser sees; a move that would push a robot into one is refused like a move into another
+robot, and counted as a *people collision* once per contact (:attr:`World.people_collisions`);
+:meth:`World.seen_people` tells which of them a robot's laser sees.
+
 Run-time obstacles (a person, a closed door) are :class:`~gidabot_navigation.building.planning.Circle`
 and :class:`~gidabot_navigation.building.planning.Rectangle` shapes rasterised into the solid
 mask: the laser sees them and robots collide with them. The floor's keep-out zones (``keep_out``: the
@@ -235,6 +240,9 @@ class World:
         self.deadlocks = 0                         # deadlocks reported
         self.events: deque[WorldEvent] = deque(maxlen=MAX_EVENTS)
         self._contacts: set[tuple[int, int]] = set()
+        self.people: list[tuple[str, float, float, float]] = []    # (id, x, y, radius) of every person on the floor
+        self.people_collisions = 0                 # contacts between a robot of this world and a person
+        self._people_contacts: set[tuple[int, str]] = set()
         self._standoffs: dict[tuple[int, int], _Standoff] = {}
 
     @property
@@ -436,6 +444,63 @@ class World:
             self.bodies.update(self._static | self._keep_out | mask)
         self.obstacle_version += 1
 
+    # -- people ----------------------------------------------------------------
+    def set_people(self, people: list[tuple[str, float, float, float]]) -> None:
+        """The people on the floor now: (id, x, y, radius) each (m, map frame); contacts that ended are released."""
+        self.people = people
+        if self._people_contacts:
+            where = {pid: (x, y, r) for pid, x, y, r in people}
+            for index, pid in list(self._people_contacts):
+                p = where.get(pid)
+                robot = self.robots[index]
+                if p is None or math.hypot(p[0] - robot.pose.x, p[1] - robot.pose.y) - p[2] - robot.spec.radius \
+                        > CONTACT_RELEASE:
+                    self._people_contacts.discard((index, pid))
+
+    def _person_touch(self, index: int, k: int, t: float) -> None:
+        pid, x, y, _ = self.people[k]
+        if (index, pid) in self._people_contacts:
+            return
+        self._people_contacts.add((index, pid))
+        self.people_collisions += 1
+        robot = self.robots[index]
+        self.events.append(WorldEvent(COLLISION, (robot.spec.name, pid), t,
+                                      f"robot {robot.spec.name} ran into {pid} at ({x:.2f}, {y:.2f}) and was stopped"))
+
+    def seen_people(self, index: int, ranges: np.ndarray | None = None) -> list[int]:
+        """Indices (into :attr:`people`) of the people robot ``index``'s laser sees now: a beam hits their disc
+        before anything else within range. ``ranges``: a noise-free scan of it with them, if at hand (else only the
+        beams that hit a person are cast)."""
+        if not self.people:
+            return []
+        laser = self.robot(index).spec.laser
+        origin = self.laser_pose(index)
+        angles = laser.angles() + origin.yaw
+        seen = []
+        for k, (_pid, x, y, r) in enumerate(self.people):
+            if math.hypot(x - origin.x, y - origin.y) - r > laser.range_max:
+                continue
+            hits = disc_hits(origin.x, origin.y, angles, x, y, r)
+            beams = hits <= laser.range_max
+            if not beams.any():
+                continue
+            if ranges is not None:
+                first = ranges[beams]
+            else:
+                discs = [d for j, d in enumerate(self._discs(index)) if j != len(self.robots) - 1 + k]
+                first = self.caster.cast(origin.x, origin.y, angles[beams], laser.range_max, discs)
+            if bool((hits[beams] <= first + 1e-9).any()):
+                seen.append(k)
+        return seen
+
+    def _discs(self, index: int) -> list[tuple[float, float, float]]:
+        discs = [(o.pose.x, o.pose.y, o.spec.radius) for j, o in enumerate(self.robots) if j != index]
+        discs += [(x, y, r) for _pid, x, y, r in self.people]
+        return discs
+
+    def _cast(self, index: int, origin: Pose2D, angles: np.ndarray, range_max: float) -> np.ndarray:
+        return self.caster.cast(origin.x, origin.y, angles, range_max, self._discs(index))
+
     # -- physics ---------------------------------------------------------------
     def advance_to(self, target: float) -> int:
         """Step until the world's time reaches ``target`` (within one ``dt``); returns the steps made."""
@@ -479,6 +544,8 @@ class World:
                 robot.stalled, robot.vel = True, ZERO
                 if blocker >= 0:
                     self._touch(index, blocker, t)
+                elif blocker <= -2:
+                    self._person_touch(index, -2 - blocker, t)
             else:
                 moved = math.hypot(new.x - robot.pose.x, new.y - robot.pose.y)
                 robot.odometer += moved
@@ -491,11 +558,16 @@ class World:
         robot.battery = max(0.0, robot.battery - robot.spec.battery.idle_per_hour * self.dt / 3600.0)
 
     def _blocked(self, index: int, robot: SimRobot, new: Pose2D) -> int | None:
-        """What refuses the move to ``new``: None (nothing), -1 (a wall or an obstacle) or another robot's index."""
+        """What refuses the move to ``new``: None (nothing), -1 (a wall or an obstacle), another robot's index or
+        -2 - k for person ``k``."""
         radius = robot.spec.radius
         after = self.clearance(new.x, new.y)
         if after < radius and after < self.clearance(robot.pose.x, robot.pose.y):
             return -1
+        for k, (_pid, x, y, r) in enumerate(self.people):
+            d_new = math.hypot(x - new.x, y - new.y)
+            if d_new < radius + r and d_new < math.hypot(x - robot.pose.x, y - robot.pose.y):
+                return -2 - k
         if len(self.robots) == 1:
             return None
         for j, other in enumerate(self.robots):
@@ -582,13 +654,15 @@ class World:
         laser = robot.spec.laser
         return compose(robot.pose, Pose2D(laser.x, laser.y, laser.yaw))
 
-    def scan(self, index: int, noisy: bool = True) -> np.ndarray:
-        """One laser scan of robot ``index``: ranges (m) per beam, ``inf`` = no return (REP 117)."""
+    def scan(self, index: int, noisy: bool = True, exact: list[np.ndarray] | None = None) -> np.ndarray:
+        """One laser scan of robot ``index``: ranges (m) per beam, ``inf`` = no return (REP 117). ``exact``: a list
+        the noise-free ranges are appended to (for :meth:`seen_people`)."""
         robot = self.robot(index)
         laser = robot.spec.laser
         origin = self.laser_pose(index)
-        discs = [(o.pose.x, o.pose.y, o.spec.radius) for j, o in enumerate(self.robots) if j != index]
-        ranges = self.caster.cast(origin.x, origin.y, laser.angles() + origin.yaw, laser.range_max, discs)
+        ranges = self._cast(index, origin, laser.angles() + origin.yaw, laser.range_max)
+        if exact is not None:
+            exact.append(ranges.copy())
         if noisy and laser.noise > 0:
             finite = np.isfinite(ranges)
             ranges[finite] += self.rng.normal(0.0, laser.noise, int(finite.sum()))
@@ -614,6 +688,7 @@ class World:
             if not beams.any():
                 continue
             discs = [(o.pose.x, o.pose.y, o.spec.radius) for k, o in enumerate(self.robots) if k not in (index, j)]
+            discs += [(x, y, r) for _pid, x, y, r in self.people]
             others = self.caster.cast(origin.x, origin.y, angles[beams], laser.range_max, discs)
             if bool((hits[beams] < others).any()):
                 seen.append(j)

@@ -23,7 +23,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import BatteryState, LaserScan
 from tf2_msgs.msg import TFMessage
 
-from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone
+from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone, VisitorBody
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.interface import Node, Service, Topic
 from gidabot_navigation.ros.exit_guard import ExitGuard
@@ -76,7 +76,9 @@ def read_config() -> fs.SimConfig:
         seed=None if seed < 0 else seed,
         diagnostics_period=param_number("~diagnostics_period", SIM.diagnostics_period, 0.0),
         deadlock_time=param_number("~deadlock_time", SIM.deadlock_time, 0.0),
-        mates=str(rospy.get_param("~mates", SIM.mates)))
+        mates=str(rospy.get_param("~mates", SIM.mates)),
+        people=int(param_number("~people", SIM.people, 0.0, 100.0, strict=False)),
+        people_seed=int(param_number("~people_seed", SIM.people_seed, -math.inf, strict=False)))
 
 
 class _RobotIO:
@@ -93,8 +95,7 @@ class _RobotIO:
                                                                    queue_size=5),
                      Topic.BASE_SCAN: rospy.Publisher(prefix + Topic.BASE_SCAN, LaserScan, queue_size=2),
                      Topic.BATTERY: rospy.Publisher(prefix + Topic.BATTERY, BatteryState, queue_size=2)}
-        if sim.sees_robots:
-            self.pubs[Topic.ROBOTS_SEEN] = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2)
+        self.pubs[Topic.ROBOTS_SEEN] = rospy.Publisher(prefix + Topic.ROBOTS_SEEN, ObstacleArray, queue_size=2)
         rospy.Subscriber(prefix + Topic.CMD_VEL, Twist, node.on_cmd_vel, callback_args=index, queue_size=50,
                          tcp_nodelay=True)
         rospy.Subscriber(prefix + Topic.INITIALPOSE, PoseWithCovarianceStamped, node.on_initialpose,
@@ -120,8 +121,9 @@ class SimNode:
         ``base_scan`` (sensor_msgs/LaserScan, frame ``base_laser_link``, ``inf`` = no return) at
           ``~laser_rate``, only while somebody subscribes;
         ``battery`` (sensor_msgs/BatteryState, ``percentage`` 0..1) at ``~battery_rate``.
-        ``robots_seen`` (gidabot_msgs/ObstacleArray, frame ``map``; several robots only): the other robots its
-          laser sees now (id = robot name, a CIRCLE of its radius) at ``~laser_rate``, while somebody subscribes:
+        ``robots_seen`` (gidabot_msgs/ObstacleArray, frame ``map``; several robots, or people on the floor): the
+          other robots its laser sees now (id = robot name, a CIRCLE of its radius) and the people (id
+          ``person/<visitor or bystander>``, a CIRCLE of a person) at ``~laser_rate``, while somebody subscribes:
           its move_base's obstacle layer.
       tf: ``odom -> base_footprint`` (while /tf has subscribers); static ``base_footprint -> base_link``
         and ``base_link -> base_laser_link``.
@@ -134,6 +136,8 @@ class SimNode:
         (nav_msgs/GetMap): the floor's map, as map_server serves it.
       ``/sim/obstacle`` (gidabot_msgs/Obstacle, subscribed): add / remove / clear run-time obstacles.
       ``/sim/obstacles`` (gidabot_msgs/ObstacleArray, latched): the current obstacles, on every change.
+      ``/sim/visitor_body`` (gidabot_msgs/VisitorBody, subscribed): what a simulated visitor's body does on this
+        floor (follow a robot, leave, gone; its behaviour), from the visitor node (:mod:`gidabot_sim.world.people`).
       ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``sim: floor <f>`` every ``~diagnostics_period``
         wall seconds: speed ceiling, sim time, achieved factor, wall time behind the ceiling and waiting
         (for controllers, for other floors, for the ceiling), each participant's stops owed / answered /
@@ -159,7 +163,9 @@ class SimNode:
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1);
-      ``~deadlock_time`` (sim s, 30); ``~mates`` (path of the building's mates file, '' = none: the other robots
+      ``~deadlock_time`` (sim s, 30); ``~people`` (0..100, 0) bystanders walking the floor between its places (the
+        simulator of the floor's first robot by name walks them), drawn from ``~people_seed`` (1);
+      ``~mates`` (path of the building's mates file, '' = none: the other robots
         of this floor, each simulated by its own simulator on its own master, share the floor through it,
         :mod:`gidabot_sim.world.mates`: this node writes its robot's motion there after each step and reads
         theirs before each, into its world; ``robots_seen`` is then published for its robot too).
@@ -183,6 +189,7 @@ class SimNode:
         self.obstacles_pub = rospy.Publisher(Topic.SIM_OBSTACLES, ObstacleArray, queue_size=1, latch=True)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
         rospy.Subscriber(Topic.SIM_OBSTACLE, Obstacle, self.on_obstacle, queue_size=50)
+        rospy.Subscriber(Topic.SIM_VISITOR_BODY, VisitorBody, self.on_visitor_body, queue_size=50)
         rospy.Subscriber(Topic.SIM_STEP_DONE, StepDone, self.on_step_done, queue_size=200, tcp_nodelay=True)
         self.map_msg = convert.occupancy_grid(self.sim.floor.map, 0.0)
         rospy.Service(Service.STATIC_MAP, GetMap, lambda _req: GetMapResponse(map=self.map_msg))
@@ -203,6 +210,10 @@ class SimNode:
 
     def on_obstacle(self, msg: Obstacle) -> None:
         self.sim.post(fs.OBSTACLE, -1, lambda: convert.obstacle_change_of(msg))
+        self.wake.set()
+
+    def on_visitor_body(self, msg: VisitorBody) -> None:
+        self.sim.post(fs.VISITOR_BODY, -1, lambda: convert.visitor_body_of(msg))
         self.wake.set()
 
     def on_step_done(self, msg: StepDone) -> None:
