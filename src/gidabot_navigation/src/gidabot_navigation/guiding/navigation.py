@@ -43,6 +43,7 @@ from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
+from gidabot_navigation.guiding.make_way import MakeWay, Mate
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -52,11 +53,15 @@ from gidabot_navigation.guiding.messages import (
     NavEventData,
     RobotStatusData,
     SeenSet,
+    SendAsk,
     SendCancel,
     SendEvent,
     StopMoving,
     Trip,
     UidMaker,
+    WayAsk,
+    same_floor,
+    validate_ask,
     validate_cancel,
     validate_event,
 )
@@ -196,6 +201,11 @@ class NavigationCore:
         self._releases: OrderedDict[str, tuple[str, float]] = OrderedDict()   # goal uid -> (robot, ROS s)
         self._eta_last = 0.0
         self._eta_at = 0.0
+        self.way = MakeWay(building, robot.name, log)
+        self.mates: dict[str, Mate] = {}        # the other robots of this floor, as their statuses show them
+        self._asked_token: int | None = None    # the leg move whose ask was sent (None: none)
+        self._asking = False                    # the last ask sent named robots
+        self._way_token: int | None = None      # the make-way move running (None: none)
 
     # ------------------------------------------------------------------ sensor-like inputs
     def on_pose(self, x: float, y: float, yaw: float) -> None:
@@ -213,6 +223,32 @@ class NavigationCore:
     def on_status(self, robot: str, now_wall: float) -> None:
         if isinstance(robot, str) and self.building.find_robot(robot) is not None:
             self.liveness.heard(robot, now_wall)
+
+    def on_mate(self, status: RobotStatusData) -> None:
+        """A robot's status: the robots of this floor, where they are and whether they are idle (make way)."""
+        other = self.building.find_robot(status.robot) if isinstance(status.robot, str) else None
+        if other is None or other.name == self.me or not same_floor(other.floor, self.floor) \
+                or not (math.isfinite(status.x) and math.isfinite(status.y)):
+            return
+        self.mates[other.name] = Mate(other.name, status.x, status.y, other.radius, status.state == RobotState.IDLE)
+        self.way.on_asker_pose(other.name, status.x, status.y)
+
+    def on_make_way(self, ask: WayAsk, now_ros: float, from_relay: bool = False) -> None:
+        """An ask to make way (gidabot_msgs/MakeWay): it speaks only for its sender, another robot."""
+        try:
+            ask = validate_ask(self.building, ask)
+        except GoalRejected as err:
+            self.stats.inc(f"rejected_{err.reason}")
+            self.warn.warning("make_way", f"make_way rejected: {err}")
+            return
+        if ask.robot == self.me:
+            if from_relay:
+                self.stats.inc("rejected_spoofed")
+            return
+        if not from_relay:                 # a local node speaks for this robot only
+            self.stats.inc("rejected_spoofed")
+            return
+        self.way.on_ask(ask, now_ros)
 
     def on_catalog(self, entries: Iterable[TourMessage]) -> None:
         for problem in self.tours.update(entries):
@@ -314,6 +350,10 @@ class NavigationCore:
         """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...). ``done_ros``: when move_base
         ended it (its result's stamp; None: ``now_ros``): the events that end the guiding carry it, so the time the
         result took to get here is not counted as guiding (Table 5)."""
+        if token == self._way_token:
+            self._way_token = None
+            self.way.arrived(status == SUCCEEDED)
+            return []
         leg = self.leg
         if leg is None or token != leg.token or not leg.moving:
             self.stats.inc("stale_results")
@@ -352,7 +392,38 @@ class NavigationCore:
                 and now_ros - self._unavailable_since >= self.cfg.nav_lost_timeout:
             actions += self._fail(leg, f"the navigation stack (move_base) is gone for "
                                        f"{now_ros - self._unavailable_since:.0f} s", now_ros)
-        return actions + self._advance(now_ros, now_wall)
+        actions += self._advance(now_ros, now_wall)
+        return actions + self._make_way(now_ros)
+
+    def _make_way(self, now_ros: float) -> list[Action]:
+        """Asking for the way as a leg's move starts (and ending the ask when it ends); making way when idle."""
+        actions: list[Action] = []
+        leg = self.leg
+        if leg is not None and leg.moving and leg.token != self._asked_token and self.pose is not None:
+            self._asked_token = leg.token
+            ask = self.way.asks_for((self.pose.x, self.pose.y), (leg.target.x, leg.target.y),
+                                    list(self.mates.values()), now_ros)
+            if ask is not None:
+                self._asking = True
+                actions.append(SendAsk(ask))
+            elif self._asking:
+                self._asking = False
+                actions.append(SendAsk(self.way.end_ask(now_ros)))
+        elif self._asking and (leg is None or not leg.moving):
+            self._asking = False
+            self._asked_token = None
+            actions.append(SendAsk(self.way.end_ask(now_ros)))
+        if leg is not None:
+            if self._way_token is not None or self.way.aside is not None:
+                self.way.drop()
+                self._way_token = None
+            return actions
+        target = self.way.step(self.pose, self.available, now_ros)
+        if target is not None:
+            self._token += 1
+            self._way_token = self._token
+            actions.append(MoveTo(self._token, target.x, target.y, target.yaw))
+        return actions
 
     # ------------------------------------------------------------------ restarts
     @staticmethod
