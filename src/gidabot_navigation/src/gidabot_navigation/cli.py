@@ -3,7 +3,8 @@
     gidabot check maps/faculty         (the rules: docs/building-format.md)
     gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
 
-Prints every problem (file, key or line, value) and exits 1 if there is any. A tour
+Prints every problem (file, key or line, value) and exits 1 if there is any; warnings (a robot at its home
+or at a meeting point leaving a corridor too narrow for another robot of its floor) are printed, not failed. A tour
 file in a form the tour store accepts but writes differently (CRLF line endings,
 byte-order mark, spacing...) passes, with a note.
 """
@@ -14,7 +15,7 @@ import argparse
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building
-from gidabot_navigation.building.reachability import reachability_problems
+from gidabot_navigation.building.reachability import crowding_warnings, reachability_problems
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.tours.tour_file import check_tour_file_name, format_tour, parse_tour
 
@@ -45,6 +46,8 @@ def main(argv: list[str]) -> int:
                 print(f"FAIL {path}: {err}")
                 failures += 1
                 continue
+            for warning in crowding_warnings(b):
+                print(f"warn {path}: {warning.where}: {warning.message}")
             print(f"ok   {path}: building {b.id!r}: {len(b.floors)} floors, {len(b.locations)} locations, "
                   f"{len(b.connectors)} connectors, {len(b.robots)} robots, {len(b.relay_pairs())} relays")
             continue
