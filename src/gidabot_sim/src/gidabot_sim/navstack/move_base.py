@@ -683,7 +683,10 @@ class MoveBaseCore:
             wait.since, wait.anchors = now, ((x, y), (x, y))     # it moves: passing or making way
             self._need_plan = True
         elif now - wait.since >= cfg.robot_patience:
-            return self._abort(f"Blocked by {name} for {now - wait.since:.0f} s: it neither passed nor made way")
+            why = "it neither passed nor made way"
+            if name.startswith("robot "):
+                why = f"deadlock (robots {self.name or '?'} and {name[6:]} cannot pass each other: {why})"
+            return self._abort(f"Blocked by {name} for {now - wait.since:.0f} s: {why}")
         self._blocked_since = None
         self._progress_time = now          # waiting for somebody to pass is not oscillating
         return None
