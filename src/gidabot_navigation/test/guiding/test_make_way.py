@@ -16,7 +16,9 @@ from gidabot_navigation.building.model import load_building
 from gidabot_navigation.building.reachability import crowding_warnings
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding.make_way import MakeWay, MakeWayConfig, Mate, distance_along
-from gidabot_navigation.guiding.messages import WayAsk, validate_ask
+from gidabot_navigation.guiding.messages import MoveTo, SendAsk, Trip, WayAsk, validate_ask
+from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, RobotState
 
 NARROW = Path(__file__).resolve().parents[4] / "tests" / "corridors" / "narrow_corridor"
 PARKER = Mate("Parker", 16.0, 5.0, 0.33, True)
@@ -122,3 +124,47 @@ def test_check_warns_of_a_home_that_leaves_the_corridor_too_narrow(narrow, facul
     assert "leaves the way too narrow for Guide (radius 0.35 m) to pass" in warning.message
     assert "location east" in warning.message and "location west" not in warning.message
     assert crowding_warnings(faculty6) == []          # a 3 m corridor: room to pass beside a parked robot
+
+
+def test_the_navigation_cores_ask_make_way_and_go_back(narrow) -> None:
+    """Two navigation cores of the narrow building: Guide's leg past Parker sends an ask (for itself), Parker
+    idle steps aside with a move_base goal of its own, Guide's arrival ends the ask and Parker goes back; a
+    local ask naming another robot is refused."""
+    cores = {}
+    for name in ("Guide", "Parker"):
+        core = NavigationCore(narrow, NavigationConfig(robot=name), ListLog(), now_wall=0.0, boot="t")
+        core.on_move_base_available(True, 0.0)
+        home = narrow.robot(name).home
+        core.on_pose(home.x, home.y, home.yaw)
+        cores[name] = core
+    guide, parker = cores["Guide"], cores["Parker"]
+
+    def statuses(now: float) -> None:
+        for a, b in ((guide, parker), (parker, guide)):
+            b.on_mate(a.status(now))
+
+    statuses(0.0)
+    east = narrow.location("east")
+    t = Trip(uid="Guide/v/1", origin_robot="Guide", visitor_id="v", initial_floor=0.0, initial_x=3.0, initial_y=6.0,
+             goal_floor=0.0, goal_x=east.pose.x, goal_y=east.pose.y, goal_yaw=east.pose.yaw, way="stairs",
+             connector="", start_id="robot", goal_id="east", language="en", start_robot="Guide",
+             start_state=LEG_COMMITTED, goal_robot="", goal_state=LEG_NONE, attempt=2)
+    acts = guide.on_pending([t], 30.0, 1.0, 0.0) + guide.tick(1.0, 0.0)
+    [ask] = [a.ask for a in acts if isinstance(a, SendAsk)]
+    [leg_move] = [a for a in acts if isinstance(a, MoveTo)]
+    assert ask.robot == "Guide" and ask.robots == ("Parker",)
+    parker.on_make_way(ask, 1.5, from_relay=False)                 # not from the relay: a local spoof
+    assert parker.stats["rejected_spoofed"] == 1 and parker.tick(1.5, 0.0) == []
+    parker.on_make_way(ask, 2.0, from_relay=True)
+    [aside] = [a for a in parker.tick(2.0, 0.0) if isinstance(a, MoveTo)]
+    assert math.hypot(aside.x - 16.0, aside.y - 5.0) > 0.5 and parker.status(2.0).state == RobotState.IDLE
+    assert parker.on_move_base_result(aside.token, SUCCEEDED, "", 8.0, 0.0) == []
+    parker.on_pose(aside.x, aside.y, 0.0)
+    guide.on_move_base_result(leg_move.token, SUCCEEDED, "", 40.0, 0.0)
+    [end] = [a.ask for a in guide.tick(40.5, 0.0) if isinstance(a, SendAsk)]
+    assert end.robots == ()
+    parker.on_make_way(end, 41.0, from_relay=True)
+    [back] = [a for a in parker.tick(41.0, 0.0) if isinstance(a, MoveTo)]
+    assert (back.x, back.y) == (16.0, 5.0)
+    parker.on_move_base_result(back.token, SUCCEEDED, "", 50.0, 0.0)
+    assert parker.way.aside is None and parker.tick(51.0, 0.0) == []

@@ -4,25 +4,26 @@ steps aside when asked, and goes back after.
 The robots of a floor see each other's poses and states (their relayed statuses). Both sides run this core:
 
 * **the asker** (:meth:`MakeWay.asks_for`): when it starts a move, it plans its way on the floor's map and
-  looks for the *idle* robots of its floor standing on it: a robot whose disc comes within
-  ``margin`` of its own along the way, where the way cannot go round it with room (no plan for its radius +
-  ``ROOM`` with that robot's disc grown by ``margin``, or only one longer by ``detour`` m) -- in a hall it drives round, in a corridor too narrow
-  to pass with room it asks. The ask (:class:`~gidabot_navigation.guiding.messages.WayAsk`, relayed as
-  gidabot_msgs/MakeWay) names the robots asked and the asker's way; it speaks only for its sender (``robot`` is the asker). When the move ends
-  the asker sends an empty ask: the robots it asked go back.
+  looks for the *idle* robots of its floor standing on it: a robot whose disc comes within ``margin`` of
+  its own along the way, where the way cannot go round it with room (no plan for its radius + ``ROOM``
+  with that robot's disc grown by ``margin``, or only one longer by ``detour`` m). In a hall it drives
+  round; in a corridor too narrow to pass with room it asks. The ask
+  (:class:`~gidabot_navigation.guiding.messages.WayAsk`, relayed as gidabot_msgs/MakeWay) names the
+  robots asked and the asker's way; it speaks only for its sender (``robot`` is the asker). When the
+  move ends the asker sends an empty ask: the robots it asked go back.
 * **the asked robot** (:meth:`MakeWay.on_ask`, :meth:`MakeWay.step`): while it is idle, it drives to the
-  nearest spot it can reach that is off every way it was asked to clear (its disc at least ``margin`` away
-  from the asker's disc anywhere along that way: a doorway, a niche, a wider part, a hall) and waits there.
-  It goes back to where it stood once no ask names it any more, once the asker is ``passed`` m beyond it
-  (where it stood and where it waits) along its way (the visitor behind it too), or after ``timeout`` s. A trip of its own takes over at once
-  (:meth:`MakeWay.drop`): it serves it from where it is.
+  nearest spot it can reach that is off every way it was asked to clear (its disc at least ``margin``
+  away from the asker's disc anywhere along that way: a doorway, a niche, a wider part, a hall) and waits
+  there. It goes back to where it stood once no ask names it any more, once the asker is ``passed`` m
+  beyond it (where it stood and where it waits) along its way (the visitor behind it too), or after
+  ``timeout`` s. A trip of its own takes over at once (:meth:`MakeWay.drop`): it serves it from where
+  it is.
 
 Times are ROS seconds, passed in; nothing here reads a clock.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 

@@ -22,7 +22,16 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
-from gidabot_msgs.msg import Cancel, MakeWay, NavEvent, NavPose, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import (
+    Cancel,
+    MakeWay,
+    NavEvent,
+    NavPose,
+    PendingRequests,
+    RobotStatus,
+    TourCatalog,
+    VisitorCommand,
+)
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import Action, MoveTo, PoseData, SendAsk, SendCancel, SendEvent, StopMoving
 from gidabot_navigation.guiding.navigation import (
