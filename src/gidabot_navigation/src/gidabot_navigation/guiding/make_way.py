@@ -105,6 +105,7 @@ class MakeWay:
         self.aside: Aside | None = None              # where it went (None: where it belongs)
         self.going_back = False
         self.asked = 0                               # asks this robot sent naming somebody
+        self._last_ask: tuple[tuple[str, ...], tuple[float, float]] | None = None   # (robots, goal) last asked
         self.made_way = 0                            # times it stepped aside
 
     @property
@@ -152,13 +153,16 @@ class MakeWay:
         if not in_way:
             return None
         way = tuple((round(float(x), 3), round(float(y), 3)) for x, y in path.points[:MAX_WAY_POINTS])
-        self.asked += 1
-        self.log.info(f"make way: asking {', '.join(in_way)} to make way along my way to "
-                      f"({goal[0]:.1f}, {goal[1]:.1f})")
+        if (tuple(in_way), goal) != self._last_ask:
+            self.asked += 1
+            self.log.info(f"make way: asking {', '.join(in_way)} to make way along my way to "
+                          f"({goal[0]:.1f}, {goal[1]:.1f})")
+        self._last_ask = (tuple(in_way), goal)
         return WayAsk(self.me, self.floor, tuple(in_way), way, now)
 
     def end_ask(self, now: float) -> WayAsk:
         """The empty ask: whoever this robot asked may go back."""
+        self._last_ask = None
         return WayAsk(self.me, self.floor, (), (), now)
 
     # ------------------------------------------------------------------ the asked robot

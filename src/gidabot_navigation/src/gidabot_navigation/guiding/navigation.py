@@ -106,6 +106,9 @@ class Stage(enum.Enum):
 MAX_ODOM_LEAD_S = 10.0
 
 
+ASK_PERIOD = 2.0    # ROS s between two looks, during a move, at the idle robots in its way (one came back)
+
+
 def freshest_time(ros_now: float, odom_stamp: float | None) -> float:
     """The ROS time (s) the core is told of: the odometry's stamp when it is ahead of ``ros_now`` by at most
     :data:`MAX_ODOM_LEAD_S`, else ``ros_now``.
@@ -205,6 +208,8 @@ class NavigationCore:
         self.mates: dict[str, Mate] = {}        # the other robots of this floor, as their statuses show them
         self._asked_token: int | None = None    # the leg move whose ask was sent (None: none)
         self._asking = False                    # the last ask sent named robots
+        self._asked_at = 0.0                    # ROS s of the last look at who is in the way
+        self._asked_robots: tuple[str, ...] = ()
         self._way_token: int | None = None      # the make-way move running (None: none)
 
     # ------------------------------------------------------------------ sensor-like inputs
@@ -396,19 +401,25 @@ class NavigationCore:
         return actions + self._make_way(now_ros)
 
     def _make_way(self, now_ros: float) -> list[Action]:
-        """Asking for the way as a leg's move starts (and ending the ask when it ends); making way when idle."""
+        """Asking for the way as a leg's move starts, and again when the robots in its way change (one that made way
+        for another came back; looked at every :data:`ASK_PERIOD` s); ending the ask when the move ends; making way
+        when idle."""
         actions: list[Action] = []
         leg = self.leg
-        if leg is not None and leg.moving and leg.token != self._asked_token and self.pose is not None:
-            self._asked_token = leg.token
+        if leg is not None and leg.moving and self.pose is not None \
+                and (leg.token != self._asked_token or now_ros - self._asked_at >= ASK_PERIOD):
+            first = leg.token != self._asked_token
+            self._asked_token, self._asked_at = leg.token, now_ros
             ask = self.way.asks_for((self.pose.x, self.pose.y), (leg.target.x, leg.target.y),
                                     list(self.mates.values()), now_ros)
-            if ask is not None:
+            robots = ask.robots if ask is not None else ()
+            if ask is not None and (first or robots != self._asked_robots):
                 self._asking = True
                 actions.append(SendAsk(ask))
-            elif self._asking:
+            elif ask is None and self._asking:
                 self._asking = False
                 actions.append(SendAsk(self.way.end_ask(now_ros)))
+            self._asked_robots = robots
         elif self._asking and (leg is None or not leg.moving):
             self._asking = False
             self._asked_token = None
