@@ -80,6 +80,7 @@ class Topic:
     TOURS = "/gidabot/tours"
     STATUS = "/gidabot/status"
     POSES = "/gidabot/poses"
+    MAKE_WAY = "/gidabot/make_way"
     PENDING = "/gidabot/pending"
     TOUR_INDEX = "/gidabot/tour_index"
     # one robot's own: the visitor's buttons, the tour store
@@ -152,6 +153,7 @@ SHARED_TOPICS = (
     TopicSpec(Topic.TOURS, "gidabot_msgs/Tour", EVENT),
     TopicSpec(Topic.STATUS, "gidabot_msgs/RobotStatus", STATE),
     TopicSpec(Topic.POSES, "gidabot_msgs/NavPose", STATE),
+    TopicSpec(Topic.MAKE_WAY, "gidabot_msgs/MakeWay", STATE),
     TopicSpec(Topic.PENDING, "gidabot_msgs/PendingRequests", STATE),
     TopicSpec(Topic.TOUR_INDEX, "gidabot_msgs/TourIndex", STATE),
 )

@@ -96,6 +96,7 @@ SPEAKS_FOR: dict[str, Speech] = {
     Topic.POSES: Speech("robot", ""),
     Topic.PENDING: Speech("robot", ""),
     Topic.TOUR_INDEX: Speech("robot", ""),
+    Topic.MAKE_WAY: Speech("robot", ""),             # the robot that asks the idle robots of its floor to make way
 }
 
 

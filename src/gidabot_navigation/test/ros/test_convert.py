@@ -63,6 +63,8 @@ STATUS = forms.RobotStatusData(robot="Kbot", floor=1.0, x=30.5, y=12.25, yaw=-2.
                                battery=0.75, state=RobotState.GUIDING, pending=2, current_goal_uid=TRIP.uid,
                                busy_for=250.5, stamp=102.5, frame_id="map")
 POSE = forms.PoseData(robot="Kbot", floor=1.0, x=31.5, y=12.5, yaw=3.0, stamp=102.75, frame_id="map")
+ASK = forms.WayAsk(robot="Kbot", floor=1.0, robots=("Basajaun",), way=((30.5, 12.0), (40.25, 11.5)), stamp=102.5,
+                   frame_id="map")
 TOUR = TourMessage(uid="Kbot/tour/b.1", origin_robot="Tartalo", editor_robot="Kbot", version=1_700_000_000_123_456_789,
                    deleted=True, language="es", floor=1.0, tour_name="Open day", file_name="open_day.tour",
                    tour_goals_info=("1, 101, Secretary's Office", "2, 223, Lab"), stamp=103.5)
@@ -95,6 +97,7 @@ CASES = [
     Case(gidabot_msgs.PendingRequests, convert.pending_to_msg, convert.pending_from_msg, PENDING),
     Case(gidabot_msgs.RobotStatus, convert.status_to_msg, convert.status_from_msg, STATUS),
     Case(gidabot_msgs.NavPose, convert.pose_to_msg, convert.pose_from_msg, POSE),
+    Case(gidabot_msgs.MakeWay, convert.make_way_to_msg, convert.make_way_from_msg, ASK),
     Case(gidabot_msgs.Tour, convert.tour_to_msg, convert.tour_from_msg, TOUR),
     Case(gidabot_msgs.TourIndex, convert.index_to_msg, convert.index_from_msg, INDEX),
     Case(gidabot_msgs.TourCatalog, convert.catalog_to_msg, convert.catalog_from_msg, CATALOG),

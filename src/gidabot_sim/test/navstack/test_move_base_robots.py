@@ -191,3 +191,50 @@ def test_a_goal_where_another_robot_stands_is_reached_next_to_it() -> None:
     floor.run({0: Pose2D(9.0, 3.0, 0.0)}, timeout=60.0)
     a = floor.world.robots[0].pose
     assert floor.results[0].outcome == SUCCEEDED and math.hypot(a.x - 9.0, a.y - 3.0) <= 0.25
+
+
+def _pass_a_parked_robot(step_aside_at: float | None) -> tuple[StepResult | None, float, ListLog, World]:
+    """A 0.35 m robot drives down a 2.6 m corridor where an idle 0.33 m robot stands in the middle (too close
+    to squeeze past: no safe velocity beside it); the idle one steps into a doorway at ``step_aside_at``."""
+    grid = floor_map(32.0, 10.0, [(1.0, 2.0, 6.0, 8.0), (26.0, 2.0, 31.0, 8.0), (6.0, 3.7, 26.0, 6.3),
+                                  (18.0, 2.7, 19.5, 3.7)])
+    limits = Limits(0.7, 1.2, 0.6, 2.0, "differential")
+    world = World(grid, dt=0.02, deadlock_time=30.0, rng=np.random.default_rng(1))
+    world.add_robot(RobotSpec("Guide", 0.35, limits, LaserSpec(noise=0.0)), Pose2D(3.0, 5.0, 0.0))
+    world.add_robot(RobotSpec("Parker", 0.33, limits, LaserSpec(noise=0.0)), Pose2D(16.0, 5.0, 0.0))
+    log = ListLog()
+    nav = MoveBaseCore.for_robot(grid, 0.35, limits, log=log, name="Guide")
+    due = Periodic(10.0)
+    nav.set_goal(Pose2D(29.0, 5.0, 0.0), 0.0)
+    while world.time < 200.0:
+        world.step()
+        if step_aside_at is not None and world.time >= step_aside_at:
+            world.teleport(1, Pose2D(18.75, 3.2, 0.0))
+            step_aside_at = None
+        if not due.due(world.time):
+            continue
+        nav.set_robots([SensedRobot(r.spec.name, r.pose.x, r.pose.y, r.spec.radius)
+                        for r in (world.robots[j] for j in world.seen_robots(0))])
+        nav.set_pose(world.robots[0].pose, world.robots[0].vel, world.time)
+        result = nav.step(world.time)
+        if result.cmd is not None:
+            world.set_command(0, result.cmd.vx, result.cmd.vy, result.cmd.wz)
+        if result.outcome is not None:
+            return result, world.time, log, world
+    return None, world.time, log, world
+
+
+def test_a_robot_parked_in_a_narrow_corridor_is_waited_for_not_given_up_on_as_stuck() -> None:
+    result, took, log, world = _pass_a_parked_robot(None)
+    assert result is not None and result.outcome == ABORTED, log.lines[-5:]
+    assert result.text == ("Blocked by robot Parker for 60 s: deadlock (robots Guide and Parker cannot pass each "
+                           "other: it neither passed nor made way)")
+    assert 60.0 + 15.0 < took < 100.0                 # reached it in ~20 s, waited robot_patience, not 15 s
+    assert any("robot Parker is in the way, close: waiting for it to pass or make way" in line for line in log.lines)
+    assert world.robot_collisions == 0
+
+
+def test_a_robot_parked_in_a_narrow_corridor_that_makes_way_is_passed() -> None:
+    result, took, log, world = _pass_a_parked_robot(40.0)     # it waited ~20 s beside it: longer than 15 s
+    assert result is not None and result.outcome == SUCCEEDED, log.lines[-5:]
+    assert took < 90.0 and world.robot_collisions == 0

@@ -18,9 +18,14 @@ The costmap and the cells reachable from a home are computed once per floor and 
 (several robots of one size on a floor share them), and a place costs a lookup, so the
 faculty's four floors are checked in well under a second. Only an unreachable place
 costs more (a search for its bottleneck).
+
+Warnings (:func:`crowding_warnings`): a home or meeting point where a robot standing leaves another robot of
+its floor no way past it (the narrow-corridor check of this branch: one implementation, here).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pyastar2d
@@ -28,7 +33,7 @@ from scipy import ndimage
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, Floor, Robot, format_floor
-from gidabot_navigation.building.planning import GridPlanner
+from gidabot_navigation.building.planning import Circle, GridPlanner
 from gidabot_navigation.errors import PlanningError, Problem
 
 WALL_COST = 1000.0    # a wall cell on the way, in free cells: the way found crosses as few as it can
@@ -172,3 +177,65 @@ def _bottleneck(clearance: np.ndarray, start: tuple[int, int], target: tuple[int
                                 allow_diagonal=False)
     k = int(np.argmin(clearance[path[:, 0], path[:, 1]]))
     return float(clearance[path[k, 0], path[k, 1]]), (int(path[k, 0]), int(path[k, 1]))
+
+
+PASSING_PADDING = 0.15    # m added to the passing robot's radius: move_base's footprint padding and room to steer
+MARK_PADDING = 0.1        # m added to the standing robot's disc (how move_base marks a robot it sees)
+
+
+def crowding_warnings(building: Building) -> list[Problem]:
+    """Warnings (not errors) of ``gidabot check``: a robot standing at its home, or waiting at a meeting point,
+    that leaves a corridor too narrow for another robot of its floor to pass (both discs inflated: the passing
+    robot's radius + :data:`PASSING_PADDING`, the standing one's + :data:`MARK_PADDING`): the places the other
+    robot reaches from its home without it there but not with it there. Such a robot is asked to make way at
+    run time (guiding/make_way.py); the warning says where a building invites it."""
+    source = str(building.path)
+    warnings: list[Problem] = []
+    planners: dict[tuple[float, float], GridPlanner] = {}
+    for floor in building.floors:
+        robots = [r for r in building.robots if r.floor == floor.id]
+        if len(robots) < 2:
+            continue
+        places = _places(building, floor)
+        stands = [(f"home of robot {r.name}", r, r.home) for r in robots]
+        stands += [(f"connector {c.id} (meeting point on floor {floor.label})", r, c.meeting[floor.id])
+                   for c in building.connectors if floor.id in c.meeting for r in robots]
+        for what, stander, pose in stands:
+            for other in robots:
+                if other is stander:
+                    continue
+                key = (floor.id, other.radius + PASSING_PADDING)
+                if key not in planners:
+                    planners[key] = GridPlanner(floor.map, key[1])
+                cut = _cut_off(planners[key], other, pose, stander.radius + MARK_PADDING, places)
+                if cut:
+                    warnings.append(Problem(source, what, (
+                        f"{stander.name} (radius {stander.radius:g} m) standing at ({pose.x:g}, {pose.y:g}) on floor "
+                        f"{format_floor(floor.id)} leaves the way too narrow for {other.name} (radius "
+                        f"{other.radius:g} m) to pass: it cuts {other.name} off from {', '.join(cut)}; it will be "
+                        f"asked to make way (better: a place off the corridor)")))
+    return warnings
+
+
+def _cut_off(planner: GridPlanner, other: Robot, stand: Pose2D, disc: float,
+             places: list[tuple[str, Pose2D]]) -> list[str]:
+    """The places ``other`` reaches from its home, but not while a disc of radius ``disc`` stands at ``stand``."""
+    home = (other.home.x, other.home.y)
+    if math.hypot(stand.x - home[0], stand.y - home[1]) < disc + planner.robot_radius:
+        return []                                   # it stands where the other one lives: not passing
+    try:
+        free = planner.reachable(home)
+        planner.set_obstacles({"standing": Circle(stand.x, stand.y, disc)})
+        blocked = planner.reachable(home)
+    except PlanningError:
+        return []
+    finally:
+        planner.set_obstacles({})
+    cut = []
+    for what, pose in places:
+        if math.hypot(pose.x - stand.x, pose.y - stand.y) < disc + planner.robot_radius + 0.5:
+            continue                                # a place where it stands itself
+        cell = planner.grid.world_to_cell(pose.x, pose.y)
+        if planner.grid.contains(pose.x, pose.y) and free[cell] and not blocked[cell]:
+            cut.append(what)
+    return cut

@@ -249,6 +249,55 @@ class PoseData:
     frame_id: str = ""
 
 
+@dataclass(frozen=True)
+class WayAsk:
+    """A gidabot_msgs/MakeWay: robot ``robot`` (the sender) asks ``robots`` of its floor to clear ``way`` (points in
+    the floor's map frame, m); no robots: its ask is over."""
+
+    robot: str
+    floor: float
+    robots: tuple[str, ...]
+    way: tuple[tuple[float, float], ...]
+    stamp: float = 0.0
+    frame_id: str = ""
+
+
+MAX_WAY_POINTS = 200      # points of a way in a WayAsk (a string-pulled plan has a few dozen)
+
+
+def validate_ask(building: Building, ask: WayAsk) -> WayAsk:
+    """Check a MakeWay: a known robot on its floor, the robots asked on that floor (not itself), a way of at most
+    :data:`MAX_WAY_POINTS` finite points on the floor's map; an ask naming robots has a way."""
+    robot = _text(ask.robot, "make_way robot", MAX_ID, _ID_RE, empty=False)
+    asker = building.find_robot(robot)
+    if asker is None:
+        raise GoalRejected("robot", f"make_way robot {show(robot)} is not a robot of building {building.id}")
+    floor = _finite(ask.floor, "make_way floor")
+    if not same_floor(floor, asker.floor):
+        raise GoalRejected("floor", f"make_way floor {format_floor(floor)} is not robot {robot}'s floor "
+                                    f"({format_floor(asker.floor)})")
+    robots = []
+    for name in ask.robots:
+        name = _text(name, "make_way robots", MAX_ID, _ID_RE, empty=False)
+        other = building.find_robot(name)
+        if other is None or name == robot or not same_floor(other.floor, asker.floor):
+            raise GoalRejected("robot", f"make_way robots: {show(name)} is not another robot of floor "
+                                        f"{format_floor(asker.floor)}")
+        robots.append(name)
+    if len(ask.way) > MAX_WAY_POINTS:
+        raise GoalRejected("way", f"make_way way: {len(ask.way)} points, at most {MAX_WAY_POINTS}")
+    grid = building.floor(asker.floor).map
+    way = []
+    for x, y in ask.way:
+        x, y = _finite(x, "make_way way x"), _finite(y, "make_way way y")
+        if not grid.contains(x, y):
+            raise GoalRejected("way", f"make_way way point ({x:g}, {y:g}) is off floor {format_floor(floor)}'s map")
+        way.append((x, y))
+    if robots and len(way) < 2:
+        raise GoalRejected("way", "make_way: robots asked without a way (at least two points)")
+    return replace(ask, robot=robot, floor=asker.floor, robots=tuple(robots), way=tuple(way))
+
+
 def command_key(uid: object, stamp: object) -> str:
     """The de-duplication key of a visitor command ("" = none: a command without uid is never a duplicate)."""
     if not isinstance(uid, str) or not uid:
@@ -271,6 +320,13 @@ class SendCancel:
     """Publish ``cancel`` on /gidabot/cancels."""
 
     cancel: CancelData
+
+
+@dataclass(frozen=True)
+class SendAsk:
+    """Publish ``ask`` on /gidabot/make_way."""
+
+    ask: WayAsk
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,7 @@ from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
+from gidabot_navigation.guiding.make_way import MakeWay, Mate
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -56,14 +57,18 @@ from gidabot_navigation.guiding.messages import (
     NavEventData,
     RobotStatusData,
     SeenSet,
+    SendAsk,
     SendCancel,
     SendEvent,
     StopMoving,
     Trip,
     UidMaker,
+    WayAsk,
     cancel_digest,
     nav_event_digest,
     own_event_digest,
+    same_floor,
+    validate_ask,
     validate_cancel,
     validate_event,
 )
@@ -115,6 +120,9 @@ class Stage(enum.Enum):
 
 # odometry stamped further ahead of the ROS time than this is not trusted as the time (s)
 MAX_ODOM_LEAD_S = 10.0
+
+
+ASK_PERIOD = 2.0    # ROS s between two looks, during a move, at the idle robots in its way (one came back)
 
 
 def freshest_time(ros_now: float, odom_stamp: float | None) -> float:
@@ -214,6 +222,13 @@ class NavigationCore:
         self._releases: OrderedDict[str, tuple[str, float]] = OrderedDict()   # goal uid -> (robot, ROS s)
         self._eta_last = 0.0
         self._eta_at = 0.0
+        self.way = MakeWay(building, robot.name, log)
+        self.mates: dict[str, Mate] = {}        # the other robots of this floor, as their statuses show them
+        self._asked_token: int | None = None    # the leg move whose ask was sent (None: none)
+        self._asking = False                    # the last ask sent named robots
+        self._asked_at = 0.0                    # ROS s of the last look at who is in the way
+        self._asked_robots: tuple[str, ...] = ()
+        self._way_token: int | None = None      # the make-way move running (None: none)
 
     # ------------------------------------------------------------------ sensor-like inputs
     def on_pose(self, x: float, y: float, yaw: float) -> None:
@@ -228,10 +243,36 @@ class NavigationCore:
         if isinstance(fraction, (int, float)) and math.isfinite(fraction):
             self.battery = min(1.0, max(0.0, float(fraction)))
 
-    def on_status(self, robot: str, now_wall: float, *, sender: str) -> None:
-        """A RobotStatus of ``robot`` published by ``sender``: that robot is online."""
-        if self.gate.admit(sender, Claim(as_text(robot)), "status") and self.building.find_robot(robot) is not None:
-            self.liveness.heard(robot, now_wall)
+    def on_status(self, robot: str, now_wall: float, *, sender: str) -> bool:
+        """A RobotStatus of ``robot`` published by ``sender``: that robot is online. True when admitted (then
+        the node hands the status to :meth:`on_mate`)."""
+        if not self.gate.admit(sender, Claim(as_text(robot)), "status") or self.building.find_robot(robot) is None:
+            return False
+        self.liveness.heard(robot, now_wall)
+        return True
+
+    def on_mate(self, status: RobotStatusData) -> None:
+        """A robot's status: the robots of this floor, where they are and whether they are idle (make way)."""
+        other = self.building.find_robot(status.robot) if isinstance(status.robot, str) else None
+        if other is None or other.name == self.me or not same_floor(other.floor, self.floor) \
+                or not (math.isfinite(status.x) and math.isfinite(status.y)):
+            return
+        self.mates[other.name] = Mate(other.name, status.x, status.y, other.radius, status.state == RobotState.IDLE)
+        self.way.on_asker_pose(other.name, status.x, status.y)
+
+    def on_make_way(self, ask: WayAsk, now_ros: float, *, sender: str) -> None:
+        """An ask to make way (gidabot_msgs/MakeWay) published by ``sender``: it speaks only for its sender's robot;
+        this robot's own ask, heard back, is ignored."""
+        if not self.gate.admit(sender, Claim(as_text(ask.robot)), "make_way"):
+            return
+        try:
+            ask = validate_ask(self.building, ask)
+        except GoalRejected as err:
+            self.stats.inc(f"rejected_{err.reason}")
+            self.warn.warning("make_way", f"make_way rejected: {err}")
+            return
+        if ask.robot != self.me:
+            self.way.on_ask(ask, now_ros)
 
     def on_catalog(self, entries: Iterable[TourMessage], *, sender: str) -> None:
         """The tour store's catalog (published by ``sender``: only this robot's tour store's is taken)."""
@@ -352,6 +393,10 @@ class NavigationCore:
         """The move_base goal ``token`` ended with ``status`` (SUCCEEDED, ABORTED, ...). ``done_ros``: when move_base
         ended it (its result's stamp; None: ``now_ros``): the events that end the guiding carry it, so the time the
         result took to get here is not counted as guiding (Table 5)."""
+        if token == self._way_token:
+            self._way_token = None
+            self.way.arrived(status == SUCCEEDED)
+            return []
         leg = self.leg
         if leg is None or token != leg.token or not leg.moving:
             self.stats.inc("stale_results")
@@ -390,7 +435,44 @@ class NavigationCore:
                 and now_ros - self._unavailable_since >= self.cfg.nav_lost_timeout:
             actions += self._fail(leg, f"the navigation stack (move_base) is gone for "
                                        f"{now_ros - self._unavailable_since:.0f} s", now_ros)
-        return actions + self._advance(now_ros, now_wall)
+        actions += self._advance(now_ros, now_wall)
+        return actions + self._make_way(now_ros)
+
+    def _make_way(self, now_ros: float) -> list[Action]:
+        """Asking for the way as a leg's move starts, and again when the robots in its way change (one that made way
+        for another came back; looked at every :data:`ASK_PERIOD` s); ending the ask when the move ends; making way
+        when idle."""
+        actions: list[Action] = []
+        leg = self.leg
+        if leg is not None and leg.moving and self.pose is not None \
+                and (leg.token != self._asked_token or now_ros - self._asked_at >= ASK_PERIOD):
+            first = leg.token != self._asked_token
+            self._asked_token, self._asked_at = leg.token, now_ros
+            ask = self.way.asks_for((self.pose.x, self.pose.y), (leg.target.x, leg.target.y),
+                                    list(self.mates.values()), now_ros)
+            robots = ask.robots if ask is not None else ()
+            if ask is not None and (first or robots != self._asked_robots):
+                self._asking = True
+                actions.append(SendAsk(ask))
+            elif ask is None and self._asking:
+                self._asking = False
+                actions.append(SendAsk(self.way.end_ask(now_ros)))
+            self._asked_robots = robots
+        elif self._asking and (leg is None or not leg.moving):
+            self._asking = False
+            self._asked_token = None
+            actions.append(SendAsk(self.way.end_ask(now_ros)))
+        if leg is not None:
+            if self._way_token is not None or self.way.aside is not None:
+                self.way.drop()
+                self._way_token = None
+            return actions
+        target = self.way.step(self.pose, self.available, now_ros)
+        if target is not None:
+            self._token += 1
+            self._way_token = self._token
+            actions.append(MoveTo(self._token, target.x, target.y, target.yaw))
+        return actions
 
     # ------------------------------------------------------------------ restarts
     @staticmethod

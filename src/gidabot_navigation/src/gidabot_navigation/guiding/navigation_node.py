@@ -22,9 +22,18 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
-from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import (
+    Cancel,
+    MakeWay,
+    NavEvent,
+    NavPose,
+    PendingRequests,
+    RobotStatus,
+    TourCatalog,
+    VisitorCommand,
+)
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.guiding.messages import Action, MoveTo, PoseData, SendCancel, SendEvent, StopMoving
+from gidabot_navigation.guiding.messages import Action, MoveTo, PoseData, SendAsk, SendCancel, SendEvent, StopMoving
 from gidabot_navigation.guiding.navigation import (
     ABORTED,
     LOST,
@@ -124,6 +133,8 @@ class NavigationNode:
         (unreachable, timeout, offline), so the other robots drop it too.
       - ``/gidabot/status`` (gidabot_msgs/RobotStatus, state): at ``~status_rate`` (ROS time).
       - ``/gidabot/poses`` (gidabot_msgs/NavPose, state): at ``~pose_rate`` (ROS time), once localised.
+      - ``/gidabot/make_way`` (gidabot_msgs/MakeWay, state): the idle robots of its floor it asks to make way along
+        a leg's way (empty when the move ends); the asks of the others (relayed) make it step aside while idle.
       - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall; ``refused_<kind>``: the
         messages refused by kind (impostor, foreign, wrong_namespace, conflict, invalid).
 
@@ -172,12 +183,14 @@ class NavigationNode:
         self.cancels_pub = ReplayPublisher(Topic.CANCELS, Cancel, queue_size=100, window=params.replay_window)
         self.status_pub = rospy.Publisher(Topic.STATUS, RobotStatus, queue_size=10, latch=True)
         self.poses_pub = rospy.Publisher(Topic.POSES, NavPose, queue_size=10, latch=True)
+        self.make_way_pub = rospy.Publisher(Topic.MAKE_WAY, MakeWay, queue_size=10, latch=True)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
         self.subs = [
             rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
             rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
             rospy.Subscriber(Topic.STATUS, RobotStatus, self._enqueue, callback_args="status", queue_size=50),
+            rospy.Subscriber(Topic.MAKE_WAY, MakeWay, self._enqueue, callback_args="make_way", queue_size=50),
             rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._enqueue, callback_args="command",
                              queue_size=50),
             rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
@@ -282,7 +295,11 @@ class NavigationNode:
                 self._active = None
             return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
-            core.on_status(convert.status_from_msg(msg).robot, now_wall, sender=sender(msg))
+            status = convert.status_from_msg(msg)
+            if core.on_status(status.robot, now_wall, sender=sender(msg)):
+                core.on_mate(status)
+        elif kind == "make_way":
+            core.on_make_way(convert.make_way_from_msg(msg), now_ros, sender=sender(msg))
         elif kind == "catalog":
             core.on_catalog(convert.catalog_from_msg(msg).tours, sender=sender(msg))
         elif kind == "tick":
@@ -318,6 +335,8 @@ class NavigationNode:
                 self.events_pub.publish(convert.event_to_msg(act.event))
             elif isinstance(act, SendCancel):
                 self.cancels_pub.publish(convert.cancel_to_msg(act.cancel))
+            elif isinstance(act, SendAsk):
+                self.make_way_pub.publish(convert.make_way_to_msg(replace(act.ask, frame_id=self.params.frame_id)))
 
     # -- move_base ------------------------------------------------------------------------
     def _send(self, token: int, goal: MoveBaseGoal, sends: int) -> None:

@@ -17,6 +17,7 @@ VisitorCommand      :class:`~gidabot_navigation.guiding.messages.CommandData`
 PendingRequests     :class:`~gidabot_navigation.guiding.messages.PendingData`
 RobotStatus         :class:`~gidabot_navigation.guiding.messages.RobotStatusData`
 NavPose             :class:`~gidabot_navigation.guiding.messages.PoseData`
+MakeWay             :class:`~gidabot_navigation.guiding.messages.WayAsk`
 Tour                :class:`~gidabot_navigation.tours.tour_store.TourMessage`
 TourIndex           :class:`~gidabot_navigation.tours.tour_store.TourIndexData`
 TourCatalog         :class:`~gidabot_navigation.tours.tour_store.CatalogData`
@@ -39,6 +40,7 @@ from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 from gidabot_msgs.msg import (
     Cancel,
     Goal,
+    MakeWay,
     NavEvent,
     NavPose,
     PendingRequests,
@@ -55,6 +57,7 @@ from gidabot_msgs.msg import (
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.guiding.messages import (
     MAX_DETAIL,
+    MAX_WAY_POINTS,
     CancelData,
     CommandData,
     NavEventData,
@@ -62,6 +65,7 @@ from gidabot_navigation.guiding.messages import (
     PoseData,
     RobotStatusData,
     Trip,
+    WayAsk,
 )
 from gidabot_navigation.interface import Sight
 from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
@@ -227,6 +231,21 @@ def pose_to_msg(p: PoseData) -> NavPose:
     m = NavPose()
     m.header.stamp, m.header.frame_id = ros_time(p.stamp), p.frame_id
     m.robot, m.floor, m.nav_pose = p.robot, p.floor, pose_msg(p.x, p.y, p.yaw)
+    return m
+
+
+def make_way_from_msg(m: MakeWay) -> WayAsk:
+    """At most :data:`MAX_WAY_POINTS` + 1 points are read (validation refuses more)."""
+    return WayAsk(robot=m.robot, floor=m.floor, robots=tuple(m.robots),
+                  way=tuple((p.x, p.y) for p in m.way[:MAX_WAY_POINTS + 1]), stamp=stamp_of(m),
+                  frame_id=m.header.frame_id)
+
+
+def make_way_to_msg(a: WayAsk) -> MakeWay:
+    m = MakeWay()
+    m.header.stamp, m.header.frame_id = ros_time(a.stamp), a.frame_id
+    m.robot, m.floor, m.robots = a.robot, a.floor, list(a.robots)
+    m.way = [Point(x, y, 0.0) for x, y in a.way]
     return m
 
 

@@ -124,6 +124,7 @@ class NavConfig:
     laser_fov: float = 1.5 * math.pi     # rad: a robot no longer seen is cleared when its place is in view
     yield_timeout: float = 10.0          # s the first name waits for a blocker that does not move before yielding
     robot_patience: float = 60.0         # s blocked by a robot (waiting or yielding) before aborting: deadlock
+    blocker_distance: float = 0.6        # m between discs: a robot or person this close explains no safe velocity
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -255,6 +256,7 @@ class MoveBaseCore:
         self._oscillation_replanned = False
         self._turning = False
         self._wait = None
+        self._close_wait: _RobotWait | None = None
 
     def set_goal(self, goal: Pose2D, now: float) -> None:
         """Start driving to ``goal`` (map frame), replacing any current goal.
@@ -638,7 +640,12 @@ class MoveBaseCore:
         safe = self._safe(pose, cmd)
         if safe is None:
             # no forward motion keeps the robot clear: turn on the spot (towards the path) meanwhile
-            if self._blocked_since is None:
+            blocker = self._blocker_near(pose)
+            if blocker is not None:
+                failed = self._wait_for_blocker(blocker, now)
+                if failed is not None:
+                    return failed
+            elif self._blocked_since is None:
                 self._blocked_since = now
                 self.log.warning("move_base: no safe velocity, re-planning")
                 self._need_plan = True
@@ -647,7 +654,52 @@ class MoveBaseCore:
                                    "(robot stuck)")
             return self._command(Twist2D(0.0, 0.0, self._turn_rate(alpha)) if abs(alpha) > 0.1 else ZERO)
         self._blocked_since = None
+        if self._close_wait is not None and now - self._close_wait.since >= 1.0:
+            self.log.info(f"move_base: passing {self._close_wait.blocker} after "
+                          f"{now - self._close_wait.since:.1f} s")
+        self._close_wait = None
         return self._command(safe)
+
+    def _blocker_near(self, pose: Pose2D) -> tuple[str, float, float] | None:
+        """The robot or person (a run-time disc obstacle) that leaves no safe velocity: the nearest one whose
+        disc is within ``blocker_distance`` of the robot's (name, x, y); None when the walls alone stop it."""
+        reach = self.radius + self.config.robot_mark_step + self.config.blocker_distance
+        found: list[tuple[float, str, float, float]] = []
+        for robot in self._robots.values():
+            found.append((math.hypot(robot.x - pose.x, robot.y - pose.y) - robot.radius,
+                          f"robot {robot.name}", robot.x, robot.y))
+        for name, shape in self._obstacles.items():
+            if isinstance(shape, Circle):
+                found.append((math.hypot(shape.x - pose.x, shape.y - pose.y) - shape.radius,
+                              f"person {name}", shape.x, shape.y))
+        near = [f for f in found if f[0] <= reach]
+        if not near:
+            return None
+        _, name, x, y = min(near)
+        return name, x, y
+
+    def _wait_for_blocker(self, blocker: tuple[str, float, float], now: float) -> StepResult | None:
+        """A robot or person in the way, close: wait for them to pass or make way (re-planning meanwhile), not
+        counted as stuck; ABORTED when they have not moved ``oscillation_distance`` for ``robot_patience``."""
+        cfg = self.config
+        name, x, y = blocker
+        wait = self._close_wait
+        if wait is None or wait.blocker != name:
+            wait = self._close_wait = _RobotWait(name, now, ((x, y), (x, y)))
+            self.log.warning(f"move_base: {name} is in the way, close: waiting for it to pass or make way "
+                             f"(at most {cfg.robot_patience:g} s while it does not move)")
+            self._need_plan = True
+        elif math.dist((x, y), wait.anchors[0]) >= cfg.oscillation_distance:
+            wait.since, wait.anchors = now, ((x, y), (x, y))     # it moves: passing or making way
+            self._need_plan = True
+        elif now - wait.since >= cfg.robot_patience:
+            why = "it neither passed nor made way"
+            if name.startswith("robot "):
+                why = f"deadlock (robots {self.name or '?'} and {name[6:]} cannot pass each other: {why})"
+            return self._abort(f"Blocked by {name} for {now - wait.since:.0f} s: {why}")
+        self._blocked_since = None
+        self._progress_time = now          # waiting for somebody to pass is not oscillating
+        return None
 
     def _differential(self, pose: Pose2D, tx: float, ty: float, alpha: float, v_max: float) -> Twist2D:
         cfg = self.config
