@@ -22,6 +22,7 @@ import genpy
 import pytest
 
 import gidabot_msgs.msg as gidabot_msgs
+from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.guiding import messages as forms
 from gidabot_navigation.interface import (
     LEG_COMMITTED,
@@ -32,12 +33,15 @@ from gidabot_navigation.interface import (
     Cmd,
     Phase,
     RobotState,
+    Sight,
 )
+from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
 from gidabot_navigation.ros import convert
 from gidabot_navigation.tours.tour_store import CatalogData, EditResultData, IndexEntry, TourIndexData, TourMessage
 
 REPO = Path(__file__).resolve().parents[4]
 SIMULATOR_MESSAGES = {"Obstacle", "ObstacleArray", "StepDone"}     # converted in gidabot_sim
+ELEMENT_MESSAGES = {"Person"}                                       # converted inside PersonArray
 
 # samples: every field set to a value other than its default, numbers exact in float32
 TRIP = forms.Trip(uid="Kbot/v/k1.2", origin_robot="Kbot", visitor_id="v", initial_floor=1.0, initial_x=30.5,
@@ -67,6 +71,12 @@ INDEX = TourIndexData(robot="Kbot", entries=(IndexEntry("a.tour", 5, "Kbot", Fal
 CATALOG = CatalogData(robot="Kbot", tours=(TOUR, replace(TOUR, file_name="b.tour", deleted=False)), stamp=104.5)
 RESULT = EditResultData(uid="Kbot/gui/tour-edit/1", file_name="open_day.tour", deleted=True, ok=True, version=7,
                         reason="in_the_way", error="a directory is in the way", stamp=105.25)
+PERSON = Track(id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25, confidence=0.75, unseen=0.5, confirmed=True, visitor=True)
+PEOPLE = PeopleData(tracks=(PERSON, replace(PERSON, id=8, visitor=False)), stamp=106.5)
+VISITOR = VisitorTrackData(VisitorReport(sight=Sight.HIDDEN, track_id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25,
+                                         distance=1.5, behind=1.25, bearing=3.0, unseen=0.75,
+                                         last_seen=LastSeen(Pose2D(3.0, -1.0, 1.5), 105.5), confidence=0.5),
+                           stamp=106.75)
 
 
 @dataclass(frozen=True)
@@ -89,6 +99,8 @@ CASES = [
     Case(gidabot_msgs.TourIndex, convert.index_to_msg, convert.index_from_msg, INDEX),
     Case(gidabot_msgs.TourCatalog, convert.catalog_to_msg, convert.catalog_from_msg, CATALOG),
     Case(gidabot_msgs.TourEditResult, convert.edit_result_to_msg, convert.edit_result_from_msg, RESULT),
+    Case(gidabot_msgs.PersonArray, convert.people_to_msg, convert.people_from_msg, PEOPLE),
+    Case(gidabot_msgs.VisitorTrack, convert.visitor_track_to_msg, convert.visitor_track_from_msg, VISITOR),
 ]
 IDS = [c.cls._type for c in CASES]
 
@@ -121,7 +133,7 @@ def differences(a: object, b: object) -> list[str]:
 def test_every_message_has_its_conversion() -> None:
     messages = {name for name, cls in vars(gidabot_msgs).items()
                 if isinstance(cls, type) and issubclass(cls, genpy.Message)}
-    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES
+    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES | ELEMENT_MESSAGES
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)
@@ -202,6 +214,19 @@ def test_a_pending_list_counts_at_most_255_goals() -> None:
     assert (msg.num, len(msg.goals), len(msg.eta)) == (255, 255, 255)
     back = convert.pending_from_msg(msg)
     assert (back.num, len(back.goals), len(back.eta)) == (255, 255, 255)
+
+
+def test_a_visitor_report_without_values_goes_as_nan_and_comes_back_as_none() -> None:
+    none = VisitorTrackData(VisitorReport(sight=Sight.ACQUIRING), stamp=3.0)
+    msg = wire(convert.visitor_track_to_msg(none))
+    assert math.isnan(msg.distance) and msg.id == 0 and msg.last_seen_stamp == genpy.Time(0)
+    assert convert.visitor_track_from_msg(msg) == none
+    assert convert.person_from_msg(convert.person_to_msg(PERSON)) == PERSON
+
+
+def test_a_visitor_track_with_an_unknown_sight_is_refused() -> None:
+    with pytest.raises(ValueError, match="sight 9"):
+        convert.visitor_track_from_msg(gidabot_msgs.VisitorTrack(sight=9))
 
 
 def test_a_tour_index_with_arrays_of_different_lengths_is_refused() -> None:

@@ -23,7 +23,7 @@ from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_sim.navstack.amcl import AmclConfig, AmclCore, AmclLoop
-from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros import convert
 from gidabot_sim.ros.participant import StepAnswers, own_time
 
 
@@ -74,12 +74,12 @@ class AmclNode:
         rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
     def _on_odom(self, msg: Odometry) -> None:
-        self.loop.on_odom(lambda: ru.odometry_of(msg, Topic.ODOM)[:2])
+        self.loop.on_odom(lambda: convert.odometry_of(msg, Topic.ODOM)[:2])
 
     def _on_truth(self, msg: Odometry) -> None:
         t = msg.header.stamp.to_sec()
         self.set_time(t)
-        out = self.loop.on_truth(t, lambda: ru.odometry_of(msg, Topic.BASE_POSE_GROUND_TRUTH)[1],
+        out = self.loop.on_truth(t, lambda: convert.odometry_of(msg, Topic.BASE_POSE_GROUND_TRUTH)[1],
                                  self.tf_pub.get_num_connections() > 0)
         if out.follow_odom and self.odom_sub is None:
             self.odom_sub = rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10)
@@ -87,10 +87,10 @@ class AmclNode:
             self.odom_sub.unregister()
             self.odom_sub = None
         if out.estimate is not None:
-            self.pose_pub.publish(ru.estimate_msg(out.estimate, self.global_frame))
+            self.pose_pub.publish(convert.estimate_msg(out.estimate, self.global_frame))
         if out.map_odom is not None:
-            self.tf_pub.publish(TFMessage(transforms=[ru.transform(self.global_frame, self.odom_frame, out.map_odom,
-                                                                   out.tf_stamp)]))
+            tf = convert.transform(self.global_frame, self.odom_frame, out.map_odom, out.tf_stamp)
+            self.tf_pub.publish(TFMessage(transforms=[tf]))
         self.answers.answer(out.done, idle=True, inputs=[self.truth_topic])
 
 def main() -> None:

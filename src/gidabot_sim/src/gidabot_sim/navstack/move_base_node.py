@@ -35,7 +35,7 @@ from gidabot_navigation.ros.params import param_number
 from gidabot_sim.errors import PlanRefused, SimConfigError
 from gidabot_sim.navstack.move_base import MoveBaseCore, NavConfig
 from gidabot_sim.navstack.move_base_loop import MoveBaseLoop
-from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros import convert
 from gidabot_sim.ros.participant import StepAnswers, own_time, synchronous_publisher
 from gidabot_sim.world.kinematics import Limits, Twist2D
 
@@ -155,31 +155,31 @@ class MoveBaseNode:
         self.wake.set()
 
     def _on_obstacles(self, msg: ObstacleArray) -> None:
-        self.loop.on_obstacles(lambda: ru.obstacle_shapes_of(msg))
+        self.loop.on_obstacles(lambda: convert.obstacle_shapes_of(msg))
         self.wake.set()
 
     def _on_robots(self, msg: ObstacleArray) -> None:
-        self.loop.on_robots(lambda: ru.sensed_robots_of(msg))
+        self.loop.on_robots(lambda: convert.sensed_robots_of(msg))
         self.wake.set()
 
     def _on_odom(self, msg: Odometry) -> None:
-        self.loop.on_odom(lambda: ru.odometry_of(msg, Topic.ODOM))
+        self.loop.on_odom(lambda: convert.odometry_of(msg, Topic.ODOM))
 
     def _on_amcl(self, msg: PoseWithCovarianceStamped) -> None:
-        self.loop.on_estimate(lambda: ru.amcl_pose_of(msg))
+        self.loop.on_estimate(lambda: convert.amcl_pose_of(msg))
 
     def _on_simple_goal(self, msg: PoseStamped) -> None:
         goal = MoveBaseActionGoal()
-        goal.header.stamp = ru.stamp(rospy.get_time())
+        goal.header.stamp = convert.stamp(rospy.get_time())
         goal.goal.target_pose = msg
         self.action_goal_pub.publish(goal)
 
     def _make_plan(self, req: Any) -> GetPlanResponse:
         try:
-            found = self.loop.make_plan(lambda: ru.plan_request_of(req))
+            found = self.loop.make_plan(lambda: convert.plan_request_of(req))
         except PlanRefused as err:
             raise rospy.ServiceException(str(err)) from err
-        return GetPlanResponse(plan=ru.plan_msg(found, self.spacing, rospy.get_time()))
+        return GetPlanResponse(plan=convert.plan_msg(found, self.spacing, rospy.get_time()))
 
     def _clear_costmaps(self, _req: Any) -> EmptyResponse:
         self.loop.clear_costmaps()
@@ -191,7 +191,7 @@ class MoveBaseNode:
 
     def accept_new_goal(self) -> Pose2D | None:
         goal = self.server.accept_new_goal()     # a running goal is reported PREEMPTED
-        return None if goal is None else ru.goal_to_pose2d(goal.target_pose.header.frame_id, goal.target_pose.pose)
+        return None if goal is None else convert.goal_to_pose2d(goal.target_pose.header.frame_id, goal.target_pose.pose)
 
     def goal_active(self) -> bool:
         return self.server.is_active()
@@ -209,20 +209,20 @@ class MoveBaseNode:
         self.server.set_aborted(MoveBaseResult(), text)
 
     def feedback(self, pose: Pose2D, t: float) -> None:
-        self.server.publish_feedback(MoveBaseFeedback(base_position=ru.pose_stamped(pose, t)))
+        self.server.publish_feedback(MoveBaseFeedback(base_position=convert.pose_stamped(pose, t)))
 
     def command(self, cmd: Twist2D) -> None:
-        self.cmd_pub.publish(ru.twist_msg(cmd))
+        self.cmd_pub.publish(convert.twist_msg(cmd))
         self.answers.command_sent()
 
     def current_goal(self, pose: Pose2D, t: float) -> None:
-        self.goal_pub.publish(ru.pose_stamped(pose, t))
+        self.goal_pub.publish(convert.pose_stamped(pose, t))
 
     def wants_plan(self) -> bool:
         return self.plan_pub.get_num_connections() > 0
 
     def plan(self, path: Path, goal_yaw: float, t: float) -> None:
-        self.plan_pub.publish(ru.path_msg(path, goal_yaw, self.spacing, t))
+        self.plan_pub.publish(convert.path_msg(path, goal_yaw, self.spacing, t))
 
     def answer(self, t: float, idle: bool, inputs: Sequence[str]) -> None:
         self.answers.answer(t, idle=idle, inputs=inputs)

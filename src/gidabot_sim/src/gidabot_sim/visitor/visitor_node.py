@@ -21,7 +21,7 @@ from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.ros.replay import ReplayPublisher
-from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros import convert
 from gidabot_sim.visitor.population import plans_from_list
 from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config
 
@@ -104,16 +104,16 @@ class VisitorNode:
         self.station.on_goal(msg.uid, msg.visitor_id, rospy.get_time())
 
     def _on_event(self, msg: NavEvent) -> None:
-        self.station.on_event(ru.nav_event_of(msg), rospy.get_time())
+        self.station.on_event(convert.nav_event_of(msg), rospy.get_time())
 
     def _on_catalog(self, msg: TourCatalog) -> None:
-        self.station.on_catalog(ru.tours_of(msg))
+        self.station.on_catalog(convert.tours_of(msg))
 
     def _on_pending(self, msg: PendingRequests) -> None:
-        self.station.on_pending(*ru.pending_of(msg), time.time())
+        self.station.on_pending(*convert.pending_of(msg), time.time())
 
     def _on_status(self, msg: RobotStatus) -> None:
-        self.station.on_status(*ru.status_of(msg), rospy.get_time(), time.time())
+        self.station.on_status(*convert.status_of(msg), rospy.get_time(), time.time())
 
     def _tick(self, _event: object) -> None:
         if self._status_sub is not None and not self.station.needs_status:
@@ -123,7 +123,7 @@ class VisitorNode:
             self._catalog_sub.unregister()
             self._catalog_sub = None
         for command in self.station.tick(rospy.get_time(), time.time()):
-            self.pub.publish(ru.command_msg(command))
+            self.pub.publish(convert.command_msg(command))
 
 
 def main() -> None:

@@ -30,7 +30,7 @@ from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number
-from gidabot_sim.ros import convert as ru
+from gidabot_sim.ros import convert
 from gidabot_sim.ros.participant import own_time, synchronous_publisher
 from gidabot_sim.world import floor_sim as fs
 from gidabot_sim.world.clock import MAX_SPEED
@@ -86,8 +86,8 @@ class _RobotIO:
     def __init__(self, node: SimNode, index: int) -> None:
         sim, prefix = node.sim, node.sim.prefixes[index]
         self.frames = frames = sim.frames[index]
-        self.odom_msg = ru.odometry_msg(frames["odom"], frames["base_footprint"])
-        self.truth_msg = ru.odometry_msg("map", frames["base_footprint"])
+        self.odom_msg = convert.odometry_msg(frames["odom"], frames["base_footprint"])
+        self.truth_msg = convert.odometry_msg("map", frames["base_footprint"])
         self.pubs = {Topic.ODOM: rospy.Publisher(prefix + Topic.ODOM, Odometry, queue_size=5),
                      Topic.BASE_POSE_GROUND_TRUTH: rospy.Publisher(prefix + Topic.BASE_POSE_GROUND_TRUTH, Odometry,
                                                                    queue_size=5),
@@ -184,7 +184,7 @@ class SimNode:
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
         rospy.Subscriber(Topic.SIM_OBSTACLE, Obstacle, self.on_obstacle, queue_size=50)
         rospy.Subscriber(Topic.SIM_STEP_DONE, StepDone, self.on_step_done, queue_size=200, tcp_nodelay=True)
-        self.map_msg = ru.occupancy_grid(self.sim.floor.map, 0.0)
+        self.map_msg = convert.occupancy_grid(self.sim.floor.map, 0.0)
         rospy.Service(Service.STATIC_MAP, GetMap, lambda _req: GetMapResponse(map=self.map_msg))
         self.set_time = own_time()
         self._publish = {fs.Odom: self._odom, fs.Truth: self._truth, fs.Transforms: self._transforms,
@@ -194,19 +194,19 @@ class SimNode:
 
     # -- callbacks: convert and post ---------------------------------------------------------------------
     def on_cmd_vel(self, msg: Twist, index: int) -> None:
-        self.sim.post(fs.CMD_VEL, index, lambda: ru.twist_of(msg), msg._connection_header.get("callerid", ""))
+        self.sim.post(fs.CMD_VEL, index, lambda: convert.twist_of(msg), msg._connection_header.get("callerid", ""))
         self.wake.set()
 
     def on_initialpose(self, msg: PoseWithCovarianceStamped, index: int) -> None:
-        self.sim.post(fs.INITIALPOSE, index, lambda: ru.initialpose_to_pose2d(msg))
+        self.sim.post(fs.INITIALPOSE, index, lambda: convert.initialpose_to_pose2d(msg))
         self.wake.set()
 
     def on_obstacle(self, msg: Obstacle) -> None:
-        self.sim.post(fs.OBSTACLE, -1, lambda: ru.obstacle_change_of(msg))
+        self.sim.post(fs.OBSTACLE, -1, lambda: convert.obstacle_change_of(msg))
         self.wake.set()
 
     def on_step_done(self, msg: StepDone) -> None:
-        self.sim.post(fs.STEP_DONE, -1, lambda: ru.answer_of(msg))
+        self.sim.post(fs.STEP_DONE, -1, lambda: convert.answer_of(msg))
         self.wake.set()
 
     # -- what the core emits -------------------------------------------------------------------------------
@@ -219,39 +219,39 @@ class SimNode:
 
     def _odom(self, out: fs.Odom) -> None:
         io = self.io[out.index]
-        io.pubs[Topic.ODOM].publish(ru.fill_odometry(io.odom_msg, out.pose, out.vel, out.t))
+        io.pubs[Topic.ODOM].publish(convert.fill_odometry(io.odom_msg, out.pose, out.vel, out.t))
 
     def _truth(self, out: fs.Truth) -> None:
         io = self.io[out.index]
-        io.pubs[Topic.BASE_POSE_GROUND_TRUTH].publish(ru.fill_odometry(io.truth_msg, out.pose, out.vel, out.t))
+        io.pubs[Topic.BASE_POSE_GROUND_TRUTH].publish(convert.fill_odometry(io.truth_msg, out.pose, out.vel, out.t))
 
     def _transforms(self, out: fs.Transforms) -> None:
-        (self.tf_static_pub if out.static else self.tf_pub).publish(ru.transforms_msg(out))
+        (self.tf_static_pub if out.static else self.tf_pub).publish(convert.transforms_msg(out))
 
     def _scan(self, out: fs.Scan) -> None:
         io = self.io[out.index]
-        io.pubs[Topic.BASE_SCAN].publish(ru.scan_msg(out, io.frames["base_laser_link"]))
+        io.pubs[Topic.BASE_SCAN].publish(convert.scan_msg(out, io.frames["base_laser_link"]))
 
     def _seen(self, out: fs.Seen) -> None:
-        self.io[out.index].pubs[Topic.ROBOTS_SEEN].publish(ru.seen_msg(out))
+        self.io[out.index].pubs[Topic.ROBOTS_SEEN].publish(convert.seen_msg(out))
 
     def _battery(self, out: fs.Battery) -> None:
-        self.io[out.index].pubs[Topic.BATTERY].publish(ru.battery_msg(out))
+        self.io[out.index].pubs[Topic.BATTERY].publish(convert.battery_msg(out))
 
     def _clock(self, out: fs.ClockTick) -> None:
-        self.clock_pub.publish(ru.clock_msg(out.t))
+        self.clock_pub.publish(convert.clock_msg(out.t))
         self.set_time(out.t)                 # this node's own ROS time, as the others see it (log lines)
 
     def _map(self, out: fs.MapOut) -> None:
-        self.map_msg = ru.occupancy_grid(self.sim.floor.map, out.t)
+        self.map_msg = convert.occupancy_grid(self.sim.floor.map, out.t)
         self.map_pub.publish(self.map_msg)
         self.meta_pub.publish(self.map_msg.info)
 
     def _obstacles(self, out: fs.Obstacles) -> None:
-        self.obstacles_pub.publish(ru.obstacles_msg(out))
+        self.obstacles_pub.publish(convert.obstacles_msg(out))
 
     def _diagnostics(self, out: fs.Diagnostics) -> None:
-        self.diag_pub.publish(ru.diagnostics_msg(out))
+        self.diag_pub.publish(convert.diagnostics_msg(out))
 
     @staticmethod
     def _resume_at(out: fs.ResumeAt) -> None:
