@@ -23,12 +23,11 @@ from tempfile import mkdtemp
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, ProcessError
-from gidabot_sim.runner.building_runner import SimulatedBuilding
+from gidabot_sim.runner.building_runner import SimulatedBuilding, clock_rate_for
 from gidabot_sim.runner.calibration import Calibration, as_json, describe
 from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.procs import robot_address
 
-CLOCK_WALL_HZ = 50.0         # /clock messages per wall second, as gidabot demo's default
 Row = dict[str, object]      # one process: owner (its process group's name), process (node / program), pid, cpu_s
 
 
@@ -74,16 +73,16 @@ def format_text(result: dict) -> list[str]:
     return lines
 
 
-def measure(building_dir: Path, seconds: float, settle: float, net: int | None, out: Path,
+def measure(building_dir: Path, seconds: float, settle: float, net: int | None, out: Path, clock_rate: float,
             say: object = print) -> dict:
     """Start the building at rest, wait for its clocks and ``settle``, measure ``seconds``; stop it."""
     building = load_building(building_dir)
     robots = [r.name for r in building.robots]
     addresses = [robot_address(i, net) for i in range(len(robots))] if net is not None else None
     run_dir = out / "idle"
-    # at 1x the state topics' rates are guiding's defaults (state_rate_args); /clock as the demo's
+    # at 1x the state topics' rates are guiding's defaults (state_rate_args); /clock at clock_rate
     sim = SimulatedBuilding(building_dir, run_dir, speed=1.0, seed=1, record=False, monitor=False, visitor=None,
-                            addresses=addresses, common_args={"sim_clock_rate": f"{CLOCK_WALL_HZ:g}"})
+                            addresses=addresses, common_args={"sim_clock_rate": f"{clock_rate:g}"})
     with sim:
         sim.start()
         deadline = time.monotonic() + 120.0
@@ -111,18 +110,21 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--settle", type=float, default=10.0, help="wall s after the clocks run, before (default 10)")
     ap.add_argument("--net", type=int, default=None, help="masters on 127.N.0.x (as gidabot demo --net)")
     ap.add_argument("--out", type=Path, default=None, help="run folder (default: a new temporary folder)")
+    ap.add_argument("--clock-rate", type=float, default=None, metavar="HZ",
+                    help="/clock per wall second (default: gidabot demo's at 1x)")
     args = ap.parse_args(argv)
     say = progress_printer(args.json)
+    clock_rate = args.clock_rate or clock_rate_for(1.0)
     out = args.out or Path(mkdtemp(prefix="gidabot-bench-idle-"))
     calibration = Calibration()
     calibration.measure()
     try:
-        result = measure(args.building, args.seconds, args.settle, args.net, out, say)
+        result = measure(args.building, args.seconds, args.settle, args.net, out, clock_rate, say)
     except (DemoError, ProcessError) as err:
         print(f"gidabot bench idle: {err}", file=sys.stderr)
         return 1
     calibration.measure()
-    result["calibration"], result["out"] = as_json(calibration), str(out)
+    result["calibration"], result["out"], result["clock_rate"] = as_json(calibration), str(out), clock_rate
     if args.json:
         print(json.dumps(result))
     else:
