@@ -20,11 +20,12 @@ times per wall second and sets every floor's ceiling to what it returns.
 - **Proven**: a ceiling held for ``prove`` wall seconds within half the budget, the floors keeping pace with
   it (the slowest at ``paced`` of it or more), is proven sustainable; a back-off for the budget never goes
   below the highest proven ceiling (at it, the stalls do not depend on the speed, and slower would only be
-  slower). An overload may (the machine got busier), and once calm the ceiling goes straight back to it.
+  slower). An overload may (the machine got busier); after ``calm`` wall seconds within half the budget the
+  ceiling goes straight back to it, however many overloads took it down.
 - **Probing**: after a back-off no raise goes above ``back_off`` times the ceiling that failed (nor above the
   ceiling the back-off left, if higher: the ``limit``) until the floors have kept half the budget for ``calm``
-  wall seconds, a period that doubles with every back-off; then the limit is lifted and the ceiling probes
-  upwards again.
+  wall seconds, a period that doubles with every back-off up to ``max_calm``; then the limit is lifted and the
+  ceiling probes upwards again.
 - **Raise**: every floor kept up, at most half the budget is spent, the run's time behind leaves room for a
   failed try, and a floor waited for the ceiling for ``patience`` windows in a row: ``raise_by`` times the
   ceiling, up to the limit and ``high``.
@@ -58,6 +59,7 @@ class SpeedGovernor:
     patience: int = 2            # windows kept up, waiting for the ceiling, before a raise
     warmup: float = 3.0          # wall s of tour judged as one window, for overload only
     calm: float = 5.0            # wall s within the budget after the first back-off before the limit is lifted
+    max_calm: float = 40.0       # ... a period that doubles with every back-off up to this
     max_drop: float = 0.5        # a window takes the ceiling down to no less than this share of it
     run_budget: float = 0.007    # share of the tour's wall time the floors may be behind in all (degraded: 1 %)
     paced: float = 0.95          # the floors kept pace with a ceiling: the slowest achieved this share of it
@@ -81,11 +83,12 @@ class SpeedGovernor:
             raise ValueError(f"expected 0 < low {self.low} <= start {self.start} <= high {self.high}")
         if not (self.window > 0 and 0 < self.keep_up < 1 and 0 < self.budget < 1 and self.horizon > 0
                 and 0 < self.back_off < 1 < self.raise_by and self.patience >= 1 and self.warmup >= 0
-                and self.calm > 0 and 0 < self.max_drop <= self.back_off and self.budget <= self.run_budget < 1
+                and self.calm > 0 and self.max_calm > 0 and 0 < self.max_drop <= self.back_off
+                and self.budget <= self.run_budget < 1
                 and self.gain > 0 and 0 < self.min_cut <= 1 - self.max_drop and 0 < self.paced <= 1
                 and self.prove > 0):
             raise ValueError("window > 0, 0 < keep_up < 1, 0 < budget < 1, horizon > 0, 0 < back_off < 1 < raise_by, "
-                             "patience >= 1, warmup >= 0, calm > 0, 0 < max_drop <= back_off, "
+                             "patience >= 1, warmup >= 0, calm > 0, max_calm > 0, 0 < max_drop <= back_off, "
                              "budget <= run_budget < 1, gain > 0, 0 < min_cut <= 1 - max_drop, 0 < paced <= 1, "
                              "prove > 0")
         self.ceiling, self.limit = float(self.start), float(self.high)
@@ -144,12 +147,12 @@ class SpeedGovernor:
             self.proven = max(self.proven or 0.0, self.ceiling)
         if self._backed_off is not None and spent <= allowed / 2:
             since, count = self._backed_off
-            if wall - since >= self.calm * 2 ** (count - 1):        # calm long enough: the limit is lifted
+            if self.proven is not None and self.ceiling < self.proven and wall - since >= self.calm:
+                self._kept_up = 0                   # an overload took it below a proven ceiling: back to it once calm
+                return self._set(self.proven, wall, clocks)
+            if wall - since >= max(self.calm, min(self.calm * 2 ** (count - 1), self.max_calm)):   # lifted
                 self.limit, self._backed_off = float(self.high), None
                 self.lifts += 1
-                if self.proven is not None and self.ceiling < self.proven:   # an overload took it below: back to it
-                    self._kept_up = 0
-                    return self._set(self.proven, wall, clocks)
         waited = max(clocks[r].wait_ceiling - before[r].wait_ceiling for r in clocks)
         # a raise may fail, and a failure costs up to the budget: only while the run can afford half of it
         room = run_spent + self.budget * self.horizon / 2 <= run_allowed
