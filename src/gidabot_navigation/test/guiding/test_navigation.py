@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
 from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
 
+from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import (
@@ -484,3 +486,25 @@ def test_the_freshest_time_is_the_odometrys_when_it_is_ahead_of_the_ros_time() -
     assert freshest_time(100.0, 100.0 + MAX_ODOM_LEAD_S + 1) == 100.0    # an implausible stamp is not trusted
     assert freshest_time(100.0, float("nan")) == 100.0
     assert freshest_time(100.0, float("inf")) == 100.0
+
+
+def test_a_pose_is_published_when_it_changed_and_at_rest_only_every_keepalive_tick(faculty) -> None:
+    n = NavigationCore(faculty, NavigationConfig(robot="Kbot", pose_keepalive=3), ListLog(), now_wall=0.0, boot="t")
+    assert n.pose_to_publish() is None                      # not localised yet
+    n.on_pose(1.0, 2.0, 0.5)
+    assert n.pose_to_publish() == Pose2D(1.0, 2.0, 0.5)
+    # at rest (moves below 1 cm and 0.01 rad are noise): only every third tick
+    n.on_pose(1.005, 2.0, 0.505)
+    assert [n.pose_to_publish() for _ in range(4)] == [None, None, Pose2D(1.005, 2.0, 0.505), None]
+    # driving: every tick
+    for k in range(1, 4):
+        n.on_pose(1.0 + 0.1 * k, 2.0, 0.5)
+        assert n.pose_to_publish() == Pose2D(1.0 + 0.1 * k, 2.0, 0.5)
+    n.on_pose(1.3, 2.0, 0.5 + 0.02)                          # turning on the spot, across -pi/pi too
+    assert n.pose_to_publish() is not None
+    n.on_pose(1.3, 2.0, math.pi - 0.001)
+    assert n.pose_to_publish() is not None
+    n.on_pose(1.3, 2.0, -math.pi + 0.001)                    # 0.002 rad away: at rest
+    assert n.pose_to_publish() is None
+    with pytest.raises(GuidingError, match="pose_keepalive"):
+        NavigationConfig(robot="Kbot", pose_keepalive=0)

@@ -13,7 +13,7 @@ import sys
 
 # subcommand -> (module, one-line help). Keep sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "bench": ("gidabot_sim.cli", "benchmarks: 'bench demo', 'bench relay', 'bench sim' (--json)"),
+    "bench": ("gidabot_sim.cli", "benchmarks: 'bench demo', 'bench idle', 'bench relay', 'bench sim' (--json)"),
     "chaos": ("gidabot_sim.chaos.command",
               "a tour under injected faults (links, masters, nodes, hostile input); table"),
     "check": ("gidabot_navigation.cli", "validate a building directory or tour files"),
@@ -25,6 +25,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
 # gidabot bench <name>
 BENCHES: dict[str, tuple[str, str]] = {
     "demo": ("gidabot_sim.bench.demo", "the Table 2 tour at 10x, 20x, 50x and max: times, rates, tables, judged"),
+    "idle": ("gidabot_sim.bench.idle", "a building at rest (1x, no visitor): CPU per robot per wall second"),
     "flood": ("gidabot_sim.bench.flood", "a valid request answered under 1000 invalid messages/s per master"),
     "relay": ("gidabot_sim.bench.relay", "relay latency vs direct, and 4/8-robot meshes"),
     "sim": ("gidabot_sim.bench.sim", "planner time per floor and simulator real-time factor"),

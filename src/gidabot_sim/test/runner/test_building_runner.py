@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from gidabot_sim.runner.building_runner import NODE_GRACE, SimulatedBuilding, write_secret
+from gidabot_sim.runner.building_runner import NODE_GRACE, SimulatedBuilding, clock_rate_for, write_secret
 from gidabot_sim.runner.proc_info import ProcInfo, read_proc
 
 REPO = Path(__file__).resolve().parents[4]
@@ -40,3 +40,7 @@ def test_stop_kills_nodes_left_behind_by_their_launcher(tmp_path: Path) -> None:
     assert read_proc(child) is None
     assert time.monotonic() - began < NODE_GRACE + 8
     assert sim.forced == ["Fake/python -c (SIGTERM)"]
+
+
+def test_clock_follows_simulated_time_one_message_per_sim_second_within_bounds() -> None:
+    assert [clock_rate_for(s) for s in (1.0, 10.0, 20.0, 35.5, 50.0, 200.0)] == [10.0, 10.0, 20.0, 35.5, 50.0, 50.0]

@@ -149,7 +149,9 @@ STATE_OF_STAGE = {Stage.PICKUP: RobotState.TO_MEETING, Stage.GUIDING: RobotState
 class NavigationConfig:
     """Times: ``continue_timeout``, ``nav_lost_timeout`` in ROS s; ``partner_timeout``, ``offline_after``
     in wall s; ``pickup_distance`` in m; ``simulated``: the simulated visitor (node ``visitor``) is one of this
-    robot's own nodes (it presses Continue)."""
+    robot's own nodes (it presses Continue). ``/gidabot/poses`` (:meth:`NavigationCore.pose_to_publish`): a pose
+    is published when it moved ``pose_min_move`` m or turned ``pose_min_turn`` rad since the last one published,
+    else at every ``pose_keepalive``-th tick of the pose timer (a robot at rest costs its peers little)."""
 
     robot: str
     continue_timeout: float = 300.0
@@ -158,12 +160,18 @@ class NavigationConfig:
     pickup_distance: float = 1.5
     nav_lost_timeout: float = 30.0
     simulated: bool = False
+    pose_min_move: float = 0.01
+    pose_min_turn: float = 0.01
+    pose_keepalive: int = 5
 
     def __post_init__(self) -> None:
-        for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout"):
+        for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout",
+                     "pose_min_move", "pose_min_turn"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise GuidingError(f"{name}: {value!r} must be a positive number")
+        if not (isinstance(self.pose_keepalive, int) and self.pose_keepalive >= 1):
+            raise GuidingError(f"pose_keepalive: {self.pose_keepalive!r} must be an integer >= 1")
 
 
 @dataclass
@@ -208,6 +216,8 @@ class NavigationCore:
         self.leg: Leg | None = None
         self.available = False                  # the move_base action server is connected
         self.pose: Pose2D | None = None
+        self._pose_sent: Pose2D | None = None   # the last pose published on /gidabot/poses
+        self._pose_ticks = 0                    # pose timer ticks since then
         self.linear = 0.0
         self.angular = 0.0
         self.battery = -1.0
@@ -234,6 +244,20 @@ class NavigationCore:
     def on_pose(self, x: float, y: float, yaw: float) -> None:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = Pose2D(float(x), float(y), float(yaw))
+
+    def pose_to_publish(self) -> Pose2D | None:
+        """At a tick of the pose timer: the pose to publish on ``/gidabot/poses``, or None (not localised yet, or
+        it has not moved since the last one and that was less than ``pose_keepalive`` ticks ago)."""
+        if self.pose is None:
+            return None
+        self._pose_ticks += 1
+        last = self._pose_sent
+        if (last is not None and self._pose_ticks < self.cfg.pose_keepalive
+                and self.pose.distance_to(last) < self.cfg.pose_min_move
+                and abs(math.remainder(self.pose.yaw - last.yaw, math.tau)) < self.cfg.pose_min_turn):
+            return None
+        self._pose_sent, self._pose_ticks = self.pose, 0
+        return self.pose
 
     def on_odom(self, linear: float, angular: float) -> None:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (linear, angular)):

@@ -132,7 +132,8 @@ class NavigationNode:
       - ``/gidabot/cancels`` (gidabot_msgs/Cancel, event): when this robot gives a trip up
         (unreachable, timeout, offline), so the other robots drop it too.
       - ``/gidabot/status`` (gidabot_msgs/RobotStatus, state): at ``~status_rate`` (ROS time).
-      - ``/gidabot/poses`` (gidabot_msgs/NavPose, state): at ``~pose_rate`` (ROS time), once localised.
+      - ``/gidabot/poses`` (gidabot_msgs/NavPose, state): at ``~pose_rate`` (ROS time), once localised, when the
+        pose changed (at rest: every fifth tick; ``NavigationCore.pose_to_publish``).
       - ``/gidabot/make_way`` (gidabot_msgs/MakeWay, state): the idle robots of its floor it asks to make way along
         a leg's way (empty when the move ends); the asks of the others (relayed) make it step aside while idle.
       - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall; ``refused_<kind>``: the
@@ -387,7 +388,7 @@ class NavigationNode:
         self.status_pub.publish(convert.status_to_msg(replace(status, frame_id=self.params.frame_id)))
 
     def publish_pose(self) -> None:
-        pose = self.core.pose
+        pose = self.core.pose_to_publish()
         if pose is None:
             return
         self.poses_pub.publish(convert.pose_to_msg(PoseData(self.robot, self.core.floor, pose.x, pose.y, pose.yaw,

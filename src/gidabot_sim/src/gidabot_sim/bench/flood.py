@@ -33,6 +33,7 @@ from gidabot_navigation.building.model import Building, load_building, relocate_
 from gidabot_navigation.resources import resource
 from gidabot_sim.bench.workers import Worker, percentile
 from gidabot_sim.runner.building_runner import node_executable
+from gidabot_sim.runner.calibration import Calibration, as_json, describe
 from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, test_network
 
@@ -117,11 +118,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--requests", type=int, default=15, help="timed requests per robot and phase (15)")
     args = ap.parse_args(argv)
     log = progress_printer(args.json)
+    calibration = Calibration()
+    calibration.measure()
     with tempfile.TemporaryDirectory(prefix="gidabot-bench-flood-") as tmpdir:
         log("flood benchmark: 4 masters, each robot's goal_manager, multirobot_navigation and tour_store")
         res = run(Path(tmpdir), args.rate, args.requests, log)
+    calibration.measure()
     misses = verdict(res)
-    res["passed"], res["misses"] = not misses, misses
+    res["passed"], res["misses"], res["calibration"] = not misses, misses, as_json(calibration)
     if args.json:
         print(json.dumps(res, sort_keys=True))
     else:
@@ -130,6 +134,7 @@ def main(argv: list[str] | None = None) -> int:
         for r in res["robots"]:
             log(f"{r['robot']:<12} {r['quiet_p50_ms']:>8.1f}ms {r['quiet_max_ms']:>8.1f}ms {r['flood_p50_ms']:>8.1f}ms "
                 f"{r['flood_max_ms']:>8.1f}ms {r['flood_rate_hz']:>12.0f} {r['state_writes_in_flood']:>13}")
+        log(describe(calibration))
         log("\n" + ("PASS: every request answered within "
                     f"{res['limit_ms']:.0f} ms under the flood, no state write" if not misses
                     else "FAIL:\n  " + "\n  ".join(misses)))

@@ -33,6 +33,7 @@ from pathlib import Path
 from gidabot_navigation.building.model import DEFAULT_RELAY_PORT
 from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, end_argv
 from gidabot_sim.bench.workers import Worker, percentile
+from gidabot_sim.runner.calibration import Calibration, as_json, describe
 from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.proc_info import cpu_seconds
@@ -267,6 +268,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--idle", type=float, default=5.0, help="s of idle CPU measurement per mesh (default 5)")
     args = ap.parse_args(argv)
     log = progress_printer(args.json)
+    calibration = Calibration()
+    calibration.measure()
     with tempfile.TemporaryDirectory(prefix="gidabot-bench-relay-") as tmpdir:
         tmp = Path(tmpdir)
         (tmp / "secret").write_text(SECRET)
@@ -288,6 +291,9 @@ def main(argv: list[str] | None = None) -> int:
                 f"(idle {m['idle_cpu_percent_per_relay']:.2f}), latency p50 {m['p50_ms']:.2f} ms p99 "
                 f"{m['p99_ms']:.2f} ms max {m['max_ms']:.1f} ms, lost {m['lost']}, duplicated {m['duplicated']} "
                 f"of {m['deliveries']} deliveries")
+    calibration.measure()
+    log(describe(calibration))
+    res["calibration"] = as_json(calibration)
     res["targets_missed"] = targets_missed(res, args.max_added_p50, args.max_relayed_p99, args.max_stall)
     log("targets: " + ("all met" if not res["targets_missed"] else "MISSED: " + "; ".join(res["targets_missed"])))
     if args.json:

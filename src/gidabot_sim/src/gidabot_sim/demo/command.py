@@ -33,9 +33,10 @@ from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.interface import WAY_STAIRS, WAYS
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import parse_tour
-from gidabot_sim.demo.run import CLOCK_WALL_HZ, DEFAULT_SPEED, LOOK_PERIOD, MAX_SPEED_GUESS, DemoPlan, run_demo
+from gidabot_sim.demo.run import DEFAULT_SPEED, LOOK_PERIOD, MAX_SPEED_GUESS, DemoPlan, run_demo
 from gidabot_sim.demo.trace import TRACE_FILE
 from gidabot_sim.errors import DemoError, SimConfigError
+from gidabot_sim.runner.building_runner import CLOCK_MAX_HZ, CLOCK_MIN_HZ
 from gidabot_sim.runner.command_line import RUNS, check_network, load_tour, run_command
 from gidabot_sim.visitor.population import PATIENCE_S, VisitorPlan, make_population
 
@@ -72,9 +73,10 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
     p.add_argument("--speed", type=_speed, default=DEFAULT_SPEED,
                    help=f"ceiling of sim seconds per wall second, the same on every floor (default "
                         f"{DEFAULT_SPEED:g}); 'max': as fast as this machine sustains")
-    p.add_argument("--clock-rate", type=float, default=CLOCK_WALL_HZ, metavar="HZ",
-                   help=f"/clock messages per wall second at most, on every floor (default {CLOCK_WALL_HZ:g}: the "
-                        "CPU of the building's nodes receiving it against the sim-time resolution of their clocks)")
+    p.add_argument("--clock-rate", type=float, default=None, metavar="HZ",
+                   help="/clock messages per wall second at most, on every floor (default: one per second of sim "
+                        f"time at the speed, {CLOCK_MIN_HZ:g} to {CLOCK_MAX_HZ:g}: the CPU of the building's nodes "
+                        "receiving it against the sim-time resolution of their clocks)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
@@ -161,7 +163,7 @@ def _visit(args: argparse.Namespace, building: Building) -> tuple[str, int, str,
 def _validate(args: argparse.Namespace, building: Building, start_floor: float) -> None:
     if args.speed is not None and not (math.isfinite(args.speed) and 0 < args.speed <= 200):
         raise DemoError(f"--speed {args.speed:g}: expected a factor in (0, 200], or max")
-    if not (math.isfinite(args.clock_rate) and 1 <= args.clock_rate <= 1000):
+    if args.clock_rate is not None and not (math.isfinite(args.clock_rate) and 1 <= args.clock_rate <= 1000):
         raise DemoError(f"--clock-rate {args.clock_rate:g}: expected 1..1000 messages per wall second")
     if not 0 <= args.people <= 100:
         raise DemoError(f"--people {args.people}: expected 0..100 bystanders per floor")

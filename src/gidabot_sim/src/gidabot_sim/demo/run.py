@@ -28,18 +28,13 @@ from gidabot_sim.demo.trace import TRACE_FILE, TraceWriter, format_summary, load
 from gidabot_sim.errors import DemoError, ProcessError
 from gidabot_sim.report.crowd import UNFINISHED, Crowd
 from gidabot_sim.report.run_report import report_run
-from gidabot_sim.runner.building_runner import SimulatedBuilding, state_rate_args
+from gidabot_sim.runner.building_runner import SimulatedBuilding, clock_rate_for, state_rate_args
 from gidabot_sim.runner.command_line import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_OK, Signals, run_folder, seed_tours
 from gidabot_sim.runner.proc_info import machine_busy_s
 from gidabot_sim.runner.procs import robot_address
 from gidabot_sim.visitor.population import VisitorPlan
 
 DEFAULT_SPEED = 20.0
-# /clock messages per wall second at most (each floor's simulator; docs/demo.md, "Speed"): every node of a master
-# receives every one (about 0.6 % of a core per node at 100 Hz, more with timers); at 100 Hz they were half the
-# building's CPU at 50x (`bench demo`: 1.39 cores at 100 Hz, 1.12 at 50 Hz). At 50 Hz a /clock carries
-# speed / 50 sim s: 0.2 s at 10x, 1 s at 50x.
-CLOCK_WALL_HZ = 50.0
 MAX_SPEED_GUESS = 50.0    # --speed max: the factor the state topics' rates and the default --timeout assume
 # wall s from every robot being up to the visit's start (the visitor's ~start_delay, in sim s at the speed): the
 # start-up's last processes keep both cores of a 2-core machine busy for a second or two after the last robot
@@ -74,7 +69,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     wall_begin, machine_begin = time.time(), machine_busy_s()
     run_dir = run_folder(args.out, label)
     seed = seed_tours(run_dir, args.tour if tour_name else None, tour_name)
-    launch_args = {"gui_fullscreen": "false", **state_rate_args(speed), "sim_clock_rate": f"{args.clock_rate:g}",
+    clock_rate = args.clock_rate or clock_rate_for(speed)     # /clock per wall s (docs/demo.md, "Speed")
+    launch_args = {"gui_fullscreen": "false", **state_rate_args(speed), "sim_clock_rate": f"{clock_rate:g}",
                    "sim_people": str(args.people), "sim_people_seed": str(1 if args.seed is None else args.seed)}
     start_delay = round(START_SETTLE_WALL_S * speed, 3)
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
@@ -144,7 +140,7 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
         "speed": "max" if args.speed is None else args.speed, "seed": args.seed, "timing": timing.summary(),
         "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
-        "clock_rate": args.clock_rate,
+        "clock_rate": clock_rate,
         "way": args.way, "start_floor": start_floor, "skips": skips,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
