@@ -489,7 +489,7 @@ def test_the_freshest_time_is_the_odometrys_when_it_is_ahead_of_the_ros_time() -
 
 
 def test_a_pose_is_published_when_it_changed_and_at_rest_only_every_keepalive_tick(faculty) -> None:
-    n = NavigationCore(faculty, NavigationConfig(robot="Kbot", pose_keepalive=3), ListLog(), now_wall=0.0, boot="t")
+    n = NavigationCore(faculty, NavigationConfig(robot="Kbot", pose_keepalive=3), ListLog(), now_wall=0.0)
     assert n.pose_to_publish() is None                      # not localised yet
     n.on_pose(1.0, 2.0, 0.5)
     assert n.pose_to_publish() == Pose2D(1.0, 2.0, 0.5)
