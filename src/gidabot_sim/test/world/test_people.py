@@ -92,6 +92,29 @@ def test_a_group_walks_behind_one_another_and_a_wanderer_leaves_for_good() -> No
     assert not crowd.bodies and not x_at[31.0]                          # and leaves the floor
 
 
+def test_a_body_its_robot_turns_back_towards_steps_aside_off_the_robot_s_line() -> None:
+    crowd, world = setup(Behaviour(speed=1.0, gap=1.0))
+    t = drive(crowd, world, 1.0, 15.0, 0.6, lambda t: None)        # the body walks behind, on the robot's line
+    robot = world.robots[0].pose
+    (body,) = crowd.bodies
+    assert abs(body.y - robot.y) < 0.1
+    for _ in range(20):                                           # the robot stops, still facing away: no change
+        t += 0.1
+        crowd.step(t, [RobotDisc("R", robot.x, robot.y, 0.3, 0.0)])
+    assert abs(crowd.bodies[0].y - robot.y) < 0.1
+    for _ in range(30):                                           # it turns back: the body makes room
+        t += 0.1
+        crowd.step(t, [RobotDisc("R", robot.x, robot.y, 0.3, math.pi)])
+    body = crowd.bodies[0]
+    assert abs(body.y - robot.y) >= 0.3 + PERSON_RADIUS + 0.3 - 1e-6
+    assert world.clearance(body.x, body.y) >= PERSON_RADIUS * 0.8
+    x0 = body.x                                                   # and walks after it again once it has passed
+    for k in range(60):
+        t += 0.1
+        crowd.step(t, [RobotDisc("R", robot.x - 0.06 * k, robot.y, 0.3, math.pi)])
+    assert crowd.bodies[0].x < x0
+
+
 def test_leave_and_gone() -> None:
     crowd, world = setup()
     crowd.direct(Directive("v1", LEAVE, "R", math.nan, math.nan), [])

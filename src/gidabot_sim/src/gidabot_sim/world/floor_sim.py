@@ -444,7 +444,7 @@ class FloorSim:
         self.log.info(f"sim: visitor {directive.visitor_id}: {directive.mode} {directive.robot}")
 
     def _robot_discs(self) -> list[RobotDisc]:
-        return [RobotDisc(r.spec.name, r.pose.x, r.pose.y, r.spec.radius) for r in self.world.robots]
+        return [RobotDisc(r.spec.name, r.pose.x, r.pose.y, r.spec.radius, r.pose.yaw) for r in self.world.robots]
 
     def _relocate(self, index: int, wanted: Pose2D) -> None:
         placed = self.world.teleport(index, wanted)

@@ -14,7 +14,10 @@ robot's laser sees in its ``robots_seen`` (its move_base's obstacle layer), ids 
   walks at its behaviour's speed along R's path (the points R drove through, recorded here: free of walls),
   until it is its ``gap`` behind R; it stands while a pause of its behaviour lasts, and when its behaviour
   wanders off it walks back along R's path and leaves the floor (for good); a group is several bodies, each
-  a little further behind;
+  a little further behind. A body that R faces once it is within its ``gap`` (R turned back the way it came, in
+  a corridor, or turned to look for it) steps aside, off R's line of travel, as a person makes room, and stands
+  there until R has passed it or turned away (:meth:`Crowd._step_aside`); else R and the person it guides
+  would wait for each other;
 * ``LEAVE``: it walks towards ``(x, y)`` (the stairs or the lift; not a number: it stands) and leaves the floor
   there, at the latest after :data:`LEAVE_S`;
 * ``GONE``: the visit is over, it leaves the floor.
@@ -44,6 +47,9 @@ LEAVE_S = 10.0                # s a leaving body walks towards the stairs or the
 WANDER_S = 20.0               # s a body wandering off walks back along the path before it leaves the floor
 GROUP_SPACING = 0.7           # m between the bodies of a group, along the path
 ROBOT_MARGIN = 0.05           # m a body keeps from a robot's disc
+ASIDE_MARGIN = 0.3            # m a body stepping aside leaves between its disc and the robot's line of travel
+FACING = math.radians(60.0)   # a body is in front of a robot within this angle of its heading
+REJOIN_POINTS = 80            # trail points looked back over when a body rejoins its robot's way
 FOLLOW, LEAVE, GONE = 0, 1, 2  # a directive's modes (gidabot_msgs/VisitorBody)
 MODES = (FOLLOW, LEAVE, GONE)
 
@@ -70,6 +76,7 @@ class RobotDisc:
     x: float
     y: float
     radius: float
+    yaw: float = math.nan     # rad, heading (not a number: unknown, nobody steps aside for it)
 
 
 @dataclass(slots=True)
@@ -94,6 +101,7 @@ class _Follower:
     cursor: int = 0                       # next trail point (a sequence number of the robot's trail)
     leave_until: float = math.inf         # LEAVE / wandering: leaves the floor at this time at the latest
     wander_from: int | None = None        # wandering: walks back from this trail point
+    stood_aside: bool = False             # its robot faced it: it stood off the robot's line
 
 
 @dataclass
@@ -245,6 +253,13 @@ class Crowd:
             return True
         keep = robot.radius + b.radius + d.behaviour.gap + GROUP_SPACING * f.member
         budget = d.behaviour.speed * dt
+        if (f.stood_aside or math.hypot(robot.x - b.x, robot.y - b.y) <= keep) and \
+                self._step_aside(b, robot, budget, robots, f.stood_aside):
+            f.stood_aside = True
+            return True
+        if f.stood_aside:                # the robot has passed: on along its way back, not to where it turned
+            f.stood_aside = False
+            f.cursor = max(f.cursor, self._rejoin(trail, b))
         while budget > 1e-9:
             if math.hypot(robot.x - b.x, robot.y - b.y) <= keep:
                 break
@@ -266,6 +281,40 @@ class Crowd:
             if not self._move(b, b.x + (tx - b.x) * step / dist, b.y + (ty - b.y) * step / dist, robots):
                 break
             budget -= step
+        return True
+
+    @staticmethod
+    def _rejoin(trail: _Trail, b: Body) -> int:
+        """The newest of the trail's last :data:`REJOIN_POINTS` points within 1.5 m of the body (where the robot
+        just passed it), else the trail's end."""
+        for seq in range(trail.end - 1, max(trail.first, trail.end - REJOIN_POINTS) - 1, -1):
+            p = trail.get(seq)
+            if p is not None and math.hypot(p[0] - b.x, p[1] - b.y) <= 1.5:
+                return seq
+        return trail.end
+
+    def _step_aside(self, b: Body, robot: RobotDisc, budget: float, robots: Sequence[RobotDisc],
+                    aside: bool) -> bool:
+        """A body in front of ``robot`` (within :data:`FACING` of its heading; anywhere ahead once ``aside``)
+        steps sideways off its line of travel until :data:`ASIDE_MARGIN` m lie between them, on the side it
+        already is (the roomier one when on the line), at most ``budget`` m, and then stands there (it does not
+        walk back onto the line after the robot's path) until the robot has passed; True while it is ahead."""
+        if not math.isfinite(robot.yaw):
+            return False
+        hx, hy = math.cos(robot.yaw), math.sin(robot.yaw)
+        ahead = (b.x - robot.x) * hx + (b.y - robot.y) * hy
+        side = (b.x - robot.x) * -hy + (b.y - robot.y) * hx      # signed distance from the line of travel
+        if ahead <= 0.0 or (not aside and math.atan2(abs(side), ahead) > FACING):
+            return False
+        need = robot.radius + b.radius + ASIDE_MARGIN - abs(side)
+        if need <= 0.0:
+            return True
+        sign = math.copysign(1.0, side) if abs(side) > 0.05 else \
+            (1.0 if self.clearance(b.x - hy * 0.5, b.y + hx * 0.5) >= self.clearance(b.x + hy * 0.5, b.y - hx * 0.5)
+             else -1.0)
+        step = min(budget, need)
+        if step > 1e-9:
+            self._move(b, b.x - hy * sign * step, b.y + hx * sign * step, robots)
         return True
 
     def _move(self, b: Body, x: float, y: float, robots: Sequence[RobotDisc]) -> bool:
