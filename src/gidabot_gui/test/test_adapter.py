@@ -119,6 +119,8 @@ def test_forged_events_never_reach_the_screen() -> None:
     r.nav_event(published(ev, global_name(Node.MULTIROBOT_NAVIGATION)))     # another robot's uid
     assert inbox.drain().events == []
     assert r.gate.refusals() == {"impostor": 2, "foreign": 1, "wrong_namespace": 1, "conflict": 0, "invalid": 0}
+    assert r.values() == {"refused_impostor": 2, "refused_foreign": 1, "refused_wrong_namespace": 1,  # /diagnostics
+                          "refused_conflict": 0, "refused_invalid": 0, "refused": 4, "unusable": 0}
 
 
 def test_receiver_converts_and_survives_hostile_input() -> None:

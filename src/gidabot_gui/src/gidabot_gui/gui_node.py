@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 import rospy
+from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 import gidabot_msgs.msg as gidabot_msgs
@@ -32,7 +33,7 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import CommandData, base36
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros import convert
-from gidabot_navigation.ros.adapter import sender, simulated
+from gidabot_navigation.ros.adapter import diagnostics, refusal_values, sender, simulated
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import start_node
 from gidabot_navigation.ros.params import param_number, param_text, robot_params
@@ -42,6 +43,7 @@ from gidabot_navigation.senders import Claim, Gate, Senders, claim_of
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
 COMMAND_REPLAY_S = 10.0   # wall s of visitor commands replayed to a late subscriber
+DIAG_PERIOD = 5.0         # s (ROS time) between two diagnostics
 
 
 def catalog_tours(m: gidabot_msgs.TourCatalog) -> list[TourInfo]:
@@ -92,6 +94,10 @@ class Receiver:
         rec = self._convert(kind, lambda m: bounded(from_msg(m)), msg)
         if rec is not None:
             self.inbox.put_event(kind, rec)
+
+    def values(self) -> dict[str, int]:
+        """The diagnostics values: refusals by kind (``refused_<kind>``, ``refused``) and ``unusable`` messages."""
+        return {**refusal_values(self.gate.refusals()), "unusable": self.bad}
 
     def status(self, m: gidabot_msgs.RobotStatus) -> None:
         self._state("status", convert.status_from_msg, m)
@@ -177,6 +183,9 @@ class GuiNode:
         the commands of the last 10 s are sent again to a subscriber that connects late.
       - ``initialpose`` (geometry_msgs/PoseWithCovarianceStamped, frame ``map``): admin Set location.
       - ``tour_store/edit`` (gidabot_msgs/Tour): admin create / edit / delete (``deleted: true``).
+      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``gui: screen <robot>`` every :data:`DIAG_PERIOD` s (ROS
+        time): the events refused by kind (``refused_impostor``, ... and ``refused``; WARN once any was) and
+        the ``unusable`` messages.
 
     Parameters:
       - ``~building`` (str, required), ``~robot`` (str, required).
@@ -202,6 +211,8 @@ class GuiNode:
                                        window=min(COMMAND_REPLAY_S, params.request_timeout / 2))
         self.pose_pub = rospy.Publisher(Topic.INITIALPOSE, PoseWithCovarianceStamped, queue_size=2)
         self.edit_pub = rospy.Publisher(Topic.TOUR_EDIT, gidabot_msgs.Tour, queue_size=10)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        self.diag_timer = rospy.Timer(rospy.Duration(DIAG_PERIOD), lambda _e: self.publish_diagnostics())
         r = self.receiver
         self.subs = [
             rospy.Subscriber(Topic.STATUS, gidabot_msgs.RobotStatus, r.status, queue_size=100),
@@ -226,10 +237,17 @@ class GuiNode:
         rospy.loginfo(f"gui: tour {'delete' if edit.deleted else 'edit'} {edit.file_name}")
         self.edit_pub.publish(convert.tour_to_msg(edit.message(self.params.robot, rospy.get_time())))
 
+    def publish_diagnostics(self) -> None:
+        values = self.receiver.values()
+        self.diag_pub.publish(diagnostics(f"gui: screen {self.params.robot}", self.params.robot, values,
+                                          values["refused"] > 0, f"{values['refused']} refused, "
+                                          f"{values['unusable']} unusable", rospy.get_time()))
+
     def shutdown(self) -> None:
+        self.diag_timer.shutdown()
         for s in self.subs:
             s.unregister()
-        for p in (self.cmd_pub, self.pose_pub, self.edit_pub):
+        for p in (self.cmd_pub, self.pose_pub, self.edit_pub, self.diag_pub):
             p.unregister()
 
 

@@ -47,15 +47,16 @@ def test_the_impostor_relay_is_named_like_a_relay_end_but_is_none_of_the_robots(
 
 def test_accounting_node_by_node() -> None:
     sent = {Topic.GOALS: 3, Topic.CANCELS: 3, Topic.NAV_EVENTS: 4}
-    assert reaching(sent) == {"guiding: goal_manager": 10, "guiding: navigation": 7}
+    assert reaching(sent) == {"guiding: goal_manager": 10, "guiding: navigation": 7, "sim: visitor": 4}
     relay = "relay Tartalo_Kbot (Kbot end)"
     counters = {"guiding: goal_manager Kbot": {"refused": 12, "received": 3},
                 "guiding: navigation Kbot": {"refused": 6}, relay: {"rejected": 14, "rejected_impostor": 10},
+                "sim: visitor Kbot": {"refused": 4, "refused_impostor": 4},
                 "relay_supervisor: Kbot": {"restarts": 0}}
-    assert refusals(counters, "Kbot") == {"guiding: goal_manager": 12, "guiding: navigation": 6}
+    assert refusals(counters, "Kbot") == {"guiding: goal_manager": 12, "guiding: navigation": 6, "sim: visitor": 4}
     rows = account("Kbot", sent, refusals(counters, "Kbot"))
     assert [(a.node, a.sent, a.refused, a.accounted) for a in rows] == [
-        ("guiding: goal_manager", 10, 12, True), ("guiding: navigation", 7, 6, False)]
+        ("guiding: goal_manager", 10, 12, True), ("guiding: navigation", 7, 6, False), ("sim: visitor", 4, 4, True)]
     assert status_node("tour_store: Kbot", "Kbot") == "tour_store:"
     # a node that restarted between two readings counts from 0
     assert grown({"a": 5, "b": 9}, {"a": 8, "b": 2, "c": 1}) == {"a": 3, "b": 2, "c": 1}

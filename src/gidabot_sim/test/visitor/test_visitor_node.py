@@ -53,6 +53,12 @@ def test_the_visitor_asks_once_every_robot_is_up_and_the_statuses_are_dropped(ro
     assert not node.station.cores["sim-visitor"].finished
     ros.deliver(Topic.NAV_EVENTS, event, global_name(Node.MULTIROBOT_NAVIGATION))
     assert node.station.cores["sim-visitor"].finished
+    for _ in range(visitor_node.DIAG_TICKS):                        # the refusal is on /diagnostics
+        tick(None)
+    status = ros.pubs[Topic.DIAGNOSTICS].sent[-1].status[0]
+    values = {kv.key: kv.value for kv in status.values}
+    assert status.name == "sim: visitor Tartalo" and status.level == status.WARN
+    assert values["refused_impostor"] == "1" and values["refused"] == "1"
 
 
 def test_a_population_follows_the_goals_and_a_tour_the_catalog(ros) -> None:

@@ -29,6 +29,7 @@ GHOST = "Ghost"                # a robot no building has: the far end of an impo
 RECEIVERS: dict[str, tuple[str, ...]] = {
     "guiding: goal_manager": (Topic.GOALS, Topic.CANCELS, Topic.NAV_EVENTS),
     "guiding: navigation": (Topic.CANCELS, Topic.NAV_EVENTS),
+    "sim: visitor": (Topic.NAV_EVENTS,),
 }
 
 

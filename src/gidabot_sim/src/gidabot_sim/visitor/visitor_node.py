@@ -11,12 +11,13 @@ from __future__ import annotations
 import time
 
 import rospy
+from diagnostic_msgs.msg import DiagnosticArray
 
 from gidabot_msgs.msg import Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorBody, VisitorCommand
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
-from gidabot_navigation.ros.adapter import sender
+from gidabot_navigation.ros.adapter import diagnostics, refusal_values, sender
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
@@ -25,6 +26,8 @@ from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_sim.ros import convert
 from gidabot_sim.visitor.population import plans_from_list
 from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config
+
+DIAG_TICKS = 5            # ticks between two diagnostics
 
 
 class VisitorNode:
@@ -45,6 +48,9 @@ class VisitorNode:
       /sim/visitor_body (gidabot_msgs/VisitorBody)  simulator only: what the visitors' bodies do on this robot's
                                                     floor (follow this robot, leave, gone), at each change (the
                                                     last 60 s again to a late subscriber: a restarted simulator)
+      /diagnostics (diagnostic_msgs/DiagnosticArray) ``sim: visitor <robot>`` every DIAG_TICKS ticks: the goals and
+                                                    events refused by kind (refused_<kind>, refused; WARN once
+                                                    any was: a forged event never moves a visitor)
     Params:
       ~building (str)             building.yaml path;  ~robot (str) this node's robot
       ~start_floor (float, 0)     where the visitor starts: the node of its first robot starts the visit
@@ -103,6 +109,9 @@ class VisitorNode:
         self._catalog_sub = None
         if self.station.needs_catalog:
             self._catalog_sub = rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._on_catalog, queue_size=2)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        self.robot = cfg.robot
+        self.ticks = 0
         self.timer = rospy.Timer(rospy.Duration(1.0 / rate), self._tick)
 
     def _on_goal(self, msg: Goal) -> None:
@@ -132,6 +141,11 @@ class VisitorNode:
             self.pub.publish(convert.command_msg(command))
         for directive in self.station.bodies(now):
             self.body_pub.publish(convert.visitor_body_msg(directive))
+        self.ticks += 1
+        if self.ticks % DIAG_TICKS == 1:
+            values = refusal_values(self.station.gate.refusals())
+            self.diag_pub.publish(diagnostics(f"sim: visitor {self.robot}", self.robot, values, values["refused"] > 0,
+                                              f"{values['refused']} refused", now))
 
 
 def main() -> None:
