@@ -1,0 +1,178 @@
+"""The navigation core guiding at the visitor's pace, and asking who arrives at a meeting point to press Continue."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from guiding_support import Bus, ListLog
+
+from gidabot_navigation.building.geometry import Pose2D
+from gidabot_navigation.guiding.messages import MoveTo, SendEvent, StopMoving, Trip
+from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.guiding.pacing import PacingConfig
+from gidabot_navigation.interface import LEG_COMMITTED, REASON_VISITOR_LOST, Phase, RobotState, Sight
+from gidabot_navigation.perception.people import LastSeen, Track, VisitorReport
+
+
+def trip(faculty, origin: str, goal_id: str, uid: str) -> Trip:
+    """A trip made at ``origin`` at its home, its legs committed to ``origin`` and the goal floor's first robot."""
+    loc, r = faculty.location(goal_id), faculty.robot(origin)
+    cross = loc.floor != r.floor
+    goal_robot = faculty.robots_on(loc.floor)[0].name if cross else ""
+    return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=r.floor, initial_x=r.home.x,
+                initial_y=r.home.y, goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
+                way="stairs", connector="stairs_west" if cross else "", start_id="robot", goal_id=goal_id,
+                language="en", start_robot=origin, start_state=LEG_COMMITTED, goal_robot=goal_robot,
+                goal_state=LEG_COMMITTED if cross else 0, attempt=2)
+
+
+def nav(faculty, robot: str, **cfg) -> NavigationCore:
+    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0, boot="t")
+    n.on_move_base_available(True, 0.0)
+    home = faculty.robot(robot).home
+    n.on_pose(home.x, home.y, home.yaw)
+    for r in faculty.robots:
+        n.on_status(r.name, 0.0)
+    return n
+
+
+def evs(actions):
+    return [a.event for a in actions if isinstance(a, SendEvent)]
+
+
+def phases(actions):
+    return [e.phase for e in evs(actions)]
+
+
+def moves(actions):
+    return [a for a in actions if isinstance(a, MoveTo)]
+
+
+def behind(n, dist: float, t: float, speed: float = 0.6, sight: Sight = Sight.SEEN) -> VisitorReport:
+    p = n.pose
+    x, y = p.x - dist * math.cos(p.yaw), p.y - dist * math.sin(p.yaw)
+    return VisitorReport(sight, track_id=7, x=x, y=y, vx=speed, vy=0.0, distance=dist, behind=dist, bearing=math.pi,
+                         unseen=0.0, last_seen=LastSeen(Pose2D(x, y, 0.0), t), confidence=0.9)
+
+
+def guiding(faculty, **pacing):
+    n = nav(faculty, "Kbot", pacing=PacingConfig(**pacing))
+    t = trip(faculty, "Kbot", "104", "Kbot/v/1")
+    [move] = moves(n.on_pending([t], 0.0, 1.0, 0.0))
+    assert n.wants_visitor and n.speed_cap is None
+    return n, t, move
+
+
+def test_a_visitor_never_seen_leaves_the_guiding_as_it_was(faculty) -> None:
+    n, t, move = guiding(faculty)
+    for k in range(200):
+        assert n.on_visitor(VisitorReport(Sight.ACQUIRING if k < 5 else Sight.LOST), 2.0 + k, 0.0) == []
+        assert n.tick(2.5 + k, 0.0) == []
+    assert n.speed_cap is None
+    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 300.0, 0.0)
+    assert phases(acts) == [Phase.GOAL_REACHED] and not n.wants_visitor
+    assert n.pace_done[-1][0] == t.uid and n.pace_done[-1][2]["samples"] == 0
+
+
+def test_pacing_off_by_configuration(faculty) -> None:
+    n = nav(faculty, "Kbot", pacing=None)
+    n.on_pending([trip(faculty, "Kbot", "104", "Kbot/v/1")], 0.0, 1.0, 0.0)
+    assert not n.wants_visitor and n.on_visitor(behind(n, 6.0, 2.0), 2.0, 0.0) == []
+
+
+def test_slow_wait_facing_the_visitor_then_go_on(faculty) -> None:
+    n, t, move = guiding(faculty)
+    assert n.on_visitor(behind(n, 1.3, 2.0), 2.0, 0.0) == []
+    assert n.on_visitor(behind(n, 2.8, 3.0), 3.0, 0.0) == [] and n.speed_cap == pytest.approx(0.3)
+    acts = n.on_visitor(behind(n, 4.5, 4.0), 4.0, 0.0)
+    assert phases(acts) == [Phase.WAITING_FOR_YOU] and n.speed_cap is None
+    assert [a.token for a in acts if isinstance(a, StopMoving)] == [move.token]
+    [turn] = moves(acts)
+    assert (turn.x, turn.y) == pytest.approx((n.pose.x, n.pose.y))
+    assert math.cos(turn.yaw - n.pose.yaw) == pytest.approx(-1.0)        # facing the visitor behind it
+    assert n.status(4.0).state == RobotState.GUIDING
+    assert n.on_move_base_result(turn.token, SUCCEEDED, "", 6.0, 0.0) == []   # turned: waits
+    for k in range(60):                                                    # a minute in sight
+        assert n.on_visitor(behind(n, 4.5, 7.0 + k, speed=0.0), 7.0 + k, 0.0) == []
+    acts = n.on_visitor(behind(n, 1.8, 70.0), 70.0, 0.0)
+    assert phases(acts) == [Phase.FOLLOW_ME]
+    [again] = moves(acts)
+    assert (again.x, again.y) == (t.goal_x, t.goal_y)
+    acts = n.on_move_base_result(again.token, SUCCEEDED, "", 90.0, 0.0)
+    assert phases(acts) == [Phase.GOAL_REACHED]
+    stats = n.pace_done[-1][2]
+    assert (stats["waits"], stats["slowdowns"], stats["searches"]) == (1, 1, 0)
+    assert stats["waiting"] == pytest.approx(66.0) and stats["worst_behind"] == pytest.approx(4.5)
+    assert n.stats["pace_waits"] == 1
+
+
+def test_a_failed_turn_never_fails_the_trip(faculty) -> None:
+    n, t, move = guiding(faculty)
+    n.on_visitor(behind(n, 1.3, 2.0), 2.0, 0.0)
+    [turn] = moves(n.on_visitor(behind(n, 5.0, 3.0), 3.0, 0.0))
+    assert n.on_move_base_result(turn.token, ABORTED, "no", 4.0, 0.0) == [] and n.leg is not None
+
+
+def test_search_found_again(faculty) -> None:
+    n, t, move = guiding(faculty)
+    n.on_visitor(behind(n, 1.3, 2.0), 2.0, 0.0)
+    last = behind(n, 2.0, 3.0)
+    n.on_visitor(last, 3.0, 0.0)
+    acts = n.on_visitor(VisitorReport(Sight.LOST, last_seen=last.last_seen), 6.0, 0.0)
+    assert phases(acts) == [Phase.SEARCHING_VISITOR] and n.relocks == 1
+    ev = evs(acts)[0]
+    assert (ev.x, ev.y) == pytest.approx((last.x, last.y))
+    [go_back] = moves(acts)
+    assert (go_back.x, go_back.y) == pytest.approx((last.x, last.y))
+    n.on_pose(go_back.x, go_back.y, go_back.yaw)
+    [look] = moves(n.on_move_base_result(go_back.token, SUCCEEDED, "", 10.0, 0.0))
+    assert (look.x, look.y) == pytest.approx((go_back.x, go_back.y)) and look.yaw != pytest.approx(go_back.yaw)
+    acts = n.on_visitor(behind(n, 1.0, 12.0), 12.0, 0.0)
+    assert phases(acts) == [Phase.FOLLOW_ME] and "found again" in evs(acts)[0].detail
+    assert moves(acts)[0].x == t.goal_x
+
+
+def test_lost_ends_the_trip_everywhere(faculty) -> None:
+    """The goal-floor robot waiting at the meeting point drops the trip as soon as the cancel arrives."""
+    bus = Bus(faculty, auto_move=False)
+    bus.status_all()
+    bus.request("Tartalo", "301")
+    [uid] = bus.queue_of("Tartalo")
+    bus.finish_move("MariSorgin")
+    bus.pump()
+    assert bus.phases("MariSorgin", uid)[-1] == Phase.WAITING_VISITOR
+    tartalo = bus.robots["Tartalo"].nav
+    bus.run("Tartalo", tartalo.on_visitor(behind(tartalo, 1.3, bus.now_ros), bus.now_ros, bus.now_wall))
+    bus.run("Tartalo", tartalo.on_visitor(VisitorReport(Sight.LOST), bus.now_ros + 2, bus.now_wall))
+    bus.pump()
+    assert bus.phases("Tartalo", uid)[-1] == Phase.SEARCHING_VISITOR
+    bus.tick(ros_dt=65.0)
+    assert bus.phases("Tartalo", uid)[-1] == Phase.VISITOR_LOST
+    assert bus.cancels[-1].reason == REASON_VISITOR_LOST
+    assert bus.phases("MariSorgin", uid)[-1] == Phase.VISITOR_LOST        # told at once, not after its timeout
+    assert bus.robots["MariSorgin"].nav.leg is None and bus.queue_of("MariSorgin") == []
+    assert bus.robots["Tartalo"].nav.leg is None and not tartalo.wants_visitor
+
+
+def person(tid: int, x: float, y: float) -> Track:
+    return Track(tid, x, y, 0.0, 0.0, 0.9, 0.0, True, False)
+
+
+def test_meeting_point_asks_who_arrives_and_asks_again(faculty) -> None:
+    n = nav(faculty, "MariSorgin")
+    t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
+    [move] = moves(n.on_pending([t], 0.0, 1.0, 0.0))
+    n.on_pose(move.x, move.y, move.yaw)
+    n.on_move_base_result(move.token, SUCCEEDED, "", 10.0, 0.0)
+    bystander = person(1, move.x + 1.0, move.y)            # already standing there: not the visitor
+    assert n.on_people([bystander], 11.0) == []
+    assert n.on_people([bystander, person(2, move.x + 4.0, move.y)], 12.0) == []
+    acts = n.on_people([bystander, person(2, move.x + 1.2, move.y)], 15.0)
+    assert phases(acts) == [Phase.PRESS_CONTINUE]
+    assert n.on_people([bystander, person(2, move.x + 1.0, move.y)], 20.0) == []
+    assert phases(n.on_people([person(2, move.x + 1.0, move.y)], 36.0)) == [Phase.PRESS_CONTINUE]
+    acts = n.on_continue(t.uid, 40.0, 0.0)
+    assert phases(acts) == [Phase.ON_THE_WAY]
+    assert n.on_people([person(2, move.x + 1.0, move.y)], 80.0) == []
+
