@@ -98,6 +98,7 @@ class Topic:
     MOVE_BASE_CURRENT_GOAL = "move_base/current_goal"
     MOVE_BASE_PLAN = "move_base/NavfnROS/plan"
     MOVE_BASE_SIMPLE_GOAL = "move_base_simple/goal"
+    MOVE_BASE_SPEED_LIMIT = "move_base/speed_limit"        # std_msgs/Float32, m/s (0: none): guiding at a pace
     AMCL_POSE = "amcl_pose"
     INITIALPOSE = "initialpose"
     ODOM = "odom"

@@ -18,7 +18,7 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
 * ``TOUR_STEP_DONE`` from this robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
-  ``TIMEOUT``, cancels: the visit is over (``finished``) -- only events about this
+  ``TIMEOUT``, ``VISITOR_LOST`` (the guiding robot lost the visitor), cancels: the visit is over (``finished``) -- only events about this
   visit (its tour, its goal), not the answer to somebody else's command at a screen;
 * ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
   robot of the next floor is offline right now): like a person told so, the visitor
@@ -54,7 +54,7 @@ from gidabot_navigation.guiding.trips import RobotView, TripPlanner, WaitModel, 
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_LIFT, WAY_STAIRS, Cmd, Phase
 
 ENDS = {Phase.UNREACHABLE, Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
-        Phase.REJECTED, Phase.TOUR_FINISHED}
+        Phase.REJECTED, Phase.TOUR_FINISHED, Phase.VISITOR_LOST}
 
 
 @dataclass(frozen=True)
