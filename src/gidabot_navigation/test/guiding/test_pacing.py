@@ -42,7 +42,7 @@ def test_config_is_checked_and_lists_every_problem():
 
 def test_never_seen_visitor_leaves_the_robot_at_its_own_pace():
     p = pacer()
-    for t in range(0, 120):
+    for t in range(120):
         assert p.on_visitor(VisitorReport(Sight.ACQUIRING), float(t)) is None
         assert p.step(t + 0.5) is None
     assert p.on_visitor(VisitorReport(Sight.LOST), 121.0) is None

@@ -53,7 +53,6 @@ from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.meeting import ArrivalConfig, ArrivalWatch
-from gidabot_navigation.guiding.pacing import Decision, Pace, Pacer, PacingConfig, Say
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -71,6 +70,7 @@ from gidabot_navigation.guiding.messages import (
     validate_cancel,
     validate_event,
 )
+from gidabot_navigation.guiding.pacing import Decision, Pace, Pacer, PacingConfig, Say
 from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
 from gidabot_navigation.guiding.tour_mode import TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role

@@ -13,9 +13,9 @@ decides, in order (every bound a :class:`PacingConfig` parameter):
   so (``waiting for you``); it goes on (``please follow me``) once the visitor is within ``resume`` m and
   coming, or within ``near``;
 * **search** — waiting with the visitor unseen for ``lost_after`` s, or waiting ``wait_for`` s in all (a
-  visitor who stays away in sight), or the tracker reports the visitor LOST: the robot goes back to where it last saw them, re-locks (the tracker takes the
-  nearest person in its lock cone) and turns round there, ``look_turns`` times by ``look_step`` rad; seen
-  again -> ``please follow me``, the leg goes on (*found again*);
+  visitor who stays away in sight), or the tracker reports the visitor LOST: the robot goes back to where it
+  last saw them, re-locks (the tracker takes the nearest person in its lock cone) and turns round there,
+  ``look_turns`` times by ``look_step`` rad; seen again -> ``please follow me``, the leg goes on (*found again*);
 * **lost** — not found within ``search_for`` s of the search's start: the trip ends (``VISITOR_LOST``).
 
 A leg whose visitor the laser never saw (no lock ever reached SEEN: the tracker is not running, the visitor

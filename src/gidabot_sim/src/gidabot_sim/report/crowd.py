@@ -297,7 +297,8 @@ class Crowd(MonitorFeed):
         return {
             "visitors": len(visitors), "completed": count[COMPLETED], "cancelled": count[CANCELLED],
             "timed_out": count[TIMED_OUT], "left": count[LEFT], "failed": count[FAILED], "refused": count[REFUSED],
-            "lost": count[LOST], "unfinished": count[UNFINISHED], "asked_again": sum(v["asked_again"] for v in visitors),
+            "lost": count[LOST], "unfinished": count[UNFINISHED],
+            "asked_again": sum(v["asked_again"] for v in visitors),
             "intents": {k: sum(v["intent"] == k for v in visitors)
                         for k in (INTENT_COMPLETE, INTENT_CANCEL, INTENT_NO_SHOW)},
             "wait_mean_s": round(sum(waits) / len(waits), 1) if waits else None,

@@ -119,8 +119,9 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     timing = timing_report(records, run)
     pace = merge(pace_from_events((e.t, e.robot, e.goal_uid, e.phase) for r in records for e in r.events),
                  pace_from_diagnostics((d.name, dict(d.values)) for r in records for d in r.diagnostics))
-    return {"pace": {"legs": pace, "totals": totals(pace)},"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"],
+    return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
+            "pace": {"legs": pace, "totals": totals(pace)}, "rejected_goals": rejected, "legs": leg_audit(records),
+            "timing": timing, "degraded": timing["degraded"],
             "contacts": robot_contacts(records)}
 
 

@@ -20,8 +20,8 @@ def format_crowd(report: dict) -> list[str]:
     chosen = ", ".join(f"{k} {n}" for k, n in pop["intents"].items())
     lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
                  f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report.get('left', 0)} left "
-                 f"at the screen, {report['failed']} failed, {report['refused']} refused, {report.get('lost', 0)} lost, "
-                 f"{report['unfinished']} unfinished; chosen: {chosen}"]
+                 f"at the screen, {report['failed']} failed, {report['refused']} refused, "
+                 f"{report.get('lost', 0)} lost, {report['unfinished']} unfinished; chosen: {chosen}"]
     pace = (report.get("pace") or {}).get("totals")
     if pace and pace.get("legs"):
         behind = "-" if pace["mean_behind_m"] is None else f"{pace['mean_behind_m']:.1f} m"

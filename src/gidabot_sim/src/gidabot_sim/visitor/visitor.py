@@ -18,8 +18,9 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
 * ``TOUR_STEP_DONE`` from this robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
-  ``TIMEOUT``, ``VISITOR_LOST`` (the guiding robot lost the visitor), cancels: the visit is over (``finished``) -- only events about this
-  visit (its tour, its goal), not the answer to somebody else's command at a screen;
+  ``TIMEOUT``, ``VISITOR_LOST`` (the guiding robot lost the visitor), cancels: the visit is over
+  (``finished``) -- only events about this visit (its tour, its goal), not the answer to somebody else's
+  command at a screen;
 * ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
   robot of the next floor is offline right now): like a person told so, the visitor
   asks again after ``retry_s``, for at most ``retry_for_s``, then gives up;
