@@ -59,7 +59,7 @@ class PacingConfig:
     slow_speed: float = 0.3
     still_speed: float = 0.15
     still_for: float = 4.0
-    look_after: float = 8.0
+    look_after: float = 12.0         # < the tracker's out_of_view_lost_after (20 s)
     lost_after: float = 20.0
     wait_for: float = 180.0
     search_for: float = 60.0
