@@ -5,48 +5,14 @@ from __future__ import annotations
 import math
 
 import pytest
-from guiding_support import Bus, ListLog
+from guiding_support import Bus, evs, moves, nav, phases, trip
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_navigation.guiding.messages import MoveTo, SendEvent, StopMoving, Trip
-from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
+from gidabot_navigation.guiding.messages import StopMoving
+from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED
 from gidabot_navigation.guiding.pacing import PacingConfig
-from gidabot_navigation.interface import LEG_COMMITTED, REASON_VISITOR_LOST, Phase, RobotState, Sight
+from gidabot_navigation.interface import REASON_VISITOR_LOST, Phase, RobotState, Sight
 from gidabot_navigation.perception.people import LastSeen, Track, VisitorReport
-
-
-def trip(faculty, origin: str, goal_id: str, uid: str) -> Trip:
-    """A trip made at ``origin`` at its home, its legs committed to ``origin`` and the goal floor's first robot."""
-    loc, r = faculty.location(goal_id), faculty.robot(origin)
-    cross = loc.floor != r.floor
-    goal_robot = faculty.robots_on(loc.floor)[0].name if cross else ""
-    return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=r.floor, initial_x=r.home.x,
-                initial_y=r.home.y, goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw,
-                way="stairs", connector="stairs_west" if cross else "", start_id="robot", goal_id=goal_id,
-                language="en", start_robot=origin, start_state=LEG_COMMITTED, goal_robot=goal_robot,
-                goal_state=LEG_COMMITTED if cross else 0, attempt=2)
-
-
-def nav(faculty, robot: str, **cfg) -> NavigationCore:
-    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0, boot="t")
-    n.on_move_base_available(True, 0.0)
-    home = faculty.robot(robot).home
-    n.on_pose(home.x, home.y, home.yaw)
-    for r in faculty.robots:
-        n.on_status(r.name, 0.0)
-    return n
-
-
-def evs(actions):
-    return [a.event for a in actions if isinstance(a, SendEvent)]
-
-
-def phases(actions):
-    return [e.phase for e in evs(actions)]
-
-
-def moves(actions):
-    return [a for a in actions if isinstance(a, MoveTo)]
 
 
 def behind(n, dist: float, t: float, speed: float = 0.6, sight: Sight = Sight.SEEN) -> VisitorReport:

@@ -105,22 +105,24 @@ class Params:
                       param_number("~replay_window", DEFAULT_WINDOW, strict=False))
 
 
+def config_params(prefix: str, defaults: object) -> dict[str, float | int]:
+    """``~<prefix><field>`` for every field of the dataclass instance ``defaults`` (its value by default; whole
+    fields stay whole)."""
+    return {name: (int(param_number(f"~{prefix}{name}", value)) if isinstance(value, int)
+                   else param_number(f"~{prefix}{name}", value))
+            for name, value in vars(defaults).items()}
+
+
 def pacing_params() -> PacingConfig | None:
     """``~pace`` (bool, true) and ``~pace_<bound>`` (every field of :class:`PacingConfig`, its default)."""
     if not bool(rospy.get_param("~pace", True)):
         return None
-    defaults = PacingConfig()
-    return PacingConfig(**{name: (int(param_number(f"~pace_{name}", value)) if isinstance(value, int)
-                                  else param_number(f"~pace_{name}", value))
-                           for name, value in defaults.__dict__.items()})
+    return PacingConfig(**config_params("pace_", PacingConfig()))
 
 
 def arrival_params() -> ArrivalConfig:
     """``~meeting_<field>``: every field of :class:`ArrivalConfig`, its default."""
-    defaults = ArrivalConfig()
-    return ArrivalConfig(**{name: (int(param_number(f"~meeting_{name}", value)) if isinstance(value, int)
-                                   else param_number(f"~meeting_{name}", value))
-                            for name, value in defaults.__dict__.items()})
+    return ArrivalConfig(**config_params("meeting_", ArrivalConfig()))
 
 
 class NavigationNode:
