@@ -55,6 +55,7 @@ def test_close_visitor_normal_then_slow_then_normal_again():
     d = p.on_visitor(seen(2.8, 2.0), 2.0)
     assert d.pace is Pace.SLOW and d.speed_cap == pytest.approx(0.3) and d.drive
     assert p.on_visitor(seen(3.0, 2.1), 2.1) is None          # still slow: nothing new
+    assert p.on_visitor(seen(1.8, 2.5), 2.5) is None          # within near, not by the hysteresis: still slow
     d = p.on_visitor(seen(1.5, 3.0), 3.0)
     assert d.pace is Pace.NORMAL and d.speed_cap is None
     p.on_visitor(seen(2.5, 4.0), 4.0)

@@ -179,8 +179,8 @@ class NavigationNode:
       - ``~pickup_distance`` (m, 1.5): farther from the request point, the robot first picks the visitor up.
       - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
       - ``~pace`` (bool, true): guide at the visitor's pace; ``~pace_<bound>``: the bounds of
-        ``guiding.pacing.PacingConfig`` (``near``, ``far``, ``resume``, ``slow_speed``, ``still_speed``,
-        ``still_for``, ``look_after``, ``lost_after``, ``wait_for``, ``search_for``, ``look_step``,
+        ``guiding.pacing.PacingConfig`` (``near``, ``hysteresis``, ``far``, ``resume``, ``slow_speed``,
+        ``still_speed``, ``still_for``, ``look_after``, ``lost_after``, ``wait_for``, ``search_for``, ``look_step``,
         ``look_turns``, ``relock_every``); ``~meeting_<field>``: ``guiding.meeting.ArrivalConfig``.
       - ``~status_rate`` (Hz, 2), ``~pose_rate`` (Hz, 5), ROS time.
       - ``~move_base`` (move_base), ``~frame_id`` (map), ``~goal_manager`` (/goal_manager).

@@ -6,7 +6,8 @@ decides, in order (every bound a :class:`PacingConfig` parameter):
 
 * **normal** — the visitor is within ``near`` m: the robot drives at its own speed;
 * **slow** — the visitor is between ``near`` and ``far`` m: the robot's speed is capped to ``slow_speed``
-  (a *slow-down*, counted once per entry);
+  (a *slow-down*, counted once per entry) until the visitor is within ``near - hysteresis`` m again (a visitor
+  walking at about the robot's pace does not switch it at every scan);
 * **wait** — the visitor is farther than ``far``, or has stood still (slower than ``still_speed``) beyond
   ``near`` for ``still_for`` s, or is out of the laser's view (behind a front laser) for ``look_after`` s: the
   robot stops its goal, turns towards where it knows the visitor is (a front laser then sees them) and says
@@ -54,6 +55,7 @@ class PacingConfig:
     """Distances in m, speeds in m/s, times in s (the robot's clock), angles in rad."""
 
     near: float = 2.0
+    hysteresis: float = 0.4
     far: float = 4.0
     resume: float = 3.0
     slow_speed: float = 0.3
@@ -76,6 +78,8 @@ class PacingConfig:
                 problems.append(f"{name}: {value!r} must be a positive number")
         if not problems and not self.near <= self.resume <= self.far:
             problems.append(f"near <= resume <= far: {self.near:g}, {self.resume:g}, {self.far:g}")
+        if not (isinstance(self.hysteresis, (int, float)) and 0 <= self.hysteresis < self.near):
+            problems.append(f"hysteresis: {self.hysteresis!r} must be >= 0 and less than near")
         if not isinstance(self.look_turns, int) or self.look_turns < 0:
             problems.append(f"look_turns: {self.look_turns!r} must be a whole number >= 0")
         if problems:
@@ -253,6 +257,8 @@ class Pacer:
                 self.pace = Pace.SLOW
                 self.stats.slowdowns += 1
                 return Decision(Pace.SLOW, speed_cap=cfg.slow_speed)
+            return None
+        if self.pace is Pace.SLOW and dist > cfg.near - cfg.hysteresis:
             return None
         if self.pace is not Pace.NORMAL and not out_of_view:
             self.pace = Pace.NORMAL
