@@ -86,15 +86,17 @@ def test_search_found_again(faculty) -> None:
     last = behind(n, 2.0, 3.0)
     n.on_visitor(last, 3.0, 0.0)
     acts = n.on_visitor(VisitorReport(Sight.LOST, last_seen=last.last_seen), 6.0, 0.0)
-    assert phases(acts) == [Phase.SEARCHING_VISITOR] and n.relocks == 1
+    assert phases(acts) == [Phase.WAITING_FOR_YOU] and n.relocks == 1
+    acts = n.tick(27.0, 0.0)
+    assert phases(acts) == [Phase.SEARCHING_VISITOR] and n.relocks == 2
     ev = evs(acts)[0]
     assert (ev.x, ev.y) == pytest.approx((last.x, last.y))
     [go_back] = moves(acts)
     assert (go_back.x, go_back.y) == pytest.approx((last.x, last.y))
     n.on_pose(go_back.x, go_back.y, go_back.yaw)
-    [look] = moves(n.on_move_base_result(go_back.token, SUCCEEDED, "", 10.0, 0.0))
+    [look] = moves(n.on_move_base_result(go_back.token, SUCCEEDED, "", 30.0, 0.0))
     assert (look.x, look.y) == pytest.approx((go_back.x, go_back.y)) and look.yaw != pytest.approx(go_back.yaw)
-    acts = n.on_visitor(behind(n, 1.0, 12.0), 12.0, 0.0)
+    acts = n.on_visitor(behind(n, 1.0, 32.0), 32.0, 0.0)
     assert phases(acts) == [Phase.FOLLOW_ME] and "found again" in evs(acts)[0].detail
     assert moves(acts)[0].x == t.goal_x
 
@@ -112,8 +114,10 @@ def test_lost_ends_the_trip_everywhere(faculty) -> None:
     bus.run("Tartalo", tartalo.on_visitor(behind(tartalo, 1.3, bus.now_ros), bus.now_ros, bus.now_wall))
     bus.run("Tartalo", tartalo.on_visitor(VisitorReport(Sight.LOST), bus.now_ros + 2, bus.now_wall))
     bus.pump()
+    assert bus.phases("Tartalo", uid)[-1] == Phase.WAITING_FOR_YOU
+    bus.tick(ros_dt=23.0)
     assert bus.phases("Tartalo", uid)[-1] == Phase.SEARCHING_VISITOR
-    bus.tick(ros_dt=65.0)
+    bus.tick(ros_dt=61.0)
     assert bus.phases("Tartalo", uid)[-1] == Phase.VISITOR_LOST
     assert bus.cancels[-1].reason == REASON_VISITOR_LOST
     assert bus.phases("MariSorgin", uid)[-1] == Phase.VISITOR_LOST        # told at once, not after its timeout

@@ -125,21 +125,34 @@ def test_a_visitor_in_sight_who_stays_away_is_searched_for_after_the_wait_bound(
     assert p.on_visitor(seen(5.0, 101.0, speed=0.0), 101.0).pace is Pace.SEARCH
 
 
-def test_tracker_lost_starts_the_search_at_once_and_found_again_goes_on():
-    p = pacer()
+def test_tracker_lost_is_waited_for_then_searched_and_found_again() -> None:
+    p = pacer(lost_after=20.0, relock_every=6.0)
     p.on_visitor(seen(1.5, 0.0), 0.0)
     d = p.on_visitor(lost(4.0, at=6.0), 4.0)
-    assert d.pace is Pace.SEARCH and d.search_at.x == pytest.approx(6.0)
+    assert d.pace is Pace.WAIT and d.relock and d.say is Say.WAITING and d.face == pytest.approx((6.0, 0.0))
     assert p.on_visitor(VisitorReport(Sight.ACQUIRING), 5.0) is None
-    d = p.on_visitor(seen(1.0, 12.0), 12.0)
+    assert p.on_visitor(VisitorReport(Sight.LOST), 10.0).relock        # asked anew every 6 s
+    assert p.step(23.0).pace is Pace.WAIT                               # waited 19 s
+    d = p.step(24.0)
+    assert d.pace is Pace.SEARCH and d.search_at.x == pytest.approx(6.0)
+    d = p.on_visitor(seen(1.0, 26.0), 26.0)
     assert d.pace is Pace.NORMAL and d.found_again and d.say is Say.FOLLOW
-    assert p.stats.found_again == 1 and p.stats.lost == 0
+    assert p.stats.found_again == 1 and p.stats.lost == 0 and p.stats.waits == 1
+
+
+def test_tracker_lost_and_back_while_waiting_goes_on_without_a_search() -> None:
+    p = pacer()
+    p.on_visitor(seen(1.5, 0.0), 0.0)
+    assert p.on_visitor(lost(4.0), 4.0).pace is Pace.WAIT
+    d = p.on_visitor(seen(1.5, 7.0), 7.0)
+    assert d.say is Say.FOLLOW and not d.found_again and p.stats.searches == 0
 
 
 def test_look_turns_are_bounded():
     p = pacer(look_turns=2)
     p.on_visitor(seen(1.5, 0.0), 0.0)
     p.on_visitor(lost(4.0), 4.0)
+    assert p.step(30.0).pace is Pace.SEARCH
     assert p.on_search_arrived(5.0) is not None
     assert p.on_search_arrived(6.0) is not None
     assert p.on_search_arrived(7.0) is None

@@ -13,10 +13,12 @@ decides, in order (every bound a :class:`PacingConfig` parameter):
   robot stops its goal, turns towards where it knows the visitor is (a front laser then sees them) and says
   so (``waiting for you``); it goes on (``please follow me``) once the visitor is within ``resume`` m and
   coming, or within ``near``;
+* a visitor the tracker reports LOST is waited for too, facing where they were last seen, the tracker asked for
+  them anew every ``relock_every`` s;
 * **search** — waiting with the visitor unseen for ``lost_after`` s, or waiting ``wait_for`` s in all (a
-  visitor who stays away in sight), or the tracker reports the visitor LOST: the robot goes back to where it
-  last saw them, re-locks (the tracker takes the nearest person in its lock cone) and turns round there,
-  ``look_turns`` times by ``look_step`` rad; seen again -> ``please follow me``, the leg goes on (*found again*);
+  visitor who stays away in sight): the robot goes back to where it last saw them, re-locks (the tracker takes
+  the nearest person in its lock cone) and turns round there, ``look_turns`` times by ``look_step`` rad; seen
+  again -> ``please follow me``, the leg goes on (*found again*);
 * **lost** — not found within ``search_for`` s of the search's start: the trip ends (``VISITOR_LOST``).
 
 A leg whose visitor the laser never saw (no lock ever reached SEEN: the tracker is not running, the visitor
@@ -160,6 +162,7 @@ class Pacer:
     _still_since: float | None = None
     _unseen_view_since: float | None = None
     _seen_at: float | None = None
+    _relocked: float = 0.0
     _last_seen: Pose2D | None = None
     _search: _Search | None = None
     _robot: Pose2D | None = None
@@ -228,7 +231,7 @@ class Pacer:
         if r is None:
             return None
         if r.sight in (Sight.LOST, Sight.NONE, Sight.ACQUIRING):
-            return self._start_search(t)
+            return self._unseen(t)
         dist = r.distance if r.distance is not None and math.isfinite(r.distance) else math.inf
         speed = math.hypot(r.vx or 0.0, r.vy or 0.0)
         still = speed < cfg.still_speed and dist > cfg.near
@@ -263,6 +266,23 @@ class Pacer:
         if self.pace is not Pace.NORMAL and not out_of_view:
             self.pace = Pace.NORMAL
             return Decision(Pace.NORMAL)
+        return None
+
+    def _unseen(self, t: float) -> Decision | None:
+        """The tracker has no visitor (lost, or looking anew): wait facing where they were last seen and ask for
+        them anew every ``relock_every`` s; search once unseen for ``lost_after`` s while waiting."""
+        cfg = self.cfg
+        if self.pace is not Pace.WAIT:
+            self.pace, self._wait_since, self._relocked = Pace.WAIT, t, t
+            self.stats.waits += 1
+            return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), relock=True, say=Say.WAITING)
+        assert self._wait_since is not None
+        unseen_since = max(self._wait_since, self._seen_at if self._seen_at is not None else -math.inf)
+        if t - unseen_since >= cfg.lost_after or t - self._wait_since >= cfg.wait_for:
+            return self._start_search(t)
+        if t - self._relocked >= cfg.relock_every:
+            self._relocked = t
+            return Decision(Pace.WAIT, drive=False, relock=True)
         return None
 
     def _visitor_point(self) -> tuple[float, float] | None:
