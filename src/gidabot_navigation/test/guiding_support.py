@@ -32,13 +32,14 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.trips import TripPlanner
-from gidabot_navigation.interface import Cmd, Node, Phase, global_name
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Node, Phase, global_name
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 
 _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
 # the callerids of a robot's own nodes on its master
-GM, NAV, GUI, TS = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI, Node.TOUR_STORE))
+GM, NAV, GUI, TS, PEOPLE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI,
+                                                     Node.TOUR_STORE, Node.PEOPLE))
 
 
 def from_robot(core: GoalManagerCore | NavigationCore, robot: str) -> str:
@@ -320,3 +321,46 @@ class Bus:
 
 def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])
+
+
+# -- one navigation core alone ----------------------------------------------------------------
+def trip(faculty, origin: str, goal_id: str, uid: str, start: tuple[float, float] | None = None,
+         connector: str = "stairs_west", **kw) -> Trip:
+    """A trip made at ``origin`` whose legs are committed to ``origin`` and the goal floor's first robot."""
+    loc = faculty.location(goal_id)
+    r = faculty.robot(origin)
+    sx, sy = start or (r.home.x, r.home.y)
+    goal_robot = faculty.robots_on(loc.floor)[0].name if loc.floor != r.floor and faculty.has_robot(loc.floor) else ""
+    legs = {"start_robot": origin, "start_state": LEG_COMMITTED, "goal_robot": goal_robot,
+            "goal_state": LEG_COMMITTED if goal_robot else LEG_NONE, "attempt": 2}
+    return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=r.floor, initial_x=sx, initial_y=sy,
+                goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw, way="stairs",
+                connector=connector if loc.floor != r.floor else "", start_id="robot", goal_id=goal_id,
+                language="en", **{**legs, **kw})
+
+
+def nav(faculty, robot: str, **cfg) -> NavigationCore:
+    """A navigation core of ``robot`` alone, at home, move_base up, every robot's status heard from its sender."""
+    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0)
+    n.on_move_base_available(True, 0.0)
+    home = faculty.robot(robot).home
+    n.on_pose(home.x, home.y, home.yaw)
+    for r in faculty.robots:
+        n.on_status(r.name, 0.0, sender=from_robot(n, r.name))
+    return n
+
+
+def evs(actions):
+    return [a.event for a in actions if isinstance(a, SendEvent)]
+
+
+def phases(actions):
+    return [e.phase for e in evs(actions)]
+
+
+def moves(actions):
+    return [a for a in actions if isinstance(a, MoveTo)]
+
+
+def cancels(actions):
+    return [a.cancel for a in actions if isinstance(a, SendCancel)]

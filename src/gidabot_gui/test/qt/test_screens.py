@@ -175,6 +175,39 @@ def test_popups(make_gui, faculty, text_problems, language) -> None:
     assert not any(problems.values()), problems
 
 
+@pytest.mark.parametrize("language", LANGS)
+def test_pace_popups(make_gui, faculty, text_problems, language) -> None:
+    """The guiding robot keeping its visitor's pace (waiting for you, please follow me, where are you, visitor
+    lost) and the meeting point's prompt, each saved in the three languages and spoken."""
+    problems = {}
+    gui = make_gui("Kbot", language=language)
+    populate(gui, faculty)
+    gui.window.visitor.pick_destination("103")
+    gui.press("go")
+    uid = "Kbot/gui-test/1"
+    nav_event(gui, Phase.ON_THE_WAY, uid, location_id="103")
+    for phase, name in ((Phase.WAITING_FOR_YOU, "waiting-for-you"), (Phase.FOLLOW_ME, "follow-me"),
+                        (Phase.SEARCHING_VISITOR, "searching-visitor"), (Phase.VISITOR_LOST, "visitor-lost")):
+        nav_event(gui, phase, uid, location_id="103")
+        assert gui.window.overlay.name == f"event:{phase.name}"
+        assert gui.speaker.said and gui.speaker.said[-1][0] and gui.speaker.said[-1][1] == language
+        problems[name] = text_problems(gui.window)
+        gui.shot(f"popup-{name}-{language}")
+    up = make_gui("Galtxagorri", language=language)
+    populate(up, faculty)
+    uid = "Kbot/gui-test/2"
+    nav_event(up, Phase.GOING_TO_MEETING, uid, robot="Galtxagorri", connector="stairs_west",
+              location_id="stairs_west", language=language)
+    nav_event(up, Phase.WAITING_VISITOR, uid, robot="Galtxagorri", connector="stairs_west",
+              location_id="stairs_west", language=language)
+    nav_event(up, Phase.PRESS_CONTINUE, uid, robot="Galtxagorri", connector="stairs_west",
+              location_id="stairs_west", language=language)
+    assert up.window.overlay.name == f"event:{Phase.PRESS_CONTINUE.name}"
+    problems["press-continue"] = text_problems(up.window)
+    up.shot(f"popup-press-continue-{language}")
+    assert not any(problems.values()), problems
+
+
 def test_admin_screens(make_gui, faculty, text_problems) -> None:
     problems = {}
     for language in LANGS:

@@ -100,6 +100,7 @@ class Topic:
     MOVE_BASE_CURRENT_GOAL = "move_base/current_goal"
     MOVE_BASE_PLAN = "move_base/NavfnROS/plan"
     MOVE_BASE_SIMPLE_GOAL = "move_base_simple/goal"
+    MOVE_BASE_SPEED_LIMIT = "move_base/speed_limit"        # std_msgs/Float32, m/s (0: none): guiding at a pace
     AMCL_POSE = "amcl_pose"
     INITIALPOSE = "initialpose"
     ODOM = "odom"
@@ -185,6 +186,11 @@ class Phase(IntEnum):
     PARTNER_BACK = 16
     DECLINED = 17
     ASSIGNED = 18
+    VISITOR_LOST = 19
+    WAITING_FOR_YOU = 20
+    FOLLOW_ME = 21
+    SEARCHING_VISITOR = 22
+    PRESS_CONTINUE = 23
 
 
 PHASE_NAMES = {
@@ -196,18 +202,24 @@ PHASE_NAMES = {
     Phase.PARTNER_OFFLINE: "partner offline",
     Phase.REJECTED: "rejected", Phase.TOUR_STEP_DONE: "tour step done", Phase.TOUR_FINISHED: "tour finished",
     Phase.PARTNER_LOST: "partner lost", Phase.PARTNER_BACK: "partner back", Phase.DECLINED: "declined",
-    Phase.ASSIGNED: "assigned",
+    Phase.ASSIGNED: "assigned", Phase.VISITOR_LOST: "visitor lost", Phase.WAITING_FOR_YOU: "waiting for you",
+    Phase.FOLLOW_ME: "follow me", Phase.SEARCHING_VISITOR: "searching the visitor",
+    Phase.PRESS_CONTINUE: "press continue",
 }
 # phases after which the emitting robot is done with the trip (it left its queue)
 FINAL_PHASES = frozenset({Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.UNREACHABLE, Phase.NO_ROBOT_ON_FLOOR,
                           Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
-                          Phase.REJECTED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.DECLINED})
+                          Phase.REJECTED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.DECLINED,
+                          Phase.VISITOR_LOST})
 # phases that hand the visitor over to another floor (the start robot released the visitor)
 RELEASE_PHASES = frozenset({Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR})
 # phases of a robot serving a leg (multirobot_navigation): only the robot the leg is assigned to sends them
 SERVING_PHASES = frozenset({Phase.ON_THE_WAY, Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.GOING_TO_MEETING,
                             Phase.WAITING_VISITOR, Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_STEP_DONE,
-                            Phase.TOUR_FINISHED, Phase.PARTNER_LOST, Phase.PARTNER_BACK})
+                            Phase.TOUR_FINISHED, Phase.PARTNER_LOST, Phase.PARTNER_BACK, Phase.WAITING_FOR_YOU,
+                            Phase.FOLLOW_ME, Phase.SEARCHING_VISITOR, Phase.PRESS_CONTINUE})
+# phases by which a guiding robot tells its visitor how it keeps their pace (not final; docs/guiding.md)
+PACE_PHASES = frozenset({Phase.WAITING_FOR_YOU, Phase.FOLLOW_ME, Phase.SEARCHING_VISITOR})
 # phases by which a robot says it brought the visitor to the trip's goal (a tour's stop, or its last)
 GOAL_REACHED_PHASES = frozenset({Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED})
 # phases after which a visitor's trip counts as done: its goal reached, or the visitor sent alone to a floor
@@ -238,7 +250,8 @@ REASON_UNREACHABLE = "unreachable"
 REASON_TIMEOUT = "timeout"
 REASON_OFFLINE = "offline"
 REASON_ADMIN = "admin"
-REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN)
+REASON_VISITOR_LOST = "visitor_lost"     # the guiding robot lost its visitor and did not find them again
+REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN, REASON_VISITOR_LOST)
 
 class RobotState(StrEnum):
     """gidabot_msgs/RobotStatus states (the same strings: a state received as text compares equal)."""

@@ -7,7 +7,23 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from guiding_support import GM, GUI, NAV, TS, Bus, ListLog, catalog_of, from_robot, sender_of
+from guiding_support import (
+    GM,
+    GUI,
+    NAV,
+    TS,
+    Bus,
+    ListLog,
+    cancels,
+    catalog_of,
+    evs,
+    from_robot,
+    moves,
+    nav,
+    phases,
+    sender_of,
+    trip,
+)
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import Building
@@ -15,59 +31,15 @@ from gidabot_navigation.errors import GuidingError
 from gidabot_navigation.guiding.messages import (
     CancelData,
     CommandData,
-    MoveTo,
     NavEventData,
-    SendCancel,
     SendEvent,
     StopMoving,
-    Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, PREEMPTED, SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Phase, RobotState
+from gidabot_navigation.interface import LEG_NONE, Cmd, Phase, RobotState
 from gidabot_navigation.senders import make_uid
 
 TOURS = Path(__file__).resolve().parents[4] / "tours"
-
-
-def trip(faculty, origin: str, goal_id: str, uid: str, start: tuple[float, float] | None = None,
-         connector: str = "stairs_west", **kw) -> Trip:
-    """A trip made at ``origin`` whose legs are committed to ``origin`` and the goal floor's first robot."""
-    loc = faculty.location(goal_id)
-    r = faculty.robot(origin)
-    sx, sy = start or (r.home.x, r.home.y)
-    goal_robot = faculty.robots_on(loc.floor)[0].name if loc.floor != r.floor and faculty.has_robot(loc.floor) else ""
-    legs = {"start_robot": origin, "start_state": LEG_COMMITTED, "goal_robot": goal_robot,
-            "goal_state": LEG_COMMITTED if goal_robot else LEG_NONE, "attempt": 2}
-    return Trip(uid=uid, origin_robot=origin, visitor_id="v", initial_floor=r.floor, initial_x=sx, initial_y=sy,
-                goal_floor=loc.floor, goal_x=loc.pose.x, goal_y=loc.pose.y, goal_yaw=loc.pose.yaw, way="stairs",
-                connector=connector if loc.floor != r.floor else "", start_id="robot", goal_id=goal_id,
-                language="en", **{**legs, **kw})
-
-
-def nav(faculty, robot: str, **cfg) -> NavigationCore:
-    n = NavigationCore(faculty, NavigationConfig(robot=robot, **cfg), ListLog(), now_wall=0.0)
-    n.on_move_base_available(True, 0.0)
-    home = faculty.robot(robot).home
-    n.on_pose(home.x, home.y, home.yaw)
-    for r in faculty.robots:
-        n.on_status(r.name, 0.0, sender=from_robot(n, r.name))
-    return n
-
-
-def evs(actions):
-    return [a.event for a in actions if isinstance(a, SendEvent)]
-
-
-def phases(actions):
-    return [e.phase for e in evs(actions)]
-
-
-def moves(actions):
-    return [a for a in actions if isinstance(a, MoveTo)]
-
-
-def cancels(actions):
-    return [a.cancel for a in actions if isinstance(a, SendCancel)]
 
 
 def released(n: NavigationCore, by: str, goal_uid: str, now: float) -> None:

@@ -17,13 +17,15 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from guiding_support import ListLog, shared_planner
 from node_support import FakeRos, fake_ros, phases, spin
 
+from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding import navigation_node
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import CancelData, CommandData, PendingData, SendGoal
 from gidabot_navigation.guiding.navigation import NavigationConfig
 from gidabot_navigation.guiding.navigation_node import NavigationNode, Params
-from gidabot_navigation.interface import REASON_VISITOR, Cmd, Node, Phase, RobotState, Topic, global_name
+from gidabot_navigation.interface import REASON_VISITOR, Cmd, Node, Phase, RobotState, Sight, Topic, global_name
+from gidabot_navigation.perception.people import LastSeen, VisitorReport, VisitorTrackData
 from gidabot_navigation.ros import convert
 from gidabot_navigation.senders import make_uid
 
@@ -185,3 +187,38 @@ def test_move_base_gone_is_the_error_state(ros: FakeRos, node: NavigationNode) -
     [status] = diag.status
     assert (status.name, status.level, status.message) == ("guiding: navigation Kbot", DiagnosticStatus.WARN,
                                                           RobotState.ERROR)
+
+
+def test_the_visitor_s_pace_in_and_out(ros: FakeRos, node: NavigationNode, pending: PendingData) -> None:
+    """Guiding locks the visitor's track; a visitor falling behind caps the speed, one far behind stops the robot
+    (a goal on the spot facing them, WAITING_FOR_YOU); the end of the leg unlocks and says how it went."""
+    assert [m.data for m in ros.sent(Topic.PEOPLE_VISITOR_LOCK)] == [False]
+    assert [m.data for m in ros.sent(Topic.MOVE_BASE_SPEED_LIMIT)] == [0.0]
+    ros.feed(Topic.PENDING, convert.pending_to_msg(pending), GOAL_MANAGER)
+    spin(node)
+    assert [m.data for m in ros.sent(Topic.PEOPLE_VISITOR_LOCK)] == [False, True]
+    home = load_building(FACULTY).robot("Kbot").home
+
+    def visitor(dist: float, t: float) -> None:
+        x, y = home.x - dist * math.cos(home.yaw), home.y - dist * math.sin(home.yaw)
+        report = VisitorReport(Sight.SEEN, track_id=3, x=x, y=y, vx=0.5, vy=0.0, distance=dist, behind=dist,
+                               bearing=math.pi, unseen=0.0, last_seen=LastSeen(Pose2D(x, y, 0.0), t), confidence=0.9)
+        ros.feed(Topic.PEOPLE_VISITOR, convert.visitor_track_to_msg(VisitorTrackData(report, t)), "/people")
+        spin(node)
+
+    node.core.on_pose(home.x, home.y, home.yaw)
+    visitor(1.2, 100.0)
+    visitor(3.0, 101.0)
+    assert ros.sent(Topic.MOVE_BASE_SPEED_LIMIT)[-1].data == pytest.approx(0.3)
+    visitor(5.0, 102.0)
+    assert phases(ros)[-1] == Phase.WAITING_FOR_YOU and ros.sent(Topic.MOVE_BASE_SPEED_LIMIT)[-1].data == 0.0
+    assert node.client.goals[0][1].cancelled and len(node.client.goals) == 2      # stopped; turned on the spot
+    visitor(1.0, 110.0)
+    assert phases(ros)[-1] == Phase.FOLLOW_ME and len(node.client.goals) == 3
+    node.client.finish(GoalStatus.SUCCEEDED)
+    spin(node)
+    assert phases(ros)[-1] == Phase.GOAL_REACHED
+    assert ros.sent(Topic.PEOPLE_VISITOR_LOCK)[-1].data is False
+    pace = [s for m in ros.sent(Topic.DIAGNOSTICS) for s in m.status if s.name == "guiding: pace Kbot"]
+    values = {kv.key: kv.value for kv in pace[-1].values}
+    assert (values["goal_uid"], values["waits"], values["slowdowns"]) == (pending.goals[0].uid, "1", "1")

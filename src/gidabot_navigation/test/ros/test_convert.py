@@ -52,7 +52,7 @@ TRIP = forms.Trip(uid="Kbot/v/k1.2", origin_robot="Kbot", visitor_id="v", initia
 EVENT = forms.NavEventData(uid="Kbot/event/n.1", robot="Kbot", floor=1.0, goal_uid=TRIP.uid, phase=Phase.GO_TO_FLOOR,
                            language="es", way=WAY_LIFT, connector="lift", target_floor=2.0, location_id="lift",
                            tour_file="real_world.tour", tour_step=2, detail="start leg done", stamp=120.5,
-                           leg=LEG_GOAL, attempt=3, assignee="Tartalo", eta=42.5)
+                           leg=LEG_GOAL, attempt=3, assignee="Tartalo", eta=42.5, x=3.25, y=-1.5)
 A_CANCEL = forms.CancelData(uid="Kbot/cancel/n.2", goal_uid=TRIP.uid, origin_robot="Kbot", reason=REASON_UNREACHABLE,
                             detail="no path", stamp=121.75)
 COMMAND = forms.CommandData(command=Cmd.SKIP, uid="Kbot/gui/cmd/3", visitor_id="gui", goal_id="104", way=WAY_LIFT,

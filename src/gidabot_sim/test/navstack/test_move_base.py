@@ -183,6 +183,21 @@ def test_no_pose_aborts_and_bad_goals_are_rejected(faculty) -> None:
         NavConfig(controller_frequency=0.0)
 
 
+def test_a_speed_limit_slows_the_robot_and_is_lifted(faculty) -> None:
+    """move_base/speed_limit: a guiding robot keeping its visitor's pace drives no faster than the limit."""
+    goal = faculty.location("120").pose if faculty.find_location("120") else Pose2D(45.0, 11.4, -math.pi / 2)
+    fast = loop(faculty).drive(goal, timeout=200)
+    sim = loop(faculty)
+    sim.nav.set_speed_limit(0.3)
+    out = sim.drive(goal, timeout=400)
+    assert_reached(sim, goal, out)
+    straight = math.hypot(goal.x - 30.0, goal.y - 12.0)
+    assert out.duration >= straight / 0.3 and out.duration > 1.5 * fast.duration
+    for off in (0.0, None, float("nan"), -1.0):
+        sim.nav.set_speed_limit(off)
+        assert sim.nav.speed_limit is None
+
+
 def test_keep_out_zones_are_driven_around_and_goals_inside_abort(faculty, tmp_path: Path) -> None:
     """A keep-out zone of the building file (floor 1, the north half of the corridor at x 43..47) is lethal for
     move_base: the robot drives past it on the free side, and a goal inside it aborts at once."""

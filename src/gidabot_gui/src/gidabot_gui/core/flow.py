@@ -407,6 +407,15 @@ class VisitorFlow:
                 self.tour.running = trip.tour_step
             self._focus_on(trip)
             return notice(phase, actions=("ok", "cancel"), adopt_language=adopt if first else "")
+        if phase in (Phase.WAITING_FOR_YOU, Phase.FOLLOW_ME, Phase.SEARCHING_VISITOR):
+            # not final: the robot guiding keeps its visitor's pace (waits, goes on, looks for them)
+            facing = trip is not None and trip.activity in FACING
+            return notice(phase, modal=facing or not self.busy, actions=("ok", "cancel"))
+        if trip is not None and phase is Phase.PRESS_CONTINUE and trip.activity is Activity.WAITING:
+            self._focus_on(trip)           # someone arrived at the meeting point: asked to press Continue
+            return notice(phase, actions=("continue", "cancel"))
+        if phase is Phase.PRESS_CONTINUE:
+            return None
         if trip is not None and phase is Phase.WAITING_VISITOR:
             trip.activity = Activity.WAITING
             self._focus_on(trip)

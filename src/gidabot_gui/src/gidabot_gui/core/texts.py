@@ -304,6 +304,23 @@ class Texts:
             body = self._naming(ev, t._("{robot} is back. The trip goes on."),
                                 t._("The other robot is back. The trip goes on."))
             return PopupText(t._("The trip goes on"), body, body, "success")
+        if kind is Phase.WAITING_FOR_YOU:
+            body = t._("I am waiting for you here. Please come closer and walk behind me.")
+            return PopupText(t._("I am waiting for you"), body, body, "action")
+        if kind is Phase.FOLLOW_ME:
+            body = t._("Let's go on. Please follow me, walking behind me.")
+            return PopupText(t._("Please follow me"), body, body, "info", note=t._(
+                "Please walk behind me, not in front of me or beside me: I need to see the way clear."))
+        if kind is Phase.SEARCHING_VISITOR:
+            body = t._("I cannot see you any more. I am going back to look for you.")
+            return PopupText(t._("Where are you?"), body, body, "warning")
+        if kind is Phase.VISITOR_LOST:
+            body = t._("I lost my visitor and could not find them again, so the trip was stopped.")
+            again = t._("Please ask me again, or ask the staff of the building.")
+            return PopupText(t._("Visitor lost"), f"{body}\n\n{again}", f"{body} {again}", "error")
+        if kind is Phase.PRESS_CONTINUE:
+            body = t._("If I am waiting for you, please press Continue.")
+            return PopupText(t._("Hello!"), body, body, "action")
         if kind is Phase.REJECTED:
             body = t._("Please choose another destination.")
             spoken = t._("Sorry, I cannot take this request.")

@@ -34,6 +34,8 @@ NOTICE_ICONS: dict[NoticeKind, str] = {
     Phase.UNREACHABLE: "warning", Phase.NO_ROBOT_ON_FLOOR: "warning", Phase.CANCELLED_HERE: "close",
     Phase.CANCELLED_ELSEWHERE: "close", Phase.TIMEOUT: "warning", Phase.PARTNER_OFFLINE: "warning",
     Phase.REJECTED: "warning", Phase.PARTNER_LOST: "warning", Phase.PARTNER_BACK: "check",
+    Phase.WAITING_FOR_YOU: "robot", Phase.FOLLOW_ME: "walk", Phase.SEARCHING_VISITOR: "warning",
+    Phase.VISITOR_LOST: "warning", Phase.PRESS_CONTINUE: "robot",
     LocalNotice.NO_ANSWER: "warning", LocalNotice.BUSY: "info",
 }
 

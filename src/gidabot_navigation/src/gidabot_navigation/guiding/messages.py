@@ -40,6 +40,7 @@ from gidabot_navigation.interface import (
     REASON_TIMEOUT,
     REASON_UNREACHABLE,
     REASON_VISITOR,
+    REASON_VISITOR_LOST,
     REASONS,
     WAYS,
     Phase,
@@ -50,7 +51,7 @@ from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 # the phase a robot shows its visitor when another robot drops a trip for this reason
 PHASE_OF_REASON = {REASON_VISITOR: Phase.CANCELLED_ELSEWHERE, REASON_UNREACHABLE: Phase.UNREACHABLE,
                    REASON_TIMEOUT: Phase.TIMEOUT, REASON_OFFLINE: Phase.PARTNER_OFFLINE,
-                   REASON_ADMIN: Phase.CANCELLED_ELSEWHERE}
+                   REASON_ADMIN: Phase.CANCELLED_ELSEWHERE, REASON_VISITOR_LOST: Phase.VISITOR_LOST}
 
 # -- limits of untrusted text (uids: senders.UID_FORMAT; who may use which uid: senders.Senders) ------
 MAX_ID = 64          # robot, visitor, location, connector ids
@@ -162,6 +163,8 @@ class NavEventData:
     assignee: str = ""            # the other robot: ASSIGNED serves ``leg``; GO_TO_FLOOR waits; PARTNER_* partner
     eta: float = 0.0              # s, ACCEPTED / ASSIGNED: until the serving robot is with the visitor (start leg)
     #                               or at the meeting point (goal leg)
+    x: float = 0.0                # m, SEARCHING_VISITOR / VISITOR_LOST: where the visitor was last seen (map of floor)
+    y: float = 0.0
 
     @property
     def final(self) -> bool:
@@ -630,8 +633,9 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
     if event.phase == Phase.ASSIGNED and not assignee:
         raise GoalRejected("assignment", "an assigned event needs an assignee")
     eta = event.eta if isinstance(event.eta, (int, float)) and math.isfinite(event.eta) and event.eta >= 0 else 0.0
+    x, y = ((float(v) if isinstance(v, (int, float)) and math.isfinite(v) else 0.0) for v in (event.x, event.y))
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,
-                   way=way, language=language, assignee=assignee, eta=float(eta))
+                   way=way, language=language, assignee=assignee, eta=float(eta), x=x, y=y)
 
 
 def validate_command(cmd: CommandData) -> CommandData:

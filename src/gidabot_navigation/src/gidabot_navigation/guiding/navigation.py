@@ -25,13 +25,23 @@ the trip still needs it -> PARTNER_LOST (the trip waits), PARTNER_BACK when it
 returns; the goal-floor robot gives up after ``partner_timeout`` wall s
 (PARTNER_OFFLINE, Cancel reason offline).
 
+The visitor's pace (:mod:`gidabot_navigation.guiding.pacing`): while it guides, the robot reads what its laser
+knows of the visitor (``on_visitor``): it caps its speed (:attr:`NavigationCore.speed_cap`), stops its goal to
+wait facing the visitor (WAITING_FOR_YOU; a move_base goal on the spot, facing them), goes on (FOLLOW_ME),
+goes back to where it last saw them and looks round (SEARCHING_VISITOR, with the place), and ends the trip when
+they are not found (VISITOR_LOST with the place, and a Cancel, reason visitor_lost, so every robot drops it: the
+goal-floor robot waiting at the meeting point at once). :attr:`NavigationCore.wants_visitor` and
+:attr:`NavigationCore.relocks` say when to lock the visitor's track. At the meeting point (``on_people``) the
+goal-floor robot asks someone who arrives there to press Continue (PRESS_CONTINUE), again while they stand.
+
 Inputs are explicit events (:meth:`NavigationCore.on_pending`, ``on_move_base_result``,
-``on_continue``, ``on_cancel``, ``on_nav_event``, ``on_status``, ``tick``); each returns
-actions (MoveTo, StopMoving, SendEvent, SendCancel) for the adapter. Every message names its
+``on_continue``, ``on_cancel``, ``on_nav_event``, ``on_status``, ``on_visitor``, ``on_people``, ``tick``); each
+returns actions (MoveTo, StopMoving, SendEvent, SendCancel) for the adapter. Every message names its
 publisher (``sender``, the ROS callerid) and speaks only for it
 (:class:`~gidabot_navigation.senders.Senders`): the pending list only from this robot's goal
 manager, Continue only from this robot's GUI or visitor, a cancel, event or status only from
-the robot it names; anything else is refused and counted (:meth:`NavigationCore.refusals`).
+the robot it names, the visitor's track and the people tracked only from this robot's people node;
+anything else is refused and counted (:meth:`NavigationCore.refusals`).
 """
 
 from __future__ import annotations
@@ -40,7 +50,7 @@ import enum
 import math
 from collections import OrderedDict
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from gidabot_navigation.building.geometry import Pose2D
@@ -48,6 +58,7 @@ from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError
 from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.make_way import MakeWay, Mate
+from gidabot_navigation.guiding.meeting import ArrivalConfig, ArrivalWatch
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
@@ -72,6 +83,7 @@ from gidabot_navigation.guiding.messages import (
     validate_cancel,
     validate_event,
 )
+from gidabot_navigation.guiding.pacing import Decision, Pace, Pacer, PacingConfig, Say
 from gidabot_navigation.guiding.state import (
     REMEMBERED_UIDS,
     number,
@@ -91,6 +103,7 @@ from gidabot_navigation.interface import (
     REASON_OFFLINE,
     REASON_TIMEOUT,
     REASON_UNREACHABLE,
+    REASON_VISITOR_LOST,
     RELEASE_PHASES,
     Cmd,
     Node,
@@ -98,6 +111,7 @@ from gidabot_navigation.interface import (
     RobotState,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.perception.people import Track, VisitorReport
 from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
 from gidabot_navigation.tours.tour_store import TourMessage
 
@@ -151,7 +165,9 @@ class NavigationConfig:
     in wall s; ``pickup_distance`` in m; ``simulated``: the simulated visitor (node ``visitor``) is one of this
     robot's own nodes (it presses Continue). ``/gidabot/poses`` (:meth:`NavigationCore.pose_to_publish`): a pose
     is published when it moved ``pose_min_move`` m or turned ``pose_min_turn`` rad since the last one published,
-    else at every ``pose_keepalive``-th tick of the pose timer (a robot at rest costs its peers little)."""
+    else at every ``pose_keepalive``-th tick of the pose timer (a robot at rest costs its peers little).
+    ``pacing``: the visitor's pace (None: the robot drives at its own pace whatever its laser sees); ``arrival``:
+    asking who arrives at the meeting point to press Continue."""
 
     robot: str
     continue_timeout: float = 300.0
@@ -163,6 +179,8 @@ class NavigationConfig:
     pose_min_move: float = 0.01
     pose_min_turn: float = 0.01
     pose_keepalive: int = 5
+    pacing: PacingConfig | None = field(default_factory=PacingConfig)
+    arrival: ArrivalConfig = field(default_factory=ArrivalConfig)
 
     def __post_init__(self) -> None:
         for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout",
@@ -190,6 +208,9 @@ class Leg:
     partner_lost: float | None = None   # wall s since which the partner is offline (notice given)
     started: float = 0.0                # ROS s
     resend: bool = False                # resumed after a restart: send the move_base goal again
+    pacer: Pacer | None = None          # guiding: the visitor's pace
+    detour: bool = False                # the move_base goal is pacing's (turn to the visitor, search), not target
+    arrivals: ArrivalWatch | None = None   # waiting at the meeting point: who arrives
 
 
 class NavigationCore:
@@ -239,6 +260,8 @@ class NavigationCore:
         self._asked_at = 0.0                    # ROS s of the last look at who is in the way
         self._asked_robots: tuple[str, ...] = ()
         self._way_token: int | None = None      # the make-way move running (None: none)
+        self.relocks = 0                    # times pacing asked for the visitor's track anew
+        self.pace_done: list[tuple[str, str, dict[str, float]]] = []   # (trip uid, leg, stats) of ended guided legs
 
     # ------------------------------------------------------------------ sensor-like inputs
     def on_pose(self, x: float, y: float, yaw: float) -> None:
@@ -426,6 +449,12 @@ class NavigationCore:
             self.stats.inc("stale_results")
             return []
         leg.moving = False
+        if leg.detour:                  # a pacing goal (turned to the visitor, reached the search place): never fails
+            leg.detour = False
+            if leg.pacer is not None and leg.pacer.pace is Pace.SEARCH:
+                return self._apply_pace(leg, leg.pacer.on_search_arrived(now_ros), now_ros) \
+                    + self._advance(now_ros, now_wall)
+            return []
         if status == SUCCEEDED:
             ended = now_ros if done_ros is None else min(done_ros, now_ros)
             return self._arrived(leg, now_ros, ended) + self._advance(now_ros, now_wall)
@@ -436,9 +465,57 @@ class NavigationCore:
             reason += " (another client took over move_base)"
         return self._fail(leg, reason, now_ros) + self._advance(now_ros, now_wall)
 
+    def on_visitor(self, report: VisitorReport, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """What the robot's laser knows of the visitor it guides (after a scan), published by ``sender``: only this
+        robot's people node is heard."""
+        if not self.gate.only(sender, Node.PEOPLE, "visitor track"):
+            return []
+        leg = self.leg
+        if leg is None or leg.pacer is None or leg.stage is not Stage.GUIDING:
+            return []
+        if self.pose is not None:
+            leg.pacer.on_robot(self.pose)
+        return self._apply_pace(leg, leg.pacer.on_visitor(report, now_ros), now_ros) + self._advance(now_ros, now_wall)
+
+    def on_people(self, tracks: Sequence[Track], now_ros: float, *, sender: str) -> list[Action]:
+        """The people the robot's laser sees, published by ``sender`` (only this robot's people node is heard): at the
+        meeting point, someone arriving is asked to press Continue."""
+        if not self.gate.only(sender, Node.PEOPLE, "people tracks"):
+            return []
+        leg = self.leg
+        if leg is None or leg.arrivals is None or leg.stage is not Stage.WAITING or leg.continued \
+                or self.pose is None:
+            return []
+        ask = leg.arrivals.on_people(self.pose, tracks, now_ros)
+        if ask is None:
+            return []
+        self.stats.inc("meeting_prompts")
+        return [self._event(Phase.PRESS_CONTINUE, leg.trip, now_ros, location_id=leg.trip.connector,
+                            detail=f"someone is at the meeting point ({ask}): asked to press Continue")]
+
+    @property
+    def speed_cap(self) -> float | None:
+        """m/s: the most the robot may drive now (None: its own limits)."""
+        leg = self.leg
+        if leg is None or leg.pacer is None or leg.stage is not Stage.GUIDING or leg.pacer.pace is not Pace.SLOW:
+            return None
+        return leg.pacer.cfg.slow_speed
+
+    @property
+    def wants_visitor(self) -> bool:
+        """Whether the visitor's track should be locked now (guiding with pacing)."""
+        leg = self.leg
+        return leg is not None and leg.pacer is not None and leg.stage is Stage.GUIDING \
+            and leg.pacer.pace is not Pace.LOST
+
     def tick(self, now_ros: float, now_wall: float) -> list[Action]:
-        """Timeouts (Continue, partner offline, navigation lost) and starting the next trip."""
+        """Timeouts (Continue, partner offline, navigation lost, the visitor's pace) and starting the next trip."""
         actions: list[Action] = []
+        leg = self.leg
+        if leg is not None and leg.pacer is not None and leg.stage is Stage.GUIDING:
+            if self.pose is not None:
+                leg.pacer.on_robot(self.pose)
+            actions += self._apply_pace(leg, leg.pacer.step(now_ros), now_ros)
         leg = self.leg
         if leg is not None and leg.resend and self.available:
             leg.resend = False
@@ -628,11 +705,12 @@ class NavigationCore:
         if leg.stage is Stage.PICKUP:
             target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if leg.role is Role.SAME else self._meeting(trip)
             assert target is not None
-            self._next_move(leg, Stage.GUIDING, target)
+            self._next_move(leg, Stage.GUIDING, target, now_ros)
             return [self._move(leg), self._event(Phase.ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
         if leg.stage is Stage.TO_MEETING:
             leg.stage = Stage.WAITING
             leg.arrived_at = now_ros
+            leg.arrivals = ArrivalWatch(self.cfg.arrival)
             actions: list[Action] = [self._event(Phase.WAITING_VISITOR, trip, now_ros, location_id=trip.connector)]
             if leg.continued:
                 actions += self._go_on(leg, now_ros)
@@ -675,7 +753,7 @@ class NavigationCore:
         """Goal floor: the visitor is here; guide to the goal."""
         leg.continued = True
         self._early_continue.discard(leg.trip.uid)
-        self._next_move(leg, Stage.GUIDING, Pose2D(leg.trip.goal_x, leg.trip.goal_y, leg.trip.goal_yaw))
+        self._next_move(leg, Stage.GUIDING, Pose2D(leg.trip.goal_x, leg.trip.goal_y, leg.trip.goal_yaw), now_ros)
         return [self._move(leg), self._event(Phase.ON_THE_WAY, leg.trip, now_ros, location_id=leg.trip.goal_id)]
 
     def _timer_start(self, leg: Leg) -> float | None:
@@ -762,11 +840,72 @@ class NavigationCore:
                  now_ros: float) -> Leg:
         self._token += 1
         self.leg = Leg(trip, r, stage, self._token, target, partner=partner, started=now_ros)
+        self._pace(self.leg, now_ros)
         return self.leg
 
-    def _next_move(self, leg: Leg, stage: Stage, target: Pose2D) -> None:
+    def _next_move(self, leg: Leg, stage: Stage, target: Pose2D, now_ros: float | None = None) -> None:
         self._token += 1
-        leg.token, leg.stage, leg.target, leg.moving = self._token, stage, target, True
+        leg.token, leg.stage, leg.target, leg.moving, leg.detour = self._token, stage, target, True, False
+        self._pace(leg, now_ros if now_ros is not None else leg.started)
+
+    def _pace(self, leg: Leg, now_ros: float) -> None:
+        """A guided move begins: pace it (once per leg; the visitor's track is locked from now on)."""
+        if leg.stage is Stage.GUIDING and leg.pacer is None and self.cfg.pacing is not None:
+            leg.pacer = Pacer(self.cfg.pacing)
+            leg.pacer.start(now_ros)
+
+    def _apply_pace(self, leg: Leg, d: Decision | None, now_ros: float) -> list[Action]:
+        """Carry out a pacing decision on the guided leg ``leg``."""
+        if d is None or self.leg is not leg:
+            return []
+        pacer = leg.pacer
+        assert pacer is not None
+        actions: list[Action] = []
+        if d.relock:
+            self.relocks += 1
+        if d.pace is Pace.LOST:
+            seen = pacer.last_seen or self.pose or leg.target
+            detail = (f"the visitor was not found again within {pacer.cfg.search_for:g} s; last seen at "
+                      f"({seen.x:.1f}, {seen.y:.1f})")
+            self.log.warning(f"{leg.trip.uid}: {detail}; the trip ends")
+            actions += self._stop(leg)
+            self._finish(leg.trip)
+            return actions + [self._event(Phase.VISITOR_LOST, leg.trip, now_ros, detail=detail, x=seen.x, y=seen.y),
+                              SendCancel(self._cancel(leg.trip, REASON_VISITOR_LOST, f"{self.me}: {detail}", now_ros))]
+        if d.drive:
+            if not leg.moving or leg.detour:
+                actions += self._stop(leg)
+                self._next_move(leg, Stage.GUIDING, leg.target, now_ros)
+                actions.append(self._move(leg))
+            if d.say is Say.FOLLOW:
+                actions.append(self._event(Phase.FOLLOW_ME, leg.trip, now_ros, location_id=self._where(leg),
+                                           detail="found again: the guiding goes on" if d.found_again
+                                           else "the visitor is close again: the guiding goes on"))
+            return actions
+        pose = self.pose
+        goal: Pose2D | None = None
+        if d.search_at is not None and d.look_yaw is None:
+            start = pose or d.search_at
+            goal = Pose2D(d.search_at.x, d.search_at.y,
+                          math.atan2(d.search_at.y - start.y, d.search_at.x - start.x))
+        elif d.look_yaw is not None and pose is not None:
+            goal = Pose2D(pose.x, pose.y, d.look_yaw)
+        elif d.face is not None and pose is not None:
+            goal = Pose2D(pose.x, pose.y, math.atan2(d.face[1] - pose.y, d.face[0] - pose.x))
+        if goal is not None or d.pace is Pace.WAIT:
+            actions += self._stop(leg)
+        if goal is not None:
+            self._token += 1
+            leg.token, leg.moving, leg.detour = self._token, True, True
+            actions.append(MoveTo(leg.token, goal.x, goal.y, goal.yaw))
+        if d.say is Say.WAITING:
+            actions.append(self._event(Phase.WAITING_FOR_YOU, leg.trip, now_ros, location_id=self._where(leg),
+                                       detail="the visitor fell behind or stopped: waiting for them"))
+        elif d.say is Say.SEARCHING and d.search_at is not None:
+            actions.append(self._event(Phase.SEARCHING_VISITOR, leg.trip, now_ros, location_id=self._where(leg),
+                                       detail="going back to where the visitor was last seen",
+                                       x=d.search_at.x, y=d.search_at.y))
+        return actions
 
     def _move(self, leg: Leg) -> MoveTo:
         return MoveTo(leg.token, leg.target.x, leg.target.y, leg.target.yaw)
@@ -781,7 +920,18 @@ class NavigationCore:
         self._finished.add(trip.uid)
         self._early_continue.discard(trip.uid)
         if self.leg is not None and self.leg.trip.uid == trip.uid:
+            self._pace_summary(self.leg)
             self.leg = None
+
+    def _pace_summary(self, leg: Leg) -> None:
+        if leg.pacer is None:
+            return
+        stats = leg.pacer.stats
+        self.pace_done.append((leg.trip.uid, leg.trip.leg_of(self.me) or "", stats.as_dict()))
+        del self.pace_done[:-100]
+        leg.pacer = None
+        for name in ("slowdowns", "waits", "searches", "lost", "found_again"):
+            self.stats.inc(f"pace_{name}", getattr(stats, name))
 
     def _meeting(self, trip: Trip) -> Pose2D | None:
         conn = self.building.find_connector(trip.connector)

@@ -21,6 +21,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
+from std_msgs.msg import Bool, Float32
 
 from gidabot_msgs.msg import (
     Cancel,
@@ -28,11 +29,14 @@ from gidabot_msgs.msg import (
     NavEvent,
     NavPose,
     PendingRequests,
+    PersonArray,
     RobotStatus,
     TourCatalog,
     VisitorCommand,
+    VisitorTrack,
 )
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.guiding.meeting import ArrivalConfig
 from gidabot_navigation.guiding.messages import Action, MoveTo, PoseData, SendAsk, SendCancel, SendEvent, StopMoving
 from gidabot_navigation.guiding.navigation import (
     ABORTED,
@@ -45,6 +49,7 @@ from gidabot_navigation.guiding.navigation import (
     NavigationCore,
     freshest_time,
 )
+from gidabot_navigation.guiding.pacing import PacingConfig
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
@@ -89,13 +94,34 @@ class Params:
                                partner_timeout=param_number("~partner_timeout", 120.0),
                                offline_after=param_number("~offline_after", 5.0),
                                pickup_distance=param_number("~pickup_distance", 1.5),
-                               nav_lost_timeout=param_number("~nav_lost_timeout", 30.0), simulated=simulated())
+                               nav_lost_timeout=param_number("~nav_lost_timeout", 30.0), simulated=simulated(),
+                               pacing=pacing_params(), arrival=arrival_params())
         return Params(building, cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
                       param_text("~state_dir", "") or default_state_dir(cfg.robot),
                       param_number("~state_max_age", DEFAULT_MAX_AGE),
                       param_number("~replay_window", DEFAULT_WINDOW, strict=False))
+
+
+def config_params(prefix: str, defaults: object) -> dict[str, float | int]:
+    """``~<prefix><field>`` for every field of the dataclass instance ``defaults`` (its value by default; whole
+    fields stay whole)."""
+    return {name: (int(param_number(f"~{prefix}{name}", value)) if isinstance(value, int)
+                   else param_number(f"~{prefix}{name}", value))
+            for name, value in vars(defaults).items()}
+
+
+def pacing_params() -> PacingConfig | None:
+    """``~pace`` (bool, true) and ``~pace_<bound>`` (every field of :class:`PacingConfig`, its default)."""
+    if not bool(rospy.get_param("~pace", True)):
+        return None
+    return PacingConfig(**config_params("pace_", PacingConfig()))
+
+
+def arrival_params() -> ArrivalConfig:
+    """``~meeting_<field>``: every field of :class:`ArrivalConfig`, its default."""
+    return ArrivalConfig(**config_params("meeting_", ArrivalConfig()))
 
 
 class NavigationNode:
@@ -124,6 +150,10 @@ class NavigationNode:
         the events when it is ahead of the ROS time (``navigation.freshest_time``: a simulated ``/clock``
         ticks more coarsely than the simulator's steps).
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog): which tour step is the last.
+      - ``people/visitor`` (gidabot_msgs/VisitorTrack): the visitor the robot guides, from its own laser (the
+        ``people`` node): the visitor's pace (``guiding/pacing.py``).
+      - ``people/tracks`` (gidabot_msgs/PersonArray): at the meeting point, someone arriving is asked to press
+        Continue.
 
     Published topics (events: the last ``~replay_window`` s are sent again to a late subscriber):
       - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent, event): ON_THE_WAY, GO_TO_FLOOR,
@@ -137,7 +167,14 @@ class NavigationNode:
       - ``/gidabot/make_way`` (gidabot_msgs/MakeWay, state): the idle robots of its floor it asks to make way along
         a leg's way (empty when the move ends); the asks of the others (relayed) make it step aside while idle.
       - ``/diagnostics``: ``guiding: navigation <robot>`` counters, 1 Hz wall; ``refused_<kind>``: the
-        messages refused by kind (impostor, foreign, wrong_namespace, conflict, invalid).
+        messages refused by kind (impostor, foreign, wrong_namespace, conflict, invalid); ``guiding: pace <robot>``
+        once per guided leg that ended: the trip, the leg, the visitor's mean and worst distance behind, the time
+        waiting for them, slow-downs, waits, searches, lost, found again.
+      - ``people/visitor_lock`` (std_msgs/Bool, latched): lock the visitor's track while guiding (false then
+        true: look for the visitor anew, when searching).
+      - ``move_base/speed_limit`` (std_msgs/Float32, latched): m/s, the most the robot may drive now (0: its own
+        limits). The simulator's move_base honours it; on a robot, a bridge sets the local planner's
+        ``max_vel_x`` through dynamic_reconfigure.
 
     Parameters:
       - ``~building`` (str, required), ``~robot`` (str, required).
@@ -147,6 +184,10 @@ class NavigationNode:
       - ``~offline_after`` (wall s, 5): a robot without status this long is offline.
       - ``~pickup_distance`` (m, 1.5): farther from the request point, the robot first picks the visitor up.
       - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
+      - ``~pace`` (bool, true): guide at the visitor's pace; ``~pace_<bound>``: the bounds of
+        ``guiding.pacing.PacingConfig`` (``near``, ``hysteresis``, ``far``, ``resume``, ``slow_speed``,
+        ``still_speed``, ``still_for``, ``look_after``, ``lost_after``, ``wait_for``, ``search_for``, ``look_step``,
+        ``look_turns``, ``relock_every``); ``~meeting_<field>``: ``guiding.meeting.ArrivalConfig``.
       - ``~status_rate`` (Hz, 2), ``~pose_rate`` (Hz, 5), ROS time.
       - ``~move_base`` (move_base), ``~frame_id`` (map).
       - ``~state_dir`` (str, '' = ``$ROS_HOME/gidabot/<robot>/guiding``): ``multirobot_navigation.json``
@@ -185,7 +226,13 @@ class NavigationNode:
         self.status_pub = rospy.Publisher(Topic.STATUS, RobotStatus, queue_size=10, latch=True)
         self.poses_pub = rospy.Publisher(Topic.POSES, NavPose, queue_size=10, latch=True)
         self.make_way_pub = rospy.Publisher(Topic.MAKE_WAY, MakeWay, queue_size=10, latch=True)
-        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=20)
+        self.lock_pub = rospy.Publisher(Topic.PEOPLE_VISITOR_LOCK, Bool, queue_size=2, latch=True)
+        self.speed_pub = rospy.Publisher(Topic.MOVE_BASE_SPEED_LIMIT, Float32, queue_size=2, latch=True)
+        self._lock: tuple[bool, int] = (False, 0)       # published visitor lock, relocks
+        self._speed_cap: float | None = None
+        self.lock_pub.publish(Bool(data=False))
+        self.speed_pub.publish(Float32(data=0.0))
         self.subs = [
             rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
@@ -198,6 +245,8 @@ class NavigationNode:
             rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=1),
             rospy.Subscriber(Topic.BATTERY, BatteryState, self._on_battery, queue_size=1),
             rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
+            rospy.Subscriber(Topic.PEOPLE_VISITOR, VisitorTrack, self._enqueue, callback_args="visitor", queue_size=5),
+            rospy.Subscriber(Topic.PEOPLE_TRACKS, PersonArray, self._enqueue, callback_args="people", queue_size=2),
         ]
         self.timers = [rospy.Timer(rospy.Duration(1.0 / params.status_rate), lambda _e: self._enqueue(None, "tick")),
                        rospy.Timer(rospy.Duration(1.0 / params.pose_rate), lambda _e: self._enqueue(None, "pose_tick"))]
@@ -269,6 +318,7 @@ class NavigationNode:
         if kind:
             self.commit(self.handle(kind, msg, now_ros, now_wall), self._changes_state(kind, msg))
         self.commit(self.core.tick(now_ros, now_wall), False)
+        self._publish_pace(now_ros)
         self._check_ack(now_wall)
         if now_wall >= self._next_diag:
             self._next_diag = now_wall + 1.0
@@ -295,6 +345,10 @@ class NavigationNode:
             if self._active is not None and self._active[0] == token:
                 self._active = None
             return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
+        if kind == "visitor":
+            return core.on_visitor(convert.visitor_track_from_msg(msg).report, now_ros, now_wall, sender=sender(msg))
+        if kind == "people":
+            return core.on_people(convert.people_from_msg(msg).tracks, now_ros, sender=sender(msg))
         if kind == "status":
             status = convert.status_from_msg(msg)
             if core.on_status(status.robot, now_wall, sender=sender(msg)):
@@ -382,6 +436,25 @@ class NavigationNode:
             and server in connected_subscribers(ac.pub_cancel)
 
     # -- outputs --------------------------------------------------------------------------
+    def _publish_pace(self, now_ros: float) -> None:
+        """What the core's pacing wants of the people node and of move_base, on a change; each ended guided
+        leg's summary."""
+        want = (self.core.wants_visitor, self.core.relocks)
+        if want != self._lock:
+            if want[0] and self._lock[0] and want[1] != self._lock[1]:
+                self.lock_pub.publish(Bool(data=False))          # look for the visitor anew
+            self.lock_pub.publish(Bool(data=want[0]))
+            self._lock = want
+        cap = self.core.speed_cap
+        if cap != self._speed_cap:
+            self.speed_pub.publish(Float32(data=cap or 0.0))
+            self._speed_cap = cap
+        while self.core.pace_done:
+            uid, leg, stats = self.core.pace_done.pop(0)
+            self.diag_pub.publish(diagnostics(f"guiding: pace {self.robot}", self.robot,
+                                              {"goal_uid": uid, "leg": leg, **stats}, bool(stats["lost"]),
+                                              f"{uid} {leg}: the visitor's pace", now_ros))
+
     def publish_status(self) -> None:
         self._status_wall = time.monotonic()
         status = self.core.status(rospy.get_time())

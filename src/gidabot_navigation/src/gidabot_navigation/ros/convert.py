@@ -147,7 +147,8 @@ def event_from_msg(m: NavEvent) -> NavEventData:
     return NavEventData(uid=m.uid, robot=m.robot, floor=m.floor, goal_uid=m.goal_uid, phase=m.phase,
                         language=m.language, way=m.way, connector=m.connector, target_floor=m.target_floor,
                         location_id=m.location_id, tour_file=m.tour_file, tour_step=m.tour_step, detail=m.detail,
-                        stamp=stamp_of(m), leg=m.leg, attempt=m.attempt, assignee=m.assignee, eta=m.eta)
+                        stamp=stamp_of(m), leg=m.leg, attempt=m.attempt, assignee=m.assignee, eta=m.eta,
+                        x=m.x, y=m.y)
 
 
 def event_to_msg(e: NavEventData) -> NavEvent:
@@ -158,6 +159,7 @@ def event_to_msg(e: NavEventData) -> NavEvent:
     m.language, m.way, m.connector, m.target_floor = e.language, e.way, e.connector, e.target_floor
     m.location_id, m.tour_file, m.tour_step, m.detail = e.location_id, e.tour_file, e.tour_step, e.detail[:MAX_DETAIL]
     m.leg, m.attempt, m.assignee, m.eta = e.leg, e.attempt, e.assignee, e.eta
+    m.x, m.y = e.x, e.y
     return m
 
 

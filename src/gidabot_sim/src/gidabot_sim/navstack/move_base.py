@@ -242,6 +242,7 @@ class MoveBaseCore:
         self._obstacles: dict[str, Shape] = {}
         self._robots: dict[str, SensedRobot] = {}     # as marked in the costmap
         self._wait: _RobotWait | None = None
+        self.speed_limit: float | None = None          # m/s, set_speed_limit (None: the robot's own limits)
         self._reset_goal_state(0.0)
 
     # -- inputs ----------------------------------------------------------------
@@ -273,6 +274,12 @@ class MoveBaseCore:
         self._reset_goal_state(now)
         self._need_plan = True
         self.log.info(f"move_base: new goal ({goal.x:.2f}, {goal.y:.2f}, {goal.yaw:.2f})")
+
+    def set_speed_limit(self, speed: float | None) -> None:
+        """Drive no faster than ``speed`` m/s from now on (None, 0, or not a positive number: the robot's own
+        limits), as Nav2's ``speed_limit`` topic or a local planner's ``max_vel_x`` set by dynamic_reconfigure."""
+        ok = speed is not None and math.isfinite(speed) and speed > 0
+        self.speed_limit = float(speed) if ok else None
 
     def cancel(self) -> None:
         """Drop the current goal (PREEMPTED by the node); the next step commands zero velocity once."""
@@ -633,6 +640,8 @@ class MoveBaseCore:
         v_stop = math.sqrt(2.0 * 0.8 * self.limits.max_linear_accel
                            * max(remaining - 0.5 * cfg.xy_goal_tolerance, 0.0))
         v_max = min(self.limits.max_linear, max(v_stop, 0.05))
+        if self.speed_limit is not None:
+            v_max = min(v_max, self.speed_limit)
         if self.limits.holonomic:
             cmd = self._holonomic(pose, bearing, alpha, v_max, path, index)
         else:

@@ -39,7 +39,7 @@ from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Twist2D
 from gidabot_sim.world.rejections import CountingLog
 
-GOAL, PREEMPT, OBSTACLES, ROBOTS = "goal", "preempt", "obstacles", "robots"      # queued inputs
+GOAL, PREEMPT, OBSTACLES, ROBOTS, SPEED = "goal", "preempt", "obstacles", "robots", "speed"   # queued inputs
 CANCELLED = "Goal cancelled"
 
 
@@ -114,6 +114,10 @@ class MoveBaseLoop:
     def on_robots(self, read: Callable[[], list[SensedRobot]]) -> None:
         """The other robots the laser sees now (all of them)."""
         self._events.put((ROBOTS, read))
+
+    def on_speed_limit(self, speed: float) -> None:
+        """The most the robot may drive now (m/s; 0: its own limits), from the next control cycle on."""
+        self._events.put((SPEED, speed))
 
     def on_estimate(self, read: Callable[[], tuple[float, Pose2D]]) -> None:
         """A localisation estimate (``read()``: stamp and map pose)."""
@@ -208,6 +212,8 @@ class MoveBaseLoop:
                 latest_obstacles = read
             elif kind == ROBOTS:
                 latest_robots = read
+            elif kind == SPEED:
+                self.nav.set_speed_limit(read)  # type: ignore[arg-type]
         if latest_obstacles is not None:
             shapes, problems = latest_obstacles()
             for problem in problems:

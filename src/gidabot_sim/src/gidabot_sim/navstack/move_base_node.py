@@ -21,6 +21,7 @@ from move_base_msgs.msg import MoveBaseAction, MoveBaseActionGoal, MoveBaseFeedb
 from nav_msgs.msg import Odometry
 from nav_msgs.msg import Path as PathMsg
 from nav_msgs.srv import GetPlan, GetPlanResponse
+from std_msgs.msg import Float32
 from std_srvs.srv import Empty, EmptyResponse
 
 from gidabot_msgs.msg import ObstacleArray
@@ -61,6 +62,9 @@ class MoveBaseNode:
         (id = name, CIRCLE), marked in the costmap; a robot in the way is driven around, or yielded to / waited
         for by name priority (:mod:`gidabot_sim.navstack.move_base`); ABORTED naming it after
         ``~robot_patience`` without progress (a deadlock).
+      ``move_base/speed_limit`` (std_msgs/Float32): m/s, the most the robot may drive from now on (0: its own
+        limits; a guiding robot keeping its visitor's pace), as Nav2's ``speed_limit`` or a local planner's
+        ``max_vel_x`` set by dynamic_reconfigure on a robot.
     Publishes:
       ``cmd_vel`` (geometry_msgs/Twist) at ``~controller_frequency`` while a goal runs (zero when it ends);
       ``move_base/current_goal`` (geometry_msgs/PoseStamped); ``move_base/NavfnROS/plan`` (nav_msgs/Path)
@@ -127,6 +131,7 @@ class MoveBaseNode:
                          self._on_obstacles, queue_size=10)
         rospy.Subscriber(str(rospy.get_param("~robots_topic", Topic.ROBOTS_SEEN)), ObstacleArray,
                          self._on_robots, queue_size=10)
+        rospy.Subscriber(Topic.MOVE_BASE_SPEED_LIMIT, Float32, self._on_speed_limit, queue_size=2)
         rospy.Service(Service.MAKE_PLAN, GetPlan, self._make_plan)
         rospy.Service(Service.CLEAR_COSTMAPS, Empty, self._clear_costmaps)
         self.server.start()
@@ -161,6 +166,10 @@ class MoveBaseNode:
 
     def _on_robots(self, msg: ObstacleArray) -> None:
         self.loop.on_robots(lambda: convert.sensed_robots_of(msg))
+        self.wake.set()
+
+    def _on_speed_limit(self, msg: Float32) -> None:
+        self.loop.on_speed_limit(float(msg.data))
         self.wake.set()
 
     def _on_odom(self, msg: Odometry) -> None:

@@ -34,10 +34,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from gidabot_navigation.interface import FINAL_PHASES, LEG_COMMITTED, LEG_GOAL, LEG_START, PHASE_NAMES, Phase
+from gidabot_sim.report.pace import merge, pace_from_events, totals
 from gidabot_sim.report.visits import MonitorFeed, visit_completed
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
+LOST = "lost"                    # the guiding robot lost the visitor and did not find them again (VISITOR_LOST)
 REFUSED = "refused"              # the request made no goal: the robot refused it (REJECTED, UNREACHABLE)
 LEFT = "left"                    # shown the waits, the visitor did not confirm (its patience): its choice
 MOVING = (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING)
@@ -223,7 +225,8 @@ class Crowd(MonitorFeed):
         asked = len({g.visitor for g in self.goals.values()})
         return (f"visitors: {asked} of {len(self.plans)} with a trip, {ends.count(COMPLETED)} completed, "
                 f"{ends.count(CANCELLED)} cancelled, {ends.count(TIMED_OUT)} timed out, {ends.count(LEFT)} left, "
-                f"{ends.count(FAILED)} failed, {ends.count(REFUSED)} refused | {self.latest or '-'}")
+                f"{ends.count(FAILED)} failed, {ends.count(REFUSED)} refused, {ends.count(LOST)} lost "
+                f"| {self.latest or '-'}")
 
     def sim_seconds(self) -> float:
         return (self.last_s - self.first_s) if self.first_s is not None and self.last_s is not None else 0.0
@@ -283,7 +286,9 @@ class Crowd(MonitorFeed):
         visitors = self.visitor_rows()
         waits = [v["wait_s"] for v in visitors if v["wait_s"] is not None]
         count = {k: sum(v["outcome"] == k for v in visitors) for k in (COMPLETED, CANCELLED, TIMED_OUT, LEFT, FAILED,
-                                                                      REFUSED, UNFINISHED)}
+                                                                      REFUSED, LOST, UNFINISHED)}
+        pace = merge(pace_from_events((_when(e), str(e.get("robot", "")), str(e.get("goal_uid", "")), e.get("phase"))
+                                      for e in self.events.values()), {})
         problems = [f"{v['visitor']} ({v['intent']}, {v['target']} from {v['robot']}): {v['outcome']}"
                     for v in visitors if not v["as_chosen"]]
         problems += [f"{v['visitor']}: its request made no goal (lost)" for v in visitors
@@ -292,12 +297,14 @@ class Crowd(MonitorFeed):
         return {
             "visitors": len(visitors), "completed": count[COMPLETED], "cancelled": count[CANCELLED],
             "timed_out": count[TIMED_OUT], "left": count[LEFT], "failed": count[FAILED], "refused": count[REFUSED],
-            "unfinished": count[UNFINISHED], "asked_again": sum(v["asked_again"] for v in visitors),
+            "lost": count[LOST], "unfinished": count[UNFINISHED],
+            "asked_again": sum(v["asked_again"] for v in visitors),
             "intents": {k: sum(v["intent"] == k for v in visitors)
                         for k in (INTENT_COMPLETE, INTENT_CANCEL, INTENT_NO_SHOW)},
             "wait_mean_s": round(sum(waits) / len(waits), 1) if waits else None,
             "wait_p95_s": round(percentile(waits, 95), 1) if waits else None,
             "per_visitor": visitors, "per_robot": self.robot_rows(robots, end_s), "problems": problems,
+            "pace": {"legs": pace, "totals": totals(pace)},
         }
 
 
@@ -328,6 +335,8 @@ def _ending(phase: object, tour: bool) -> str:
         return CANCELLED
     if phase == Phase.TIMEOUT:
         return TIMED_OUT
+    if phase == Phase.VISITOR_LOST:
+        return LOST
     return FAILED if phase in FAILURE_PHASES else ""
 
 

@@ -60,7 +60,9 @@ def crowd_report(folder: Path, run: dict, report: dict) -> dict:
         problems.append(f"the run did not finish: {run.get('outcome')}")
     return {"visitors": summary["visitors"], "completed": summary["completed"], "cancelled": summary["cancelled"],
             "timed_out": summary["timed_out"], "left": summary["left"], "failed": summary["failed"],
-            "refused": summary["refused"], "unfinished": summary["unfinished"], "asked_again": summary["asked_again"],
+            "refused": summary["refused"], "lost": summary["lost"], "unfinished": summary["unfinished"],
+            "asked_again": summary["asked_again"],
+            "pace": report.get("pace") if (report.get("pace") or {}).get("legs") else summary["pace"],
             "collisions": contacts["collisions"], "collisions_note": COLLISIONS_NOTE,
             "deadlocks": contacts["deadlocks"],
             "legs_double_served": len(legs["double_served"]), "legs_unserved": len(legs["unserved"]),

@@ -31,6 +31,7 @@ from gidabot_navigation.interface import (
     Phase,
 )
 from gidabot_sim.report.bags import DiagSample, EventSample, PoseSample, RobotRecord
+from gidabot_sim.report.pace import merge, pace_from_diagnostics, pace_from_events, totals
 from gidabot_sim.report.rates import timing_report
 from gidabot_sim.report.visits import stops_done
 
@@ -116,8 +117,11 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     unreadable = {f"{r.name}: {topic}": n for r in records for topic, n in sorted(r.bad.items())}
     rejected = {r.name: r.rejected_goals for r in records if r.rejected_goals}
     timing = timing_report(records, run)
+    pace = merge(pace_from_events((e.t, e.robot, e.goal_uid, e.phase) for r in records for e in r.events),
+                 pace_from_diagnostics((d.name, dict(d.values)) for r in records for d in r.diagnostics))
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "rejected_goals": rejected, "legs": leg_audit(records), "timing": timing, "degraded": timing["degraded"],
+            "pace": {"legs": pace, "totals": totals(pace)}, "rejected_goals": rejected, "legs": leg_audit(records),
+            "timing": timing, "degraded": timing["degraded"],
             "contacts": robot_contacts(records)}
 
 

@@ -20,8 +20,15 @@ def format_crowd(report: dict) -> list[str]:
     chosen = ", ".join(f"{k} {n}" for k, n in pop["intents"].items())
     lines = ["", f"Visitors: {report['visitors']} (seed {report.get('seed')}): {report['completed']} completed, "
                  f"{report['cancelled']} cancelled, {report['timed_out']} timed out, {report.get('left', 0)} left "
-                 f"at the screen, {report['failed']} failed, {report['refused']} refused, {report['unfinished']} "
-                 f"unfinished; chosen: {chosen}"]
+                 f"at the screen, {report['failed']} failed, {report['refused']} refused, "
+                 f"{report.get('lost', 0)} lost, {report['unfinished']} unfinished; chosen: {chosen}"]
+    pace = (report.get("pace") or {}).get("totals")
+    if pace and pace.get("legs"):
+        behind = "-" if pace["mean_behind_m"] is None else f"{pace['mean_behind_m']:.1f} m"
+        worst = "-" if pace["worst_behind_m"] is None else f"{pace['worst_behind_m']:.1f} m"
+        lines.append(f"The visitor's pace ({pace['legs']} guided legs): behind the robot mean {behind}, worst {worst}; "
+                     f"waited {pace['waiting_s']:.0f} s; {pace['slowdowns']} slow-downs, {pace['waits']} waits, "
+                     f"{pace['searches']} searches, {pace['lost']} lost, {pace['found_again']} found again")
     wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
     p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
     lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")

@@ -18,8 +18,9 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
 * ``TOUR_STEP_DONE`` from this robot: press Continue (or skip ahead, by
   the skip plan) after ``think_s``;
 * ``GOAL_REACHED`` of a single target, ``TOUR_FINISHED``, ``UNREACHABLE``,
-  ``TIMEOUT``, cancels: the visit is over (``finished``) -- only events about this
-  visit (its tour, its goal), not the answer to somebody else's command at a screen;
+  ``TIMEOUT``, ``VISITOR_LOST`` (the guiding robot lost the visitor), cancels: the visit is over
+  (``finished``) -- only events about this visit (its tour, its goal), not the answer to somebody else's
+  command at a screen;
 * ``PARTNER_OFFLINE`` answering this visitor's own request (no goal was made: the
   robot of the next floor is offline right now): like a person told so, the visitor
   asks again after ``retry_s``, for at most ``retry_for_s``, then gives up;
@@ -59,7 +60,7 @@ from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_LIFT, WAY_STAIRS,
 from gidabot_sim.visitor.behaviour import Behaviour, draw_behaviour
 
 ENDS = {Phase.UNREACHABLE, Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
-        Phase.REJECTED, Phase.TOUR_FINISHED}
+        Phase.REJECTED, Phase.TOUR_FINISHED, Phase.VISITOR_LOST}
 
 
 @dataclass(frozen=True)
