@@ -8,7 +8,7 @@ import pkgutil
 
 import pytest
 
-PACKAGES = ("gidabot_navigation", "gidabot_sim", "gidabot_gui")
+PACKAGES = ("gidabot_navigation", "gidabot_sim", "gidabot_gui", "gidabot_web")
 
 
 def _modules() -> list[str]:

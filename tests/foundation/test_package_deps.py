@@ -20,7 +20,7 @@ from source_imports import Import, imports, module_files, node_files, packages
 REPO = Path(__file__).resolve().parents[2]
 PYTHON_KEYS = {"PyQt5": "python3-pyqt5", "rospkg": "python3-rospkg", "yaml": "python3-yaml",
                "numpy": "python3-numpy", "scipy": "python3-scipy", "PIL": "python3-pil",
-               "matplotlib": "python3-matplotlib"}
+               "matplotlib": "python3-matplotlib", "aiohttp": "python3-aiohttp", "selenium": "python3-selenium"}
 # package -> {declared key: why it is declared though no code imports it}
 EXTRAS: dict[str, dict[str, str]] = {}
 LAUNCH_USE = re.compile(r'\bpkg="([A-Za-z0-9_]+)"|\$\(find ([A-Za-z0-9_]+)\)')
@@ -93,4 +93,4 @@ def test_every_package_xml_matches_what_its_code_uses() -> None:
 
 
 def test_the_packages_checked() -> None:
-    assert [p.name for p in checked_packages()] == ["gidabot_gui", "gidabot_navigation", "gidabot_sim"]
+    assert [p.name for p in checked_packages()] == ["gidabot_gui", "gidabot_navigation", "gidabot_sim", "gidabot_web"]
