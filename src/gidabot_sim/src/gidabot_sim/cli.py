@@ -16,6 +16,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gidabot_sim.cli", "benchmarks: 'bench demo', 'bench relay', 'bench sim' (--json)"),
     "chaos": ("gidabot_sim.chaos.chaos", "a tour under injected faults (links, masters, nodes, hostile input); table"),
     "check": ("gidabot_navigation.cli", "validate a building directory or tour files"),
+    "dashboard-passwd": ("gidabot_web.dashboard.passwd", "set (or --delete) a user of a robot's staff dashboard"),
     "demo": ("gidabot_sim.demo.demo", "run the simulated building through a tour, record it, print the tables"),
     "report": ("gidabot_sim.demo.report", "the paper's tables and path plots from a run folder's rosbags"),
 }
@@ -31,7 +32,7 @@ BENCHES: dict[str, tuple[str, str]] = {
 
 def usage() -> str:
     lines = ["usage: gidabot <command> [options]   (gidabot <command> --help for its options)", "", "commands:"]
-    lines += [f"  {name:<8} {text}" for name, (_, text) in sorted(COMMANDS.items())]
+    lines += [f"  {name:<16} {text}" for name, (_, text) in sorted(COMMANDS.items())]
     return "\n".join(lines)
 
 
