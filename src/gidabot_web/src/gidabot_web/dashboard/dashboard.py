@@ -405,6 +405,8 @@ class DashboardCore:
             self._service_alerts(now)
 
     def _liveness_of(self, robot: str, now: float) -> Liveness:
+        if self.liveness.last_heard(robot) is None:
+            return Liveness.OFFLINE             # never heard: shown at its home, greyed (an alert after the grace)
         if robot == self.me:
             if not self.master_up:
                 return Liveness.MASTER_DOWN
@@ -769,7 +771,8 @@ class DashboardCore:
             if not latest.acked_by:
                 latest.count += 1
                 latest.last_wall, latest.active = wall, kind in CONDITIONS
-                latest.params = dict(params)
+                if kind in CONDITIONS:
+                    latest.params = dict(params)      # a condition's latest values; an occurrence: its first report
                 self._save_alert(latest)
                 return
         a = Alert(self._next_alert, str(kind), subject, dict(params), wall, wall, active=not one_shot)
