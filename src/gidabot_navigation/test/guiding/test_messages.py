@@ -9,8 +9,25 @@ import pytest
 
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding import messages as gt
-from gidabot_navigation.guiding.messages import CommandData, Trip, validate_command, validate_trip
-from gidabot_navigation.interface import ACCEPTED, ASSIGNED, LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd
+from gidabot_navigation.guiding.messages import (
+    MAX_STAFF_DETAIL,
+    CommandData,
+    StaffCommandData,
+    Trip,
+    validate_command,
+    validate_staff,
+    validate_trip,
+)
+from gidabot_navigation.interface import (
+    ACCEPTED,
+    ASSIGNED,
+    LEG_COMMITTED,
+    LEG_GOAL,
+    LEG_NONE,
+    LEG_PROPOSED,
+    Cmd,
+    StaffCmd,
+)
 
 
 def good_trip(faculty) -> Trip:
@@ -156,3 +173,25 @@ def test_seen_set_is_bounded() -> None:
     for x in "bcd":
         s.add(x)
     assert "a" not in s and len(s) == 3
+
+
+# -- staff commands ------------------------------------------------------------------------
+def good_staff() -> StaffCommandData:
+    return StaffCommandData(uid="Kbot/staff/dash.x.1", robot="Kbot", user="ana", command=int(StaffCmd.OUT_OF_SERVICE),
+                            target_robot="Tartalo", version=1_800_000_000_000_000_000, detail="a wheel squeaks",
+                            stamp=1.8e9)
+
+
+def test_staff_commands_are_checked(faculty) -> None:
+    assert validate_staff(faculty, good_staff()) == good_staff()
+    long = validate_staff(faculty, replace(good_staff(), detail="x" * 500))
+    assert long.detail == "x" * MAX_STAFF_DETAIL
+    for change, reason in (({"uid": "Tartalo/staff/1"}, "namespace"), ({"uid": "bad uid"}, "text"),
+                           ({"robot": "Nobody", "uid": "Nobody/staff/1"}, "robot"),
+                           ({"target_robot": "Nobody"}, "robot"),
+                           ({"command": 7}, "command"), ({"command": True}, "command"), ({"version": 0}, "version"),
+                           ({"version": 2 ** 64}, "version"), ({"user": "a b"}, "text"), ({"user": ""}, "empty"),
+                           ({"detail": "line\nbreak"}, "text"), ({"target_robot": 5}, "type")):
+        with pytest.raises(GoalRejected) as err:
+            validate_staff(faculty, replace(good_staff(), **change))
+        assert err.value.reason == reason, change

@@ -46,7 +46,7 @@ class LinkData:
     dropped: int = 0
     duplicates_suppressed: int = 0
     link_losses: int = 0
-    peer_master_up: bool = False
+    peer_master_up: bool = False   # False only when the peer said its master does not answer
 
 
 @dataclass(frozen=True)
@@ -97,4 +97,4 @@ def link_of(status: DiagnosticData, ends: Mapping[str, str], heard_s: float = 0.
                     heard_s=max(0.0, heard_s), rtt_ms=rtt if rtt >= 0 else -1.0, queued=_count(v, "queue_depth"),
                     resent=_count(v, "resent"), dropped=_count(v, "dropped"),
                     duplicates_suppressed=_count(v, "duplicates_suppressed"),
-                    link_losses=_count(v, "link_losses"), peer_master_up=_flag(v, "peer_master_up"))
+                    link_losses=_count(v, "link_losses"), peer_master_up=v.get("peer_master_up") != "False")
