@@ -13,7 +13,7 @@ import sys
 
 # subcommand -> (module, one-line help). Keep sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
-    "bench": ("gidabot_sim.cli", "benchmarks: 'bench demo', 'bench relay', 'bench sim' (--json)"),
+    "bench": ("gidabot_sim.cli", "benchmarks: 'bench dashboard', 'bench demo', 'bench relay', 'bench sim' (--json)"),
     "chaos": ("gidabot_sim.chaos.chaos", "a tour under injected faults (links, masters, nodes, hostile input); table"),
     "check": ("gidabot_navigation.cli", "validate a building directory or tour files"),
     "dashboard-passwd": ("gidabot_web.dashboard.passwd", "set (or --delete) a user of a robot's staff dashboard"),
@@ -23,6 +23,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 # gidabot bench <name>
 BENCHES: dict[str, tuple[str, str]] = {
+    "dashboard": ("gidabot_sim.bench.dashboard", "20 live clients on a robot's dashboard during the Table 2 tour: "
+                                                 "Table 3, the dashboard's CPU, p95 delay to the clients"),
     "demo": ("gidabot_sim.bench.demo", "the Table 2 tour at 10x, 20x, 50x and max: times, rates, tables, judged"),
     "flood": ("gidabot_sim.bench.flood", "a valid request answered under 1000 invalid messages/s per master"),
     "relay": ("gidabot_sim.bench.relay", "relay latency vs direct, and 4/8-robot meshes"),

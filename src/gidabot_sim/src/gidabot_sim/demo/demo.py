@@ -14,6 +14,7 @@ bags of the partial run.
     bin/gidabot demo --gui                             # open each robot's GUI too
     bin/gidabot demo --visitors 20 --seed 1            # many visitors at random robots (issue 18)
     bin/gidabot demo --speed max --trace               # which processes use the CPU while the floors fall behind
+    bin/gidabot demo --dashboard                       # every robot's staff dashboard; prints their URLs
 
 ``--trace``: every look at the floors' clocks (every 0.2 s of wall time) also samples every process's CPU into
 trace.jsonl in the run folder; at the end the demo prints which processes used the CPU while the floors fell
@@ -130,6 +131,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         "trace); the sampling itself costs CPU, printed too")
     p.add_argument("--net", type=int, default=None, metavar="N",
                    help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
+    p.add_argument("--dashboard", action="store_true",
+                   help="every robot serves its staff web dashboard (docs/dashboard.md), on its own address; the "
+                        "demo prints each robot's URL")
     p.add_argument("--machines", action="store_true",
                    help="every robot a separate machine: its own network namespace, address, master and firewall "
                         "(needs root; docs/deploy.md)")
@@ -317,7 +321,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
     sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
                             seed=args.seed, gui=args.gui, relay_secret=args.secret, seed_tours=seed,
-                            addresses=addresses, common_args=launch_args, visitor=visitor, machines=args.machines)
+                            addresses=addresses, common_args=launch_args, visitor=visitor, machines=args.machines,
+                            dashboard=args.dashboard)
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
@@ -325,6 +330,8 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     try:
         trace = TraceWriter(run_dir / TRACE_FILE) if args.trace else None
         sim.start(cancelled=lambda: bool(stop))
+        if args.dashboard:
+            _print_dashboards(sim, out)
         failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
                           tour_cpu if args.cpu else None, trace)
         if not stop and progress.finished:
@@ -381,6 +388,18 @@ def run_demo(args: argparse.Namespace, out: TextIO, stop: Signals) -> int:
     if stop:
         return EXIT_INTERRUPTED
     return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
+
+
+def _print_dashboards(sim: SimulatedBuilding, out: TextIO) -> None:
+    """Each robot's dashboard: its address (on the robot's own address; with separate machines, reached from this
+    host through the staff machine) and how to give staff a password."""
+    assert sim.building is not None
+    print("staff dashboards:", file=out)
+    for r in sim.building.robots:
+        url, here = sim.dashboard_url(r.name), sim.staff_url(r.name)
+        print(f"  {r.name:<12} {url}" + (f"  (from this host: {here})" if here != url else ""), file=out)
+    print(f"  staff users: bin/gidabot dashboard-passwd {sim.run_dir / 'dashboard' / '<ROBOT>'} USER "
+          "[--role admin]", file=out, flush=True)
 
 
 def _trace_summary(trace: TraceWriter, timing: RunTiming) -> dict | None:

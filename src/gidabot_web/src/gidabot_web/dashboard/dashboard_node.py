@@ -370,7 +370,7 @@ class DashboardNode:
 
     async def _listen(self, runner: web.AppRunner) -> bool:
         try:
-            await web.TCPSite(runner, self.host, self.params.port, reuse_address=True).start()
+            await web.TCPSite(runner, self.host, self.params.port, reuse_address=True, shutdown_timeout=0.5).start()
         except OSError as err:
             rospy.logerr(f"dashboard of {self.core.me}: cannot listen on {self.host}:{self.params.port}: "
                          f"{err.strerror}; trying again in {BIND_RETRY:g} s")
