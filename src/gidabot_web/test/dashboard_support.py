@@ -5,12 +5,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from gidabot_gui.core.model import PendingData, RobotStatusData
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import CancelData, NavEventData, StaffCommandData, Trip
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, WAY_STAIRS, Phase, StaffCmd
 from gidabot_navigation.relay.links import DiagnosticData
 from gidabot_web.dashboard.dashboard import DashboardConfig, DashboardCore
-from gidabot_web.dashboard.forms import PendingData, RobotStatusData
 from gidabot_web.dashboard.history import History
 
 WALL0 = 1_800_000_000.0        # the wall clock when a test's core starts (2027-01-15)
@@ -21,10 +21,10 @@ def make_core(building: Building, tmp: Path, me: str = "Kbot", now: float = 0.0,
 
 
 def status(building: Building, robot: str, battery: float = 0.9, state: str = "idle", x: float | None = None,
-           y: float | None = None, current: str = "", stamp: float = 0.0) -> RobotStatusData:
+           y: float | None = None, current: str = "") -> RobotStatusData:
     r = building.robot(robot)
     return RobotStatusData(robot, r.floor, r.home.x if x is None else x, r.home.y if y is None else y, r.home.yaw,
-                           0.0, 0.0, battery, state, 0, current, 0.0, stamp)
+                           0.0, 0.0, battery, state, 0, current, 0.0)
 
 
 def cross_trip(uid: str = "Tartalo/v1/gm.a.1", attempt: int = 2, stamp: float = 100.0) -> Trip:
@@ -57,8 +57,9 @@ def cancel(origin: str, goal_uid: str, reason: str = "visitor", uid: str = "") -
     return CancelData(uid=uid or f"{origin}/cancel/gm.t.{_N[0]}", goal_uid=goal_uid, origin_robot=origin, reason=reason)
 
 
-def pending(robot: str, floor: float, *trips: Trip) -> PendingData:
-    return PendingData(robot, floor, len(trips), 0.0, tuple(trips), tuple(30.0 * (i + 1) for i in range(len(trips))))
+def pending(robot: str, floor: float, *trips: Trip) -> tuple[PendingData, tuple[float, ...]]:
+    """A pending list and its etas (30 s per goal), as ``on_pending(*pending(...), speaker, now)`` takes them."""
+    return PendingData(robot, floor, len(trips), 0.0, tuple(trips)), tuple(30.0 * (i + 1) for i in range(len(trips)))
 
 
 def staff(robot: str, target: str, out: bool, version: int, uid: str = "") -> StaffCommandData:

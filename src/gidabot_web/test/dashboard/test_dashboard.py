@@ -20,12 +20,12 @@ from dashboard_support import (
     status,
 )
 
+from gidabot_gui.core.model import PoseData
 from gidabot_navigation.guiding.messages import StaffCommandData
 from gidabot_navigation.interface import REASON_ADMIN, Phase, StaffCmd
 from gidabot_navigation.relay.links import LinkData, LinkSummaryData
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_web.dashboard.dashboard import AlertKind, DashboardRefusal, Liveness, Section
-from gidabot_web.dashboard.forms import PoseData
 
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 
@@ -51,7 +51,7 @@ def test_robots_from_statuses_poses_and_queues(faculty, tmp_path: Path) -> None:
     core.on_pose(PoseData("Galtxagorri", 2.0, 21.0, 12.5, 1.0), "Galtxagorri", 1.2)
     trip = cross_trip()
     core.on_goal(trip, "Tartalo", 1.3)
-    core.on_pending(pending("MariSorgin", 3.0, trip), "MariSorgin", 1.4)
+    core.on_pending(*pending("MariSorgin", 3.0, trip), "MariSorgin", 1.4)
     core.step(1.5, WALL0 + 1.5)
     robots = {r["name"]: r for r in section(core, Section.ROBOTS)}
     g = robots["Galtxagorri"]
@@ -231,8 +231,8 @@ def test_a_staff_cancel_is_confirmed_when_every_robot_involved_dropped_it(facult
     core = make_core(faculty, tmp_path)
     trip = cross_trip()
     core.on_goal(trip, "Tartalo", 1.0)
-    core.on_pending(pending("Tartalo", 0.0, trip), "Tartalo", 1.1)
-    core.on_pending(pending("MariSorgin", 3.0, trip), "MariSorgin", 1.2)
+    core.on_pending(*pending("Tartalo", 0.0, trip), "Tartalo", 1.1)
+    core.on_pending(*pending("MariSorgin", 3.0, trip), "MariSorgin", 1.2)
     c = core.cancel_trip(trip.uid, "ana", 2.0)
     assert (c.goal_uid, c.origin_robot, c.reason) == (trip.uid, "Kbot", REASON_ADMIN) and c.uid.startswith("Kbot/")
     with pytest.raises(DashboardRefusal) as twice:
@@ -241,10 +241,10 @@ def test_a_staff_cancel_is_confirmed_when_every_robot_involved_dropped_it(facult
     [t] = section(core, Section.TRIPS)
     assert t["cancel"] == {"user": "ana", "waiting": ["MariSorgin", "Tartalo"], "dropped": [], "confirmed": False}
     core.on_event(event("MariSorgin", Phase.CANCELLED_ELSEWHERE, trip.uid, leg="goal"), "MariSorgin", 2.5)
-    core.on_pending(pending("Tartalo", 0.0, trip), "Tartalo", 2.6)         # not dropped yet
+    core.on_pending(*pending("Tartalo", 0.0, trip), "Tartalo", 2.6)         # not dropped yet
     assert core.trips[trip.uid].cancel.waiting == {"Tartalo"} and not core.trips[trip.uid].cancel.confirmed
     assert core.trips[trip.uid].outcome == "cancelled"           # the history's outcome: the first cancel event
-    core.on_pending(pending("Tartalo", 0.0), "Tartalo", 3.0)                # its queue without the trip
+    core.on_pending(*pending("Tartalo", 0.0), "Tartalo", 3.0)                # its queue without the trip
     [t] = section(core, Section.TRIPS)
     assert t["cancel"]["confirmed"] and t["cancel"]["dropped"] == ["MariSorgin", "Tartalo"]
     assert t["outcome"] == "cancelled"

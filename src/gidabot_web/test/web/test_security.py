@@ -32,6 +32,25 @@ def shown(site: Site) -> dict[str, int]:
     return site.app.core.section(Section.SERVER)["refused"]
 
 
+async def refuse_every_action(site: Site, status: int, variants: list[dict]) -> int:
+    """Post every action once per variant (keyword arguments of ``Site.post``); each must be refused with
+    ``status``. Returns how many were sent."""
+    for path, body in ACTIONS.items():
+        for kw in variants:
+            r = await site.post(path, body, **kw)
+            assert r.status == status, (path, kw)
+    return len(ACTIONS) * len(variants)
+
+
+async def login_refused(site: Site, address: str, **headers: object) -> None:
+    """A login from a fresh browser at ``address`` with the right password, refused with 403."""
+    site.client.session.cookie_jar.clear()
+    pre = (await site.session(address))["csrf"]
+    r = await site.client.post("/api/login", json={"user": STAFF_USER, "password": STAFF_PASSWORD},
+                               headers=site.headers(address, **{"csrf": pre, **headers}))
+    assert r.status == 403
+
+
 def unchanged(site: Site, files: dict[str, bytes]) -> None:
     core = site.app.core
     assert site.bus.sent == 0 and site.tour_files() == files
@@ -67,10 +86,8 @@ def test_the_page_has_no_inline_script_or_style_and_loads_nothing_from_elsewhere
 def test_actions_without_login_are_refused(faculty, tmp_path: Path) -> None:
     async def test(site: Site) -> None:
         files = site.tour_files()
-        for path, body in ACTIONS.items():
-            r = await site.post(path, body, csrf="anything")
-            assert r.status == 401, path
-        assert refused(site) == {"refused_unauthenticated": len(ACTIONS)} == shown(site)
+        n = await refuse_every_action(site, 401, [{"csrf": "anything"}, {"csrf": None}])
+        assert refused(site) == {"refused_unauthenticated": n} == shown(site)
         unchanged(site, files)
     run_site(faculty, tmp_path, test)
 
@@ -80,17 +97,9 @@ def test_a_missing_or_forged_csrf_token_is_refused(faculty, tmp_path: Path) -> N
         files = site.tour_files()
         other = site.app.web.sessions.create(ADMIN_USER, "admin").csrf      # another session's token
         good = await site.login(ADMIN_USER, ADMIN_PASSWORD)
-        n = 0
-        for path, body in ACTIONS.items():
-            for token in (None, "", "x" * 43, other, good[:-1] + ("A" if good[-1] != "A" else "B")):
-                r = await site.post(path, body, csrf=token)
-                assert r.status == 403, (path, token)
-                n += 1
-        site.client.session.cookie_jar.clear()
-        pre = (await site.session())["csrf"]
-        r = await site.client.post("/api/login", json={"user": STAFF_USER, "password": STAFF_PASSWORD},
-                                   headers=site.headers(csrf="0" * len(pre)))
-        assert r.status == 403
+        n = await refuse_every_action(site, 403, [{"csrf": t} for t in (
+            None, "", "x" * 43, other, good[:-1] + ("A" if good[-1] != "A" else "B"))])
+        await login_refused(site, ADDRESS, csrf="0" * 64)
         assert refused(site) == {"refused_csrf": n + 1}
         good = await site.login(ADMIN_USER, ADMIN_PASSWORD)
         unchanged(site, files)
@@ -103,20 +112,14 @@ def test_another_origin_is_refused(faculty, tmp_path: Path) -> None:
     async def test(site: Site) -> None:
         files = site.tour_files()
         csrf = await site.login(ADMIN_USER, ADMIN_PASSWORD)
-        n = 0
-        for path, body in ACTIONS.items():
-            for headers in ({"origin": "http://evil.example"}, {"origin": "null"},
-                            {"origin": site.origin.replace("127.0.0.1", "127.0.0.2")},
-                            {"origin": None, "Referer": "http://evil.example/page"}, {"origin": None}):
-                r = await site.post(path, body, csrf=csrf, **headers)
-                assert r.status == 403, (path, headers)
-                n += 1
-        pre = (await site.session("10.1.0.7"))["csrf"]
-        r = await site.client.post("/api/login", json={"user": STAFF_USER, "password": STAFF_PASSWORD},
-                                   headers=site.headers("10.1.0.7", origin="http://evil.example", csrf=pre))
-        assert r.status == 403
+        n = await refuse_every_action(site, 403, [{"csrf": csrf, **h} for h in (
+            {"origin": "http://evil.example"}, {"origin": "null"},
+            {"origin": site.origin.replace("127.0.0.1", "127.0.0.2")},
+            {"origin": None, "Referer": "http://evil.example/page"}, {"origin": None})])
+        await login_refused(site, "10.1.0.7", origin="http://evil.example")
         assert refused(site) == {"refused_origin": n + 1} == shown(site)
         unchanged(site, files)
+        csrf = await site.login(ADMIN_USER, ADMIN_PASSWORD)
         r = await site.post("/api/alerts/ack", {"id": 1}, csrf=csrf, origin=None, Referer=site.origin + "/#alerts")
         assert r.status == 200                                     # a same-origin Referer is enough
     run_site(faculty, tmp_path, test)

@@ -39,13 +39,13 @@ from typing import Protocol
 
 from aiohttp import web
 
+from gidabot_gui.core.model import EditResultData
 from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CancelData, StaffCommandData
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES
 from gidabot_navigation.tours.tour_file import MAX_TOUR_BYTES, check_tour_file_name, parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_web.dashboard.dashboard import DashboardCore, DashboardRefusal, Section, blueprint_name
-from gidabot_web.dashboard.forms import EditResultData
 from gidabot_web.errors import Refused
 from gidabot_web.web.app import WebApp, WebConfig
 from gidabot_web.web.auth import ADMIN, STAFF, Session

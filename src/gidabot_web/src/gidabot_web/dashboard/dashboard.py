@@ -44,10 +44,12 @@ from __future__ import annotations
 import json
 import math
 from collections import OrderedDict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
+from typing import TypeVar
 
+from gidabot_gui.core.model import PendingData, PoseData, RobotStatusData
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding.liveness import PeerLiveness
@@ -81,7 +83,6 @@ from gidabot_navigation.interface import (
 )
 from gidabot_navigation.relay.links import DiagnosticData, LinkData, LinkSummaryData, link_of, own_ends
 from gidabot_navigation.tours.tour_store import TourMessage
-from gidabot_web.dashboard.forms import PendingData, PoseData, RobotStatusData
 from gidabot_web.dashboard.history import History, day_of
 
 # what a trip-ending event says of the trip (a start leg's GO_TO_FLOOR only hands the visitor over)
@@ -94,6 +95,7 @@ OUTCOME_OF_REASON = {REASON_VISITOR: "cancelled", REASON_ADMIN: "cancelled", REA
 # a robot starts to serve a leg (moves for the visitor) with one of these
 STARTS_SERVING = frozenset({Phase.ON_THE_WAY, Phase.GOING_TO_MEETING})
 MAX_STATE_TEXT = 32
+M = TypeVar("M")
 
 
 class AlertKind(StrEnum):
@@ -166,7 +168,6 @@ class RobotView:
     pending: int = 0
     current_goal_uid: str = ""
     busy_for: float = 0.0
-    stamp: float = 0.0               # the status's own stamp (its robot's ROS time)
     heard: float | None = None       # now (monotonic) of the last status
     rx_wall: float = 0.0             # wall time the last status was received here (live delay measurements)
     queue: list[tuple[str, float]] = field(default_factory=list)   # (goal uid, eta s) head first
@@ -329,6 +330,21 @@ class DashboardCore:
                 except (KeyError, TypeError, ValueError):
                     continue
 
+    def _accept(self, validate: Callable[[Building, M], M], msg: M, speaker: str | None,
+                claimed: Callable[[M], str]) -> M | None:
+        """``msg`` validated (``guiding/messages.py``), if it speaks for the robot its publisher may speak for;
+        else None (counted)."""
+        try:
+            msg = validate(self.building, msg)
+        except GoalRejected:
+            self.count("refused_invalid")
+            return None
+        return msg if self._speaks(claimed(msg), speaker) else None
+
+    def _first_time(self, uid: str, now: float) -> bool:
+        """Whether the history applies event ``uid`` for the first time (always, without a history)."""
+        return self.history.first_time(uid, self.wall_at(now)) if self.history is not None else True
+
     def _speaks(self, claimed: str, speaker: str | None) -> bool:
         """Whether a message claiming to speak for ``claimed`` may, from a publisher that may speak for
         ``speaker`` (None: an impostor); counts a refusal."""
@@ -353,7 +369,7 @@ class DashboardCore:
         r.state, r.battery, r.linear, r.angular = s.state, s.battery, s.linear, s.angular
         r.pending = s.pending if isinstance(s.pending, int) else 0
         r.current_goal_uid = s.current_goal_uid if isinstance(s.current_goal_uid, str) else ""
-        r.busy_for, r.stamp, r.heard, r.rx_wall = s.busy_for, s.stamp, now, rx_wall
+        r.busy_for, r.heard, r.rx_wall = s.busy_for, now, rx_wall
         self.liveness.heard(s.robot, now)
         self._battery_alert(r, now)
         self._update_liveness(now)
@@ -369,9 +385,10 @@ class DashboardCore:
         r.x, r.y, r.yaw = p.x, p.y, p.yaw
         self.touch(Section.ROBOTS)
 
-    def on_pending(self, p: PendingData, speaker: str | None, now: float) -> None:
+    def on_pending(self, p: PendingData, eta: Sequence[float], speaker: str | None, now: float) -> None:
+        """A robot's queue, head first, with ``eta`` (s until each goal is done)."""
         r = self.robots.get(p.robot) if isinstance(p.robot, str) else None
-        if r is None or not _finite(p.wait_new) or not all(_finite(e) for e in p.eta):
+        if r is None or not _finite(p.wait_new) or not all(_finite(e) for e in eta):
             self.count("refused_invalid")
             return
         if not self._speaks(p.robot, speaker):
@@ -379,7 +396,7 @@ class DashboardCore:
         queue = []
         for i, t in enumerate(p.goals):
             if isinstance(t.uid, str) and t.uid:
-                queue.append((t.uid[:160], float(p.eta[i]) if i < len(p.eta) else -1.0))
+                queue.append((t.uid[:160], float(eta[i]) if i < len(eta) else -1.0))
                 self._goal_seen(t, now, quiet=True)
         r.queue, r.queue_at, r.wait_new = queue, now, p.wait_new
         held = {uid for uid, _ in queue}
@@ -426,14 +443,9 @@ class DashboardCore:
 
     # ------------------------------------------------------------------ trips
     def on_goal(self, trip: Trip, speaker: str | None, now: float) -> None:
-        try:
-            trip = validate_trip(self.building, trip)
-        except GoalRejected:
-            self.count("refused_invalid")
-            return
-        if not self._speaks(trip.origin_robot, speaker):
-            return
-        self._goal_seen(trip, now)
+        valid = self._accept(validate_trip, trip, speaker, lambda t: t.origin_robot)
+        if valid is not None:
+            self._goal_seen(valid, now)
 
     def _goal_seen(self, trip: Trip, now: float, quiet: bool = False) -> TripView | None:
         """A goal (or a queued one of a pending list: ``quiet``, not validated again: only known trips are
@@ -464,15 +476,10 @@ class DashboardCore:
         self._history_dirty = True
 
     def on_event(self, ev: NavEventData, speaker: str | None, now: float) -> None:
-        try:
-            ev = validate_event(self.building, ev)
-        except GoalRejected:
-            self.count("refused_invalid")
+        ev = self._accept(validate_event, ev, speaker, lambda e: e.robot)   # type: ignore[assignment]
+        if ev is None:
             return
-        if not self._speaks(ev.robot, speaker):
-            return
-        wall = self.wall_at(now)
-        first = self.history.first_time(ev.uid, wall) if self.history is not None else True
+        wall, first = self.wall_at(now), self._first_time(ev.uid, now)
         self.count("events")
         phase = ev.phase
         if ev.goal_uid:
@@ -544,15 +551,10 @@ class DashboardCore:
         self.trips.move_to_end(tv.trip.uid)
 
     def on_cancel(self, c: CancelData, speaker: str | None, now: float) -> None:
-        try:
-            c = validate_cancel(self.building, c)
-        except GoalRejected:
-            self.count("refused_invalid")
+        c = self._accept(validate_cancel, c, speaker, lambda x: x.origin_robot)   # type: ignore[assignment]
+        if c is None:
             return
-        if not self._speaks(c.origin_robot, speaker):
-            return
-        wall = self.wall_at(now)
-        first = self.history.first_time(c.uid, wall) if self.history is not None else True
+        wall, first = self.wall_at(now), self._first_time(c.uid, now)
         tv = self.trips.get(c.goal_uid)
         if tv is not None:
             tv.last_news = now
@@ -591,8 +593,7 @@ class DashboardCore:
         cancel = CancelData(uid=self.uids.cancel(), goal_uid=tv.trip.uid, origin_robot=self.me, reason=REASON_ADMIN,
                             detail=f"staff {user} at the dashboard of {self.me}", stamp=0.0)
         tv.cancel = CancelWatch(cancel.uid, user, now, self.involved(tv))
-        if self.history is not None:
-            self.history.first_time(cancel.uid, self.wall_at(now))   # this robot's own cancel: not applied twice
+        self._first_time(cancel.uid, now)          # this robot's own cancel: not applied again when it comes back
         if tv.cancel.confirmed:
             self._trip_over(tv, "cancelled", self.wall_at(now))
         self.count("staff_cancels")
@@ -621,14 +622,9 @@ class DashboardCore:
         return cmd
 
     def on_staff(self, cmd: StaffCommandData, speaker: str | None, now: float) -> None:
-        try:
-            cmd = validate_staff(self.building, cmd)
-        except GoalRejected:
-            self.count("refused_invalid")
-            return
-        if not self._speaks(cmd.robot, speaker):
-            return
-        self._apply_staff(cmd, now)
+        valid = self._accept(validate_staff, cmd, speaker, lambda x: x.robot)
+        if valid is not None:
+            self._apply_staff(valid, now)
 
     def _apply_staff(self, cmd: StaffCommandData, now: float) -> None:
         known = self.service.get(cmd.target_robot)
@@ -910,7 +906,7 @@ class DashboardCore:
                 "angular": round(r.angular, 2), "pending": r.pending, "current": r.current_goal_uid,
                 "busy_for": round(r.busy_for, 1), "live": str(r.live),
                 "heard_s": None if r.heard is None else round(max(0.0, now - r.heard), 1),
-                "stamp": r.stamp, "rx": round(r.rx_wall, 4),
+                "rx": round(r.rx_wall, 4),
                 "queue": [{"trip": uid, "eta": round(eta, 1), "goal": self._goal_of(uid)} for uid, eta in r.queue],
                 "wait_new": round(r.wait_new, 1),
                 "out_of_service": bool(s and s.out),

@@ -27,6 +27,7 @@ from aiohttp import web
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_gui.core.inbox import Inbox
+from gidabot_gui.core.model import EditResultData, PendingData, PoseData, RobotStatusData
 from gidabot_msgs.msg import (
     Cancel,
     Goal,
@@ -63,7 +64,6 @@ from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_navigation.tours.tour_store_node import to_core, to_ros
 from gidabot_web.dashboard.app import DashboardApp
 from gidabot_web.dashboard.dashboard import DashboardConfig, DashboardCore
-from gidabot_web.dashboard.forms import EditResultData, PendingData, PoseData, RobotStatusData
 from gidabot_web.dashboard.history import History
 from gidabot_web.dashboard.texts import catalogs
 from gidabot_web.errors import ConfigError, WebError
@@ -94,18 +94,18 @@ def status_from_msg(m: RobotStatus) -> RobotStatusData:
     p = m.nav_pose.position
     return RobotStatusData(robot=m.robot, floor=m.floor, x=p.x, y=p.y, yaw=yaw_of(m.nav_pose.orientation),
                            linear=m.linear_velocity, angular=m.angular_velocity, battery=m.battery, state=m.state,
-                           pending=m.pending, current_goal_uid=m.current_goal_uid, busy_for=m.busy_for,
-                           stamp=stamp_of(m))
+                           pending=m.pending, current_goal_uid=m.current_goal_uid, busy_for=m.busy_for)
 
 
 def pose_from_msg(m: NavPose) -> PoseData:
     p = m.nav_pose.position
-    return PoseData(robot=m.robot, floor=m.floor, x=p.x, y=p.y, yaw=yaw_of(m.nav_pose.orientation), stamp=stamp_of(m))
+    return PoseData(robot=m.robot, floor=m.floor, x=p.x, y=p.y, yaw=yaw_of(m.nav_pose.orientation))
 
 
-def pending_from_msg(m: PendingRequests) -> PendingData:
+def pending_from_msg(m: PendingRequests) -> tuple[PendingData, tuple[float, ...]]:
+    """The pending list and the eta of each of its goals."""
     return PendingData(robot=m.robot, floor=m.floor, num=m.num, wait_new=m.wait_new,
-                       goals=tuple(trip_from_msg(g) for g in m.goals), eta=tuple(m.eta), stamp=stamp_of(m))
+                       goals=tuple(trip_from_msg(g) for g in m.goals)), tuple(m.eta)
 
 
 def staff_from_msg(m: StaffCommand) -> StaffCommandData:
@@ -150,7 +150,7 @@ def diagnostic_from_msg(s: DiagnosticStatus) -> DiagnosticData:
 
 def edit_result_from_msg(m: TourEditResult) -> EditResultData:
     return EditResultData(uid=m.uid, file_name=m.file_name, deleted=m.deleted, ok=m.ok, version=m.version,
-                          reason=m.reason, error=m.error, stamp=stamp_of(m))
+                          reason=m.reason, error=m.error)
 
 
 # ---------------------------------------------------------------------- the node
@@ -276,7 +276,7 @@ class DashboardNode:
         self._state("pose", m.robot, (pose_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _pending(self, m: PendingRequests) -> None:
-        self._state("pending", m.robot, (pending_from_msg(m), self.speaker(m), time.monotonic()))
+        self._state("pending", m.robot, (*pending_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _links(self, m: LinkSummary) -> None:
         self._state("links", m.robot, (links_from_msg(m), self.speaker(m), time.monotonic()))
