@@ -48,6 +48,13 @@ class Browser:
     def all(self, selector: str) -> list[WebElement]:
         return self.driver.find_elements(By.CSS_SELECTOR, selector)
 
+    def text(self, selector: str) -> str:
+        """The text of every element matching ``selector``, shown or not (WebDriver's ``text`` is the shown text)."""
+        try:
+            return " ".join(e.get_attribute("textContent") or "" for e in self.all(selector))
+        except StaleElementReferenceException:
+            return ""
+
     def attr(self, selector: str, name: str) -> str | None:
         """``name`` of the first element matching ``selector`` (None when there is none)."""
         found = self.all(selector)
@@ -85,6 +92,13 @@ class Browser:
                 return False
             return True
         self.wait(go, timeout, f"{selector} to click")
+
+    def click_mark(self, selector: str, timeout: float = 10.0) -> None:
+        """Click an SVG mark (a robot on a blueprint) as a click on it does, by its event (a WebDriver click aims at
+        the element's middle, which a robot's label or heading line may cover)."""
+        script = ("const m = document.querySelector(arguments[0]); if (!m) return false;"
+                  "m.dispatchEvent(new MouseEvent('click', {bubbles: true})); return true;")
+        self.wait(lambda: self.driver.execute_script(script, selector), timeout, f"{selector} to click")
 
     def login(self, user: str, password: str) -> None:
         self.css("#login-user").clear()

@@ -72,7 +72,7 @@
   }
   function replace(id, ...nodes) {
     const box = $(id);
-    box.replaceChildren(...nodes.flat().filter((n) => n));
+    box.replaceChildren(...nodes.flat(Infinity).filter((n) => n));
   }
   function flash(node, text, ok) {
     node.textContent = text;
@@ -261,7 +261,8 @@
     if (!c) return null;
     const text = c.confirmed ? t("cancelled by {user}: every robot dropped it", { user: c.user })
       : t("cancelling ({user}): waiting for {robots}", { user: c.user, robots: c.waiting.join(", ") });
-    return el("div", { class: "cancel-state " + (c.confirmed ? "ok" : "pending"), "data-confirmed": c.confirmed }, text);
+    return el("div", { class: "cancel-state " + (c.confirmed ? "ok" : "pending"), "data-confirmed": String(c.confirmed) },
+      text);
   }
 
   function tripRow(tr) {
@@ -476,6 +477,7 @@
   async function start() {
     const stored = localStorage.getItem("gidabot-language");
     $("language").value = ["eu", "en", "es"].includes(stored) ? stored : "en";
+    $("tour-language").value = lang();
     await Web.loadTexts(lang());
     translateStatic();
     await Web.refreshSession();
