@@ -124,7 +124,7 @@ class Gui:
         self.click(self.window.nav_buttons[key])
 
     def feed_all_status(self, building: Any, state: str = "idle", pending: int = 0, wait: float = 0.0) -> None:
-        from gidabot_gui.core.model import PendingData, RobotStatusData
+        from gidabot_navigation.guiding.messages import PendingData, RobotStatusData
 
         for r in building.robots:
             self.window.feed("status", RobotStatusData(r.name, r.floor, r.home.x, r.home.y, r.home.yaw, 0.0, 0.0,

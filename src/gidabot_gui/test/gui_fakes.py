@@ -107,7 +107,7 @@ class FakeScreen:
 
     def feed_all_status(self, state: str = "idle") -> None:
         """Every robot online at home (this fake's clock)."""
-        from gidabot_gui.core.model import RobotStatusData
+        from gidabot_navigation.guiding.messages import RobotStatusData
 
         for r in self.building.robots:
             self.fleet.update_status(RobotStatusData(r.name, r.floor, r.home.x, r.home.y, r.home.yaw, 0.0, 0.0,

@@ -12,20 +12,13 @@ from geometry_msgs.msg import Pose
 from PyQt5.QtCore import QEventLoop, QTimer
 
 from gidabot_gui.core.inbox import Inbox
-from gidabot_gui.core.model import InitialPose, TourEdit
-from gidabot_gui.gui_node import (
-    INITIAL_COVARIANCE,
-    Receiver,
-    catalog_from_msg,
-    command_to_msg,
-    initial_pose_to_msg,
-    tour_edit_to_msg,
-    tour_from_msg,
-)
+from gidabot_gui.core.model import InitialPose, TourEdit, tour_info
+from gidabot_gui.gui_node import INITIAL_COVARIANCE, Receiver, catalog_tours, initial_pose_to_msg
 from gidabot_msgs.msg import NavEvent, NavPose, PendingRequests, RobotStatus, Tour, TourCatalog
 from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.guiding.messages import CommandData
-from gidabot_navigation.interface import Cmd
+from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.ros.convert import command_to_msg, tour_from_msg, tour_to_msg
 
 
 def pose(x: float, y: float, yaw: float) -> Pose:
@@ -45,25 +38,23 @@ def status_msg(robot: str, floor: float, x: float, y: float = 12.0, yaw: float =
 
 
 def test_outgoing_messages() -> None:
-    import rospy
-
-    stamp = rospy.Time(12, 5)
-    cmd = CommandData(uid="Kbot/gui/cmd/3", visitor_id="gui", command=int(Cmd.SKIP), language="eu", goal_id="104",
-                      goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs")
-    m = command_to_msg(cmd, stamp)
+    cmd = CommandData(uid="Kbot/gui/cmd/3", visitor_id="gui", command=Cmd.SKIP, language="eu", goal_id="104",
+                      goal_uid="Tartalo/gui/1", tour_file="real_world.tour", tour_step=3, way="stairs", stamp=12.5)
+    m = command_to_msg(cmd)
     assert (m.command, m.goal_id, m.tour_step, m.tour_file, m.goal_uid, m.language, m.visitor_id, m.uid) == (
-        4, "104", 3, "real_world.tour", "Tartalo/gui/1", "eu", "gui", "Kbot/gui/cmd/3")
-    assert m.header.stamp == stamp
-    p = initial_pose_to_msg(InitialPose(1.0, 20.0, 12.5, math.pi / 2), stamp)
+        Cmd.SKIP, "104", 3, "real_world.tour", "Tartalo/gui/1", "eu", "gui", "Kbot/gui/cmd/3")
+    assert m.header.stamp.to_sec() == 12.5
+    p = initial_pose_to_msg(InitialPose(1.0, 20.0, 12.5, math.pi / 2), 12.5)
     assert p.header.frame_id == "map" and (p.pose.pose.position.x, p.pose.pose.position.y) == (20.0, 12.5)
+    assert p.header.stamp.to_sec() == 12.5
     o = p.pose.pose.orientation
     assert quaternion_to_yaw(o.x, o.y, o.z, o.w) == pytest.approx(math.pi / 2)
     assert (p.pose.covariance[0], p.pose.covariance[7], p.pose.covariance[35]) == INITIAL_COVARIANCE
-    t = tour_edit_to_msg(TourEdit("Kbot/gui/tour-edit/1", "open_day.tour", "Open day", "en", 1.0,
-                                  ("1, 101, Secretary's Office",)), "Kbot", stamp)
-    assert (t.file_name, t.tour_name, t.floor, t.deleted, t.uid, t.editor_robot) == (
-        "open_day.tour", "Open day", 1.0, False, "Kbot/gui/tour-edit/1", "Kbot")
-    assert t.tour_goals_info == ["1, 101, Secretary's Office"]
+    edit = TourEdit("Kbot/gui/tour-edit/1", "open_day.tour", "Open day", "en", 1.0, ("1, 101, Secretary's Office",))
+    t = tour_to_msg(edit.message("Kbot", 12.5))
+    assert (t.file_name, t.tour_name, t.floor, t.deleted, t.uid, t.editor_robot, t.origin_robot, t.language) == (
+        "open_day.tour", "Open day", 1.0, False, "Kbot/gui/tour-edit/1", "Kbot", "Kbot", "en")
+    assert t.tour_goals_info == ["1, 101, Secretary's Office"] and t.header.stamp.to_sec() == 12.5
 
 
 def test_catalog_skips_malformed_tours() -> None:
@@ -73,7 +64,7 @@ def test_catalog_skips_malformed_tours() -> None:
     bad.file_name, bad.tour_goals_info = "b.tour", ["nan, 014, x"]
     cat = TourCatalog()
     cat.tours = [good, bad]
-    (info,) = catalog_from_msg(cat)
+    (info,) = catalog_tours(cat)
     assert info.goals == ((0.0, "014", "Computer Technicians 1"), (1.0, "101", "Secretary's Office, main desk"))
 
 
@@ -86,25 +77,26 @@ def test_catalog_skips_malformed_tours() -> None:
     (["0, 014"], False),
 ])
 def test_catalog_goal_lines_are_read_like_a_tour_file(lines: list[str], ok: bool) -> None:
-    """One parser for files, the store and the GUI (issue 19.2): what the store accepts, the GUI shows."""
+    """One parser for files, the store and the GUI: what the store accepts, the GUI shows."""
     t = Tour()
     t.file_name, t.tour_name, t.language, t.tour_goals_info = "a.tour", "A", "en", lines
-    info = tour_from_msg(t)
+    info = tour_info(tour_from_msg(t))
     assert (info is not None) == ok
     if ok:
         assert info.goals[0] == (0.0, "014", "Lab")
 
 
-def test_receiver_filters_converts_and_survives_hostile_input() -> None:
+def test_receiver_converts_and_survives_hostile_input() -> None:
     inbox = Inbox()
     logs: list[str] = []
-    r = Receiver("Kbot", inbox, logs.append)
+    r = Receiver(inbox, logs.append)
     r.status(status_msg("Kbot", 1, 30.0))
     ev = NavEvent()
-    ev.uid, ev.robot, ev.phase, ev.goal_uid = "Tartalo/event/1", "Tartalo", 1, "x"
-    r.nav_event(ev)                                            # another robot's event: not for this screen
+    ev.uid, ev.robot, ev.phase, ev.goal_uid = "Tartalo/event/1", "Tartalo", Phase.ON_THE_WAY, "x"
+    r.nav_event(ev)                             # another robot's event: the flow decides (a visitor handed to it)
     ev2 = NavEvent()
-    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid, ev2.location_id = "Kbot/event/1", "Kbot", 5, "y", "z" * 10_000
+    ev2.uid, ev2.robot, ev2.phase, ev2.goal_uid = "Kbot/event/1", "Kbot", Phase.WAITING_VISITOR, "y"
+    ev2.location_id = "z" * 10_000
     r.nav_event(ev2)
     hostile = status_msg("K\x00bot" * 1000, float("nan"), float("inf"))
     r.status(hostile)
@@ -118,14 +110,15 @@ def test_receiver_filters_converts_and_survives_hostile_input() -> None:
     out = inbox.drain()
     kinds = [k for k, _ in out.states]
     assert kinds.count("status") == 2 and "pending" in kinds
-    (evk, rec), = out.events
-    assert evk == "nav_event" and rec.robot == "Kbot" and len(rec.location_id) <= 64
+    (k1, other), (k2, rec) = out.events
+    assert k1 == k2 == "nav_event" and other.robot == "Tartalo"
+    assert rec.robot == "Kbot" and len(rec.location_id) <= 64 and len(rec.uid) <= 256
 
 
 def test_hostile_records_do_not_break_the_window(make_gui, faculty) -> None:
     gui = make_gui("Kbot")
     inbox = gui.window.inbox
-    r = Receiver("Kbot", inbox, lambda _m: None)
+    r = Receiver(inbox, lambda _m: None)
     r.status(status_msg("Nobody", 1, 1.0))
     r.status(status_msg("Kbot", 1, float("nan")))
     r.status(status_msg("Tartalo", 0, 9.0, battery=7.0, state="on fire"))
@@ -147,7 +140,7 @@ def test_responsive_with_10hz_status_from_8_robots(make_gui, big_building) -> No
     w = gui.window
     w.drain_timer.start(w.config.drain_ms)
     w.tick_timer.start(1000)
-    receiver = Receiver("Kbot", w.inbox, lambda _m: None)
+    receiver = Receiver(w.inbox, lambda _m: None)
     robots = list(big_building.robots)
     stop = threading.Event()
     sent = [0]

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 from probe import Probe
 
-from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.interface import Cmd, Node, Topic, global_name
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -114,7 +114,7 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
             assert "Galtxagorri meets you there: about" in st["body"]      # its 400 s, and the drive there
             driver("press", key="go")
             driver("press", key="stairs")
-            cmd = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == 0, 10, "the REQUEST")
+            cmd = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == Cmd.REQUEST, 10, "the REQUEST")
             assert (cmd["goal_id"], cmd["way"], cmd["language"], cmd["visitor_id"]) == ("223", "stairs", "en",
                                                                                         "guidriver")
             uid = "Kbot/guidriver/r1.1"
@@ -128,7 +128,7 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
             probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Tartalo/event/1", "robot": "Tartalo", "phase": 7,
                                                 "goal_uid": "x"})
             st = driver("cancel")
-            cancel = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == 2, 10, "the CANCEL")
+            cancel = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == Cmd.CANCEL, 10, "the CANCEL")
             assert cancel["goal_uid"] == uid
             assert driver("state")["popup"] == ""
     finally:

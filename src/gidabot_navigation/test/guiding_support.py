@@ -31,10 +31,10 @@ from gidabot_navigation.guiding.messages import (
     Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
-from gidabot_navigation.guiding.tour_mode import CatalogEntry
 from gidabot_navigation.guiding.trips import TripPlanner
-from gidabot_navigation.interface import ASSIGNED, CANCEL, CONTINUE, REQUEST, SKIP, START_TOUR
+from gidabot_navigation.interface import Cmd, Phase
 from gidabot_navigation.tours.tour_file import parse_tour
+from gidabot_navigation.tours.tour_store import TourMessage
 
 _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
 
@@ -62,12 +62,12 @@ class ListLog:
         self.lines.append(("error", msg))
 
 
-def catalog_of(building: Building, *paths) -> list[CatalogEntry]:
-    """Catalog entries of tour files (pathlib paths)."""
+def catalog_of(building: Building, *paths) -> list[TourMessage]:
+    """The catalog's tours of tour files (pathlib paths)."""
     entries = []
     for p in paths:
         tour = parse_tour(p.read_bytes(), p.name, building)
-        entries.append(CatalogEntry(p.name, tour.name, tuple(tour.goal_lines())))
+        entries.append(TourMessage(file_name=p.name, tour_name=tour.name, tour_goals_info=tuple(tour.goal_lines())))
     return entries
 
 
@@ -87,7 +87,7 @@ class Bus:
 
     def __init__(self, building: Building, robots: list[str] | None = None, navigation: bool = True,
                  auto_move: bool = True, continue_timeout: float = 300.0, partner_timeout: float = 120.0,
-                 catalog: list[CatalogEntry] | None = None) -> None:
+                 catalog: list[TourMessage] | None = None) -> None:
         self.building = building
         self.now_ros = 100.0
         self.now_wall = 1000.0
@@ -246,24 +246,24 @@ class Bus:
         cmd = CommandData(command=command, uid=f"{robot}/v/cmd/{len(self.events)}", visitor_id="v", **fields)
         r = self.robots[robot]
         self.run(robot, r.gm.on_command(cmd, self.now_ros, self.now_wall))
-        if r.nav is not None and command == CONTINUE:
+        if r.nav is not None and command == Cmd.CONTINUE:
             self.run(robot, r.nav.on_continue(cmd.goal_uid, self.now_ros, self.now_wall))
         self.pump()
 
     def request(self, robot: str, goal_id: str, way: str = "stairs") -> None:
-        self.command(robot, REQUEST, goal_id=goal_id, way=way, language="en")
+        self.command(robot, Cmd.REQUEST, goal_id=goal_id, way=way, language="en")
 
     def cont(self, robot: str, goal_uid: str = "") -> None:
-        self.command(robot, CONTINUE, goal_uid=goal_uid)
+        self.command(robot, Cmd.CONTINUE, goal_uid=goal_uid)
 
     def cancel(self, robot: str, goal_uid: str = "") -> None:
-        self.command(robot, CANCEL, goal_uid=goal_uid)
+        self.command(robot, Cmd.CANCEL, goal_uid=goal_uid)
 
     def start_tour(self, robot: str, tour_file: str, way: str = "stairs") -> None:
-        self.command(robot, START_TOUR, tour_file=tour_file, way=way, language="en")
+        self.command(robot, Cmd.START_TOUR, tour_file=tour_file, way=way, language="en")
 
     def skip(self, robot: str, tour_file: str, step: int, goal_uid: str = "") -> None:
-        self.command(robot, SKIP, tour_file=tour_file, tour_step=step, goal_uid=goal_uid)
+        self.command(robot, Cmd.SKIP, tour_file=tour_file, tour_step=step, goal_uid=goal_uid)
 
     def status_all(self, robots: list[str] | None = None) -> None:
         """Every robot hears a status of each robot in ``robots`` (default: all) now (wall time)."""
@@ -296,7 +296,7 @@ class Bus:
         """The phases sent (by ``robot``, about ``goal_uid``); the requester's ASSIGNED only if ``assigned``."""
         return [e.phase for e in self.events
                 if (robot is None or e.robot == robot) and (goal_uid is None or e.goal_uid == goal_uid)
-                and (assigned or e.phase != ASSIGNED)]
+                and (assigned or e.phase != Phase.ASSIGNED)]
 
     def last(self, robot: str, phase: int) -> NavEventData:
         return [e for e in self.events if e.robot == robot and e.phase == phase][-1]

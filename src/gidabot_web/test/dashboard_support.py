@@ -5,10 +5,16 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from gidabot_gui.core.model import PendingData, RobotStatusData
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import CancelData, NavEventData, StaffCommandData, Trip
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, WAY_STAIRS, Phase, StaffCmd
+from gidabot_navigation.guiding.messages import (
+    CancelData,
+    NavEventData,
+    PendingData,
+    RobotStatusData,
+    StaffCommandData,
+    Trip,
+)
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, WAY_STAIRS, Phase, RobotState, StaffCmd
 from gidabot_navigation.relay.links import DiagnosticData
 from gidabot_web.dashboard.dashboard import DashboardConfig, DashboardCore
 from gidabot_web.dashboard.history import History
@@ -20,8 +26,8 @@ def make_core(building: Building, tmp: Path, me: str = "Kbot", now: float = 0.0,
     return DashboardCore(building, DashboardConfig(me, **cfg), History(tmp / "history.sqlite"), now, WALL0 + now)
 
 
-def status(building: Building, robot: str, battery: float = 0.9, state: str = "idle", x: float | None = None,
-           y: float | None = None, current: str = "") -> RobotStatusData:
+def status(building: Building, robot: str, battery: float = 0.9, state: str = RobotState.IDLE,
+           x: float | None = None, y: float | None = None, current: str = "") -> RobotStatusData:
     r = building.robot(robot)
     return RobotStatusData(robot, r.floor, r.home.x if x is None else x, r.home.y if y is None else y, r.home.yaw,
                            0.0, 0.0, battery, state, 0, current, 0.0)
@@ -57,9 +63,9 @@ def cancel(origin: str, goal_uid: str, reason: str = "visitor", uid: str = "") -
     return CancelData(uid=uid or f"{origin}/cancel/gm.t.{_N[0]}", goal_uid=goal_uid, origin_robot=origin, reason=reason)
 
 
-def pending(robot: str, floor: float, *trips: Trip) -> tuple[PendingData, tuple[float, ...]]:
-    """A pending list and its etas (30 s per goal), as ``on_pending(*pending(...), speaker, now)`` takes them."""
-    return PendingData(robot, floor, len(trips), 0.0, tuple(trips)), tuple(30.0 * (i + 1) for i in range(len(trips)))
+def pending(robot: str, floor: float, *trips: Trip) -> PendingData:
+    """A pending list, 30 s per goal."""
+    return PendingData(robot, floor, len(trips), 0.0, tuple(trips), tuple(30.0 * (i + 1) for i in range(len(trips))))
 
 
 def staff(robot: str, target: str, out: bool, version: int, uid: str = "") -> StaffCommandData:

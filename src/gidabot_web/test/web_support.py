@@ -14,11 +14,10 @@ from aiohttp.test_utils import TestClient, TestServer
 from dashboard_support import cross_trip, make_core, status
 from yarl import URL
 
-from gidabot_gui.core.model import EditResultData
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import TourRejected
 from gidabot_navigation.resources import resource
-from gidabot_navigation.tours.tour_store import TourMessage, TourStore
+from gidabot_navigation.tours.tour_store import EditResultData, TourMessage, TourStore
 from gidabot_web.dashboard.app import DashboardApp
 from gidabot_web.dashboard.texts import catalogs
 from gidabot_web.web.app import CSRF_HEADER, WebConfig

@@ -1,9 +1,10 @@
 """ROS adapter of the touch-screen GUI: the ``gui`` node (one per robot, on the robot's own master).
 
-Thin by design: it reads the parameters once, converts messages to the GUI's
-plain records (and back), and owns shutdown. Callbacks only convert and put the
-record in the :class:`~gidabot_gui.core.inbox.Inbox`, which the Qt thread drains;
-they never touch a widget. Publishing (``queue_size`` set) never blocks the UI.
+Thin by design: it reads the parameters once, converts messages (the ones it shares with the robots'
+nodes with :mod:`gidabot_navigation.ros.convert`, then :func:`~gidabot_gui.core.model.bounded`; its
+initial pose here) and owns shutdown. Callbacks only convert and put the record in the
+:class:`~gidabot_gui.core.inbox.Inbox`, which the Qt thread drains; they never touch a widget.
+Publishing (``queue_size`` set) never blocks the UI.
 """
 
 from __future__ import annotations
@@ -13,139 +14,46 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
+import gidabot_msgs.msg as gidabot_msgs
 from gidabot_gui.core.admin import PasswordCheck
 from gidabot_gui.core.i18n import Translator, check_language, package_locale_dir
 from gidabot_gui.core.inbox import Inbox
-from gidabot_gui.core.model import (
-    EditResultData,
-    InitialPose,
-    PendingData,
-    PoseData,
-    RobotStatusData,
-    TourEdit,
-    TourInfo,
-    clip,
-)
+from gidabot_gui.core.model import InitialPose, TourEdit, TourInfo, bounded, tour_info
 from gidabot_gui.errors import ConfigError, GuiError
-from gidabot_msgs.msg import (
-    NavEvent,
-    NavPose,
-    PendingRequests,
-    RobotStatus,
-    Tour,
-    TourCatalog,
-    TourEditResult,
-    VisitorCommand,
-)
-from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import TourError, TourNameError
-from gidabot_navigation.guiding.guiding_node import trip_from_msg
-from gidabot_navigation.guiding.messages import CommandData, NavEventData
+from gidabot_navigation.errors import GidaBotError
+from gidabot_navigation.guiding.messages import CommandData, base36
 from gidabot_navigation.interface import Node, Topic
-from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.node_main import start_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import ReplayPublisher
-from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 
 # amcl's usual initial covariance: 0.5 m in x and y, pi/12 in yaw
 INITIAL_COVARIANCE = (0.25, 0.25, (math.pi / 12.0) ** 2)
 COMMAND_REPLAY_S = 10.0   # wall s of visitor commands replayed to a late subscriber
 
 
-# ---------------------------------------------------------------------- conversions (no master needed)
-def _yaw(q: object) -> float:
-    return quaternion_to_yaw(q.x, q.y, q.z, q.w)  # type: ignore[attr-defined]
+def catalog_tours(m: gidabot_msgs.TourCatalog) -> list[TourInfo]:
+    """The catalog's tours the screen can show (a malformed one is left out)."""
+    return [info for info in (tour_info(t) for t in convert.catalog_from_msg(m).tours) if info is not None]
 
 
-def status_from_msg(m: RobotStatus) -> RobotStatusData:
-    p = m.nav_pose.position
-    return RobotStatusData(robot=clip(m.robot, 64), floor=float(m.floor), x=float(p.x), y=float(p.y),
-                           yaw=_yaw(m.nav_pose.orientation), linear=float(m.linear_velocity),
-                           angular=float(m.angular_velocity), battery=float(m.battery), state=clip(m.state, 32),
-                           pending=int(m.pending), current_goal_uid=clip(m.current_goal_uid),
-                           busy_for=float(m.busy_for))
-
-
-def pose_from_msg(m: NavPose) -> PoseData:
-    p = m.nav_pose.position
-    return PoseData(clip(m.robot, 64), float(m.floor), float(p.x), float(p.y), _yaw(m.nav_pose.orientation))
-
-
-def pending_from_msg(m: PendingRequests) -> PendingData:
-    return PendingData(clip(m.robot, 64), float(m.floor), int(m.num), float(m.wait_new),
-                       tuple(trip_from_msg(g) for g in m.goals[:256]))
-
-
-def event_from_msg(m: NavEvent) -> NavEventData:
-    return NavEventData(uid=clip(m.uid), robot=clip(m.robot, 64), floor=float(m.floor), goal_uid=clip(m.goal_uid),
-                        phase=int(m.phase), language=clip(m.language, 8), way=clip(m.way, 16),
-                        connector=clip(m.connector, 64), target_floor=float(m.target_floor),
-                        location_id=clip(m.location_id, 64), tour_file=clip(m.tour_file, 64),
-                        tour_step=int(m.tour_step), leg=clip(m.leg, 8), attempt=int(m.attempt),
-                        assignee=clip(m.assignee, 64), eta=float(m.eta))
-
-
-def tour_from_msg(t: Tour) -> TourInfo | None:
-    """A catalog entry, its goal lines read exactly as a tour file's (``tour_file.tour_from_lines``: spacing
-    and floors such as ``0.0`` tolerated), or None if they are malformed (the store validated them already)."""
-    try:
-        tour = tour_from_lines(t.file_name, t.tour_name.strip(), list(t.tour_goals_info[:MAX_GOALS]))
-    except (TourError, TourNameError):
-        return None
-    return TourInfo(tour.file_name, clip(t.tour_name, 80), clip(t.language, 8),
-                    tuple((g.floor, g.room, g.description) for g in tour.goals))
-
-
-def catalog_from_msg(m: TourCatalog) -> list[TourInfo]:
-    return [info for info in (tour_from_msg(t) for t in m.tours) if info is not None]
-
-
-def edit_result_from_msg(m: TourEditResult) -> EditResultData:
-    return EditResultData(uid=clip(m.uid), file_name=clip(m.file_name, 64), deleted=bool(m.deleted), ok=bool(m.ok),
-                          version=int(m.version), reason=clip(m.reason, 32), error=clip(m.error, 400))
-
-
-def command_to_msg(c: CommandData, stamp: rospy.Time) -> VisitorCommand:
-    msg = VisitorCommand()
-    msg.header.stamp = stamp
-    msg.uid, msg.visitor_id, msg.command, msg.language = c.uid, c.visitor_id, c.command, c.language
-    msg.goal_id, msg.way, msg.goal_uid = c.goal_id, c.way, c.goal_uid
-    msg.tour_file, msg.tour_step = c.tour_file, c.tour_step
-    return msg
-
-
-def initial_pose_to_msg(p: InitialPose, stamp: rospy.Time) -> PoseWithCovarianceStamped:
+def initial_pose_to_msg(p: InitialPose, stamp: float) -> PoseWithCovarianceStamped:
     msg = PoseWithCovarianceStamped()
-    msg.header.stamp = stamp
+    msg.header.stamp = convert.ros_time(stamp)
     msg.header.frame_id = "map"
-    msg.pose.pose.position.x, msg.pose.pose.position.y = p.x, p.y
-    q = yaw_to_quaternion(p.yaw)
-    o = msg.pose.pose.orientation
-    o.x, o.y, o.z, o.w = q
+    msg.pose.pose = convert.pose_msg(p.x, p.y, p.yaw)
     cov = [0.0] * 36
     cov[0], cov[7], cov[35] = INITIAL_COVARIANCE
     msg.pose.covariance = cov
-    return msg
-
-
-def tour_edit_to_msg(e: TourEdit, robot: str, stamp: rospy.Time) -> Tour:
-    msg = Tour()
-    msg.header.stamp = stamp
-    msg.uid = e.uid
-    msg.origin_robot = msg.editor_robot = robot
-    msg.deleted = e.deleted
-    msg.language = e.language
-    msg.floor = e.floor
-    msg.tour_name = e.tour_name
-    msg.file_name = e.file_name
-    msg.tour_goals_info = list(e.goal_lines)
     return msg
 
 
@@ -156,8 +64,7 @@ class Receiver:
     Messages that cannot be converted are counted and logged (throttled), never raised.
     """
 
-    def __init__(self, robot: str, inbox: Inbox, log: Callable[[str], None]) -> None:
-        self.robot = robot
+    def __init__(self, inbox: Inbox, log: Callable[[str], None]) -> None:
         self.inbox = inbox
         self.log = log
         self.bad = 0
@@ -170,37 +77,37 @@ class Receiver:
             self.log(f"gui: unusable {what} message ignored ({err}); {self.bad} so far")
             return None
 
-    def status(self, m: RobotStatus) -> None:
-        rec = self._convert("status", status_from_msg, m)
+    def _state(self, kind: str, from_msg: Callable[[Any], Any], msg: Any) -> None:
+        """A robot's latest state (status, pose, pending list): only the newest per robot is kept."""
+        rec = self._convert(kind, lambda m: bounded(from_msg(m)), msg)
         if rec is not None:
-            self.inbox.put_state("status", rec.robot, rec)
+            self.inbox.put_state(kind, rec.robot, rec)
 
-    def pose(self, m: NavPose) -> None:
-        rec = self._convert("pose", pose_from_msg, m)
+    def _event(self, kind: str, from_msg: Callable[[Any], Any], msg: Any) -> None:
+        """An event (NavEvent, edit result): every one, in order."""
+        rec = self._convert(kind, lambda m: bounded(from_msg(m)), msg)
         if rec is not None:
-            self.inbox.put_state("pose", rec.robot, rec)
+            self.inbox.put_event(kind, rec)
 
-    def pending(self, m: PendingRequests) -> None:
-        rec = self._convert("pending", pending_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("pending", rec.robot, rec)
+    def status(self, m: gidabot_msgs.RobotStatus) -> None:
+        self._state("status", convert.status_from_msg, m)
 
-    def nav_event(self, m: NavEvent) -> None:
-        if m.robot != self.robot:
-            return                      # only this robot's events become pop-ups
-        rec = self._convert("nav_event", event_from_msg, m)
-        if rec is not None:
-            self.inbox.put_event("nav_event", rec)
+    def pose(self, m: gidabot_msgs.NavPose) -> None:
+        self._state("pose", convert.pose_from_msg, m)
 
-    def catalog(self, m: TourCatalog) -> None:
-        rec = self._convert("catalog", catalog_from_msg, m)
-        if rec is not None:
-            self.inbox.put_state("catalog", "", rec)
+    def pending(self, m: gidabot_msgs.PendingRequests) -> None:
+        self._state("pending", convert.pending_from_msg, m)
 
-    def edit_result(self, m: TourEditResult) -> None:
-        rec = self._convert("edit_result", edit_result_from_msg, m)
-        if rec is not None:
-            self.inbox.put_event("edit_result", rec)
+    def nav_event(self, m: gidabot_msgs.NavEvent) -> None:
+        self._event("nav_event", convert.event_from_msg, m)
+
+    def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
+        self._event("edit_result", convert.edit_result_from_msg, m)
+
+    def catalog(self, m: gidabot_msgs.TourCatalog) -> None:
+        tours = self._convert("catalog", catalog_tours, m)
+        if tours is not None:
+            self.inbox.put_state("catalog", "", tours)
 
 
 # ---------------------------------------------------------------------- parameters
@@ -223,28 +130,20 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = str(rospy.get_param("~building", ""))
-        robot = str(rospy.get_param("~robot", ""))
-        if not building or not robot:
-            raise ConfigError("~building (building.yaml or its directory) and ~robot (robot name) are required")
-        language = str(rospy.get_param("~language", "en"))
-        check_language(language)
-
-        def number(name: str, default: float, low: float, high: float) -> float:
-            value = rospy.get_param(name, default)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not low <= value <= high:
-                raise ConfigError(f"{name} must be a number in [{low}, {high}], got {value!r}")
-            return float(value)
-
-        sink = str(rospy.get_param("~speech_sink", "auto"))
+        building, robot = robot_params()
+        language = check_language(param_text("~language", "en"))
+        sink = param_text("~speech_sink", "auto")
         if sink not in ("auto", "device", "null"):
             raise ConfigError(f"~speech_sink {sink!r} must be auto, device or null")
         return Params(building, robot, language, bool(rospy.get_param("~admin", False)),
                       str(rospy.get_param("~admin_password_sha256", "")), bool(rospy.get_param("~speech", True)),
-                      sink, int(number("~speech_rate", 150, 80, 400)), bool(rospy.get_param("~fullscreen", True)),
-                      int(number("~width", 1280, 320, 8192)), int(number("~height", 800, 240, 8192)),
-                      number("~offline_after", 5.0, 0.5, 3600.0), number("~request_timeout", 20.0, 1.0, 3600.0),
-                      str(rospy.get_param("~locale_dir", "")))
+                      sink, int(param_number("~speech_rate", 150, 80, 400, strict=False)),
+                      bool(rospy.get_param("~fullscreen", True)),
+                      int(param_number("~width", 1280, 320, 8192, strict=False)),
+                      int(param_number("~height", 800, 240, 8192, strict=False)),
+                      param_number("~offline_after", 5.0, 0.5, 3600.0, strict=False),
+                      param_number("~request_timeout", 20.0, 1.0, 3600.0, strict=False),
+                      param_text("~locale_dir", ""))
 
 
 class GuiNode:
@@ -256,8 +155,9 @@ class GuiNode:
       - ``/gidabot/poses`` (gidabot_msgs/NavPose): live robot positions on the floor tabs.
       - ``/gidabot/pending`` (gidabot_msgs/PendingRequests): pending requests and waits (``wait_new``, s)
         shown before a request is confirmed and in the Information tab.
-      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): the events whose ``robot`` is this robot become
-        pop-ups and speech.
+      - ``/gidabot/nav_events`` (gidabot_msgs/NavEvent): this robot's events become pop-ups and speech, and
+        those of another robot of the floor that comes for a visitor waiting at this screen
+        (:class:`~gidabot_gui.core.flow.VisitorFlow` picks them).
       - ``tour_store/catalog`` (gidabot_msgs/TourCatalog, latched): the Guided Tour tab.
       - ``tour_store/edit_result`` (gidabot_msgs/TourEditResult): outcome of admin tour edits.
 
@@ -282,37 +182,37 @@ class GuiNode:
 
     def __init__(self, params: Params, inbox: Inbox) -> None:
         self.params = params
-        self.receiver = Receiver(params.robot, inbox, lambda m: rospy.logwarn_throttle(10.0, m))
+        self.receiver = Receiver(inbox, lambda m: rospy.logwarn_throttle(10.0, m))
         # a guiding node that connects late (starting, or respawned) still gets the commands of the last
         # few seconds; it ignores those it handled (uid and stamp). Shorter than the request timeout, so a
         # request the visitor was told got no answer is never acted on later.
-        self.cmd_pub = ReplayPublisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=20,
+        self.cmd_pub = ReplayPublisher(Topic.VISITOR_COMMAND, gidabot_msgs.VisitorCommand, queue_size=20,
                                        window=min(COMMAND_REPLAY_S, params.request_timeout / 2))
         self.pose_pub = rospy.Publisher(Topic.INITIALPOSE, PoseWithCovarianceStamped, queue_size=2)
-        self.edit_pub = rospy.Publisher(Topic.TOUR_EDIT, Tour, queue_size=10)
+        self.edit_pub = rospy.Publisher(Topic.TOUR_EDIT, gidabot_msgs.Tour, queue_size=10)
         r = self.receiver
         self.subs = [
-            rospy.Subscriber(Topic.STATUS, RobotStatus, r.status, queue_size=100),
-            rospy.Subscriber(Topic.POSES, NavPose, r.pose, queue_size=100),
-            rospy.Subscriber(Topic.PENDING, PendingRequests, r.pending, queue_size=50),
-            rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, r.nav_event, queue_size=200),
-            rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, r.catalog, queue_size=2),
-            rospy.Subscriber(Topic.TOUR_EDIT_RESULT, TourEditResult, r.edit_result, queue_size=20),
+            rospy.Subscriber(Topic.STATUS, gidabot_msgs.RobotStatus, r.status, queue_size=100),
+            rospy.Subscriber(Topic.POSES, gidabot_msgs.NavPose, r.pose, queue_size=100),
+            rospy.Subscriber(Topic.PENDING, gidabot_msgs.PendingRequests, r.pending, queue_size=50),
+            rospy.Subscriber(Topic.NAV_EVENTS, gidabot_msgs.NavEvent, r.nav_event, queue_size=200),
+            rospy.Subscriber(Topic.TOUR_CATALOG, gidabot_msgs.TourCatalog, r.catalog, queue_size=2),
+            rospy.Subscriber(Topic.TOUR_EDIT_RESULT, gidabot_msgs.TourEditResult, r.edit_result, queue_size=20),
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)
     def send_command(self, cmd: CommandData) -> None:
         rospy.loginfo(f"gui: visitor command {cmd.command} goal={cmd.goal_id!r} way={cmd.way!r} "
                       f"goal_uid={cmd.goal_uid!r} tour={cmd.tour_file!r}/{cmd.tour_step}")
-        self.cmd_pub.publish(command_to_msg(cmd, rospy.Time.now()))
+        self.cmd_pub.publish(convert.command_to_msg(replace(cmd, stamp=rospy.get_time())))
 
     def send_initial_pose(self, pose: InitialPose) -> None:
         rospy.loginfo(f"gui: set location x={pose.x:.2f} y={pose.y:.2f} yaw={pose.yaw:.2f}")
-        self.pose_pub.publish(initial_pose_to_msg(pose, rospy.Time.now()))
+        self.pose_pub.publish(initial_pose_to_msg(pose, rospy.get_time()))
 
     def send_tour_edit(self, edit: TourEdit) -> None:
         rospy.loginfo(f"gui: tour {'delete' if edit.deleted else 'edit'} {edit.file_name}")
-        self.edit_pub.publish(tour_edit_to_msg(edit, self.params.robot, rospy.Time.now()))
+        self.edit_pub.publish(convert.tour_to_msg(edit.message(self.params.robot, rospy.get_time())))
 
     def shutdown(self) -> None:
         for s in self.subs:
@@ -321,34 +221,17 @@ class GuiNode:
             p.unregister()
 
 
-def _base36(n: int) -> str:
-    digits = "0123456789abcdefghijklmnopqrstuvwxyz"
-    out = ""
-    while True:
-        n, r = divmod(n, 36)
-        out = digits[r] + out
-        if n == 0:
-            return out
-
-
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
     # SIGINT/SIGTERM: the Qt loop (polling the guard) quits, then the guard shuts rospy down in a thread of
-    # its own and ends the process within 1 s of the signal, master frozen or not (issue 19.5)
-    guard = rospy_exit_guard(Node.GUI, main_loop=True)
-    rospy.init_node(Node.GUI, argv=argv, disable_signals=True)
-    try:
-        from gidabot_navigation.ros.master_watch import keep_registered
-    except ImportError:
-        rospy.logwarn("gui: gidabot_navigation.ros.master_watch is missing: the GUI will not survive a master restart")
-    else:
-        keep_registered()
+    # its own and ends the process within 1 s of the signal, master frozen or not
+    guard = start_node(Node.GUI, argv)
     try:
         params = Params.read()
         building = load_building(params.building)
         building.robot(params.robot)
         locale_dir = Path(params.locale_dir) if params.locale_dir else package_locale_dir()
-    except (GuiError, KeyError) as err:
+    except (GuiError, GidaBotError, KeyError) as err:
         rospy.logfatal(f"gui: {err}")
         return 2
     headless = not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
@@ -382,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
         speaker = EspeakSpeaker(rate_wpm=params.speech_rate, sink=sink, log=rospy.logwarn)
     else:
         speaker = NullSpeaker()
-    visitor_id = "gui" + _base36(time.time_ns() // 1_000_000)
+    visitor_id = "gui" + base36(time.time_ns() // 1_000_000)
     config = GuiConfig(params.robot, admin=admin, offline_after=params.offline_after,
                        request_timeout=params.request_timeout, visitor_id=visitor_id)
     window = MainWindow(building, config, tr, node, speaker, inbox=inbox, log=rospy.loginfo)

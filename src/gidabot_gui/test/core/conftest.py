@@ -7,8 +7,9 @@ from collections.abc import Callable
 import pytest
 from gui_fakes import nav_event
 
-from gidabot_gui.core.model import RobotStatusData, TourInfo
-from gidabot_navigation.guiding.messages import NavEventData
+from gidabot_gui.core.model import TourInfo
+from gidabot_navigation.guiding.messages import NavEventData, RobotStatusData
+from gidabot_navigation.interface import RobotState
 
 
 @pytest.fixture
@@ -22,7 +23,7 @@ def tour() -> TourInfo:
 def status() -> Callable[..., RobotStatusData]:
     """An idle robot's status at (x, y) unless told otherwise."""
     def make(robot: str, floor: float, x: float = 30.0, y: float = 12.0, **kw: object) -> RobotStatusData:
-        base = dict(yaw=0.0, linear=0.0, angular=0.0, battery=0.9, state="idle", pending=0)
+        base = dict(yaw=0.0, linear=0.0, angular=0.0, battery=0.9, state=RobotState.IDLE, pending=0)
         base.update(kw)
         return RobotStatusData(robot, floor, x, y, **base)  # type: ignore[arg-type]
 

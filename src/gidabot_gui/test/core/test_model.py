@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-from gidabot_gui.core.model import Fleet, PoseData
+from gidabot_gui.core.model import Fleet
+from gidabot_navigation.guiding.messages import PoseData
 
 
 def test_fleet_offline_after_five_seconds_of_wall_time(faculty, status) -> None:

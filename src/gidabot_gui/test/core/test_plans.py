@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from gidabot_gui.core.model import Fleet, PendingData, TourInfo
+from gidabot_gui.core.model import Fleet, TourInfo
 from gidabot_gui.core.plans import plan_request, tour_ways
+from gidabot_navigation.guiding.messages import PendingData
 
 
 def test_plan_shows_both_robots_and_ways(faculty, status) -> None:

@@ -9,6 +9,7 @@ from gidabot_gui.core.i18n import Translator
 from gidabot_gui.core.model import Fleet
 from gidabot_gui.core.status_texts import here_line, mark_label, robot_card, trip_line
 from gidabot_gui.core.texts import Texts
+from gidabot_navigation.interface import RobotState
 
 
 @pytest.fixture
@@ -43,7 +44,7 @@ def test_robot_cards_and_labels(faculty, texts, status) -> None:
     card = robot_card(texts, fleet, "Kbot", 0.0)
     assert (card.title, card.floor, card.state, card.state_code, card.battery) == (
         "Kbot · this robot", "First floor", "No contact yet", "", None)
-    fleet.update_status(status("Tartalo", 0, x=9.0, y=11.4, state="guiding", linear=0.3, pending=2,
+    fleet.update_status(status("Tartalo", 0, x=9.0, y=11.4, state=RobotState.GUIDING, linear=0.3, pending=2,
                                busy_for=300.0), 10.0)
     card = robot_card(texts, fleet, "Tartalo", 11.0)
     assert (card.state, card.state_code, card.battery_text) == ("Guiding a visitor", "guiding", "Battery 90 %")

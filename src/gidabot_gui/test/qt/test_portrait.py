@@ -13,9 +13,9 @@ from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 from tower import make_tower
 
-from gidabot_gui.core.model import RobotStatusData
 from gidabot_gui.qt.floor_view import TURN_GAIN, ViewMapping
 from gidabot_navigation.building.model import load_building
+from gidabot_navigation.guiding.messages import RobotStatusData
 
 
 @pytest.fixture(scope="module")

@@ -12,7 +12,8 @@ from gui_fakes import nav_event as make_event
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.core.model import PendingData, RobotStatusData, TourInfo
+from gidabot_gui.core.model import TourInfo
+from gidabot_navigation.guiding.messages import PendingData, RobotStatusData
 from gidabot_navigation.interface import Phase
 
 LANGS = ("en", "eu", "es")

@@ -6,8 +6,9 @@ import pytest
 from gui_fakes import FakeScreen
 
 from gidabot_gui.core.i18n import Translator
-from gidabot_gui.core.model import EditResultData, TourInfo
+from gidabot_gui.core.model import TourInfo
 from gidabot_gui.qt.tour_editing import EDIT_RESULT_TIMEOUT, TourEditController, TourEditScreen
+from gidabot_navigation.tours.tour_store import EditResultData
 
 TOUR = TourInfo("real_world.tour", "Real-world tour", "es",
                 ((0, "014", "Technicians' Lab"), (1, "101", "Secretary's Office")))

@@ -13,8 +13,10 @@ from gui_fakes import nav_event
 from PyQt5.QtCore import QPoint, Qt
 from PyQt5.QtTest import QTest
 
-from gidabot_gui.core.model import EditResultData, RobotStatusData, TourInfo
+from gidabot_gui.core.model import TourInfo
+from gidabot_navigation.guiding.messages import RobotStatusData
 from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.tours.tour_store import EditResultData
 
 TOUR = TourInfo("real_world.tour", "Real-world tour", "en",
                 ((0, "014", "Technicians' Lab"), (0, "008", "Caretakers' Office"), (1, "101", "Secretary's Office"),

@@ -1,18 +1,19 @@
 """The interface vocabulary of GidaBot (ROS-free): every name that more than one module spells.
 
 Topic, service and node names, the relay ends' node names, the topics the relays share,
-and the constants of the gidabot_msgs messages (NavEvent phases, VisitorCommand commands,
-Cancel reasons, RobotStatus states, Goal ways) and the visitors' languages are defined
-here once and imported everywhere else. Unit tests (``test/test_interface.py``) fail on a
-``/gidabot/`` topic literal anywhere else in the repository, and check the constants
-against ``src/gidabot_msgs/msg`` and the relays' whitelist ``config/shared_topics.yaml``.
+and the constants of the gidabot_msgs messages (NavEvent phases :class:`Phase`, VisitorCommand
+commands :class:`Cmd`, RobotStatus states :class:`RobotState`, Cancel reasons, Goal ways and legs)
+and the visitors' languages are defined here once and imported everywhere else. Unit tests
+(``test/test_interface.py``) check the constants against ``src/gidabot_msgs/msg`` and the relays'
+whitelist ``config/shared_topics.yaml``, and fail on a ``/gidabot/`` topic literal, or a phase,
+command or robot state spelled as a literal, anywhere else in the repository.
 What each topic carries: docs/interfaces.md.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
+from enum import IntEnum, StrEnum
 
 # ---------------------------------------------------------------------------
 # Node names
@@ -155,7 +156,7 @@ SHARED_TOPICS = (
 # ---------------------------------------------------------------------------
 
 class Phase(IntEnum):
-    """gidabot_msgs/NavEvent phases (same numbers); the module constants below are their ints."""
+    """gidabot_msgs/NavEvent phases (same numbers)."""
 
     ACCEPTED = 0
     ON_THE_WAY = 1
@@ -178,27 +179,27 @@ class Phase(IntEnum):
     ASSIGNED = 18
 
 
-(ACCEPTED, ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR, UNREACHABLE,
- NO_ROBOT_ON_FLOOR, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
- TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK, DECLINED, ASSIGNED) = (int(p) for p in Phase)
-
 PHASE_NAMES = {
-    ACCEPTED: "accepted", ON_THE_WAY: "on the way", GOAL_REACHED: "goal reached", GO_TO_FLOOR: "go to floor",
-    GOING_TO_MEETING: "going to meeting point", WAITING_VISITOR: "waiting for the visitor",
-    UNREACHABLE: "unreachable", NO_ROBOT_ON_FLOOR: "no robot on floor", CANCELLED_HERE: "cancelled here",
-    CANCELLED_ELSEWHERE: "cancelled elsewhere", TIMEOUT: "timeout", PARTNER_OFFLINE: "partner offline",
-    REJECTED: "rejected", TOUR_STEP_DONE: "tour step done", TOUR_FINISHED: "tour finished",
-    PARTNER_LOST: "partner lost", PARTNER_BACK: "partner back", DECLINED: "declined", ASSIGNED: "assigned",
+    Phase.ACCEPTED: "accepted", Phase.ON_THE_WAY: "on the way", Phase.GOAL_REACHED: "goal reached",
+    Phase.GO_TO_FLOOR: "go to floor", Phase.GOING_TO_MEETING: "going to meeting point",
+    Phase.WAITING_VISITOR: "waiting for the visitor", Phase.UNREACHABLE: "unreachable",
+    Phase.NO_ROBOT_ON_FLOOR: "no robot on floor", Phase.CANCELLED_HERE: "cancelled here",
+    Phase.CANCELLED_ELSEWHERE: "cancelled elsewhere", Phase.TIMEOUT: "timeout",
+    Phase.PARTNER_OFFLINE: "partner offline",
+    Phase.REJECTED: "rejected", Phase.TOUR_STEP_DONE: "tour step done", Phase.TOUR_FINISHED: "tour finished",
+    Phase.PARTNER_LOST: "partner lost", Phase.PARTNER_BACK: "partner back", Phase.DECLINED: "declined",
+    Phase.ASSIGNED: "assigned",
 }
 # phases after which the emitting robot is done with the trip (it left its queue)
-FINAL_PHASES = frozenset({GOAL_REACHED, GO_TO_FLOOR, UNREACHABLE, NO_ROBOT_ON_FLOOR, CANCELLED_HERE,
-                          CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_STEP_DONE,
-                          TOUR_FINISHED, DECLINED})
+FINAL_PHASES = frozenset({Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.UNREACHABLE, Phase.NO_ROBOT_ON_FLOOR,
+                          Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
+                          Phase.REJECTED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.DECLINED})
 # phases that hand the visitor over to another floor (the start robot released the visitor)
-RELEASE_PHASES = frozenset({GO_TO_FLOOR, NO_ROBOT_ON_FLOOR})
+RELEASE_PHASES = frozenset({Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR})
 # phases of a robot serving a leg (multirobot_navigation): only the robot the leg is assigned to sends them
-SERVING_PHASES = frozenset({ON_THE_WAY, GOAL_REACHED, GO_TO_FLOOR, GOING_TO_MEETING, WAITING_VISITOR,
-                            NO_ROBOT_ON_FLOOR, TOUR_STEP_DONE, TOUR_FINISHED, PARTNER_LOST, PARTNER_BACK})
+SERVING_PHASES = frozenset({Phase.ON_THE_WAY, Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.GOING_TO_MEETING,
+                            Phase.WAITING_VISITOR, Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_STEP_DONE,
+                            Phase.TOUR_FINISHED, Phase.PARTNER_LOST, Phase.PARTNER_BACK})
 
 
 def phase_name(phase: int) -> str:
@@ -206,7 +207,7 @@ def phase_name(phase: int) -> str:
 
 
 class Cmd(IntEnum):
-    """gidabot_msgs/VisitorCommand commands (same numbers); the module constants below are their ints."""
+    """gidabot_msgs/VisitorCommand commands (same numbers)."""
 
     REQUEST = 0
     CONTINUE = 1
@@ -215,9 +216,8 @@ class Cmd(IntEnum):
     SKIP = 4
 
 
-REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = (int(c) for c in Cmd)
-COMMAND_NAMES = {REQUEST: "request", CONTINUE: "continue", CANCEL: "cancel", START_TOUR: "start tour",
-                 SKIP: "skip"}
+COMMAND_NAMES = {Cmd.REQUEST: "request", Cmd.CONTINUE: "continue", Cmd.CANCEL: "cancel",
+                 Cmd.START_TOUR: "start tour", Cmd.SKIP: "skip"}
 
 class StaffCmd(IntEnum):
     """gidabot_msgs/StaffCommand commands (same numbers)."""
@@ -236,14 +236,16 @@ REASON_OFFLINE = "offline"
 REASON_ADMIN = "admin"
 REASONS = (REASON_VISITOR, REASON_UNREACHABLE, REASON_TIMEOUT, REASON_OFFLINE, REASON_ADMIN)
 
-# -- gidabot_msgs/RobotStatus states ---------------------------------------------------------
-STATE_IDLE = "idle"
-STATE_GUIDING = "guiding"
-STATE_TO_MEETING = "to_meeting"
-STATE_WAITING = "waiting"
-STATE_RETURNING = "returning"
-STATE_ERROR = "error"
-ROBOT_STATES = (STATE_IDLE, STATE_GUIDING, STATE_TO_MEETING, STATE_WAITING, STATE_RETURNING, STATE_ERROR)
+class RobotState(StrEnum):
+    """gidabot_msgs/RobotStatus states (the same strings: a state received as text compares equal)."""
+
+    IDLE = "idle"                  # no request; ready
+    GUIDING = "guiding"            # guiding the visitor to a goal or connector
+    TO_MEETING = "to_meeting"      # driving alone to the meeting point of a connector (or to pick a visitor up)
+    WAITING = "waiting"            # at the meeting point, waiting for the visitor
+    RETURNING = "returning"        # driving back to its home pose
+    ERROR = "error"                # navigation stack not available
+
 
 # -- gidabot_msgs/Goal ways: how a visitor changes floors (also the kinds of a building's connectors)
 WAY_LIFT = "lift"

@@ -22,22 +22,13 @@ from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManag
 from gidabot_navigation.guiding.messages import NavEventData, SendEvent, SendGoal, Trip
 from gidabot_navigation.guiding.trips import Candidate
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCELLED_HERE,
-    DECLINED,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    GOING_TO_MEETING,
     LEG_COMMITTED,
     LEG_GOAL,
     LEG_NONE,
     LEG_PROPOSED,
     LEG_START,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     SERVING_PHASES,
-    WAITING_VISITOR,
+    Phase,
 )
 
 GOAL_FLOOR = ("Galtxagorri", "Lamia")
@@ -77,7 +68,7 @@ def wait(bus: Bus, seconds: float) -> None:
 
 
 def moved_for(bus: Bus, robot: str, uid: str) -> bool:
-    return any(e.robot == robot and e.goal_uid == uid and e.phase in (GOING_TO_MEETING, ON_THE_WAY)
+    return any(e.robot == robot and e.goal_uid == uid and e.phase in (Phase.GOING_TO_MEETING, Phase.ON_THE_WAY)
                for e in bus.events)
 
 
@@ -90,12 +81,12 @@ def test_the_robot_first_at_the_meeting_point_takes_the_goal_leg(faculty6) -> No
     trip = newest(bus, uid)
     assert (trip.connector, trip.start_robot, trip.start_state, trip.goal_robot, trip.goal_state) == (
         "stairs_west", "Tartalo", LEG_COMMITTED, "Galtxagorri", LEG_COMMITTED)
-    assigned = [e for e in bus.events if e.phase == ASSIGNED]
+    assigned = [e for e in bus.events if e.phase == Phase.ASSIGNED]
     assert [(e.robot, e.leg, e.assignee) for e in assigned] == [("Tartalo", LEG_START, "Tartalo"),
                                                                 ("Tartalo", LEG_GOAL, "Galtxagorri")]
     assert assigned[1].eta > 0 and assigned[1].attempt == trip.attempt
     # ACCEPTED: once per leg, from the robot that serves it; Lamia is never involved
-    assert [(e.robot, e.leg) for e in bus.events if e.phase == ACCEPTED] == [("Tartalo", LEG_START),
+    assert [(e.robot, e.leg) for e in bus.events if e.phase == Phase.ACCEPTED] == [("Tartalo", LEG_START),
                                                                            ("Galtxagorri", LEG_GOAL)]
     assert bus.queue_of("Lamia") == [] and bus.robots["Lamia"].moves == []
     assert moved_for(bus, "Galtxagorri", uid)
@@ -103,11 +94,11 @@ def test_the_robot_first_at_the_meeting_point_takes_the_goal_leg(faculty6) -> No
     bus.finish_move("Galtxagorri")
     bus.finish_move("Tartalo")
     bus.pump()
-    assert bus.last("Tartalo", GO_TO_FLOOR).assignee == "Galtxagorri"
+    assert bus.last("Tartalo", Phase.GO_TO_FLOOR).assignee == "Galtxagorri"
     bus.cont("Galtxagorri", uid)
     bus.finish_move("Galtxagorri")
     bus.pump()
-    assert bus.phases("Galtxagorri", uid)[-1] == GOAL_REACHED
+    assert bus.phases("Galtxagorri", uid)[-1] == Phase.GOAL_REACHED
     assert served(bus, uid, LEG_GOAL) == {"Galtxagorri"} and served(bus, uid, LEG_START) == {"Tartalo"}
     check_invariant(bus)
     assert all(len(r.gm.assigner) == 0 for r in bus.robots.values())      # the requester closed the trip
@@ -126,15 +117,15 @@ def test_a_busy_robot_gets_help_from_the_other_robot_of_its_floor(faculty6) -> N
     """Kbot is busy for a while; Basajaun, free, comes to Kbot's visitor (the visitor sees who and how long)."""
     bus = bus6(faculty6)
     bus.request("Kbot", "119")                   # Kbot's visitor: the far east end of floor 1
-    assert bus.phases("Kbot")[-1] == ON_THE_WAY
+    assert bus.phases("Kbot")[-1] == Phase.ON_THE_WAY
     bus.robots["Kbot"].gm.on_pose(40.0, 12.0, 0.0)  # guiding east, on its way
     bus.request("Kbot", "101")                   # a second visitor at Kbot's screen: the west end
     uid = [g.uid for g in bus.goals if g.goal_id == "101"][0]
     trip = newest(bus, uid)
     assert (trip.start_robot, trip.start_state) == ("Basajaun", LEG_COMMITTED)
-    [helper] = [e for e in bus.events if e.phase == ASSIGNED and e.goal_uid == uid]
+    [helper] = [e for e in bus.events if e.phase == Phase.ASSIGNED and e.goal_uid == uid]
     assert helper.robot == "Kbot" and helper.assignee == "Basajaun" and helper.eta > 0
-    assert bus.phases("Basajaun", uid) == [ACCEPTED, GOING_TO_MEETING]        # driving to the visitor
+    assert bus.phases("Basajaun", uid) == [Phase.ACCEPTED, Phase.GOING_TO_MEETING]        # driving to the visitor
     assert uid not in bus.queue_of("Kbot")
     check_invariant(bus)
 
@@ -153,7 +144,7 @@ def test_a_declined_leg_goes_to_the_next_robot(faculty6) -> None:
     bus.request("Galtxagorri", "201")            # ends near the west staircase, fills its queue
     bus.request("Tartalo", "223")
     uid = [g.uid for g in bus.goals if g.origin_robot == "Tartalo"][0]
-    [declined] = [e for e in bus.events if e.phase == DECLINED]
+    [declined] = [e for e in bus.events if e.phase == Phase.DECLINED]
     assert (declined.robot, declined.goal_uid, declined.leg) == ("Galtxagorri", uid, LEG_GOAL)
     assert "queue of Galtxagorri is full" in declined.detail
     assert newest(bus, uid).goal_robot == "Lamia" and newest(bus, uid).goal_state == LEG_COMMITTED
@@ -171,11 +162,12 @@ def test_a_leg_every_robot_declined_waits_and_is_served_once_there_is_room(facul
     bus.request("Lamia", "231")
     bus.request("Tartalo", "223")
     uid = [g.uid for g in bus.goals if g.origin_robot == "Tartalo"][0]
-    assert sorted(e.robot for e in bus.events if e.phase == DECLINED) == sorted(GOAL_FLOOR)
-    assert uid in bus.robots["Tartalo"].gm.assigner and not bus.phases("Tartalo", uid).count(PARTNER_OFFLINE)
+    assert sorted(e.robot for e in bus.events if e.phase == Phase.DECLINED) == sorted(GOAL_FLOOR)
+    assert uid in bus.robots["Tartalo"].gm.assigner and not bus.phases("Tartalo", uid).count(Phase.PARTNER_OFFLINE)
     for _ in range(3):
         wait(bus, 3.5)                                        # a second round: both still full
-    assert len([e for e in bus.events if e.phase == DECLINED]) == 4 and newest(bus, uid).goal_state == LEG_PROPOSED
+    assert len([e for e in bus.events if e.phase == Phase.DECLINED]) == 4
+    assert newest(bus, uid).goal_state == LEG_PROPOSED
     bus.finish_move("Lamia")                                  # Lamia's own visitor is there: room
     bus.pump()
     for _ in range(3):
@@ -191,9 +183,9 @@ def test_no_online_robot_on_the_goal_floor_answers_at_once(faculty6) -> None:
     bus.tick(wall_dt=10.0)
     bus.status_all(["Tartalo", "Kbot", "Basajaun", "MariSorgin"])
     bus.request("Tartalo", "223")
-    assert bus.goals == [] and bus.phases("Tartalo") == [PARTNER_OFFLINE]
-    assert "no robot of floor 2 is online" in bus.last("Tartalo", PARTNER_OFFLINE).detail
-    assert "Lamia: no status for 10 s" in bus.last("Tartalo", PARTNER_OFFLINE).detail
+    assert bus.goals == [] and bus.phases("Tartalo") == [Phase.PARTNER_OFFLINE]
+    assert "no robot of floor 2 is online" in bus.last("Tartalo", Phase.PARTNER_OFFLINE).detail
+    assert "Lamia: no status for 10 s" in bus.last("Tartalo", Phase.PARTNER_OFFLINE).detail
     assert all(not r.gm.queue for r in bus.robots.values())
 
 
@@ -227,7 +219,7 @@ def test_chosen_robot_partitioned_at_the_decision_another_takes_the_leg(faculty6
     bus.link_up("Galtxagorri")
     bus.pump()
     wait(bus, 1.0)
-    assert [e.phase for e in bus.events if e.robot == "Galtxagorri"] == [ACCEPTED]    # late, and ignored
+    assert [e.phase for e in bus.events if e.robot == "Galtxagorri"] == [Phase.ACCEPTED]    # late, and ignored
     assert bus.queue_of("Galtxagorri") == [] and bus.robots["Galtxagorri"].moves == []
     assert bus.robots["Galtxagorri"].gm.stats["superseded"] == 1
     assert served(bus, uid, LEG_GOAL) == {"Lamia"}
@@ -239,7 +231,7 @@ def test_chosen_robot_cut_off_after_accepting_its_answer_late(faculty6) -> None:
     unconfirmed proposal, never runs it, drops it on the newer attempt; the late ACCEPTED changes nothing."""
     bus = bus6(faculty6)
     bus.tap = lambda s, r, a: "keep" if s == "Galtxagorri" and r == "Tartalo" and isinstance(a, SendEvent) \
-        and a.event.phase == ACCEPTED else "pass"
+        and a.event.phase == Phase.ACCEPTED else "pass"
     bus.request("Tartalo", "223")
     uid = the_trip(bus)
     assert bus.queue_of("Galtxagorri") == [uid] and not moved_for(bus, "Galtxagorri", uid)
@@ -290,20 +282,20 @@ def test_a_robot_that_goes_offline_just_after_it_was_proposed_a_leg_still_has_ti
     bus, uid = kbot_cut_then_proposed_a_leg(faculty)
     assert (newest(bus, uid).goal_robot, newest(bus, uid).goal_state) == ("Kbot", LEG_PROPOSED)
     bus.tick(wall_dt=0.25)                                    # Kbot: no status for 5.05 s
-    assert PARTNER_OFFLINE not in bus.phases("Tartalo", uid) and newest(bus, uid).goal_robot == "Kbot"
+    assert Phase.PARTNER_OFFLINE not in bus.phases("Tartalo", uid) and newest(bus, uid).goal_robot == "Kbot"
     bus.tick(wall_dt=0.25)
     bus.link_up("Kbot")                                       # the cut healed: its status and answer arrive
     wait(bus, 0.0)
     bus.pump()
     trip = newest(bus, uid)
     assert (trip.goal_robot, trip.goal_state) == ("Kbot", LEG_COMMITTED) and moved_for(bus, "Kbot", uid)
-    assert PARTNER_OFFLINE not in bus.phases(goal_uid=uid)
+    assert Phase.PARTNER_OFFLINE not in bus.phases(goal_uid=uid)
 
 
 def test_a_robot_still_offline_when_its_time_to_answer_is_over_is_passed_over(faculty) -> None:
     bus, uid = kbot_cut_then_proposed_a_leg(faculty)
     bus.tick(wall_dt=3.0)
-    off = bus.last("Tartalo", PARTNER_OFFLINE)
+    off = bus.last("Tartalo", Phase.PARTNER_OFFLINE)
     assert off.goal_uid == uid and "Kbot is offline" in off.detail and "no status for 8 s" in off.detail
 
 
@@ -314,7 +306,7 @@ def test_both_goal_floor_robots_cut_off_the_trip_is_given_up_visibly(faculty6) -
     uid = the_trip(bus)
     for _ in range(3):
         wait(bus, 3.0)
-    off = bus.last("Tartalo", PARTNER_OFFLINE)
+    off = bus.last("Tartalo", Phase.PARTNER_OFFLINE)
     assert off.goal_uid == uid and off.leg == LEG_GOAL
     assert "Galtxagorri did not answer within 3 s" in off.detail and "Lamia" in off.detail
     assert bus.queue_of("Tartalo") == [] and [c.reason for c in bus.cancels] == ["offline"]
@@ -336,7 +328,7 @@ def test_requester_cut_off_after_proposing(faculty6) -> None:
     uid = the_trip(bus)
     for _ in range(4):
         wait(bus, 3.0)
-    assert bus.last("Tartalo", PARTNER_OFFLINE).goal_uid == uid
+    assert bus.last("Tartalo", Phase.PARTNER_OFFLINE).goal_uid == uid
     bus.link_up("Tartalo")
     bus.pump()
     wait(bus, 1.0)
@@ -354,7 +346,7 @@ def test_lost_answer_and_lost_newer_attempt_the_proposal_expires(faculty6) -> No
     lost = {"on": False}
 
     def tap(s: str, r: str, a: object) -> str:
-        if s == "Galtxagorri" and isinstance(a, SendEvent) and a.event.phase == ACCEPTED:
+        if s == "Galtxagorri" and isinstance(a, SendEvent) and a.event.phase == Phase.ACCEPTED:
             lost["on"] = True
             return "drop"
         return "drop" if lost["on"] and r == "Galtxagorri" and isinstance(a, SendGoal) else "pass"
@@ -386,8 +378,8 @@ def test_duplicated_messages_change_nothing(faculty6) -> None:
     bus.request("Tartalo", "223")
     uid = the_trip(bus)
     assert newest(bus, uid).goal_robot == "Galtxagorri"
-    assert len([e for e in bus.events if e.phase == ACCEPTED]) == 2
-    assert len([e for e in bus.events if e.phase == ASSIGNED]) == 2
+    assert len([e for e in bus.events if e.phase == Phase.ACCEPTED]) == 2
+    assert len([e for e in bus.events if e.phase == Phase.ASSIGNED]) == 2
     assert len(bus.robots["Galtxagorri"].moves) == 1
     check_invariant(bus)
 
@@ -432,14 +424,14 @@ def test_chosen_robot_restarts_between_accepting_and_the_commit(faculty6) -> Non
     bus.release()
     bus.pump()
     assert moved_for(bus, "Galtxagorri", uid)
-    assert [e.phase for e in bus.events if e.robot == "Galtxagorri"].count(ACCEPTED) == 1
+    assert [e.phase for e in bus.events if e.robot == "Galtxagorri"].count(Phase.ACCEPTED) == 1
     check_invariant(bus)
 
 
 def test_requester_restarts_while_a_proposal_is_out(faculty6) -> None:
     bus = bus6(faculty6)
     bus.tap = lambda s, r, a: "keep" if s == "Galtxagorri" and isinstance(a, SendEvent) \
-        and a.event.phase == ACCEPTED else "pass"
+        and a.event.phase == Phase.ACCEPTED else "pass"
     bus.request("Tartalo", "223")
     uid = the_trip(bus)
     restart_gm(bus, "Tartalo")
@@ -458,7 +450,7 @@ def test_a_cancel_during_the_assignment_leaves_nothing_anywhere(faculty6) -> Non
     bus.request("Tartalo", "223")
     uid = the_trip(bus)
     bus.cancel("Tartalo", uid)
-    assert bus.last("Tartalo", CANCELLED_HERE).goal_uid == uid
+    assert bus.last("Tartalo", Phase.CANCELLED_HERE).goal_uid == uid
     wait(bus, 5.0)
     bus.link_up("Galtxagorri")
     bus.pump()
@@ -594,10 +586,10 @@ def test_audit_finds_a_leg_served_twice_and_a_leg_left_unserved() -> None:
         return NavEventData(uid=f"{robot}/event/{n}", robot=robot, floor=1.0, goal_uid=t.uid, phase=phase, leg=leg,
                             **kw)
 
-    audit = audit_legs([t], [ev("A", ON_THE_WAY, LEG_START, 1)])
+    audit = audit_legs([t], [ev("A", Phase.ON_THE_WAY, LEG_START, 1)])
     assert audit.unserved == [("A/v/1", LEG_GOAL)] and audit.served_by("A/v/1", LEG_START) == "A"
-    events = [ev("A", ASSIGNED, LEG_GOAL, 2, assignee="B"), ev("B", GOING_TO_MEETING, LEG_GOAL, 3),
-              ev("C", WAITING_VISITOR, LEG_GOAL, 4)]
+    events = [ev("A", Phase.ASSIGNED, LEG_GOAL, 2, assignee="B"), ev("B", Phase.GOING_TO_MEETING, LEG_GOAL, 3),
+              ev("C", Phase.WAITING_VISITOR, LEG_GOAL, 4)]
     audit = audit_legs([t], events)
     assert audit.double_served == [("A/v/1", LEG_GOAL, ["B", "C"])] and audit.unserved == []
     assert audit.served_by("A/v/1", LEG_GOAL) == ""

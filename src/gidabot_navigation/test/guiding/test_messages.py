@@ -18,16 +18,7 @@ from gidabot_navigation.guiding.messages import (
     validate_staff,
     validate_trip,
 )
-from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    LEG_COMMITTED,
-    LEG_GOAL,
-    LEG_NONE,
-    LEG_PROPOSED,
-    Cmd,
-    StaffCmd,
-)
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd, Phase, StaffCmd
 
 
 def good_trip(faculty) -> Trip:
@@ -135,12 +126,12 @@ def test_a_tour_goes_on_from_a_floor_without_robot(faculty3) -> None:
 
 def test_events_about_legs_are_checked(faculty6) -> None:
     ev = gt.NavEventData(uid="Kbot/event/gm.x.1", robot="Kbot", floor=1.0, goal_uid="Kbot/v/gm.x.1",
-                         phase=ASSIGNED, leg=LEG_GOAL, attempt=3, assignee="Lamia", eta=42.0)
+                         phase=Phase.ASSIGNED, leg=LEG_GOAL, attempt=3, assignee="Lamia", eta=42.0)
     assert gt.validate_event(faculty6, ev).assignee == "Lamia"
     assert gt.validate_event(faculty6, replace(ev, eta=math.nan)).eta == 0.0
     for change, reason in (({"leg": "middle"}, "leg"), ({"attempt": -2}, "assignment"),
                            ({"assignee": ""}, "assignment"), ({"assignee": "Nobody"}, "robot"),
-                           ({"goal_uid": ""}, "leg"), ({"phase": ACCEPTED, "leg": ""}, "leg")):
+                           ({"goal_uid": ""}, "leg"), ({"phase": Phase.ACCEPTED, "leg": ""}, "leg")):
         with pytest.raises(GoalRejected) as err:
             gt.validate_event(faculty6, replace(ev, **change))
         assert err.value.reason == reason, change
@@ -151,10 +142,11 @@ def test_commands_are_checked() -> None:
                                       visitor_id="bad id/with slash"))
     assert ok.visitor_id == ""            # unusable in a uid: replaced by the default later
     for cmd, reason in ((CommandData(command=9), "command"), (CommandData(command=True), "command"),
-                        (CommandData(command=0, way="fly"), "way"), (CommandData(command=0, language="xx"), "language"),
-                        (CommandData(command=0, goal_id="x" * 1000), "too_long"),
-                        (CommandData(command=3, tour_file="../x.tour"), "tour"),
-                        (CommandData(command=4, tour_step="3"), "type")):
+                        (CommandData(command=Cmd.REQUEST, way="fly"), "way"),
+                        (CommandData(command=Cmd.REQUEST, language="xx"), "language"),
+                        (CommandData(command=Cmd.REQUEST, goal_id="x" * 1000), "too_long"),
+                        (CommandData(command=Cmd.START_TOUR, tour_file="../x.tour"), "tour"),
+                        (CommandData(command=Cmd.SKIP, tour_step="3"), "type")):
         with pytest.raises(GoalRejected) as err:
             validate_command(cmd)
         assert err.value.reason == reason

@@ -1,4 +1,4 @@
-"""Guiding across restarts of its nodes (issue 9): state kept in a file, replayed messages ignored."""
+"""Guiding across restarts of its nodes: state kept in a file, replayed messages ignored."""
 
 from __future__ import annotations
 
@@ -22,17 +22,7 @@ from gidabot_navigation.guiding.messages import (
 )
 from gidabot_navigation.guiding.navigation import SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.state import StateFile, actions_from_list, actions_to_list
-from gidabot_navigation.interface import (
-    ACCEPTED,
-    CONTINUE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    LEG_GOAL,
-    ON_THE_WAY,
-    REJECTED,
-    REQUEST,
-    WAITING_VISITOR,
-)
+from gidabot_navigation.interface import LEG_GOAL, Cmd, Phase
 
 
 def roundtrip(state: dict) -> dict:
@@ -78,9 +68,9 @@ def test_a_restarted_goal_manager_keeps_its_queue_and_ignores_the_replayed_goal(
     bus.cont("MariSorgin", uid)
     bus.finish_move("MariSorgin")
     bus.pump()
-    assert bus.phases("MariSorgin", uid)[-1] == GOAL_REACHED
+    assert bus.phases("MariSorgin", uid)[-1] == Phase.GOAL_REACHED
     assert bus.queue_of("MariSorgin") == []
-    assert bus.phases("MariSorgin", uid).count(ACCEPTED) == 1
+    assert bus.phases("MariSorgin", uid).count(Phase.ACCEPTED) == 1
 
 
 def test_a_cancel_seen_before_the_restart_still_wins_over_its_late_goal(faculty) -> None:
@@ -99,13 +89,13 @@ def test_a_cancel_seen_before_the_restart_still_wins_over_its_late_goal(faculty)
 
 def test_replayed_commands_are_ignored_but_a_restarted_gui_counting_again_is_not(faculty) -> None:
     gm = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0, boot="t")
-    cmd = CommandData(command=REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=12.5)
+    cmd = CommandData(command=Cmd.REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=12.5)
     assert any(isinstance(a, SendGoal) for a in gm.on_command(cmd, 12.5, 0.0))
     gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), ListLog(), 0.0, boot="t2")
     gm2.load_state(roundtrip(gm.state()))
     assert gm2.on_command(cmd, 13.0, 1.0) == []                       # replayed: same uid and stamp
     assert gm2.stats["duplicate_commands"] == 1
-    again = CommandData(command=REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=99.0)
+    again = CommandData(command=Cmd.REQUEST, uid="Tartalo/v/cmd/1", visitor_id="v", goal_id="008", stamp=99.0)
     assert any(isinstance(a, SendGoal) for a in gm2.on_command(again, 99.0, 2.0))
     assert command_key("", 1.0) == "" and command_key("a", float("nan")) == "a@0.000000"
 
@@ -141,7 +131,7 @@ def test_a_restarted_navigation_resumes_its_leg_and_sends_the_goal_again(faculty
     bus.run("Tartalo", actions)
     bus.finish_move("Tartalo")
     bus.pump()
-    assert bus.phases("Tartalo", uid) == [ACCEPTED, ON_THE_WAY, GO_TO_FLOOR]
+    assert bus.phases("Tartalo", uid) == [Phase.ACCEPTED, Phase.ON_THE_WAY, Phase.GO_TO_FLOOR]
 
 
 def test_a_navigation_restarted_while_waiting_does_not_move_and_takes_the_replayed_continue_once(faculty) -> None:
@@ -152,7 +142,7 @@ def test_a_navigation_restarted_while_waiting_does_not_move_and_takes_the_replay
     bus.finish_move("MariSorgin")
     bus.finish_move("Tartalo")
     bus.pump()
-    assert bus.phases("MariSorgin", uid)[-1] == WAITING_VISITOR
+    assert bus.phases("MariSorgin", uid)[-1] == Phase.WAITING_VISITOR
     nav = restart_navigation(bus, "MariSorgin")
     assert not any(isinstance(a, MoveTo) for a in nav.tick(bus.now_ros, bus.now_wall))
     key = command_key("MariSorgin/v/cmd/1", 200.0)
@@ -215,7 +205,7 @@ def test_state_file_unwritable_is_reported_not_raised(tmp_path: Path) -> None:
 
 
 def test_continue_command_key_in_the_node_matches_the_core() -> None:
-    cmd = CommandData(command=CONTINUE, uid="R/v/cmd/3", stamp=7.25)
+    cmd = CommandData(command=Cmd.CONTINUE, uid="R/v/cmd/3", stamp=7.25)
     assert cmd.key == command_key("R/v/cmd/3", 7.25)
 
 
@@ -225,7 +215,7 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     from guiding_support import catalog_of
 
     from gidabot_navigation.guiding.messages import NavEventData
-    from gidabot_navigation.interface import TOUR_STEP_DONE
+    from gidabot_navigation.interface import Phase
 
     tour = tmp_path / "two.tour"
     tour.write_text("Tour: Two\n0, 008, A\n0, 014, B\n", encoding="utf-8")
@@ -234,18 +224,18 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     bus.status_all()
     bus.start_tour("Tartalo", "two.tour")
     first = bus.goals[0].uid
-    assert bus.phases("Tartalo", first)[-1] == ON_THE_WAY
+    assert bus.phases("Tartalo", first)[-1] == Phase.ON_THE_WAY
     gm = restart_goal_manager(bus, "Tartalo")
     gm.on_catalog(catalog)
-    meeting = CommandData(command=CONTINUE, uid="Tartalo/v/cmd/8", visitor_id="v", goal_uid=first, stamp=150.0)
+    meeting = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/8", visitor_id="v", goal_uid=first, stamp=150.0)
     assert gm.on_command(meeting, bus.now_ros, bus.now_wall) == []        # pressed before the step was done
     done = NavEventData(uid="Tartalo/event/nav.x.9", robot="Tartalo", floor=0.0, goal_uid=first,
-                        phase=TOUR_STEP_DONE, tour_file="two.tour", tour_step=0, stamp=200.0)
+                        phase=Phase.TOUR_STEP_DONE, tour_file="two.tour", tour_step=0, stamp=200.0)
     gm_copy = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t4")
     gm_copy.load_state(roundtrip(gm.state()))
     gm_copy.on_catalog(catalog)
     assert gm_copy.on_nav_event(done, bus.now_ros, bus.now_wall) == []    # not a Continue after the step
-    cont = CommandData(command=CONTINUE, uid="Tartalo/v/cmd/9", visitor_id="v", goal_uid=first, stamp=203.0)
+    cont = CommandData(command=Cmd.CONTINUE, uid="Tartalo/v/cmd/9", visitor_id="v", goal_uid=first, stamp=203.0)
     assert gm.on_command(cont, bus.now_ros, bus.now_wall) == []           # the step is not done yet here
     gm2 = GoalManagerCore(faculty, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="t3")
     gm2.load_state(roundtrip(gm.state()))                                  # and it survives another restart
@@ -255,7 +245,7 @@ def test_a_tour_continue_replayed_before_its_step_done_is_kept_until_the_step_is
     assert goal.tour_step == 1 and gm2.stats["early_continues"] == 1
 
 
-# ---------------------------------------------------------------- when the state is written (issue 19.7)
+# ---------------------------------------------------------------- when the state is written
 class _Monotonic:
     def __init__(self) -> None:
         self.t = 0.0
@@ -280,9 +270,10 @@ def _hostile(faculty, n: int) -> list[tuple[str, object]]:
             ("goal", replace(good, uid=f"Kbot/x/{i}", goal_id="nowhere")),                   # unknown location
             ("goal", replace(good, uid=f"Mallory/x/{i}", origin_robot="Mallory")),          # not a robot
             ("cancel", CancelData(f"Kbot/cancel/{i}", good.uid, "Mallory", "visitor")),      # not a robot
-            ("event", NavEventData(uid=f"Kbot/event/{i}", robot="Mallory", floor=1.0, goal_uid="x", phase=ACCEPTED)),
+            ("event", NavEventData(uid=f"Kbot/event/{i}", robot="Mallory", floor=1.0, goal_uid="x",
+                                   phase=Phase.ACCEPTED)),
             ("command", CommandData(command=99, uid=f"Kbot/v/cmd/{i}", stamp=float(i))),   # unknown command
-            ("command", CommandData(command=REQUEST, uid=f"Kbot/v/cmd/r{i}", goal_id="../x", stamp=float(i))),
+            ("command", CommandData(command=Cmd.REQUEST, uid=f"Kbot/v/cmd/r{i}", goal_id="../x", stamp=float(i))),
         ]
     return out
 
@@ -291,7 +282,7 @@ def _feed(gm: GoalManagerCore, sf: StateFile, kind: str, msg: object, now: float
     """What GoalManagerNode does with one input: the core's answer, committed (REJECTED answers are not kept)."""
     actions = {"goal": gm.on_goal, "cancel": gm.on_cancel, "event": gm.on_nav_event,
                "command": gm.on_command}[kind](msg, 100.0, now)
-    durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == REJECTED)]
+    durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
     sf.commit(gm.state, actions, durable, lambda _a: None, changed=True)
     return actions
 
@@ -335,7 +326,7 @@ def test_state_changes_are_written_before_publishing_or_within_the_soft_interval
     for i in range(1000):
         mono.t = 0.1 + i * 0.001
         ev = NavEventData(uid=f"MariSorgin/event/flood.{i}", robot="MariSorgin", floor=3.0, goal_uid=f"M/v/{i}",
-                          phase=ACCEPTED, leg=LEG_GOAL)
+                          phase=Phase.ACCEPTED, leg=LEG_GOAL)
         sf.commit(gm.state, gm.on_nav_event(ev, 100.0, mono.t), [], lambda _a: None, changed=True)
     assert sf.saves - saves <= 2                         # one write per soft interval at most
     mono.t += 1.0

@@ -21,15 +21,7 @@ from gidabot_navigation.guiding.trips import (
     rank_candidates,
     role,
 )
-from gidabot_navigation.interface import (
-    GOING_TO_MEETING,
-    LEG_COMMITTED,
-    LEG_GOAL,
-    LEG_NONE,
-    LEG_START,
-    ON_THE_WAY,
-    WAITING_VISITOR,
-)
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_START, Phase
 
 
 def trip(faculty, a: float, goal_id: str, way: str = "stairs", connector: str = "stairs_west",
@@ -147,7 +139,7 @@ def test_estimates_grow_along_the_queue(faculty, planner) -> None:
     assert eta[0] == pytest.approx(first, abs=0.1)
     assert eta[1] > eta[0]
     # guiding already: only the rest of the way from the current pose
-    head = HeadProgress("a", ON_THE_WAY, 0.0)
+    head = HeadProgress("a", Phase.ON_THE_WAY, 0.0)
     near = estimate_queue(planner, m, robot, (10.0, 12.0), [same], head, {}, 0.0).eta
     assert near[0] < eta[0]
 
@@ -159,14 +151,14 @@ def test_goal_floor_estimate_waits_for_the_visitor(faculty, planner) -> None:
     not_released = estimate_queue(planner, m, mari, (30.0, 12.0), [up], None, {}, 100.0).eta[0]
     walk = m.walk_time("stairs", 0, 3)
     assert not_released > walk + m.continue_s
-    released = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", WAITING_VISITOR, 90.0),
+    released = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", Phase.WAITING_VISITOR, 90.0),
                               {"b": 100.0}, 100.0).eta[0]
     to_goal = planner.leg_length(3, (4.4, 12.0), (up.goal_x, up.goal_y)) / (mari.max_linear * m.speed_factor)
     assert released == pytest.approx(walk + m.continue_s + to_goal, abs=0.2)
-    later = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", WAITING_VISITOR, 90.0),
+    later = estimate_queue(planner, m, mari, (4.4, 12.0), [up], HeadProgress("b", Phase.WAITING_VISITOR, 90.0),
                            {"b": 100.0}, 100.0 + walk + 30).eta[0]
     assert later == pytest.approx(m.continue_s + to_goal, abs=0.2)
-    driving = estimate_queue(planner, m, mari, (30.0, 12.0), [up], HeadProgress("b", GOING_TO_MEETING, 90.0),
+    driving = estimate_queue(planner, m, mari, (30.0, 12.0), [up], HeadProgress("b", Phase.GOING_TO_MEETING, 90.0),
                              {}, 100.0).eta[0]
     assert driving > 0
 

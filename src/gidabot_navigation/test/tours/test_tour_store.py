@@ -131,6 +131,25 @@ def test_admin_cannot_create_over_a_file_the_store_does_not_own(store, tmp_path)
     assert (tmp_path / "tours" / "stray.tour").read_bytes() == b"by hand"
 
 
+def test_an_admin_action_is_answered_and_shared_or_refused(store, tmp_path, log, monkeypatch) -> None:
+    result, shared = store.admin_edit(tour_msg("visit.tour", VISIT, uid="Galtxagorri/gui/tour-edit/1"))
+    assert (result.uid, result.file_name, result.ok, result.version, result.reason) == (
+        "Galtxagorri/gui/tour-edit/1", "visit.tour", True, store.get("visit.tour").version, "")
+    assert shared is not None and shared.file_name == "visit.tour" and shared.uid.startswith("Galtxagorri/tour/")
+    assert [t.file_name for t in store.catalog_data().tours] == [r.file_name for r in store.catalog()]
+    assert store.index_data().entries == tuple(store.index()) and store.index_data().robot == "Galtxagorri"
+    result, shared = store.admin_edit(tour_msg("gone.tour", [], deleted=True, uid="Galtxagorri/gui/tour-edit/2"))
+    assert (result.ok, result.deleted, result.reason, shared) == (False, True, "unknown", None)
+    assert any("admin delete of tour 'gone.tour' refused" in line for _level, line in log.lines)
+
+    def full(*_a, **_k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(SafeDir, "write_atomic", full)
+    result, shared = store.admin_edit(tour_msg("other.tour", VISIT))
+    assert (result.ok, result.reason, shared) == (False, "io", None) and "No space left" in result.error
+
+
 def test_metadata_write_failure_changes_nothing(store, tmp_path, monkeypatch) -> None:
     before = snapshot(tmp_path / "tours", hidden=True)
 
@@ -203,7 +222,7 @@ def test_own_messages_round_trip(store, faculty, tmp_path) -> None:
     other.close()
 
 
-# ---------------------------------------------------------------- tours as people write them (issue 19.2)
+# ---------------------------------------------------------------- tours as people write them
 VARIANT_GOALS = [" 0 ,014,  Computer Technicians 1 ", "1.0,101,Secretary's Office\t", "3.00 , 305 , RSAIT Lab"]
 VARIANTS = [  # the same tour as VISIT_TEXT, written by a text editor or a phone
     VISIT_TEXT.replace(b"\n", b"\r\n"),

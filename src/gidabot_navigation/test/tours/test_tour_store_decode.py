@@ -7,7 +7,8 @@ import io
 import pytest
 
 from gidabot_msgs.msg import Tour, TourIndex
-from gidabot_navigation.tours.tour_store_node import decode, to_core, to_ros
+from gidabot_navigation.ros.convert import tour_from_msg, tour_to_msg
+from gidabot_navigation.tours.tour_store_node import decode
 
 
 def raw(msg) -> bytes:
@@ -30,7 +31,7 @@ def to_ros_plain(**fields) -> Tour:
 def test_round_trip() -> None:
     data = raw(sample())
     msg = decode(Tour, data)
-    core = to_core(msg)
+    core = tour_from_msg(msg)
     assert core.file_name == "visit.tour" and core.tour_goals_info == ("0, 014, Técnicos",) and core.version == 7
 
 
@@ -58,9 +59,7 @@ def test_index_length_prefix_lies() -> None:
 
 
 def test_to_ros_needs_no_master() -> None:
-    import rospy
-
     from gidabot_navigation.tours.tour_store import TourMessage
 
-    msg = to_ros(TourMessage(file_name="x.tour", tour_goals_info=("0, 014, Lab",), version=3), rospy.Time(5))
-    assert msg.tour_goals_info == ["0, 014, Lab"] and msg.version == 3
+    msg = tour_to_msg(TourMessage(file_name="x.tour", tour_goals_info=("0, 014, Lab",), version=3, stamp=5.0))
+    assert msg.tour_goals_info == ["0, 014, Lab"] and msg.version == 3 and msg.header.stamp.to_sec() == 5.0

@@ -10,7 +10,16 @@ import pytest
 
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.messages import Trip
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Node, global_name, relay_end_name
+from gidabot_navigation.interface import (
+    LEG_COMMITTED,
+    LEG_NONE,
+    LEG_PROPOSED,
+    Node,
+    Phase,
+    RobotState,
+    global_name,
+    relay_end_name,
+)
 from gidabot_sim.demo.progress import Progress, Visit, stops_done
 
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
@@ -101,7 +110,7 @@ def test_single_target_done(faculty) -> None:
     p = Progress(total_goals=1, visit=Visit(faculty, "Tartalo", goal_id="101", start_floor=0.0))
     g = goal(faculty, "Tartalo/sim-visitor/c.1", "Tartalo", "101", tour="")
     p.feed_line(json.dumps(g))
-    p.feed_line(line(kind="status", robot="Kbot", state="idle"))
+    p.feed_line(line(kind="status", robot="Kbot", state=RobotState.IDLE))
     p.feed_line(event("Kbot", 2, g["uid"], 50, 5))
     assert p.finished and p.outcome == "completed" and p.states == {"Kbot": "idle"}
 
@@ -139,7 +148,7 @@ def test_stops_found_alone_count_as_done(faculty3) -> None:
     for k, goal_id, phase in ((3, "113", 13), (4, "223", 7), (6, "301", 13), (7, "305", 14)):
         g = goal(faculty3, f"Kbot/sim-visitor/g{k}", "Kbot", goal_id, k, sim=k, wall=k)
         p.feed_line(json.dumps(g))
-        robot = "Kbot" if phase in (7, 13) and k < 6 else "MariSorgin"
+        robot = "Kbot" if phase in (Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_STEP_DONE) and k < 6 else "MariSorgin"
         p.feed_line(event(robot, phase, g["uid"], k, k))
     assert p.done == 5 and p.finished and p.outcome == "completed"      # steps 3..7 (5: found alone)
 

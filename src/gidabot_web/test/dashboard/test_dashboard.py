@@ -20,12 +20,12 @@ from dashboard_support import (
     status,
 )
 
-from gidabot_gui.core.model import PoseData
-from gidabot_navigation.guiding.messages import StaffCommandData
-from gidabot_navigation.interface import REASON_ADMIN, Phase, StaffCmd
+from gidabot_navigation.guiding.messages import PoseData, StaffCommandData
+from gidabot_navigation.interface import REASON_ADMIN, Phase, RobotState, StaffCmd
 from gidabot_navigation.relay.links import LinkData, LinkSummaryData
 from gidabot_navigation.tours.tour_store import TourMessage
-from gidabot_web.dashboard.dashboard import AlertKind, DashboardRefusal, Liveness, Section
+from gidabot_web.dashboard.dashboard import AlertKind, Liveness, Section
+from gidabot_web.errors import Refused
 
 ROBOTS = ("Tartalo", "Kbot", "Galtxagorri", "MariSorgin")
 
@@ -46,12 +46,12 @@ def alerts(core, kind: AlertKind | None = None) -> list:
 # ------------------------------------------------------------------ robots
 def test_robots_from_statuses_poses_and_queues(faculty, tmp_path: Path) -> None:
     core = make_core(faculty, tmp_path)
-    core.on_status(status(faculty, "Galtxagorri", battery=0.5, state="guiding", x=20.0, y=12.0, current="T/v/1"),
-                   "Galtxagorri", 1.0)
+    guiding = status(faculty, "Galtxagorri", battery=0.5, state=RobotState.GUIDING, x=20.0, y=12.0, current="T/v/1")
+    core.on_status(guiding, "Galtxagorri", 1.0)
     core.on_pose(PoseData("Galtxagorri", 2.0, 21.0, 12.5, 1.0), "Galtxagorri", 1.2)
     trip = cross_trip()
     core.on_goal(trip, "Tartalo", 1.3)
-    core.on_pending(*pending("MariSorgin", 3.0, trip), "MariSorgin", 1.4)
+    core.on_pending(pending("MariSorgin", 3.0, trip), "MariSorgin", 1.4)
     core.step(1.5, WALL0 + 1.5)
     robots = {r["name"]: r for r in section(core, Section.ROBOTS)}
     g = robots["Galtxagorri"]
@@ -140,9 +140,9 @@ def test_occurrences_are_deduplicated_per_trip_until_acknowledged(faculty, tmp_p
     core.on_event(event("Kbot", Phase.UNREACHABLE, other.uid, location_id="113"), "Kbot", 3.5)
     [u] = alerts(core, AlertKind.GOAL_UNREACHABLE)
     assert u.params == {"robot": "Kbot", "place": "113", "trip": other.uid}
-    with pytest.raises(DashboardRefusal):
+    with pytest.raises(Refused):
         core.ack_alert(999, "ana", 4.0)
-    with pytest.raises(DashboardRefusal):
+    with pytest.raises(Refused):
         core.ack_alert(True, "ana", 4.0)
 
 
@@ -231,27 +231,27 @@ def test_a_staff_cancel_is_confirmed_when_every_robot_involved_dropped_it(facult
     core = make_core(faculty, tmp_path)
     trip = cross_trip()
     core.on_goal(trip, "Tartalo", 1.0)
-    core.on_pending(*pending("Tartalo", 0.0, trip), "Tartalo", 1.1)
-    core.on_pending(*pending("MariSorgin", 3.0, trip), "MariSorgin", 1.2)
+    core.on_pending(pending("Tartalo", 0.0, trip), "Tartalo", 1.1)
+    core.on_pending(pending("MariSorgin", 3.0, trip), "MariSorgin", 1.2)
     c = core.cancel_trip(trip.uid, "ana", 2.0)
     assert (c.goal_uid, c.origin_robot, c.reason) == (trip.uid, "Kbot", REASON_ADMIN) and c.uid.startswith("Kbot/")
-    with pytest.raises(DashboardRefusal) as twice:
+    with pytest.raises(Refused) as twice:
         core.cancel_trip(trip.uid, "ana", 2.1)
     assert twice.value.status == 409
     [t] = section(core, Section.TRIPS)
     assert t["cancel"] == {"user": "ana", "waiting": ["MariSorgin", "Tartalo"], "dropped": [], "confirmed": False}
     core.on_event(event("MariSorgin", Phase.CANCELLED_ELSEWHERE, trip.uid, leg="goal"), "MariSorgin", 2.5)
-    core.on_pending(*pending("Tartalo", 0.0, trip), "Tartalo", 2.6)         # not dropped yet
+    core.on_pending(pending("Tartalo", 0.0, trip), "Tartalo", 2.6)         # not dropped yet
     assert core.trips[trip.uid].cancel.waiting == {"Tartalo"} and not core.trips[trip.uid].cancel.confirmed
     assert core.trips[trip.uid].outcome == "cancelled"           # the history's outcome: the first cancel event
-    core.on_pending(*pending("Tartalo", 0.0), "Tartalo", 3.0)                # its queue without the trip
+    core.on_pending(pending("Tartalo", 0.0), "Tartalo", 3.0)                # its queue without the trip
     [t] = section(core, Section.TRIPS)
     assert t["cancel"]["confirmed"] and t["cancel"]["dropped"] == ["MariSorgin", "Tartalo"]
     assert t["outcome"] == "cancelled"
-    with pytest.raises(DashboardRefusal) as over:
+    with pytest.raises(Refused) as over:
         core.cancel_trip(trip.uid, "ana", 4.0)
     assert over.value.status == 409
-    with pytest.raises(DashboardRefusal) as unknown:
+    with pytest.raises(Refused) as unknown:
         core.cancel_trip("Kbot/nobody/gm.x.1", "ana", 4.0)
     assert unknown.value.status == 404
 
@@ -280,9 +280,9 @@ def test_the_staff_command_with_the_largest_version_is_in_force(faculty, tmp_pat
     assert not core.out_of_service("Tartalo")
     again = core.set_service("Tartalo", True, "ana", "", 4.0)
     assert again.version == ahead + 1                 # larger than every version known for Tartalo
-    with pytest.raises(DashboardRefusal):
+    with pytest.raises(Refused):
         core.set_service("Nobody", True, "ana", "", 5.0)
-    with pytest.raises(DashboardRefusal):
+    with pytest.raises(Refused):
         core.set_service("Kbot", True, "ana", "x\x00y", 5.0)
     core.step(6.0, WALL0 + 6.0)
     core.history.close()

@@ -1,25 +1,29 @@
 """Data the GUI receives and sends (ROS-free), and the live state of every robot.
 
-The ROS adapter converts messages to these plain records (and back), so the
-core, the widgets and their tests need no master. NavEvents and visitor commands
-use the guiding nodes' forms (:class:`~gidabot_navigation.guiding.messages.NavEventData`,
-:class:`~gidabot_navigation.guiding.messages.CommandData`). :class:`Fleet` keeps the
-latest status, pose and pending list of every robot of the building and decides
-which robots are offline, in WALL time (monotonic seconds passed in): liveness
-is a network property, a starved CPU at 10x sim speed must not hide robots.
+The messages the GUI shares with the robots' nodes have their forms in gidabot_navigation
+(:mod:`gidabot_navigation.guiding.messages`: statuses, poses, pending lists, NavEvents, visitor commands;
+:mod:`gidabot_navigation.tours.tour_store`: tours, catalogs, edit results), converted to and from ROS
+messages by :mod:`gidabot_navigation.ros.convert`. Here: what only the GUI needs of them
+(:func:`bounded`: received text cut to what the screen shows; :class:`TourInfo`: a catalog's tour read
+like a tour file), the GUI's own outputs (:class:`InitialPose`, :class:`TourEdit`) and where they go
+(:class:`Outputs`), and :class:`Fleet`, which keeps the latest status, pose and pending list of every
+robot of the building and decides which robots are offline, in WALL time (monotonic seconds passed in):
+liveness is a network property, a starved CPU at 10x sim speed must not hide robots.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import Protocol
+from dataclasses import dataclass, field, fields, replace
+from typing import Protocol, TypeVar
 
 from gidabot_navigation.building.model import Building, Robot
-from gidabot_navigation.errors import GoalRejected
-from gidabot_navigation.guiding.messages import CommandData, Trip, validate_trip
+from gidabot_navigation.errors import GoalRejected, TourError, TourNameError
+from gidabot_navigation.guiding.messages import CommandData, PendingData, PoseData, RobotStatusData, validate_trip
 from gidabot_navigation.guiding.trips import RobotView, TripPlanner
+from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 from gidabot_navigation.tours.tour_file import Tour as TourFile
+from gidabot_navigation.tours.tour_store import TourMessage
 
 MAX_TEXT = 256          # longer strings from other nodes are cut (hostile or broken input)
 OFFLINE_AFTER = 5.0     # s (wall) without a status before a robot is shown offline
@@ -36,47 +40,28 @@ def finite(*values: float) -> bool:
     return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
 
 
+# longest text kept of a received field (others: MAX_TEXT), and of a received list
+TEXT_LIMITS = {"robot": 64, "state": 32, "language": 8, "way": 16, "connector": 64, "location_id": 64,
+               "tour_file": 64, "leg": 8, "assignee": 64, "file_name": 64, "reason": 32, "error": 400, "detail": 400}
+MAX_ITEMS = 256
+
+R = TypeVar("R")
+
+
+def bounded(record: R) -> R:
+    """A received record (a dataclass of gidabot_navigation's message forms) as the GUI keeps it: every text
+    field :func:`clip`-ped to its :data:`TEXT_LIMITS`, every list cut to :data:`MAX_ITEMS`."""
+    changes: dict[str, object] = {}
+    for f in fields(record):  # type: ignore[arg-type]
+        value = getattr(record, f.name)
+        if isinstance(value, str):
+            changes[f.name] = clip(value, TEXT_LIMITS.get(f.name, MAX_TEXT))
+        elif isinstance(value, tuple):
+            changes[f.name] = value[:MAX_ITEMS]
+    return replace(record, **changes)  # type: ignore[type-var]
+
+
 # ---------------------------------------------------------------- inputs
-@dataclass(frozen=True)
-class RobotStatusData:
-    """gidabot_msgs/RobotStatus."""
-
-    robot: str
-    floor: float
-    x: float
-    y: float
-    yaw: float
-    linear: float           # m/s
-    angular: float          # rad/s
-    battery: float          # 0..1
-    state: str
-    pending: int
-    current_goal_uid: str = ""
-    busy_for: float = 0.0   # s
-
-
-@dataclass(frozen=True)
-class PoseData:
-    """gidabot_msgs/NavPose."""
-
-    robot: str
-    floor: float
-    x: float
-    y: float
-    yaw: float
-
-
-@dataclass(frozen=True)
-class PendingData:
-    """gidabot_msgs/PendingRequests (what the GUI needs of it)."""
-
-    robot: str
-    floor: float
-    num: int
-    wait_new: float         # s before this robot could start a new request
-    goals: tuple[Trip, ...] = ()   # its queue (who serves which leg: where it will be when done)
-
-
 @dataclass(frozen=True)
 class TourInfo:
     """One tour of gidabot_msgs/TourCatalog."""
@@ -100,17 +85,15 @@ class TourInfo:
         return seen
 
 
-@dataclass(frozen=True)
-class EditResultData:
-    """gidabot_msgs/TourEditResult."""
-
-    uid: str
-    file_name: str
-    deleted: bool
-    ok: bool
-    version: int = 0
-    reason: str = ""
-    error: str = ""
+def tour_info(t: TourMessage) -> TourInfo | None:
+    """A catalog's tour, its goal lines read exactly as a tour file's (``tour_file.tour_from_lines``: spacing and
+    floors such as ``0.0`` tolerated), or None if they are malformed (the store validated them already)."""
+    try:
+        tour = tour_from_lines(t.file_name, t.tour_name.strip(), list(t.tour_goals_info[:MAX_GOALS]))
+    except (TourError, TourNameError):
+        return None
+    return TourInfo(tour.file_name, clip(t.tour_name, 80), clip(t.language, 8),
+                    tuple((g.floor, g.room, g.description) for g in tour.goals))
 
 
 # ---------------------------------------------------------------- outputs
@@ -135,6 +118,12 @@ class TourEdit:
     floor: float
     goal_lines: tuple[str, ...]
     deleted: bool = False
+
+    def message(self, robot: str, stamp: float) -> TourMessage:
+        """The edit as the tour store reads it (``robot``: this GUI's; the store gives the version)."""
+        return TourMessage(uid=self.uid, origin_robot=robot, editor_robot=robot, deleted=self.deleted,
+                           language=self.language, floor=self.floor, tour_name=self.tour_name,
+                           file_name=self.file_name, tour_goals_info=self.goal_lines, stamp=stamp)
 
 
 class Outputs(Protocol):
@@ -216,7 +205,7 @@ class Fleet:
                 goals.append(validate_trip(self.building, trip))
             except GoalRejected as err:
                 self._reject(f"pending goal of {p.robot}: {err}")
-        live.pending = PendingData(p.robot, p.floor, p.num, p.wait_new, tuple(goals))
+        live.pending = replace(p, goals=tuple(goals))
         live.pending_at = now
         return True
 

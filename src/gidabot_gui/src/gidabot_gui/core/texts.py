@@ -19,7 +19,7 @@ from gidabot_gui.core.places import floor_name, place_name
 from gidabot_gui.core.plans import RequestPlan, RobotWait
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.guiding.messages import NavEventData
-from gidabot_navigation.interface import LEG_GOAL, WAY_LIFT, Phase
+from gidabot_navigation.interface import LEG_GOAL, WAY_LIFT, Phase, RobotState
 
 
 @dataclass(frozen=True)
@@ -32,12 +32,12 @@ class PopupText:
 
 
 STATE_LABELS = {
-    "idle": N_("Ready"),
-    "guiding": N_("Guiding a visitor"),
-    "to_meeting": N_("Going to meet a visitor"),
-    "waiting": N_("Waiting for a visitor"),
-    "returning": N_("Going back home"),
-    "error": N_("Navigation problem"),
+    RobotState.IDLE: N_("Ready"),
+    RobotState.GUIDING: N_("Guiding a visitor"),
+    RobotState.TO_MEETING: N_("Going to meet a visitor"),
+    RobotState.WAITING: N_("Waiting for a visitor"),
+    RobotState.RETURNING: N_("Going back home"),
+    RobotState.ERROR: N_("Navigation problem"),
 }
 
 

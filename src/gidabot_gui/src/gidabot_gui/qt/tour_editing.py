@@ -13,12 +13,13 @@ from collections.abc import Callable
 from typing import Protocol, runtime_checkable
 
 from gidabot_gui.core.admin import TourDraft, delete_edit
-from gidabot_gui.core.model import EditResultData, TourEdit, TourInfo
+from gidabot_gui.core.model import TourEdit, TourInfo
 from gidabot_gui.errors import TourEditError
 from gidabot_gui.qt.editor import TourEditor
 from gidabot_gui.qt.overlay import Button, CardSpec
 from gidabot_gui.qt.screen import Popups, Services
 from gidabot_navigation.building.model import Building
+from gidabot_navigation.tours.tour_store import EditResultData
 
 EDIT_RESULT_TIMEOUT = 8.0   # s (wall) to wait for tour_store/edit_result
 

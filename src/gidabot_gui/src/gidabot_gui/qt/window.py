@@ -46,15 +46,7 @@ from gidabot_gui.core.admin import PasswordCheck
 from gidabot_gui.core.flow import Mode, VisitorFlow
 from gidabot_gui.core.i18n import LANGUAGE_NAMES, Translator
 from gidabot_gui.core.inbox import Drained, Inbox
-from gidabot_gui.core.model import (
-    EditResultData,
-    Fleet,
-    Outputs,
-    PendingData,
-    PoseData,
-    RobotStatusData,
-    TourInfo,
-)
+from gidabot_gui.core.model import Fleet, Outputs, TourInfo
 from gidabot_gui.core.status_texts import here_line, mark_label, robot_card, trip_line
 from gidabot_gui.core.texts import Texts
 from gidabot_gui.qt.admin_mode import AdminController
@@ -67,11 +59,12 @@ from gidabot_gui.qt.tour_editing import TourEditController
 from gidabot_gui.qt.visitor import VisitorController
 from gidabot_gui.qt.widgets import FitLabel, WrapButton, equalize_fonts
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import NavEventData
-from gidabot_navigation.interface import LANGUAGES
+from gidabot_navigation.guiding.messages import NavEventData, PendingData, PoseData, RobotStatusData
+from gidabot_navigation.interface import LANGUAGES, RobotState
+from gidabot_navigation.tours.tour_store import EditResultData
 
-STATE_COLORS = {"idle": "#2E7D32", "guiding": OTHER_ROBOT, "to_meeting": OTHER_ROBOT, "waiting": ACCENT,
-                "returning": OTHER_ROBOT, "error": DANGER}
+STATE_COLORS = {RobotState.IDLE: "#2E7D32", RobotState.GUIDING: OTHER_ROBOT, RobotState.TO_MEETING: OTHER_ROBOT,
+                RobotState.WAITING: ACCENT, RobotState.RETURNING: OTHER_ROBOT, RobotState.ERROR: DANGER}
 
 
 class NavBar(QFrame):

@@ -48,15 +48,13 @@ from gidabot_navigation.guiding.messages import NavEventData, SeenSet, Trip
 from gidabot_navigation.guiding.state import GuidingStateError, number, str_list, trip_from_dict, trip_to_dict
 from gidabot_navigation.guiding.trips import Candidate, leg_floor
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    DECLINED,
     FINAL_PHASES,
     LEG_COMMITTED,
     LEG_NONE,
     LEG_PROPOSED,
     LEGS,
     SERVING_PHASES,
+    Phase,
 )
 
 
@@ -419,16 +417,16 @@ def audit_legs(goals: Iterable[Trip], events: Iterable[NavEventData]) -> LegAudi
     for ev in events:
         if not ev.goal_uid:
             continue
-        if ev.phase in FINAL_PHASES and ev.phase != DECLINED:
+        if ev.phase in FINAL_PHASES and ev.phase != Phase.DECLINED:
             ended.add(ev.goal_uid)
         if ev.leg not in LEGS:
             continue
         rec = legs.setdefault((ev.goal_uid, ev.leg), LegRecord())
-        if ev.phase == ASSIGNED:
+        if ev.phase == Phase.ASSIGNED:
             rec.assigned.add(ev.assignee)
-        elif ev.phase == ACCEPTED:
+        elif ev.phase == Phase.ACCEPTED:
             rec.accepted.add(ev.robot)
-        elif ev.phase == DECLINED:
+        elif ev.phase == Phase.DECLINED:
             rec.declined.add(ev.robot)
         elif ev.phase in SERVING_PHASES:
             rec.served.add(ev.robot)

@@ -45,6 +45,7 @@ from gidabot_navigation.guiding.messages import (
     CommandData,
     Counters,
     NavEventData,
+    PendingData,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -65,7 +66,7 @@ from gidabot_navigation.guiding.state import (
     trip_from_dict,
     trip_to_dict,
 )
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, TourWait, TourWaits, next_robot_stop
+from gidabot_navigation.guiding.tour_mode import TourBook, TourWait, TourWaits, next_robot_stop
 from gidabot_navigation.guiding.trips import (
     Candidate,
     HeadProgress,
@@ -79,39 +80,25 @@ from gidabot_navigation.guiding.trips import (
     rendezvous_eta,
 )
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCEL,
-    CANCELLED_HERE,
-    CONTINUE,
-    DECLINED,
     DEFAULT_LANGUAGE,
-    GOING_TO_MEETING,
     LANGUAGES,
     LEG_COMMITTED,
     LEG_PROPOSED,
     LEG_START,
-    NO_ROBOT_ON_FLOOR,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     REASON_ADMIN,
     REASON_OFFLINE,
     REASON_VISITOR,
-    REJECTED,
     RELEASE_PHASES,
-    REQUEST,
-    START_TOUR,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
     WAY_STAIRS,
     WAYS,
+    Cmd,
+    Phase,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.tours.tour_file import MAX_GOALS
+from gidabot_navigation.tours.tour_store import TourMessage
 
-PROGRESS_PHASES = (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR)
+PROGRESS_PHASES = (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING, Phase.WAITING_VISITOR)
 
 
 @dataclass(frozen=True)
@@ -130,18 +117,6 @@ class GoalManagerConfig:
     catalog_wait: float = 10.0
     wait: WaitModel = field(default_factory=WaitModel)
     assign: AssignConfig = field(default_factory=AssignConfig)
-
-
-@dataclass(frozen=True)
-class PendingSnapshot:
-    """The content of this robot's /gidabot/pending."""
-
-    robot: str
-    floor: float
-    goals: tuple[Trip, ...]
-    eta: tuple[float, ...]     # s from now until each goal is finished by this robot
-    wait_new: float            # s before this robot could start a new request
-    stamp: float               # s, ROS time of the estimate
 
 
 class GoalManagerCore:
@@ -225,7 +200,7 @@ class GoalManagerCore:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = (float(x), float(y), float(yaw))
 
-    def on_catalog(self, entries: Iterable[CatalogEntry], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
+    def on_catalog(self, entries: Iterable[TourMessage], now_ros: float = 0.0, now_wall: float = 0.0) -> list[Action]:
         """The tour store's catalog changed; the tour commands that waited for the first one are carried out."""
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
@@ -251,7 +226,8 @@ class GoalManagerCore:
                 actions += self._tour_goes_on(item, now_ros, now_wall)
                 continue
             done = self._command(item, now_ros, now_wall)
-            if item.key and not (done and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in done)):
+            if item.key and not (done and all(isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED
+                                              for a in done)):
                 self._commands_seen.add(item.key)
             actions += done
         return actions
@@ -268,25 +244,25 @@ class GoalManagerCore:
         except GoalRejected as err:           # refused before anything is remembered: it changes no state
             self._count_rejection(err)
             self.warn.warning("command", f"visitor command refused: {err}")
-            return [self._event(REJECTED, None, now_ros, detail=f"command refused: {err}")]
+            return [self._event(Phase.REJECTED, None, now_ros, detail=f"command refused: {err}")]
         waiting = len(self._awaiting_catalog)
         actions = self._command(cmd, now_ros, now_wall)
         if len(self._awaiting_catalog) > waiting:
             return actions                    # waits for the catalog: remembered once carried out
-        if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == REJECTED for a in actions)):
+        if key and not (actions and all(isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED for a in actions)):
             self._commands_seen.add(key)      # a refused command is not remembered: it changes no state
         return actions
 
     def _command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
-        if cmd.command == REQUEST:
+        if cmd.command == Cmd.REQUEST:
             if not cmd.goal_id:
-                return [self._event(REJECTED, None, now_ros, detail="request without a goal_id")]
+                return [self._event(Phase.REJECTED, None, now_ros, detail="request without a goal_id")]
             return self._issue(cmd.goal_id, cmd.way, cmd.language, cmd.visitor_id, "", -1, now_ros, now_wall)
-        if cmd.command == CONTINUE:
+        if cmd.command == Cmd.CONTINUE:
             return self._continue(cmd, now_ros, now_wall)
-        if cmd.command == CANCEL:
+        if cmd.command == Cmd.CANCEL:
             return self._cancel_command(cmd, now_ros)
-        if cmd.command == START_TOUR:
+        if cmd.command == Cmd.START_TOUR:
             return self._start_tour(cmd, now_ros, now_wall)
         return self._skip(cmd, now_ros, now_wall)
 
@@ -302,7 +278,7 @@ class GoalManagerCore:
             self._count_rejection(err)
             self.warn.warning("goal", f"goal {uid[:80]!r} from {str(trip.origin_robot)[:40]!r} rejected: {err}")
             if trip.origin_robot == self.me:
-                return [self._event(REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
+                return [self._event(Phase.REJECTED, None, now_ros, goal_uid=uid, detail=f"goal rejected: {err}")]
             return []
         self._goals_seen.add(trip.uid)
         return self._on_snapshot(trip, now_ros, now_wall)
@@ -344,7 +320,7 @@ class GoalManagerCore:
                        >= self.cfg.max_queue else f"{self.me} could be there in {eta:.0f} s only "
                        f"(more than max_wait {self.cfg.assign.max_wait:g} s)")
                 self.stats.inc("declined")
-                return [self._event(DECLINED, trip, now_ros, leg=leg, detail=why)]
+                return [self._event(Phase.DECLINED, trip, now_ros, leg=leg, detail=why)]
             self.legs.first_answer(trip.uid, leg)      # accepted (an ACCEPTED per leg for a commit seen later)
             self.legs.holding(trip.uid, now_wall)
             return self._keep(trip, leg, eta, now_ros)
@@ -356,7 +332,7 @@ class GoalManagerCore:
             self._cancels_seen.add(cancel.uid)
             self._cancelled.add(trip.uid)
             self.assigner.close(trip.uid)
-            phase = REJECTED if trip.origin_robot == self.me else CANCELLED_HERE
+            phase = Phase.REJECTED if trip.origin_robot == self.me else Phase.CANCELLED_HERE
             return [SendCancel(cancel), self._event(phase, trip, now_ros, detail=f"the queue of {self.me} is full")]
         # committed here without an answer seen here (its proposal expired, or never reached this robot)
         actions = self._keep(trip, leg, self._eta_for(trip, leg, now_ros, now_wall), now_ros)
@@ -366,7 +342,7 @@ class GoalManagerCore:
         self.queue.append(trip)
         self.version += 1
         self.stats.inc("accepted")
-        return [self._event(ACCEPTED, trip, now_ros, leg=leg, eta=eta)]
+        return [self._event(Phase.ACCEPTED, trip, now_ros, leg=leg, eta=eta)]
 
     def _eta_for(self, trip: Trip, leg: str, now_ros: float, now_wall: float) -> float:
         """s until this robot could be where ``leg`` meets the visitor, after its queue."""
@@ -405,11 +381,11 @@ class GoalManagerCore:
                 for act in self._on_snapshot(out.trip, now_ros, now_wall):
                     actions.append(act)
                     ev = act.event if isinstance(act, SendEvent) else None
-                    if ev is not None and ev.phase in (ACCEPTED, DECLINED):
-                        todo += self.assigner.on_answer(ev.goal_uid, ev.leg, self.me, ev.attempt, ev.phase == ACCEPTED,
-                                                        ev.eta, ev.detail, now_wall)
+                    if ev is not None and ev.phase in (Phase.ACCEPTED, Phase.DECLINED):
+                        todo += self.assigner.on_answer(ev.goal_uid, ev.leg, self.me, ev.attempt,
+                                                        ev.phase == Phase.ACCEPTED, ev.eta, ev.detail, now_wall)
             elif isinstance(out, Assigned):
-                actions.append(self._event(ASSIGNED, out.trip, now_ros, leg=out.leg, assignee=out.robot,
+                actions.append(self._event(Phase.ASSIGNED, out.trip, now_ros, leg=out.leg, assignee=out.robot,
                                            eta=out.eta))
             elif isinstance(out, GaveUp):
                 unknown = out.trip.attempt == 0 or out.trip.uid in fresh
@@ -429,13 +405,13 @@ class GoalManagerCore:
         if unknown:
             self._pop(trip.uid)
             self._cancelled.add(trip.uid)
-            phase = REJECTED if out.leg == LEG_START else PARTNER_OFFLINE
+            phase = Phase.REJECTED if out.leg == LEG_START else Phase.PARTNER_OFFLINE
             return [self._event(phase, None, now_ros, language=trip.language, way=trip.way,
                                 location_id=trip.goal_id, target_floor=trip.goal_floor, tour_file=trip.tour_file,
                                 tour_step=trip.tour_step, detail=f"{detail}; the request was not queued")]
         cancel = self._new_cancel(trip.uid, REASON_OFFLINE, detail, now_ros)
         return [SendCancel(cancel), *self._apply_cancel(cancel, now_ros, here=True, quiet=True),
-                self._event(PARTNER_OFFLINE, trip, now_ros, leg=out.leg, detail=detail)]
+                self._event(Phase.PARTNER_OFFLINE, trip, now_ros, leg=out.leg, detail=detail)]
 
     def _heard(self, robot: str, now_wall: float) -> str:
         if robot == self.me or self.liveness.online(robot, now_wall):
@@ -467,7 +443,7 @@ class GoalManagerCore:
             self.warn.warning("event", f"nav event rejected: {err}")
             return []
         answer = bool(ev.leg) and ev.goal_uid in self.assigner    # about a leg this robot is assigning
-        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != REJECTED)
+        if not ev.goal_uid or not (ev.phase in RELEASE_PHASES or (ev.robot == self.me and ev.phase != Phase.REJECTED)
                                    or answer):
             return []        # nothing here depends on it: not even remembered, so it changes no state
         if not self._events_seen.add(ev.uid):
@@ -482,16 +458,16 @@ class GoalManagerCore:
                 self._releases.popitem(last=False)
         actions: list[Action] = []
         if answer:
-            if ev.phase in (ACCEPTED, DECLINED):
+            if ev.phase in (Phase.ACCEPTED, Phase.DECLINED):
                 actions = self._assign(self.assigner.on_answer(ev.goal_uid, ev.leg, ev.robot, ev.attempt,
-                                                               ev.phase == ACCEPTED, ev.eta, ev.detail, now_wall),
+                                                               ev.phase == Phase.ACCEPTED, ev.eta, ev.detail, now_wall),
                                        now_ros, now_wall)
             elif ev.final:
                 self.assigner.on_done(ev.goal_uid, ev.leg, ev.robot)
         if ev.robot != self.me:
             return actions
         trip = self._held(ev.goal_uid)
-        if ev.phase == TOUR_STEP_DONE and ev.tour_file:
+        if ev.phase == Phase.TOUR_STEP_DONE and ev.tour_file:
             self.waits.add(TourWait(ev.goal_uid, ev.tour_file, ev.tour_step,
                                     way=(trip.way if trip else ev.way) or self.cfg.default_way,
                                     language=trip.language if trip else ev.language,
@@ -503,10 +479,10 @@ class GoalManagerCore:
                 self.stats.inc("finished")
         elif ev.phase in PROGRESS_PHASES and trip is not None:
             self._phase[ev.goal_uid] = (ev.phase, now_ros)
-        if ev.phase == NO_ROBOT_ON_FLOOR and trip is not None and trip.tour_file:
+        if ev.phase == Phase.NO_ROBOT_ON_FLOOR and trip is not None and trip.tour_file:
             actions += self._tour_goes_on(trip, now_ros, now_wall)
         # both stamps are this robot's (its visitor's button, its navigation's event): robots' clocks may disagree
-        if early is not None and ev.phase in (TOUR_STEP_DONE, TOUR_FINISHED) and ev.robot == self.me \
+        if early is not None and ev.phase in (Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED) and ev.robot == self.me \
                 and early.stamp >= ev.stamp > 0:
             self.stats.inc("early_continues")
             return actions + self._continue(early, now_ros, now_wall)
@@ -534,6 +510,12 @@ class GoalManagerCore:
         return actions
 
     # ------------------------------------------------------------------ restarts
+    @staticmethod
+    def durable(actions: list[Action]) -> list[Action]:
+        """The actions a restarted node must still publish (kept with the state until published): all but the
+        REJECTED answers, which change no state."""
+        return [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
+
     def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
         """What a restarted goal manager needs (JSON-able): the queue, the ``remember`` most recent
         handled uids of each kind, the own navigation's progress, releases and the tour steps waiting."""
@@ -588,7 +570,7 @@ class GoalManagerCore:
         self.version += 1
 
     # ------------------------------------------------------------------ outputs
-    def pending(self, now_ros: float) -> PendingSnapshot:
+    def pending(self, now_ros: float) -> PendingData:
         """The pending list with the wait estimate (s) for /gidabot/pending."""
         head = None
         if self.queue and self.queue[0].uid in self._phase:
@@ -597,7 +579,8 @@ class GoalManagerCore:
         pos = (self.pose[0], self.pose[1]) if self.pose else None
         eta = estimate_queue(self.planner, self.cfg.wait, self.robot, pos, self.queue, head, self._releases,
                              now_ros).eta
-        return PendingSnapshot(self.me, self.robot.floor, tuple(self.queue), eta, eta[-1] if eta else 0.0, now_ros)
+        return PendingData(self.me, self.robot.floor, len(self.queue), eta[-1] if eta else 0.0, tuple(self.queue),
+                           tuple(eta), now_ros)
 
     # ------------------------------------------------------------------ requests
     def _issue(self, goal_id: str, way: str, language: str, visitor_id: str, tour_file: str, tour_step: int,
@@ -612,7 +595,7 @@ class GoalManagerCore:
         loc = self.building.find_location(goal_id)
         if loc is None:
             self.stats.inc("rejected_location")
-            return [self._event(REJECTED, None, now_ros, detail=f"unknown goal {goal_id[:64]!r}", **ctx)]
+            return [self._event(Phase.REJECTED, None, now_ros, detail=f"unknown goal {goal_id[:64]!r}", **ctx)]
         ctx["target_floor"] = loc.floor
         if start is None:
             a = self.robot.floor
@@ -627,11 +610,11 @@ class GoalManagerCore:
                 choice = self.planner.choose_connector(a, (x, y), b, goal_xy, way)
             except NoRouteError as err:
                 self.stats.inc("unreachable")
-                return [self._event(UNREACHABLE, None, now_ros, detail=str(err), **ctx)]
+                return [self._event(Phase.UNREACHABLE, None, now_ros, detail=str(err), **ctx)]
             way, connector = choice.way, choice.connector.id
         elif not math.isfinite(self.planner.leg_length(a, (x, y), goal_xy)):
             self.stats.inc("unreachable")
-            return [self._event(UNREACHABLE, None, now_ros, **ctx,
+            return [self._event(Phase.UNREACHABLE, None, now_ros, **ctx,
                                 detail=f"no path from ({x:.1f}, {y:.1f}) to {goal_id} on floor {format_floor(a)}")]
         trip = Trip(uid=self.uids.goal(visitor_id), origin_robot=self.me, visitor_id=visitor_id, initial_floor=a,
                     initial_x=x, initial_y=y, goal_floor=b, goal_x=loc.pose.x, goal_y=loc.pose.y,
@@ -677,14 +660,14 @@ class GoalManagerCore:
 
     def _start_tour(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         if not cmd.tour_file:
-            return [self._event(REJECTED, None, now_ros, detail="start tour without a tour_file")]
+            return [self._event(Phase.REJECTED, None, now_ros, detail="start tour without a tour_file")]
         return self._tour_step(cmd.tour_file, 0, cmd, None, now_ros, now_wall)
 
     def _skip(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
         latest = self.waits.latest()
         tour_file = cmd.tour_file or (latest.tour_file if latest else "")
         if not tour_file:
-            return [self._event(REJECTED, None, now_ros, detail="skip without a tour_file")]
+            return [self._event(Phase.REJECTED, None, now_ros, detail="skip without a tour_file")]
         wait = next((w for w in (self.waits.get(cmd.goal_uid), latest) if w and w.tour_file == tour_file
                      and (not cmd.visitor_id or not w.visitor_id or w.visitor_id == cmd.visitor_id)), None)
         return self._tour_step(tour_file, cmd.tour_step, cmd, wait, now_ros, now_wall)
@@ -702,14 +685,15 @@ class GoalManagerCore:
             return []
         if tour is None:
             self.stats.inc("rejected_tour")
-            return [self._event(REJECTED, None, now_ros, detail=f"tour {tour_file!r} is not in this robot's "
+            return [self._event(Phase.REJECTED, None, now_ros, detail=f"tour {tour_file!r} is not in this robot's "
                                                                 f"catalog ({len(self.tours)} tours)", **ctx)]
         if finishing and wait is not None and step >= len(tour.goals):
             self.waits.pop(wait.goal_uid)
-            return [self._event(TOUR_FINISHED, None, now_ros, goal_uid=wait.goal_uid, detail="no further goal", **ctx)]
+            return [self._event(Phase.TOUR_FINISHED, None, now_ros, goal_uid=wait.goal_uid, detail="no further goal",
+                                **ctx)]
         if not 0 <= step < len(tour.goals):
-            return [self._event(REJECTED, None, now_ros, detail=f"tour {tour_file} has steps 0..{len(tour.goals) - 1}, "
-                                                                f"not {step}", **ctx)]
+            return [self._event(Phase.REJECTED, None, now_ros,
+                                detail=f"tour {tour_file} has steps 0..{len(tour.goals) - 1}, not {step}", **ctx)]
         visitor = cmd.visitor_id or (wait.visitor_id if wait else "")
         actions = self._end_tour_here(tour_file, visitor, now_ros, detail=f"the visitor went to step {step}")
         self.waits.clear_tour(tour_file, visitor or None)     # this visitor's: others may follow the same tour
@@ -742,7 +726,7 @@ class GoalManagerCore:
                     self._cancels_seen.add(cancel.uid)
                     self._cancelled.add(cmd.goal_uid)
                     self.assigner.close(cmd.goal_uid)
-                    return [SendCancel(cancel), self._event(CANCELLED_HERE, None, now_ros, goal_uid=cmd.goal_uid)]
+                    return [SendCancel(cancel), self._event(Phase.CANCELLED_HERE, None, now_ros, goal_uid=cmd.goal_uid)]
                 self.stats.inc("cancel_unknown")
                 self.warn.warning("cancel_unknown", f"cancel of unknown trip {cmd.goal_uid!r} ignored")
                 return []
@@ -762,7 +746,7 @@ class GoalManagerCore:
 
     def _tour_ended(self, wait: TourWait, now_ros: float) -> SendEvent:
         self.waits.clear_tour(wait.tour_file, wait.visitor_id or None)
-        return self._event(CANCELLED_HERE, None, now_ros, goal_uid=wait.goal_uid, tour_file=wait.tour_file,
+        return self._event(Phase.CANCELLED_HERE, None, now_ros, goal_uid=wait.goal_uid, tour_file=wait.tour_file,
                            tour_step=wait.step, language=wait.language, way=wait.way, detail="tour ended")
 
     def _apply_cancel(self, cancel: CancelData, now_ros: float, here: bool, quiet: bool = False) -> list[Action]:
@@ -785,7 +769,7 @@ class GoalManagerCore:
         if cancel.origin_robot == self.me:
             if not here or quiet:
                 return []        # our navigation gave the trip up and told the visitor already
-            phase = CANCELLED_HERE
+            phase = Phase.CANCELLED_HERE
         else:
             phase = PHASE_OF_REASON[cancel.reason]
         detail = f"{cancel.origin_robot}: {cancel.reason}" + (f": {cancel.detail}" if cancel.detail else "")
@@ -811,7 +795,7 @@ class GoalManagerCore:
         return next((t for t in reversed(self.queue) if t.origin_robot == self.me), None)
 
     def _navigation_meets_visitor(self) -> bool:
-        return any(p in (GOING_TO_MEETING, WAITING_VISITOR) for p, _ in self._phase.values())
+        return any(p in (Phase.GOING_TO_MEETING, Phase.WAITING_VISITOR) for p, _ in self._phase.values())
 
     def _new_cancel(self, goal_uid: str, reason: str, detail: str, now_ros: float) -> CancelData:
         return CancelData(uid=self.uids.cancel(), goal_uid=goal_uid, origin_robot=self.me, reason=reason,
@@ -832,6 +816,6 @@ class GoalManagerCore:
                           leg=(trip.leg_of(self.me) or "") if trip else "", attempt=trip.attempt if trip else 0)
         fields = {k: v for k, v in fields.items() if not (k == "language" and not v)}
         ev = replace(ev, **fields)
-        if ev.goal_uid and phase != REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
+        if ev.goal_uid and phase != Phase.REJECTED:     # its echo is ignored (an answer to a refusal needs nothing)
             self._events_seen.add(ev.uid)
         return SendEvent(ev)

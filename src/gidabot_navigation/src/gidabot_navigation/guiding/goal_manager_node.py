@@ -1,13 +1,12 @@
 """ROS adapter of the goal manager: the ``goal_manager`` node (one per robot, on its own master).
 
 The logic lives in :mod:`gidabot_navigation.guiding.goal_manager` (ROS-free). Callbacks
-only enqueue; one loop owns the core, executes its actions and publishes the
-pending list.
+only enqueue; one loop owns the core: it converts each input (:mod:`gidabot_navigation.ros.convert`),
+hands it to the core, publishes the actions the core returns and the pending list.
 """
 
 from __future__ import annotations
 
-import queue
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,28 +19,17 @@ from gidabot_msgs.msg import Cancel, Goal, NavEvent, PendingRequests, RobotStatu
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
-from gidabot_navigation.guiding.guiding_node import (
-    cancel_from_msg,
-    cancel_to_msg,
-    catalog_entries,
-    command_from_msg,
-    diagnostics,
-    event_from_msg,
-    event_to_msg,
-    from_relay,
-    trip_from_msg,
-    trip_to_msg,
-    yaw_of,
-)
 from gidabot_navigation.guiding.messages import Action, SendCancel, SendEvent, SendGoal
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
 from gidabot_navigation.guiding.trips import WaitModel
-from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Phase, Topic
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_STAIRS, Node, Topic
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
@@ -61,8 +49,7 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = param_text("~building", required=True)
-        robot = param_text("~robot", required=True)
+        building, robot = robot_params()
         wait = WaitModel(speed_factor=param_number("~speed_factor", WaitModel.speed_factor),
                          stairs_s_per_floor=param_number("~stairs_s_per_floor", WaitModel.stairs_s_per_floor,
                                                          strict=False),
@@ -155,10 +142,10 @@ class GoalManagerNode:
         if outbox is not None:
             rospy.loginfo(f"goal_manager of {self.robot}: resumed {len(self.core.queue)} pending goal(s) and "
                           f"{len(outbox)} message(s) not yet published from {self.params.state_dir}")
-        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.inbox = Inbox(QUEUE_SIZE)
         self.loop = LoopMeter(1.0 / LOOP_PERIOD)
-        self.dropped = 0
         self._published_version = -1
+        self._next_pending = time.monotonic()
         self._latest_pose: tuple[float, float, float] | None = None
         window = params.replay_window
         self.goals_pub = ReplayPublisher(Topic.GOALS, Goal, queue_size=100, window=window)
@@ -172,8 +159,8 @@ class GoalManagerNode:
             rospy.Subscriber(Topic.GOALS, Goal, self._enqueue, callback_args="goal", queue_size=200),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
             rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=50),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._enqueue, callback_args="status", queue_size=50),
+            rospy.Subscriber(Topic.PENDING, PendingRequests, self._enqueue, callback_args="pending", queue_size=50),
             rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber(Topic.TOUR_CATALOG, TourCatalog, self._enqueue, callback_args="catalog", queue_size=2),
         ]
@@ -181,123 +168,94 @@ class GoalManagerNode:
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
-        try:
-            self.inbox.put_nowait((kind, msg))
-        except queue.Full:
-            self.dropped += 1
-
-    def _on_status(self, msg: RobotStatus) -> None:
-        p = msg.nav_pose.position
-        self._enqueue((msg.robot, (p.x, p.y)), "status")
-
-    def _on_pending(self, msg: PendingRequests) -> None:
-        if msg.robot != self.robot:          # our own list is the core's
-            self._enqueue(msg, "pending")
+        self.inbox.put(kind, msg)
 
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         p = msg.pose.pose              # only the latest pose matters: one assignment, applied by the loop
-        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+        self._latest_pose = (p.position.x, p.position.y, convert.yaw_of(p.orientation))
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the state is saved and the
-        guard told the loop has stopped (only then does it close the topics)."""
-        guard.set_wake(lambda: self._enqueue(None, ""))
-        try:
-            self._loop(guard)
-        finally:
-            if self.store is not None:
-                self.store.flush(self.core.state, force=True)
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the state is saved."""
+        run_loop(guard, self.spin_once, LOOP_PERIOD, lambda: self.inbox.put(""), self._save)
 
-    def _loop(self, guard: ExitGuard) -> None:
-        period = self.params.pending_period
-        next_pending = time.monotonic()
-        while not rospy.is_shutdown() and not guard.requested:
-            try:
-                kind, msg = self.inbox.get(timeout=max(0.01, min(LOOP_PERIOD, next_pending - time.monotonic())))
-            except queue.Empty:
-                kind, msg = "", None
-            self.loop.tick(rospy.get_time(), time.monotonic())
-            pose = self._latest_pose          # never reset: no race with the callback
-            if pose is not None:
-                self.core.on_pose(*pose)
-            if kind:
-                self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
-            now = time.monotonic()
-            version = self.core.version         # the tick may drop a proposal held too long
-            actions = self.core.tick(rospy.get_time(), now)
-            self.commit(actions, self.core.version != version)
-            if self.core.version != self._published_version or now >= next_pending:
-                if self.store is not None:      # saved first: what its navigation acts on survives a restart
-                    self.store.publish_state(self.core.state, self.publish_pending)
-                else:
-                    self.publish_pending()
-                if now >= next_pending:
-                    next_pending = now + period
-                    self.publish_diagnostics()
+    def _save(self) -> None:
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
+
+    def spin_once(self, timeout: float) -> None:
+        """One turn of the loop: at most one input (waiting up to ``timeout`` wall s, less when the pending list
+        is due), the core's tick, and the pending list (with the state saved first) when it changed or is due."""
+        kind, msg = self.inbox.get(max(0.0, min(timeout, self._next_pending - time.monotonic())))
+        self.loop.tick(rospy.get_time(), time.monotonic())
+        pose = self._latest_pose          # never reset: no race with the callback
+        if pose is not None:
+            self.core.on_pose(*pose)
+        if kind:
+            self.commit(self.handle(kind, msg), kind in DURABLE_INPUTS)
+        now = time.monotonic()
+        version = self.core.version         # the tick may drop a proposal held too long
+        actions = self.core.tick(rospy.get_time(), now)
+        self.commit(actions, self.core.version != version)
+        if self.core.version != self._published_version or now >= self._next_pending:
+            if self.store is not None:      # saved first: what its navigation acts on survives a restart
+                self.store.publish_state(self.core.state, self.publish_pending)
+            else:
+                self.publish_pending()
+            if now >= self._next_pending:
+                self._next_pending = now + self.params.pending_period
+                self.publish_diagnostics()
 
     def handle(self, kind: str, msg: object) -> list[Action]:
         now_ros, now_wall = rospy.get_time(), time.monotonic()
         core = self.core
         if kind == "command":
-            return core.on_command(command_from_msg(msg), now_ros, now_wall)
+            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall)
         if kind == "goal":
-            return core.on_goal(trip_from_msg(msg), now_ros, now_wall)
+            return core.on_goal(convert.trip_from_msg(msg), now_ros, now_wall)
         if kind == "cancel":
-            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
         if kind == "event":
-            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
         if kind == "status":
-            robot, pose = msg
-            core.on_status(robot, now_wall, pose)
+            status = convert.status_from_msg(msg)
+            core.on_status(status.robot, now_wall, (status.x, status.y))
         elif kind == "pending":
-            core.on_pending(msg.robot, [trip_from_msg(g) for g in msg.goals], msg.wait_new, now_wall)
+            pending = convert.pending_from_msg(msg)
+            core.on_pending(pending.robot, pending.goals, pending.wait_new, now_wall)
         elif kind == "catalog":
-            return core.on_catalog(catalog_entries(msg), now_ros, now_wall)
+            return core.on_catalog(convert.catalog_from_msg(msg).tours, now_ros, now_wall)
         return []
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Publish ``actions``, saving the state with them as the outbox first (StateFile.commit: what
-        changes nothing writes nothing). A REJECTED answer is not kept: it changes no state."""
-        if self.store is None:
-            self.execute(actions)
-        else:
-            durable = [a for a in actions if not (isinstance(a, SendEvent) and a.event.phase == Phase.REJECTED)]
-            self.store.commit(self.core.state, actions, durable, self.execute, changed)
+        """Publish ``actions``, the state saved first with the durable ones (a restart publishes them again)."""
+        carry_out(self.store, self.core.state, actions, self.core.durable(actions), self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
             if isinstance(act, SendGoal):
-                self.goals_pub.publish(trip_to_msg(act.trip))
+                self.goals_pub.publish(convert.trip_to_msg(act.trip))
             elif isinstance(act, SendCancel):
-                self.cancels_pub.publish(cancel_to_msg(act.cancel))
+                self.cancels_pub.publish(convert.cancel_to_msg(act.cancel))
             elif isinstance(act, SendEvent):
-                self.events_pub.publish(event_to_msg(act.event))
+                self.events_pub.publish(convert.event_to_msg(act.event))
 
     def publish_pending(self) -> None:
-        snap = self.core.pending(rospy.get_time())
         self._published_version = self.core.version
-        msg = PendingRequests()
-        msg.header.stamp = rospy.Time.now()
-        msg.robot, msg.floor = snap.robot, snap.floor
-        msg.num = min(len(snap.goals), 255)
-        msg.goals = [trip_to_msg(t) for t in snap.goals[:255]]
-        msg.eta = list(snap.eta[:255])
-        msg.wait_new = snap.wait_new
-        self.pending_pub.publish(msg)
+        self.pending_pub.publish(convert.pending_to_msg(self.core.pending(rospy.get_time())))
 
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
         stats.update(self.loop.values())
-        stats.update(queue_dropped=self.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
+        stats.update(queue_dropped=self.inbox.dropped, pending=len(self.core.queue), tours=len(self.core.tours),
                      plans=self.core.planner.plans,
                      state_saves=self.store.saves if self.store else 0,
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=sum(p.buffer.replayed for p in (self.goals_pub, self.cancels_pub, self.events_pub)))
-        warn = bool(self.dropped)
-        self.diag_pub.publish(diagnostics(f"guiding: goal_manager {self.robot}", self.robot, stats, warn,
-                                          f"{len(self.core.queue)} pending, {stats.get('rejected', 0)} rejected"))
+        self.diag_pub.publish(diagnostics(f"guiding: goal_manager {self.robot}", self.robot, stats,
+                                          bool(self.inbox.dropped),
+                                          f"{len(self.core.queue)} pending, {stats.get('rejected', 0)} rejected",
+                                          rospy.get_time()))
 
 
 def main(argv: list[str] | None = None) -> int:

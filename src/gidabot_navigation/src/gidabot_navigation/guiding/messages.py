@@ -1,10 +1,11 @@
 """Plain-Python forms of the guiding messages and their validation (ROS-free).
 
 The guiding cores (:mod:`~gidabot_navigation.guiding.goal_manager`,
-:mod:`~gidabot_navigation.guiding.navigation`) never see a ROS message: the adapters
-convert ``gidabot_msgs`` messages into the dataclasses below
+:mod:`~gidabot_navigation.guiding.navigation`) and the GUI never see a ROS message:
+:mod:`gidabot_navigation.ros.convert` turns ``gidabot_msgs`` messages into the dataclasses below
 (:class:`Trip` = Goal, :class:`NavEventData` = NavEvent, :class:`CancelData` = Cancel,
-:class:`CommandData` = VisitorCommand) and back. Everything that comes from outside
+:class:`CommandData` = VisitorCommand, :class:`PendingData` = PendingRequests,
+:class:`RobotStatusData` = RobotStatus, :class:`PoseData` = NavPose) and back. Everything that comes from outside
 (another robot, the GUI) is untrusted and goes through :func:`validate_trip`,
 :func:`validate_cancel`, :func:`validate_event` or :func:`validate_command` first:
 they raise :class:`~gidabot_navigation.errors.GoalRejected` naming the bad value.
@@ -24,11 +25,7 @@ from dataclasses import dataclass, replace
 from gidabot_navigation.building.model import Building, format_floor
 from gidabot_navigation.errors import GoalRejected, TourNameError
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCELLED_ELSEWHERE,
     COMMAND_NAMES,
-    DECLINED,
     DEFAULT_LANGUAGE,
     FINAL_PHASES,
     LANGUAGES,
@@ -39,7 +36,6 @@ from gidabot_navigation.interface import (
     LEG_STATE_NAMES,
     LEG_STATES,
     LEGS,
-    PARTNER_OFFLINE,
     PHASE_NAMES,
     REASON_ADMIN,
     REASON_OFFLINE,
@@ -48,15 +44,15 @@ from gidabot_navigation.interface import (
     REASON_VISITOR,
     REASONS,
     STAFF_COMMAND_NAMES,
-    TIMEOUT,
-    UNREACHABLE,
     WAYS,
+    Phase,
 )
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
-PHASE_OF_REASON = {REASON_VISITOR: CANCELLED_ELSEWHERE, REASON_UNREACHABLE: UNREACHABLE,
-                   REASON_TIMEOUT: TIMEOUT, REASON_OFFLINE: PARTNER_OFFLINE, REASON_ADMIN: CANCELLED_ELSEWHERE}
+PHASE_OF_REASON = {REASON_VISITOR: Phase.CANCELLED_ELSEWHERE, REASON_UNREACHABLE: Phase.UNREACHABLE,
+                   REASON_TIMEOUT: Phase.TIMEOUT, REASON_OFFLINE: Phase.PARTNER_OFFLINE,
+                   REASON_ADMIN: Phase.CANCELLED_ELSEWHERE}
 
 # -- limits of untrusted text -------------------------------------------------------
 MAX_UID = 160
@@ -210,6 +206,52 @@ class CommandData:
         return command_key(self.uid, self.stamp)
 
 
+@dataclass(frozen=True)
+class PendingData:
+    """A gidabot_msgs/PendingRequests: one robot's queue, head first, and its waits."""
+
+    robot: str
+    floor: float
+    num: int                       # requests in the queue (as many as ``goals`` when sent)
+    wait_new: float                # s before this robot could start a new request
+    goals: tuple[Trip, ...] = ()
+    eta: tuple[float, ...] = ()    # s from ``stamp`` until each goal is finished by this robot
+    stamp: float = 0.0             # s, ROS time of the estimate
+
+
+@dataclass(frozen=True)
+class RobotStatusData:
+    """A gidabot_msgs/RobotStatus: one robot's state, pose (its floor's map frame) and load."""
+
+    robot: str
+    floor: float
+    x: float
+    y: float
+    yaw: float
+    linear: float                  # m/s
+    angular: float                 # rad/s
+    battery: float                 # 0..1 (the navigation's -1: unknown)
+    state: str                     # a RobotState (as received: untrusted)
+    pending: int
+    current_goal_uid: str = ""
+    busy_for: float = 0.0          # s until the queue is empty
+    stamp: float = 0.0
+    frame_id: str = ""
+
+
+@dataclass(frozen=True)
+class PoseData:
+    """A gidabot_msgs/NavPose: one robot's pose in its floor's map frame."""
+
+    robot: str
+    floor: float
+    x: float
+    y: float
+    yaw: float
+    stamp: float = 0.0
+    frame_id: str = ""
+
+
 def command_key(uid: object, stamp: object) -> str:
     """The de-duplication key of a visitor command ("" = none: a command without uid is never a duplicate)."""
     if not isinstance(uid, str) or not uid:
@@ -276,7 +318,7 @@ class UidMaker:
     def __init__(self, robot: str, tag: str, boot: str | None = None) -> None:
         self.robot = robot
         self.tag = tag
-        self.boot = boot if boot is not None else _base36(time.time_ns() // 1_000_000)
+        self.boot = boot if boot is not None else base36(time.time_ns() // 1_000_000)
         self._n = 0
 
     def _next(self) -> str:
@@ -293,7 +335,8 @@ class UidMaker:
         return f"{self.robot}/{visitor_id}/{self._next()}"
 
 
-def _base36(number: int) -> str:
+def base36(number: int) -> str:
+    """``number`` (>= 0) in base 36: a short tag, e.g. of the wall clock at start."""
     digits = "0123456789abcdefghijklmnopqrstuvwxyz"
     out = ""
     while True:
@@ -548,9 +591,9 @@ def validate_event(building: Building, event: NavEventData) -> NavEventData:
     assignee = _text(event.assignee, "event assignee", MAX_ID, _ID_RE)
     if assignee and building.find_robot(assignee) is None:
         raise GoalRejected("robot", f"event assignee {show(assignee)} is not a robot of building {building.id}")
-    if event.phase in (ACCEPTED, DECLINED, ASSIGNED) and (not goal_uid or not event.leg):
+    if event.phase in (Phase.ACCEPTED, Phase.DECLINED, Phase.ASSIGNED) and (not goal_uid or not event.leg):
         raise GoalRejected("leg", f"a {PHASE_NAMES[event.phase]} event needs a goal_uid and a leg")
-    if event.phase == ASSIGNED and not assignee:
+    if event.phase == Phase.ASSIGNED and not assignee:
         raise GoalRejected("assignment", "an assigned event needs an assignee")
     eta = event.eta if isinstance(event.eta, (int, float)) and math.isfinite(event.eta) and event.eta >= 0 else 0.0
     return replace(event, uid=uid, robot=robot, goal_uid=goal_uid, tour_file=tour_file, tour_step=tour_step,

@@ -46,9 +46,11 @@ from gidabot_navigation.guiding.liveness import PeerLiveness
 from gidabot_navigation.guiding.messages import (
     Action,
     CancelData,
+    CommandData,
     Counters,
     MoveTo,
     NavEventData,
+    RobotStatusData,
     SeenSet,
     SendCancel,
     SendEvent,
@@ -59,38 +61,24 @@ from gidabot_navigation.guiding.messages import (
     validate_event,
 )
 from gidabot_navigation.guiding.state import REMEMBERED_UIDS, number, str_list, trip_from_dict, trip_to_dict
-from gidabot_navigation.guiding.tour_mode import CatalogEntry, TourBook, next_robot_stop
+from gidabot_navigation.guiding.tour_mode import TourBook, next_robot_stop
 from gidabot_navigation.guiding.trips import Role, role
 from gidabot_navigation.interface import (
     DEFAULT_LANGUAGE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    GOING_TO_MEETING,
     LEG_COMMITTED,
     LEG_GOAL,
     LEG_NONE,
     LEG_START,
-    NO_ROBOT_ON_FLOOR,
-    ON_THE_WAY,
-    PARTNER_BACK,
-    PARTNER_LOST,
-    PARTNER_OFFLINE,
     REASON_OFFLINE,
     REASON_TIMEOUT,
     REASON_UNREACHABLE,
     RELEASE_PHASES,
-    STATE_ERROR,
-    STATE_GUIDING,
-    STATE_IDLE,
-    STATE_TO_MEETING,
-    STATE_WAITING,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
+    Cmd,
+    Phase,
+    RobotState,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
+from gidabot_navigation.tours.tour_store import TourMessage
 
 # move_base (actionlib) terminal states, as the adapter names them
 SUCCEEDED = "succeeded"
@@ -128,8 +116,9 @@ def freshest_time(ros_now: float, odom_stamp: float | None) -> float:
     return ros_now
 
 
-STATE_OF_STAGE = {Stage.PICKUP: STATE_TO_MEETING, Stage.GUIDING: STATE_GUIDING, Stage.TO_MEETING: STATE_TO_MEETING,
-                  Stage.WAITING: STATE_WAITING, Stage.HANDOVER: STATE_WAITING}
+STATE_OF_STAGE = {Stage.PICKUP: RobotState.TO_MEETING, Stage.GUIDING: RobotState.GUIDING,
+                  Stage.TO_MEETING: RobotState.TO_MEETING, Stage.WAITING: RobotState.WAITING,
+                  Stage.HANDOVER: RobotState.WAITING}
 
 
 @dataclass(frozen=True)
@@ -167,25 +156,6 @@ class Leg:
     partner_lost: float | None = None   # wall s since which the partner is offline (notice given)
     started: float = 0.0                # ROS s
     resend: bool = False                # resumed after a restart: send the move_base goal again
-
-
-@dataclass(frozen=True)
-class StatusSnapshot:
-    """The content of this robot's RobotStatus."""
-
-    robot: str
-    floor: float
-    x: float
-    y: float
-    yaw: float
-    pose_known: bool
-    linear: float
-    angular: float
-    battery: float          # 0..1, -1 unknown
-    state: str
-    pending: int
-    current_goal_uid: str
-    busy_for: float
 
 
 class NavigationCore:
@@ -244,7 +214,7 @@ class NavigationCore:
         if isinstance(robot, str) and self.building.find_robot(robot) is not None:
             self.liveness.heard(robot, now_wall)
 
-    def on_catalog(self, entries: Iterable[CatalogEntry]) -> None:
+    def on_catalog(self, entries: Iterable[TourMessage]) -> None:
         for problem in self.tours.update(entries):
             self.warn.warning("catalog", problem)
 
@@ -297,6 +267,12 @@ class NavigationCore:
         actions = self._stop(leg)
         self._finish(leg.trip)
         return actions + self._advance(now_ros, now_wall)
+
+    def on_command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        """A visitor command at this robot: a Continue (:meth:`on_continue`); the others are the goal manager's."""
+        if cmd.command != Cmd.CONTINUE:
+            return []
+        return self.on_continue(cmd.goal_uid, now_ros, now_wall, key=cmd.key)
 
     def on_continue(self, goal_uid: str, now_ros: float, now_wall: float, key: str = "") -> list[Action]:
         """The visitor pressed Continue at this robot (``goal_uid`` "" = the trip waiting here).
@@ -379,6 +355,12 @@ class NavigationCore:
         return actions + self._advance(now_ros, now_wall)
 
     # ------------------------------------------------------------------ restarts
+    @staticmethod
+    def durable(actions: list[Action]) -> list[Action]:
+        """The actions a restarted node must still carry out (kept with the state until published): the events
+        and cancels; move_base goals follow from the state again."""
+        return [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
+
     def state(self, remember: int = REMEMBERED_UIDS) -> dict[str, Any]:
         """What a restarted navigation needs (JSON-able): the running leg, the handled uids, releases."""
         leg = self.leg
@@ -439,20 +421,19 @@ class NavigationCore:
             self.stats.update({str(k): v for k, v in stats.items() if isinstance(v, int)})
 
     # ------------------------------------------------------------------ outputs
-    def status(self, now_ros: float) -> StatusSnapshot:
+    def status(self, now_ros: float) -> RobotStatusData:
         pose = self.pose or self.robot.home
         leg = self.leg
         if not self.available:
-            state = STATE_ERROR
+            state = RobotState.ERROR
         elif leg is None:
-            state = STATE_IDLE
+            state = RobotState.IDLE
         else:
             state = STATE_OF_STAGE[leg.stage]
         pending = sum(1 for t in self.queue if t.uid not in self._finished and t.uid not in self._cancelled)
         busy = max(0.0, self._eta_last - max(0.0, now_ros - self._eta_at)) if pending else 0.0
-        return StatusSnapshot(self.me, self.floor, pose.x, pose.y, pose.yaw, self.pose is not None, self.linear,
-                              self.angular, self.battery, state, min(pending, 255), leg.trip.uid if leg else "",
-                              round(busy, 1))
+        return RobotStatusData(self.me, self.floor, pose.x, pose.y, pose.yaw, self.linear, self.angular, self.battery,
+                               state, min(pending, 255), leg.trip.uid if leg else "", round(busy, 1), now_ros)
 
     # ------------------------------------------------------------------ the state machine
     def _advance(self, now_ros: float, now_wall: float) -> list[Action]:
@@ -483,7 +464,7 @@ class NavigationCore:
                                                      f"{format_floor(self.floor)}", now_ros)
             leg = self._new_leg(trip, r, Stage.TO_MEETING, meet, partner_name, now_ros)
             leg.continued = trip.uid in self._early_continue
-            return [self._move(leg), self._event(GOING_TO_MEETING, trip, now_ros, location_id=trip.connector)]
+            return [self._move(leg), self._event(Phase.GOING_TO_MEETING, trip, now_ros, location_id=trip.connector)]
         target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if r is Role.SAME else self._meeting(trip)
         if target is None:
             return self._fail_unstarted(trip, r, f"connector {trip.connector!r} has no meeting point on floor "
@@ -491,10 +472,10 @@ class NavigationCore:
         pickup = Pose2D(trip.initial_x, trip.initial_y, self.pose.yaw if self.pose else 0.0)
         if self.pose is not None and self.pose.distance_to(pickup) > self.cfg.pickup_distance:
             leg = self._new_leg(trip, r, Stage.PICKUP, pickup, partner_name, now_ros)
-            return [self._move(leg), self._event(GOING_TO_MEETING, trip, now_ros, location_id=trip.start_id,
+            return [self._move(leg), self._event(Phase.GOING_TO_MEETING, trip, now_ros, location_id=trip.start_id,
                                                  detail="picking the visitor up where the request was made")]
         leg = self._new_leg(trip, r, Stage.GUIDING, target, partner_name, now_ros)
-        return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
+        return [self._move(leg), self._event(Phase.ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
 
     def _arrived(self, leg: Leg, now_ros: float, ended: float) -> list[Action]:
         """Leg ``leg`` reached its target at sim time ``ended`` (known at ``now_ros``)."""
@@ -503,11 +484,11 @@ class NavigationCore:
             target = Pose2D(trip.goal_x, trip.goal_y, trip.goal_yaw) if leg.role is Role.SAME else self._meeting(trip)
             assert target is not None
             self._next_move(leg, Stage.GUIDING, target)
-            return [self._move(leg), self._event(ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
+            return [self._move(leg), self._event(Phase.ON_THE_WAY, trip, now_ros, location_id=self._where(leg))]
         if leg.stage is Stage.TO_MEETING:
             leg.stage = Stage.WAITING
             leg.arrived_at = now_ros
-            actions: list[Action] = [self._event(WAITING_VISITOR, trip, now_ros, location_id=trip.connector)]
+            actions: list[Action] = [self._event(Phase.WAITING_VISITOR, trip, now_ros, location_id=trip.connector)]
             if leg.continued:
                 actions += self._go_on(leg, now_ros)
             return actions
@@ -528,29 +509,29 @@ class NavigationCore:
             floor = format_floor(trip.goal_floor)
             tour = self.tours.get(trip.tour_file) if trip.tour_file else None
             if tour is not None and next_robot_stop(tour, self.building, trip.tour_step) is None:
-                return [self._event(TOUR_FINISHED, trip, now_ros,
+                return [self._event(Phase.TOUR_FINISHED, trip, now_ros,
                                     detail=f"no robot serves floor {floor}: the visitor finds {trip.goal_id} "
                                            "and the tour's last stops alone; the tour ends there")]
-            return [self._event(NO_ROBOT_ON_FLOOR, trip, now_ros,
+            return [self._event(Phase.NO_ROBOT_ON_FLOOR, trip, now_ros,
                                 detail=f"no robot serves floor {floor}: take the {trip.way} "
                                        f"({self._connector_name(trip)}) to floor {floor} and find {trip.goal_id} "
                                        "yourself")]
         if trip.goal_state != LEG_COMMITTED:
             if leg.arrived_at is None:
                 leg.arrived_at = now_ros
-                return [self._event(PARTNER_LOST, trip, now_ros, location_id=trip.connector,
+                return [self._event(Phase.PARTNER_LOST, trip, now_ros, location_id=trip.connector,
                                     detail=f"waiting with the visitor until a robot of floor "
                                            f"{format_floor(trip.goal_floor)} takes the goal leg")]
             return []
         self._finish(trip)
-        return [self._event(GO_TO_FLOOR, trip, now_ros, assignee=trip.goal_robot)]
+        return [self._event(Phase.GO_TO_FLOOR, trip, now_ros, assignee=trip.goal_robot)]
 
     def _go_on(self, leg: Leg, now_ros: float) -> list[Action]:
         """Goal floor: the visitor is here; guide to the goal."""
         leg.continued = True
         self._early_continue.discard(leg.trip.uid)
         self._next_move(leg, Stage.GUIDING, Pose2D(leg.trip.goal_x, leg.trip.goal_y, leg.trip.goal_yaw))
-        return [self._move(leg), self._event(ON_THE_WAY, leg.trip, now_ros, location_id=leg.trip.goal_id)]
+        return [self._move(leg), self._event(Phase.ON_THE_WAY, leg.trip, now_ros, location_id=leg.trip.goal_id)]
 
     def _timer_start(self, leg: Leg) -> float | None:
         """ROS s from which the Continue timeout runs: at the meeting point and the visitor released (a trip from a
@@ -575,7 +556,7 @@ class NavigationCore:
         self.log.warning(f"{trip.uid}: {detail}; dropped")
         self.stats.inc("timeouts")
         self._finish(trip)
-        return [self._event(TIMEOUT, trip, now_ros, location_id=trip.connector, detail=detail),
+        return [self._event(Phase.TIMEOUT, trip, now_ros, location_id=trip.connector, detail=detail),
                 SendCancel(self._cancel(trip, REASON_TIMEOUT, detail, now_ros))]
 
     def _check_partner(self, leg: Leg, now_ros: float, now_wall: float) -> list[Action]:
@@ -589,25 +570,25 @@ class NavigationCore:
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None          # the visitor was released / is here: the trip goes on
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner, detail="the trip goes on")]
+            return [self._event(Phase.PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner, detail="the trip goes on")]
         if self.liveness.online(leg.partner, now_wall):
             if leg.partner_lost is None:
                 return []
             leg.partner_lost = None
-            return [self._event(PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner,
+            return [self._event(Phase.PARTNER_BACK, leg.trip, now_ros, assignee=leg.partner,
                                 detail=f"{leg.partner} is back; the trip goes on")]
         actions: list[Action] = []
         if leg.partner_lost is None:
             leg.partner_lost = self.liveness.offline_since(leg.partner, now_wall) or now_wall
             wait = f"; waiting up to {self.cfg.partner_timeout:g} s for it" if leg.role is Role.GOAL else ""
-            actions.append(self._event(PARTNER_LOST, leg.trip, now_ros, assignee=leg.partner,
+            actions.append(self._event(Phase.PARTNER_LOST, leg.trip, now_ros, assignee=leg.partner,
                                        detail=f"{leg.partner} is offline{wait}"))
         if leg.role is Role.GOAL and now_wall - leg.partner_lost >= self.cfg.partner_timeout:
             detail = f"{leg.partner} has been offline for {now_wall - leg.partner_lost:.0f} s; the trip is given up"
             self.log.warning(f"{leg.trip.uid}: {detail}")
             actions += self._stop(leg)
             self._finish(leg.trip)
-            actions += [self._event(PARTNER_OFFLINE, leg.trip, now_ros, assignee=leg.partner, detail=detail),
+            actions += [self._event(Phase.PARTNER_OFFLINE, leg.trip, now_ros, assignee=leg.partner, detail=detail),
                         SendCancel(self._cancel(leg.trip, REASON_OFFLINE, detail, now_ros))]
         return actions
 
@@ -617,13 +598,14 @@ class NavigationCore:
         self.stats.inc("unreachable")
         actions = self._stop(leg)
         self._finish(leg.trip)
-        return actions + [self._event(UNREACHABLE, leg.trip, now_ros, location_id=self._where(leg), detail=detail),
+        return actions + [self._event(Phase.UNREACHABLE, leg.trip, now_ros, location_id=self._where(leg),
+                                      detail=detail),
                           SendCancel(self._cancel(leg.trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
 
     def _fail_unstarted(self, trip: Trip, r: Role, detail: str, now_ros: float) -> list[Action]:
         self.log.warning(f"{trip.uid}: {detail}")
         self._finish(trip)
-        return [self._event(UNREACHABLE, trip, now_ros, detail=detail),
+        return [self._event(Phase.UNREACHABLE, trip, now_ros, detail=detail),
                 SendCancel(self._cancel(trip, REASON_UNREACHABLE, f"{self.me}: {detail}", now_ros))]
 
     # ------------------------------------------------------------------ helpers
@@ -671,9 +653,9 @@ class NavigationCore:
 
     def _done_phase(self, trip: Trip) -> int:
         if not trip.tour_file:
-            return GOAL_REACHED
+            return Phase.GOAL_REACHED
         length = self.tours.length(trip.tour_file)
-        return TOUR_FINISHED if length is not None and trip.tour_step >= length - 1 else TOUR_STEP_DONE
+        return Phase.TOUR_FINISHED if length is not None and trip.tour_step >= length - 1 else Phase.TOUR_STEP_DONE
 
     def _cancel(self, trip: Trip, reason: str, detail: str, now_ros: float) -> CancelData:
         cancel = CancelData(uid=self.uids.cancel(), goal_uid=trip.uid, origin_robot=self.me, reason=reason,

@@ -1,43 +1,30 @@
 """ROS adapter of multirobot navigation: the ``multirobot_navigation`` node (one per robot).
 
 The logic lives in :mod:`gidabot_navigation.guiding.navigation` (ROS-free). Callbacks
-only enqueue; one loop owns the core, drives move_base (actionlib
-ActionClient, one goal handle per leg) and publishes the robot's status and pose.
+only enqueue; one loop owns the core: it converts each input (:mod:`gidabot_navigation.ros.convert`),
+hands it to the core, drives move_base (actionlib ActionClient, one goal handle per leg) and
+publishes the events, the robot's status and pose.
 """
 
 from __future__ import annotations
 
 import functools
-import queue
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import actionlib
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Point, Pose, PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped
 from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import BatteryState
 
 from gidabot_msgs.msg import Cancel, NavEvent, NavPose, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.guiding.guiding_node import (
-    cancel_from_msg,
-    cancel_to_msg,
-    catalog_entries,
-    diagnostics,
-    event_from_msg,
-    event_to_msg,
-    from_relay,
-    quaternion,
-    sender,
-    trip_from_msg,
-    yaw_of,
-)
-from gidabot_navigation.guiding.messages import Action, MoveTo, SendCancel, SendEvent, StopMoving, command_key
+from gidabot_navigation.guiding.messages import Action, MoveTo, PoseData, SendCancel, SendEvent, StopMoving
 from gidabot_navigation.guiding.navigation import (
     ABORTED,
     LOST,
@@ -50,16 +37,18 @@ from gidabot_navigation.guiding.navigation import (
     freshest_time,
 )
 from gidabot_navigation.guiding.state import DEFAULT_MAX_AGE, StateFile, default_state_dir
-from gidabot_navigation.interface import CONTINUE, Node, Topic, global_name
+from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.loop_meter import LoopMeter
+from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.adapter import Inbox, carry_out, diagnostics, from_relay, sender
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 
 QUEUE_SIZE = 2000
-DURABLE_INPUTS = ("pending", "cancel", "event", "continue", "result")   # may change the state kept across restarts
+DURABLE_INPUTS = ("pending", "cancel", "event", "command", "result")   # may change the state kept across restarts
 ACK_TIMEOUT = 3.0       # wall s: a move_base goal not acknowledged by then is sent again
 ACK_RETRIES = 3
 MAX_HANDLES = 16
@@ -85,13 +74,14 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        cfg = NavigationConfig(robot=param_text("~robot", required=True),
+        building, robot = robot_params()
+        cfg = NavigationConfig(robot=robot,
                                continue_timeout=param_number("~continue_timeout", 300.0),
                                partner_timeout=param_number("~partner_timeout", 120.0),
                                offline_after=param_number("~offline_after", 5.0),
                                pickup_distance=param_number("~pickup_distance", 1.5),
                                nav_lost_timeout=param_number("~nav_lost_timeout", 30.0))
-        return Params(param_text("~building", required=True), cfg, param_number("~status_rate", 2.0),
+        return Params(building, cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
                       param_text("~goal_manager", global_name(Node.GOAL_MANAGER), required=True),
@@ -163,9 +153,9 @@ class NavigationNode:
             rospy.loginfo(f"multirobot_navigation of {self.robot}: resumed from {self.params.state_dir}"
                           + (f": {leg.trip.uid}, {leg.stage.value} leg" if leg else ": no leg running")
                           + f"; {len(outbox)} message(s) not yet published")
-        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.inbox = Inbox(QUEUE_SIZE)
         self.loop = LoopMeter(1.0 / LOOP_PERIOD)
-        self.dropped = 0
+        self._next_diag = time.monotonic() + 1.0
         self.rejected_pending_sender = 0    # a pending list of this robot not from its goal manager
         self.client = actionlib.ActionClient(params.move_base, MoveBaseAction)
         self._active: tuple[int, MoveBaseGoal, float, int] | None = None    # token, goal, sent (wall), sends
@@ -185,8 +175,9 @@ class NavigationNode:
             rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
             rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
-            rospy.Subscriber(Topic.STATUS, RobotStatus, self._on_status, queue_size=50),
-            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._on_command, queue_size=50),
+            rospy.Subscriber(Topic.STATUS, RobotStatus, self._enqueue, callback_args="status", queue_size=50),
+            rospy.Subscriber(Topic.VISITOR_COMMAND, VisitorCommand, self._enqueue, callback_args="command",
+                             queue_size=50),
             rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._on_pose, queue_size=1),
             rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=1),
             rospy.Subscriber(Topic.BATTERY, BatteryState, self._on_battery, queue_size=1),
@@ -198,10 +189,7 @@ class NavigationNode:
 
     # -- callbacks: copy and enqueue ------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
-        try:
-            self.inbox.put_nowait((kind, msg))
-        except queue.Full:
-            self.dropped += 1
+        self.inbox.put(kind, msg)
 
     def _on_pending(self, msg: PendingRequests) -> None:
         if msg.robot != self.robot:
@@ -211,17 +199,10 @@ class NavigationNode:
             return
         self._enqueue(msg, "pending")
 
-    def _on_status(self, msg: RobotStatus) -> None:
-        self._enqueue(msg.robot, "status")
-
-    def _on_command(self, msg: VisitorCommand) -> None:
-        if msg.command == CONTINUE:
-            self._enqueue((msg.goal_uid, command_key(msg.uid, msg.header.stamp.to_sec())), "continue")
-
     # high-rate inputs: only the latest value is kept (one assignment), applied by the loop
     def _on_pose(self, msg: PoseWithCovarianceStamped) -> None:
         p = msg.pose.pose
-        self._latest_pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+        self._latest_pose = (p.position.x, p.position.y, convert.yaw_of(p.orientation))
 
     def _on_odom(self, msg: Odometry) -> None:
         self._latest_odom = (msg.twist.twist.linear.x, msg.twist.twist.angular.z)
@@ -251,52 +232,48 @@ class NavigationNode:
 
     # -- the loop that owns the core --------------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the running move_base goal
-        is cancelled, the state saved and the guard told the loop has stopped (it then closes the topics)."""
-        guard.set_wake(lambda: self._enqueue(None, ""))
-        try:
-            self._loop(guard)
-        finally:
-            if self._active is not None:
-                self._cancel(self._active[0])
-            if self.store is not None:
-                self.store.flush(self.core.state, force=True)
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the running move_base goal is cancelled and the
+        state saved."""
+        run_loop(guard, self.spin_once, LOOP_PERIOD, lambda: self.inbox.put(""), self._stop)
 
-    def _loop(self, guard: ExitGuard) -> None:
-        next_diag = time.monotonic() + 1.0
-        while not rospy.is_shutdown() and not guard.requested:
-            if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
-                self.publish_status()      # liveness never depends on the (sim) clock running
-            try:
-                kind, msg = self.inbox.get(timeout=LOOP_PERIOD)
-            except queue.Empty:
-                kind, msg = "", None
-            now_ros, now_wall = rospy.get_time(), time.monotonic()
-            self.loop.tick(now_ros, now_wall)
-            now_ros = freshest_time(now_ros, self._latest_odom_stamp)     # events stamped with the odometry's time
-            self._apply_latest()
-            self.core.on_move_base_available(self._server_up(), now_ros)
-            if kind:
-                self.commit(self.handle(kind, msg, now_ros, now_wall), self._changes_state(kind, msg))
-            self.commit(self.core.tick(now_ros, now_wall), False)
-            self._check_ack(now_wall)
-            if now_wall >= next_diag:
-                next_diag = now_wall + 1.0
-                self.publish_diagnostics()
+    def _stop(self) -> None:
+        if self._active is not None:
+            self._cancel(self._active[0])
+        if self.store is not None:
+            self.store.flush(self.core.state, force=True)
+
+    def spin_once(self, timeout: float) -> None:
+        """One turn of the loop: a status if the last is a wall second old, at most one input (waiting up to
+        ``timeout`` wall s), the latest pose, odometry and battery, the core's tick, move_base's acknowledgement,
+        the diagnostics once a wall second."""
+        if time.monotonic() - self._status_wall > STATUS_WALL_PERIOD:
+            self.publish_status()      # liveness never depends on the (sim) clock running
+        kind, msg = self.inbox.get(timeout)
+        now_ros, now_wall = rospy.get_time(), time.monotonic()
+        self.loop.tick(now_ros, now_wall)
+        now_ros = freshest_time(now_ros, self._latest_odom_stamp)     # events stamped with the odometry's time
+        self._apply_latest()
+        self.core.on_move_base_available(self._server_up(), now_ros)
+        if kind:
+            self.commit(self.handle(kind, msg, now_ros, now_wall), self._changes_state(kind, msg))
+        self.commit(self.core.tick(now_ros, now_wall), False)
+        self._check_ack(now_wall)
+        if now_wall >= self._next_diag:
+            self._next_diag = now_wall + 1.0
+            self.publish_diagnostics()
 
     def handle(self, kind: str, msg: object, now_ros: float, now_wall: float) -> list[Action]:
         core = self.core
         if kind == "pending":
-            eta_last = float(msg.eta[-1]) if msg.eta else 0.0
-            return core.on_pending([trip_from_msg(g) for g in msg.goals], eta_last, now_ros, now_wall)
+            pending = convert.pending_from_msg(msg)
+            eta_last = float(pending.eta[-1]) if pending.eta else 0.0
+            return core.on_pending(list(pending.goals), eta_last, now_ros, now_wall)
         if kind == "cancel":
-            return core.on_cancel(cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+            return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
         if kind == "event":
-            return core.on_nav_event(event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
-        if kind == "continue":
-            goal_uid, key = msg
-            return core.on_continue(goal_uid, now_ros, now_wall, key=key)
+            return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, from_relay=from_relay(msg))
+        if kind == "command":
+            return core.on_command(convert.command_from_msg(msg), now_ros, now_wall)
         if kind == "result":
             token, sends, status, text, done_ros = msg
             if self._handles.get(token, (None, -1))[1] != sends:
@@ -306,9 +283,9 @@ class NavigationNode:
                 self._active = None
             return core.on_move_base_result(token, status, text, now_ros, now_wall, done_ros)
         if kind == "status":
-            core.on_status(msg, now_wall)
+            core.on_status(convert.status_from_msg(msg).robot, now_wall)
         elif kind == "catalog":
-            core.on_catalog(catalog_entries(msg))
+            core.on_catalog(convert.catalog_from_msg(msg).tours)
         elif kind == "tick":
             self.publish_status()
         elif kind == "pose_tick":
@@ -325,13 +302,8 @@ class NavigationNode:
         return kind in DURABLE_INPUTS
 
     def commit(self, actions: list[Action], changed: bool) -> None:
-        """Save the state (the durable actions as the outbox) when it may have changed, then carry the
-        actions out; once published, save again without them."""
-        durable = [a for a in actions if isinstance(a, (SendEvent, SendCancel))]
-        if self.store is None:
-            self.execute(actions)
-        else:
-            self.store.commit(self.core.state, actions, durable, self.execute, changed)
+        """Publish ``actions``, the state saved first with the durable ones (a restart publishes them again)."""
+        carry_out(self.store, self.core.state, actions, self.core.durable(actions), self.execute, changed)
 
     def execute(self, actions: list[Action]) -> None:
         for act in actions:
@@ -339,14 +311,14 @@ class NavigationNode:
                 goal = MoveBaseGoal()
                 goal.target_pose.header.frame_id = self.params.frame_id
                 goal.target_pose.header.stamp = rospy.Time.now()
-                goal.target_pose.pose = Pose(Point(act.x, act.y, 0.0), quaternion(act.yaw))
+                goal.target_pose.pose = convert.pose_msg(act.x, act.y, act.yaw)
                 self._send(act.token, goal, 1)
             elif isinstance(act, StopMoving):
                 self._cancel(act.token)
             elif isinstance(act, SendEvent):
-                self.events_pub.publish(event_to_msg(act.event))
+                self.events_pub.publish(convert.event_to_msg(act.event))
             elif isinstance(act, SendCancel):
-                self.cancels_pub.publish(cancel_to_msg(act.cancel))
+                self.cancels_pub.publish(convert.cancel_to_msg(act.cancel))
 
     # -- move_base ------------------------------------------------------------------------
     def _send(self, token: int, goal: MoveBaseGoal, sends: int) -> None:
@@ -386,32 +358,21 @@ class NavigationNode:
         status = ac.last_status_msg
         if status is None:
             return False
-        server = (getattr(status, "_connection_header", None) or {}).get("callerid", "")
+        server = sender(status)
         return bool(server) and ac.pub_goal.impl.has_connection(server) and ac.pub_cancel.impl.has_connection(server)
 
     # -- outputs --------------------------------------------------------------------------
     def publish_status(self) -> None:
         self._status_wall = time.monotonic()
-        s = self.core.status(rospy.get_time())
-        msg = RobotStatus()
-        msg.header.stamp = rospy.Time.now()
-        msg.header.frame_id = self.params.frame_id
-        msg.robot, msg.floor = s.robot, s.floor
-        msg.nav_pose = Pose(Point(s.x, s.y, 0.0), quaternion(s.yaw))
-        msg.linear_velocity, msg.angular_velocity, msg.battery = s.linear, s.angular, s.battery
-        msg.state, msg.pending, msg.current_goal_uid, msg.busy_for = s.state, s.pending, s.current_goal_uid, s.busy_for
-        self.status_pub.publish(msg)
+        status = self.core.status(rospy.get_time())
+        self.status_pub.publish(convert.status_to_msg(replace(status, frame_id=self.params.frame_id)))
 
     def publish_pose(self) -> None:
         pose = self.core.pose
         if pose is None:
             return
-        msg = NavPose()
-        msg.header.stamp = rospy.Time.now()
-        msg.header.frame_id = self.params.frame_id
-        msg.robot, msg.floor = self.robot, self.core.floor
-        msg.nav_pose = Pose(Point(pose.x, pose.y, 0.0), quaternion(pose.yaw))
-        self.poses_pub.publish(msg)
+        self.poses_pub.publish(convert.pose_to_msg(PoseData(self.robot, self.core.floor, pose.x, pose.y, pose.yaw,
+                                                    rospy.get_time(), self.params.frame_id)))
 
     def publish_diagnostics(self) -> None:
         stats = dict(self.core.stats)
@@ -419,11 +380,12 @@ class NavigationNode:
                      state_save_failures=self.store.failures if self.store else 0,
                      replayed=self.events_pub.buffer.replayed + self.cancels_pub.buffer.replayed)
         stats.update(self.loop.values())
-        stats.update(queue_dropped=self.dropped, rejected_pending_sender=self.rejected_pending_sender,
+        stats.update(queue_dropped=self.inbox.dropped, rejected_pending_sender=self.rejected_pending_sender,
                      move_base=int(self.core.available), leg=self.core.leg.stage.value if self.core.leg else "")
+        now = rospy.get_time()
         self.diag_pub.publish(diagnostics(f"guiding: navigation {self.robot}", self.robot, stats,
-                                          not self.core.available or bool(self.dropped),
-                                          self.core.status(rospy.get_time()).state))
+                                          not self.core.available or bool(self.inbox.dropped),
+                                          self.core.status(now).state, now))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -17,15 +17,7 @@ from dataclasses import dataclass
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.tours.tour_file import Tour, tour_from_lines
-
-
-@dataclass(frozen=True)
-class CatalogEntry:
-    """One tour of a TourCatalog message."""
-
-    file_name: str
-    tour_name: str
-    goal_lines: tuple[str, ...]
+from gidabot_navigation.tours.tour_store import TourMessage
 
 
 class TourBook:
@@ -35,13 +27,13 @@ class TourBook:
         self.building = building
         self._tours: dict[str, Tour] = {}
 
-    def update(self, entries: Iterable[CatalogEntry]) -> list[str]:
-        """Replace the known tours by a new catalog; return one problem line per invalid entry."""
+    def update(self, entries: Iterable[TourMessage]) -> list[str]:
+        """Replace the known tours by the tours of a new catalog; return one problem line per invalid one."""
         tours: dict[str, Tour] = {}
         problems: list[str] = []
         for e in entries:
             try:
-                tours[e.file_name] = tour_from_lines(e.file_name, e.tour_name, list(e.goal_lines), self.building)
+                tours[e.file_name] = tour_from_lines(e.file_name, e.tour_name, list(e.tour_goals_info), self.building)
             except (TourError, TourNameError, TypeError, AttributeError) as err:
                 problems.append(f"tour {str(e.file_name)[:64]!r} in the catalog is invalid: {err}")
         self._tours = tours

@@ -28,16 +28,7 @@ from gidabot_navigation.building.model import Building, Connector, Location, Rob
 from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import NoRouteError, PlanningError
 from gidabot_navigation.guiding.messages import START_ROBOT, Trip
-from gidabot_navigation.interface import (
-    GOING_TO_MEETING,
-    LEG_COMMITTED,
-    LEG_GOAL,
-    LEG_NONE,
-    LEG_START,
-    ON_THE_WAY,
-    WAITING_VISITOR,
-    WAY_LIFT,
-)
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_START, WAY_LIFT, Phase
 
 DEFAULT_RADIUS = 0.3     # m, footprint radius used on a floor without a robot (the visitor's way)
 PERSON = None            # drive_time(..., PERSON): the visitor walking alone
@@ -284,10 +275,10 @@ def estimate_queue(planner: TripPlanner, model: WaitModel, robot: Robot, pose: t
                 out.append(t)
                 continue
             after = model.continue_s + model.drive_time(planner.leg_length(robot.floor, meet, goal_xy), robot)
-            if progress is not None and progress.phase == ON_THE_WAY:
+            if progress is not None and progress.phase == Phase.ON_THE_WAY:
                 t += model.drive_time(planner.leg_length(robot.floor, pos, goal_xy), robot)
             else:
-                drive = 0.0 if progress is not None and progress.phase == WAITING_VISITOR else \
+                drive = 0.0 if progress is not None and progress.phase == Phase.WAITING_VISITOR else \
                     model.drive_time(planner.leg_length(robot.floor, pos, meet), robot)
                 t = max(t + drive, _visitor_arrival(planner, model, trip, t, releases, now)) + after
             pos = goal_xy
@@ -297,7 +288,7 @@ def estimate_queue(planner: TripPlanner, model: WaitModel, robot: Robot, pose: t
                 out.append(t)
                 continue
             start = (trip.initial_x, trip.initial_y)
-            guiding = progress is not None and progress.phase == ON_THE_WAY
+            guiding = progress is not None and progress.phase == Phase.ON_THE_WAY
             if guiding:
                 t += model.drive_time(planner.leg_length(robot.floor, pos, target), robot)
             else:
@@ -305,7 +296,7 @@ def estimate_queue(planner: TripPlanner, model: WaitModel, robot: Robot, pose: t
                     t += model.drive_time(planner.leg_length(robot.floor, pos, start), robot)
                 t += model.drive_time(planner.leg_length(robot.floor, start, target), robot)
             pos = target
-        if progress is None or progress.phase not in (ON_THE_WAY, GOING_TO_MEETING, WAITING_VISITOR):
+        if progress is None or progress.phase not in (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING, Phase.WAITING_VISITOR):
             t += model.leg_overhead_s
         out.append(round(t, 1))
     return QueueEstimate(tuple(out), pos)

@@ -33,3 +33,8 @@ def param_text(name: str, default: str = "", required: bool = False) -> str:
         what = "a non-empty string" if required else "a string"
         raise ParamError(f"{rospy.resolve_name(name)} must be {what}, got {value!r}")
     return value
+
+
+def robot_params() -> tuple[str, str]:
+    """``~building`` (building.yaml or its directory) and ``~robot`` (this robot's name in it), both required."""
+    return param_text("~building", required=True), param_text("~robot", required=True)

@@ -88,7 +88,7 @@ class StoreLimits:
 
 @dataclass(frozen=True)
 class TourMessage:
-    """The fields of ``gidabot_msgs/Tour``, ROS-free (the node copies them in and out)."""
+    """A ``gidabot_msgs/Tour`` (:mod:`gidabot_navigation.ros.convert` converts it); ``stamp``: s, when it was sent."""
 
     uid: str = ""
     origin_robot: str = ""
@@ -100,6 +100,7 @@ class TourMessage:
     tour_name: str = ""
     file_name: str = ""
     tour_goals_info: tuple[str, ...] = ()
+    stamp: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,39 @@ class IndexEntry:
     version: int
     editor_robot: str
     deleted: bool
+
+
+@dataclass(frozen=True)
+class TourIndexData:
+    """A ``gidabot_msgs/TourIndex``: every record ``robot`` holds (tours and tombstones), with versions."""
+
+    robot: str
+    entries: tuple[IndexEntry, ...] = ()
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class CatalogData:
+    """A ``gidabot_msgs/TourCatalog``: the tours in ``robot``'s directory, sorted by file name."""
+
+    robot: str
+    tours: tuple[TourMessage, ...] = ()
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class EditResultData:
+    """A ``gidabot_msgs/TourEditResult``: the outcome of one admin action (``reason``: a TourRejected reason,
+    ``oversized``, ``encoding`` or ``io`` when refused)."""
+
+    uid: str
+    file_name: str
+    deleted: bool
+    ok: bool
+    version: int = 0
+    reason: str = ""
+    error: str = ""
+    stamp: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -604,6 +638,28 @@ class TourStore:
         self.log.info(f"{'deleted' if rec.deleted else 'saved'} tour {name} (version {version})")
         return done
 
+    def admin_edit(self, msg: TourMessage) -> tuple[EditResultData, TourMessage | None]:
+        """Carry out an admin action (:meth:`edit`): the result to answer the GUI with, and the message that
+        shares the new record with the other robots (None when the action was refused, which is logged)."""
+        what = "delete" if msg.deleted else "edit"
+        try:
+            rec = self.edit(msg)
+        except TourRejected as err:
+            self.log.warning(f"admin {what} of tour {_short(msg.file_name)} refused: {err}")
+            return edit_result(msg, None, err.reason, str(err)), None
+        except TourStoreError as err:
+            self.log.error(f"admin {what} of tour {_short(msg.file_name)} failed: {err}")
+            return edit_result(msg, None, "io", str(err)), None
+        return edit_result(msg, rec, "", ""), self.outgoing(rec)
+
+    def catalog_data(self) -> CatalogData:
+        """The tours of the directory, for the GUI and tour mode."""
+        return CatalogData(self.robot, tuple(rec.message("") for rec in self.catalog()))
+
+    def index_data(self) -> TourIndexData:
+        """Every record held, for the other robots' anti-entropy."""
+        return TourIndexData(self.robot, tuple(self.index()))
+
     # ------------------------------------------------------------------ remote records
     def next_uid(self) -> str:
         self._seq += 1
@@ -730,6 +786,13 @@ class TourStore:
         live = sum(1 for r in self.records.values() if not r.deleted)
         return {"tours": live, "tombstones": len(self.records) - live, "blocked": len(self.blocked()),
                 **dict(self.counters)}
+
+
+def edit_result(msg: TourMessage, rec: TourRecord | None, reason: str, error: str) -> EditResultData:
+    """The answer to the admin action ``msg``: stored as ``rec``, or refused for ``reason`` (``error`` says why)."""
+    return EditResultData(uid=msg.uid if isinstance(msg.uid, str) else "",
+                          file_name=msg.file_name if isinstance(msg.file_name, str) else "", deleted=bool(msg.deleted),
+                          ok=rec is not None, version=rec.version if rec else 0, reason=reason, error=error)
 
 
 def index_entries(file_names: Iterable[object], versions: Iterable[object], editors: Iterable[object],

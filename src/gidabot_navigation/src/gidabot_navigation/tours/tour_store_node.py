@@ -1,36 +1,44 @@
 """ROS adapter of the tour store: the ``tour_store`` node (one per robot, on the robot's own master).
 
-The logic lives in :mod:`gidabot_navigation.tours.tour_store` (ROS-free). This module
-reads the parameters once, converts messages, and runs one loop that owns the
-store: callbacks only check sizes and enqueue raw bytes.
+The logic lives in :mod:`gidabot_navigation.tours.tour_store` (ROS-free). Callbacks only check sizes and
+enqueue raw bytes; one loop owns the store: it decodes each message (exactly, :func:`decode`), converts it
+(:mod:`gidabot_navigation.ros.convert`), hands it to the store and publishes what the store answers.
 """
 
 from __future__ import annotations
 
-import contextlib
 import io
 import os
-import queue
 import struct
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import genpy
 import rospy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 
 from gidabot_msgs.msg import Tour, TourCatalog, TourEditResult, TourIndex
 from gidabot_navigation.building.model import load_building
-from gidabot_navigation.errors import TourRejected, TourStoreError
+from gidabot_navigation.errors import ParamError
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES, Node, Topic
+from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.adapter import Inbox, diagnostics, sender
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
-from gidabot_navigation.ros.node_main import run_node
-from gidabot_navigation.ros.params import param_number
-from gidabot_navigation.tours.tour_store import NS, StoreLimits, TourMessage, TourRecord, TourStore, index_entries
+from gidabot_navigation.ros.node_main import run_loop, run_node
+from gidabot_navigation.ros.params import param_number, param_text, robot_params
+from gidabot_navigation.tours.tour_store import (
+    NS,
+    EditResultData,
+    StoreLimits,
+    TourMessage,
+    TourStore,
+    edit_result,
+)
 
 QUEUE_SIZE = 1000
+OVERSIZED = "oversized_"      # prefix of the kind of a message too large to decode (only its size is queued)
 
 
 @dataclass(frozen=True)
@@ -45,41 +53,20 @@ class Params:
 
     @staticmethod
     def read() -> Params:
-        building = str(rospy.get_param("~building", ""))
-        robot = str(rospy.get_param("~robot", ""))
-        if not building or not robot:
-            raise TourStoreError("~building (path of building.yaml or its directory) and ~robot (robot name) "
-                                 "are required")
+        building, robot = robot_params()
         ros_home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
-        default_dir = os.path.join(ros_home, "gidabot", robot, "tours")
-        tours_dir = str(rospy.get_param("~tours_dir", "") or default_dir)
-        language = str(rospy.get_param("~default_language", DEFAULT_LANGUAGE))
+        tours_dir = param_text("~tours_dir", "") or os.path.join(ros_home, "gidabot", robot, "tours")
+        language = param_text("~default_language", DEFAULT_LANGUAGE)
         if language not in LANGUAGES:
-            raise TourStoreError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
-
+            raise ParamError(f"~default_language {language!r} is not one of {', '.join(LANGUAGES)}")
         limits = StoreLimits(max_message_bytes=int(param_number("~max_message_bytes", StoreLimits.max_message_bytes)),
-                        max_tours=int(param_number("~max_tours", StoreLimits.max_tours)),
-                        max_future_ns=int(param_number("~max_clock_skew", StoreLimits.max_future_ns / NS) * NS),
-                        tombstone_ttl_ns=int(param_number("~tombstone_ttl", StoreLimits.tombstone_ttl_ns / NS) * NS),
-                        resend_period=param_number("~resend_period", StoreLimits.resend_period))
-        return Params(building, robot, tours_dir, str(rospy.get_param("~seed_dir", "")), language,
+                             max_tours=int(param_number("~max_tours", StoreLimits.max_tours)),
+                             max_future_ns=int(param_number("~max_clock_skew", StoreLimits.max_future_ns / NS) * NS),
+                             tombstone_ttl_ns=int(param_number("~tombstone_ttl",
+                                                               StoreLimits.tombstone_ttl_ns / NS) * NS),
+                             resend_period=param_number("~resend_period", StoreLimits.resend_period))
+        return Params(building, robot, tours_dir, param_text("~seed_dir", ""), language,
                       param_number("~index_rate", 1.0), limits)
-
-
-def to_core(msg: Tour) -> TourMessage:
-    return TourMessage(uid=msg.uid, origin_robot=msg.origin_robot, editor_robot=msg.editor_robot,
-                       version=int(msg.version), deleted=bool(msg.deleted), language=msg.language,
-                       floor=float(msg.floor), tour_name=msg.tour_name, file_name=msg.file_name,
-                       tour_goals_info=tuple(msg.tour_goals_info))
-
-
-def to_ros(tm: TourMessage, stamp: rospy.Time | None = None) -> Tour:
-    msg = Tour()
-    msg.header.stamp = rospy.Time.now() if stamp is None else stamp
-    msg.uid, msg.origin_robot, msg.editor_robot = tm.uid, tm.origin_robot, tm.editor_robot
-    msg.version, msg.deleted, msg.language, msg.floor = tm.version, tm.deleted, tm.language, tm.floor
-    msg.tour_name, msg.file_name, msg.tour_goals_info = tm.tour_name, tm.file_name, list(tm.tour_goals_info)
-    return msg
 
 
 def decode(cls: type, raw: bytes) -> genpy.Message:
@@ -151,8 +138,8 @@ class TourStoreNode:
                                seed_dir=params.seed_dir or None, default_language=params.default_language,
                                limits=params.limits)
         self.store.open()
-        self.inbox: queue.Queue[tuple[str, bytes, str] | None] = queue.Queue(QUEUE_SIZE)   # None: wake up
-        self.dropped = 0
+        self.inbox = Inbox(QUEUE_SIZE)
+        self._next_tick = time.monotonic() + 1.0 / params.index_rate
         self.tours_pub = rospy.Publisher(Topic.TOURS, Tour, queue_size=100)
         self.index_pub = rospy.Publisher(Topic.TOUR_INDEX, TourIndex, queue_size=10, latch=True)
         self.catalog_pub = rospy.Publisher(Topic.TOUR_CATALOG, TourCatalog, queue_size=2, latch=True)
@@ -165,96 +152,59 @@ class TourStoreNode:
     # -- callbacks: size check, enqueue, return ---------------------------------------
     def _enqueue(self, msg: rospy.AnyMsg, kind: str) -> None:
         raw = msg._buff
-        sender = msg._connection_header.get("callerid", "?") if msg._connection_header else "?"
         if len(raw) > self.params.limits.max_message_bytes:
             raw = len(raw).to_bytes(8, "little")     # only the size travels on
-            kind = "oversized_" + kind
-        try:
-            self.inbox.put_nowait((kind, raw, sender))
-        except queue.Full:
-            self.dropped += 1
-
-    def _wake(self) -> None:
-        """End the loop's wait at once (from the exit guard's thread)."""
-        with contextlib.suppress(queue.Full):
-            self.inbox.put_nowait(None)
+            kind = OVERSIZED + kind
+        self.inbox.put(kind, (raw, sender(msg) or "?"))
 
     # -- the loop that owns the store ---------------------------------------------------
     def run(self, guard: ExitGuard) -> None:
-        """The loop, until shutdown or the guard's signal (which wakes it); then the store is closed and the
-        guard told the loop has stopped (it then closes the topics)."""
-        guard.set_wake(self._wake)
-        period = 1.0 / self.params.index_rate
-        next_tick = time.monotonic() + period
-        try:
-            while not rospy.is_shutdown() and not guard.requested:
-                try:
-                    item = self.inbox.get(timeout=max(0.0, min(0.2, next_tick - time.monotonic())))
-                except queue.Empty:
-                    item = None
-                if item is not None and self.handle(*item):
-                    self._publish_state()
-                now = time.monotonic()
-                if now >= next_tick:
-                    next_tick = max(next_tick + period, now)
-                    self.tick()
-        finally:
-            self.store.close()
-            guard.loop_stopped()
+        """The loop until shutdown or the guard's signal; then the store is closed."""
+        run_loop(guard, self.spin_once, 0.2, lambda: self.inbox.put(""), self.store.close)
+
+    def spin_once(self, timeout: float) -> None:
+        """One turn of the loop: at most one message (waiting up to ``timeout`` wall s, less when the index is
+        due), then the periodic work when due."""
+        kind, item = self.inbox.get(max(0.0, min(timeout, self._next_tick - time.monotonic())))
+        if kind and self.handle(kind, *item):  # type: ignore[misc]
+            self._publish_state()
+        now = time.monotonic()
+        if now >= self._next_tick:
+            self._next_tick = max(self._next_tick + 1.0 / self.params.index_rate, now)
+            self.tick()
 
     def handle(self, kind: str, raw: bytes, sender: str) -> bool:
         """Handle one queued message; True if the store changed."""
-        if kind.startswith("oversized_"):
+        if kind.startswith(OVERSIZED):
             size = int.from_bytes(raw, "little")
-            self.store.reject("oversized", f"{kind[10:]} message of {size} bytes from {sender} is larger than "
+            kind = kind[len(OVERSIZED):]
+            self.store.reject("oversized", f"{kind} message of {size} bytes from {sender} is larger than "
                                            f"the {self.params.limits.max_message_bytes} bytes allowed; not decoded")
-            if kind == "oversized_edit":
-                self._result(TourMessage(), None, "oversized", f"message of {size} bytes is too large")
+            if kind == "edit":
+                self._answer(edit_result(TourMessage(), None, "oversized", f"message of {size} bytes is too large"))
             return False
-        cls = {"tour": Tour, "index": TourIndex, "edit": Tour}[kind]
         try:
-            msg = decode(cls, raw)
+            msg = decode(TourIndex if kind == "index" else Tour, raw)
         except ValueError as err:
             self.store.reject("encoding", f"{err} from {sender}")
             return False
         if kind == "tour":
-            return self.store.receive(to_core(msg)).changed
+            return self.store.receive(convert.tour_from_msg(msg)).changed
         if kind == "index":
             try:
-                entries = index_entries(msg.file_names, msg.versions, msg.editor_robots, msg.deleted)
+                index = convert.index_from_msg(msg)
             except ValueError as err:
                 self.store.reject("index", f"tour index of {msg.robot!r} from {sender}: {err}")
                 return False
-            for out in self.store.peer_index(msg.robot, entries, time.monotonic()):
-                self.tours_pub.publish(to_ros(out))
+            for out in self.store.peer_index(index.robot, index.entries, time.monotonic()):
+                self._share(out)
             return False
-        return self._edit(to_core(msg))
-
-    def _edit(self, tm: TourMessage) -> bool:
-        try:
-            rec = self.store.edit(tm)
-        except TourRejected as err:
-            rospy.logwarn(f"admin {'delete' if tm.deleted else 'edit'} of tour {tm.file_name!r} refused: {err}")
-            self._result(tm, None, err.reason, str(err))
+        result, out = self.store.admin_edit(convert.tour_from_msg(msg))
+        self._answer(result)
+        if out is None:
             return False
-        except TourStoreError as err:
-            rospy.logerr(f"admin edit of tour {tm.file_name!r} failed: {err}")
-            self._result(tm, None, "io", str(err))
-            return False
-        self.tours_pub.publish(to_ros(self.store.outgoing(rec)))
-        self._result(tm, rec, "", "")
+        self._share(out)
         return True
-
-    def _result(self, tm: TourMessage, rec: TourRecord | None, reason: str, error: str) -> None:
-        res = TourEditResult()
-        res.header.stamp = rospy.Time.now()
-        res.uid = tm.uid if isinstance(tm.uid, str) else ""
-        res.file_name = tm.file_name if isinstance(tm.file_name, str) else ""
-        res.deleted = bool(tm.deleted)
-        res.ok = rec is not None
-        res.version = rec.version if rec else 0
-        res.reason, res.error = reason, error
-        self.result_pub.publish(res)
 
     def tick(self) -> None:
         if self.store.step():
@@ -264,44 +214,27 @@ class TourStoreNode:
         self._publish_diagnostics()
 
     # -- outputs ------------------------------------------------------------------------
+    def _share(self, tour: TourMessage) -> None:
+        self.tours_pub.publish(convert.tour_to_msg(replace(tour, stamp=rospy.get_time())))
+
+    def _answer(self, result: EditResultData) -> None:
+        self.result_pub.publish(convert.edit_result_to_msg(replace(result, stamp=rospy.get_time())))
+
     def _publish_state(self) -> None:
         self._publish_index()
-        cat = TourCatalog()
-        cat.header.stamp = rospy.Time.now()
-        cat.robot = self.robot
-        cat.tours = [to_ros(rec.message("")) for rec in self.store.catalog()]
-        self.catalog_pub.publish(cat)
+        self.catalog_pub.publish(convert.catalog_to_msg(replace(self.store.catalog_data(), stamp=rospy.get_time())))
 
     def _publish_index(self) -> None:
-        entries = self.store.index()
-        idx = TourIndex()
-        idx.header.stamp = rospy.Time.now()
-        idx.robot = self.robot
-        idx.file_names = [e.file_name for e in entries]
-        idx.versions = [e.version for e in entries]
-        idx.editor_robots = [e.editor_robot for e in entries]
-        idx.deleted = [e.deleted for e in entries]
-        self.index_pub.publish(idx)
+        self.index_pub.publish(convert.index_to_msg(replace(self.store.index_data(), stamp=rospy.get_time())))
 
     def _publish_diagnostics(self) -> None:
-        stats = self.store.stats()
-        stats["queue_dropped"] = self.dropped
-        status = DiagnosticStatus()
-        status.name = f"tour_store: {self.robot}"
-        status.hardware_id = self.robot
-        status.level = DiagnosticStatus.WARN if stats["blocked"] else DiagnosticStatus.OK
-        status.message = (f"{stats['tours']} tours, {stats['blocked']} blocked, "
-                          f"{stats.get('rejected', 0)} rejected")
+        stats: dict[str, object] = dict(self.store.stats())
+        stats["queue_dropped"] = self.inbox.dropped
         if self.store.last_rejection:
-            stats_text = {"last_rejection": self.store.last_rejection[:300]}
-        else:
-            stats_text = {}
-        status.values = [KeyValue(k, str(v)) for k, v in sorted(stats.items())] + \
-                        [KeyValue(k, v) for k, v in stats_text.items()]
-        arr = DiagnosticArray()
-        arr.header.stamp = rospy.Time.now()
-        arr.status = [status]
-        self.diag_pub.publish(arr)
+            stats["last_rejection"] = self.store.last_rejection[:300]
+        self.diag_pub.publish(diagnostics(f"tour_store: {self.robot}", self.robot, stats, bool(stats["blocked"]),
+                                          f"{stats['tours']} tours, {stats['blocked']} blocked, "
+                                          f"{stats.get('rejected', 0)} rejected", rospy.get_time()))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -59,7 +59,7 @@ def worker(argv: Sequence[str]) -> int:
     from diagnostic_msgs.msg import DiagnosticArray
 
     from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus, Tour, VisitorCommand
-    from gidabot_navigation.interface import ACCEPTED, Cmd, Node, Topic, global_name
+    from gidabot_navigation.interface import Cmd, Node, Phase, RobotState, Topic, global_name
 
     ap = argparse.ArgumentParser(prog="bench_flood worker")
     ap.add_argument("--building", required=True)
@@ -81,7 +81,7 @@ def worker(argv: Sequence[str]) -> int:
 
     def on_event(m: NavEvent) -> None:
         sender = (m._connection_header or {}).get("callerid", "")
-        if m.robot == args.robot and m.phase == ACCEPTED and sender == global_name(Node.GOAL_MANAGER) and \
+        if m.robot == args.robot and m.phase == Phase.ACCEPTED and sender == global_name(Node.GOAL_MANAGER) and \
                 m.location_id == answer.get("want"):
             answer["goal_uid"] = m.goal_uid
             answered.set()
@@ -111,13 +111,13 @@ def worker(argv: Sequence[str]) -> int:
             return Topic.CANCELS, Cancel(uid=f"Mallory/cancel/{k}", goal_uid=f"{args.robot}/v/{k}",
                                               origin_robot="Mallory", reason="visitor")
         if kind == 4:
-            return Topic.NAV_EVENTS, NavEvent(uid=f"Mallory/event/{k}", robot="Mallory", phase=6,
+            return Topic.NAV_EVENTS, NavEvent(uid=f"Mallory/event/{k}", robot="Mallory", phase=Phase.UNREACHABLE,
                                                    goal_uid=f"{args.robot}/v/{k}")
         if kind == 5:
             return Topic.NAV_EVENTS, NavEvent(uid=f"Mallory/event/{k}", robot=args.robot, phase=250,
                                                    goal_uid=f"{args.robot}/v/{k}")
         if kind == 6:
-            s = RobotStatus(robot="Mallory", floor=math.nan, state="guiding")
+            s = RobotStatus(robot="Mallory", floor=math.nan, state=RobotState.GUIDING)
             s.nav_pose.position.x = math.nan
             return Topic.STATUS, s
         return Topic.TOURS, Tour(uid=f"Mallory/tour/{k}", file_name=f"../../escape{k}.tour",

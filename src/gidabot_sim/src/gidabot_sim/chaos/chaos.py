@@ -50,17 +50,7 @@ from typing import Any, TextIO
 
 from gidabot_navigation.building.model import Building, load_building
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
-from gidabot_navigation.interface import (
-    LEG_START,
-    STATE_GUIDING,
-    STATE_TO_MEETING,
-    STATE_WAITING,
-    WAY_STAIRS,
-    WAYS,
-    Node,
-    Phase,
-    global_name,
-)
+from gidabot_navigation.interface import LEG_START, WAY_STAIRS, WAYS, Node, Phase, RobotState, global_name
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_file import Tour, check_tour_file_name, parse_tour
 from gidabot_sim.chaos import core as cc
@@ -423,8 +413,8 @@ class ChaosRun:
         waiting up to ``wait`` s for one; None if none is."""
         deadline = time.monotonic() + wait
         while not self.over():
-            busy = [r for r in robots if self.probes[r].call("plan").get("state") in (STATE_GUIDING,
-                                                                                       STATE_TO_MEETING, STATE_WAITING)]
+            busy = [r for r in robots if self.probes[r].call("plan").get("state") in (
+                RobotState.GUIDING, RobotState.TO_MEETING, RobotState.WAITING)]
             if busy:
                 return self.rng.choice(busy)
             if time.monotonic() >= deadline:
@@ -622,7 +612,8 @@ class ChaosRun:
 
     def _place_person(self, robot: str, f: cc.Fault, res: cc.FaultResult) -> bool:
         info = self.probes[robot].call("plan")
-        if info.get("state") not in (STATE_GUIDING, STATE_TO_MEETING) or not info.get("pose") or not info.get("plan"):
+        if info.get("state") not in (RobotState.GUIDING, RobotState.TO_MEETING) or not info.get("pose") \
+                or not info.get("plan"):
             return False
         r = self.building.robot(robot)
         spot = cc.choose_obstacle(self.building, r.floor, tuple(info["pose"][:2]),

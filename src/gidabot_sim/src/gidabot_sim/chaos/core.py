@@ -43,25 +43,13 @@ from typing import Any
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import PlanningError
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    CANCELLED_ELSEWHERE,
-    CANCELLED_HERE,
     FINAL_PHASES,
-    GOAL_REACHED,
     GUIDING_NODES,
     LEG_COMMITTED,
-    NO_ROBOT_ON_FLOOR,
-    PARTNER_BACK,
-    PARTNER_LOST,
-    PARTNER_OFFLINE,
     PHASE_NAMES,
     REASON_VISITOR,
-    REJECTED,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
     Node,
+    Phase,
     Topic,
     global_name,
     is_relay_end,
@@ -93,14 +81,15 @@ KINDS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR, MASTER_RESTART, NODE_RESTA
 LINK_CUTS = (CUT_IPTABLES, CUT_RELAY_END, CUT_SUPERVISOR)
 MACHINES_ONLY = (FLAPPING, ONE_WAY, LOSSY, MACHINE_DOWN, CLOCK_OFFSET)
 # phases and cancel reasons by which the system itself ends a trip (the visitor did not choose it)
-SYSTEM_ENDS = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE})
+SYSTEM_ENDS = frozenset({Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE})
 
 MASTER = "master"                             # freeze target: the robot's ROS master
 FREEZE_TARGETS = (*GUIDING_NODES, MASTER, Node.SIM, Node.MOVE_BASE)
 
 # -- NavEvent phases (gidabot_msgs/NavEvent.msg) ----------------------------------------
-COMPLETIONS = frozenset({GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED})
-VISIBLE_FAILURES = frozenset({UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, CANCELLED_HERE, CANCELLED_ELSEWHERE})
+COMPLETIONS = frozenset({Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED})
+VISIBLE_FAILURES = frozenset({Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.CANCELLED_HERE,
+                              Phase.CANCELLED_ELSEWHERE})
 GUIDING_CALLERS = tuple(global_name(n) for n in GUIDING_NODES)
 
 RECOVERY_TARGET_S = 5.0
@@ -566,7 +555,7 @@ class Bookkeeping:
                    and rec.get("m") == rec.get("origin") in self.robots]
             if own:
                 out[uid] = max(own, key=lambda rec: int(rec.get("attempt", 0)))
-        accepted_events = {e.get("goal_uid") for e in self.events.values() if e.get("phase") == ACCEPTED}
+        accepted_events = {e.get("goal_uid") for e in self.events.values() if e.get("phase") == Phase.ACCEPTED}
         for uid in accepted_events:
             if uid and uid not in out and self.goal_records.get(uid):
                 out[uid] = self.goal_records[uid][0]
@@ -599,14 +588,14 @@ class Bookkeeping:
             for ev in by_goal.get(uid, []):
                 robot, phase = str(ev.get("robot")), int(ev.get("phase", -1))
                 leg = str(ev.get("leg", ""))
-                if phase == ACCEPTED:
+                if phase == Phase.ACCEPTED:
                     accepted_by[robot].add(str(ev.get("uid")))
                     answers[(robot, leg, int(ev.get("attempt", 0)))].add(str(ev.get("uid")))
                 if phase in FINAL_PHASES:
                     finals[(robot, leg)].add(str(ev.get("uid")))
                 if phase in COMPLETIONS and completes and robot == completes:
                     fate.completed = True
-                if phase in (NO_ROBOT_ON_FLOOR, TOUR_FINISHED) and not goal_robot and start_robot \
+                if phase in (Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_FINISHED) and not goal_robot and start_robot \
                         and robot == start_robot and not math.isclose(a, b):
                     fate.completed = True           # sent to a floor without robot: found alone
                 if phase in VISIBLE_FAILURES:
@@ -674,7 +663,7 @@ class Bookkeeping:
                 elif not any(e.startswith(f"{uid}:") for e in step.system_ends):
                     step.system_ends.append(f"{uid}: cancelled by {origin} ({reason})")
         for ev in self.events.values():          # refusals answer a request: no goal was made
-            if int(ev.get("phase", -1)) in (PARTNER_OFFLINE, REJECTED) and not ev.get("goal_uid") \
+            if int(ev.get("phase", -1)) in (Phase.PARTNER_OFFLINE, Phase.REJECTED) and not ev.get("goal_uid") \
                     and str(ev.get("tour_file", "")) == tour_file:
                 step = out.get(int(ev.get("tour_step", -1)) if tour_file else -1)
                 if step is not None:
@@ -746,17 +735,17 @@ class Bookkeeping:
         for (robot, goal), items in seq.items():
             items.sort()
             for i, (_, phase) in enumerate(items):
-                if phase != PARTNER_LOST:
+                if phase != Phase.PARTNER_LOST:
                     continue
                 lost += 1
-                if any(p == PARTNER_BACK or p in FINAL_PHASES for _, p in items[i + 1:]):
+                if any(p == Phase.PARTNER_BACK or p in FINAL_PHASES for _, p in items[i + 1:]):
                     answered += 1
                 else:
                     open_.append(f"{robot} {goal}")
         return lost, answered, open_
 
     def tour_finished(self, tour_file: str, last_step: int) -> bool:
-        return any(ev.get("phase") == TOUR_FINISHED and ev.get("tour_file") == tour_file
+        return any(ev.get("phase") == Phase.TOUR_FINISHED and ev.get("tour_file") == tour_file
                    and ev.get("tour_step") == last_step for ev in self.events.values())
 
 

@@ -33,36 +33,17 @@ import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from gidabot_navigation.interface import (
-    CANCELLED_ELSEWHERE,
-    CANCELLED_HERE,
-    DECLINED,
-    FINAL_PHASES,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    GOING_TO_MEETING,
-    LEG_COMMITTED,
-    LEG_GOAL,
-    LEG_START,
-    NO_ROBOT_ON_FLOOR,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
-    PHASE_NAMES,
-    REJECTED,
-    TIMEOUT,
-    TOUR_FINISHED,
-    UNREACHABLE,
-)
+from gidabot_navigation.interface import FINAL_PHASES, LEG_COMMITTED, LEG_GOAL, LEG_START, PHASE_NAMES, Phase
 from gidabot_sim.demo.progress import MonitorFeed
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
 REFUSED = "refused"              # the request made no goal: the robot refused it (REJECTED, UNREACHABLE)
 LEFT = "left"                    # shown the waits, the visitor did not confirm (its patience): its choice
-MOVING = (ON_THE_WAY, GOING_TO_MEETING)
-TRIP_ENDS = FINAL_PHASES - {GO_TO_FLOOR, DECLINED}    # a trip is over (not only one robot's part of it)
-FAILURE_PHASES = (UNREACHABLE, PARTNER_OFFLINE, REJECTED)
-REFUSALS = (REJECTED, UNREACHABLE)   # answers to a request that end the visit without a goal
+MOVING = (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING)
+TRIP_ENDS = FINAL_PHASES - {Phase.GO_TO_FLOOR, Phase.DECLINED}    # a trip is over (not only one robot's part of it)
+FAILURE_PHASES = (Phase.UNREACHABLE, Phase.PARTNER_OFFLINE, Phase.REJECTED)
+REFUSALS = (Phase.REJECTED, Phase.UNREACHABLE)   # answers to a request that end the visit without a goal
 
 
 @dataclass
@@ -204,7 +185,7 @@ class Crowd(MonitorFeed):
             return False
         g = self.goals.get(uid)
         if g is None:
-            if self._end_phase.get(visitor) == PARTNER_OFFLINE and t >= self._ends[visitor][1]:
+            if self._end_phase.get(visitor) == Phase.PARTNER_OFFLINE and t >= self._ends[visitor][1]:
                 # its trip was given up (a robot it needed was offline) and the visitor asked again: the visit goes on
                 del self._ends[visitor], self._end_phase[visitor]
                 self.asked_again[visitor] = self.asked_again.get(visitor, 0) + 1
@@ -341,11 +322,11 @@ def _duplicated(goals: Sequence[_Goal]) -> int:
 
 def _ending(phase: object, tour: bool) -> str:
     """How an event of a visitor's trip ends the visit ("" = it does not)."""
-    if phase == TOUR_FINISHED or (not tour and phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR)):
+    if phase == Phase.TOUR_FINISHED or (not tour and phase in (Phase.GOAL_REACHED, Phase.NO_ROBOT_ON_FLOOR)):
         return COMPLETED
-    if phase in (CANCELLED_HERE, CANCELLED_ELSEWHERE):
+    if phase in (Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE):
         return CANCELLED
-    if phase == TIMEOUT:
+    if phase == Phase.TIMEOUT:
         return TIMED_OUT
     return FAILED if phase in FAILURE_PHASES else ""
 

@@ -20,8 +20,9 @@ from dataclasses import asdict
 import rospy
 
 from gidabot_msgs.msg import Cancel, Goal, NavEvent, RobotStatus
-from gidabot_navigation.guiding.guiding_node import sender, trip_from_msg
 from gidabot_navigation.interface import Node, Topic
+from gidabot_navigation.ros.adapter import sender
+from gidabot_navigation.ros.convert import trip_from_msg
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered
 

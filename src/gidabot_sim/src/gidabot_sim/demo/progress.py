@@ -29,29 +29,13 @@ from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.guiding.state import trip_from_dict
-from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    DECLINED,
-    GOAL_REACHED,
-    GUIDING_NODES,
-    NO_ROBOT_ON_FLOOR,
-    PARTNER_OFFLINE,
-    PHASE_NAMES,
-    REJECTED,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    global_name,
-    relay_end_name,
-)
+from gidabot_navigation.interface import GUIDING_NODES, PHASE_NAMES, Phase, global_name, relay_end_name
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
-FAILURES = {p: PHASE_NAMES[p] for p in (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, REJECTED)}
+FAILURES = {p: PHASE_NAMES[p] for p in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.REJECTED)}
 # phases that complete a goal: reached, or the visitor sent to a floor without robot to find it alone
-COMPLETIONS = (GOAL_REACHED, TOUR_STEP_DONE, TOUR_FINISHED, NO_ROBOT_ON_FLOOR)
+COMPLETIONS = (Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.NO_ROBOT_ON_FLOOR)
 
 
 def stops_done(steps: set[int], alone: frozenset[int]) -> set[int]:
@@ -199,18 +183,19 @@ class Progress(MonitorFeed):
         known = isinstance(phase, int) and not isinstance(phase, bool) and phase in PHASE_NAMES
         ours = (known and trip is not None and self.visit.sent_by(robot, rec.get("callerid"))
                 and robot in self.named.get(trip.uid, ()))
-        if not ours and not (known and phase == REJECTED and self.visit.answers_request(rec)):
+        if not ours and not (known and phase == Phase.REJECTED and self.visit.answers_request(rec)):
             self.ignored += 1
             return False
         self.events += 1
-        if phase not in (ACCEPTED, ASSIGNED, DECLINED):   # who serves which leg: not worth a line
+        if phase not in (Phase.ACCEPTED, Phase.ASSIGNED, Phase.DECLINED):   # who serves which leg: not worth a line
             self.robot, self.phase = robot, PHASE_NAMES.get(phase, f"phase {phase}")
         if phase in COMPLETIONS and trip is not None:
             self.completed.add(trip.uid)
             if trip.tour_step >= 0:
                 self.steps.add(trip.tour_step)
         if not self.finished:
-            if phase == TOUR_FINISHED or (phase in (GOAL_REACHED, NO_ROBOT_ON_FLOOR) and not self.tour_mode):
+            if phase == Phase.TOUR_FINISHED or (phase in (Phase.GOAL_REACHED, Phase.NO_ROBOT_ON_FLOOR)
+                                                and not self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
                 self._finish(f"{FAILURES[phase]} ({robot}: {rec.get('detail', '')})", rec)

@@ -62,24 +62,12 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.assignment import LegAudit, LegRecord
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.interface import (
-    ACCEPTED,
-    ASSIGNED,
-    CANCELLED_ELSEWHERE,
-    CANCELLED_HERE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
     LEG_COMMITTED,
     LEG_GOAL,
     LEG_NONE,
     LEG_START,
-    NO_ROBOT_ON_FLOOR,
-    ON_THE_WAY,
-    PARTNER_OFFLINE,
     SERVING_PHASES,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
+    Phase,
     Topic,
     global_name,
     relay_end_name,
@@ -89,8 +77,8 @@ from gidabot_sim.demo.progress import COMPLETIONS, GUIDING_CALLERIDS, stops_done
 from gidabot_sim.errors import ReportError, SimConfigError
 from gidabot_sim.visitor.population import VisitorPlan, plans_from_list
 
-LEG_ENDS = {GOAL_REACHED, GO_TO_FLOOR, NO_ROBOT_ON_FLOOR, UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT,
-            PARTNER_OFFLINE, TOUR_STEP_DONE, TOUR_FINISHED}
+LEG_ENDS = {Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR, Phase.UNREACHABLE, Phase.CANCELLED_HERE,
+            Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED}
 TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
 MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
 MAX_GOAL_START_LAG = 5.0      # sim s: a move_base goal taken later than this after an ON_THE_WAY is not its leg's
@@ -184,7 +172,7 @@ def guiding_intervals(events: Iterable[EventSample], goal_starts: Sequence[float
     intervals: list[tuple[float, float]] = []
     start: float | None = None
     for ev in sorted(events, key=lambda e: e.t):
-        if ev.phase == ON_THE_WAY and start is None:
+        if ev.phase == Phase.ON_THE_WAY and start is None:
             start = ev.t
         elif ev.phase in LEG_ENDS and start is not None:
             k = bisect.bisect_left(goal_starts, start)
@@ -387,7 +375,7 @@ def leg_audit(records: list[RobotRecord]) -> dict:
         for e in r.events:
             if e.goal_uid and e.leg in (LEG_START, LEG_GOAL):
                 rec = legs.setdefault((e.goal_uid, e.leg), LegRecord())
-                if e.phase == ASSIGNED:
+                if e.phase == Phase.ASSIGNED:
                     rec.assigned.add(e.assignee)
                 elif e.phase in SERVING_PHASES:
                     rec.served.add(e.robot)
@@ -696,7 +684,7 @@ def read_robot_bag(path: Path, name: str, floor: float, rec: RobotRecord | None 
                     if msg.robot == name and _from_robot(caller, name, name, building):
                         rec.events.append(EventSample(_stamp(msg, t_ns), msg.robot, msg.goal_uid, int(msg.phase),
                                                       int(msg.tour_step), msg.leg, msg.assignee))
-                        if msg.phase == ACCEPTED and caller in (None, GOAL_MANAGER):
+                        if msg.phase == Phase.ACCEPTED and caller in (None, GOAL_MANAGER):
                             rec.accepted.add(msg.goal_uid)
                         elif caller in (None, NAVIGATION) and msg.goal_uid:
                             rec.navigated.add(msg.goal_uid)

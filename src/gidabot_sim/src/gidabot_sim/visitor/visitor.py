@@ -51,31 +51,10 @@ from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.guiding.trips import RobotView, TripPlanner, WaitModel, preview_trip
-from gidabot_navigation.interface import (
-    ACCEPTED,
-    CANCEL,
-    CANCELLED_ELSEWHERE,
-    CANCELLED_HERE,
-    CONTINUE,
-    DEFAULT_LANGUAGE,
-    GO_TO_FLOOR,
-    GOAL_REACHED,
-    NO_ROBOT_ON_FLOOR,
-    PARTNER_OFFLINE,
-    REJECTED,
-    REQUEST,
-    SKIP,
-    START_TOUR,
-    TIMEOUT,
-    TOUR_FINISHED,
-    TOUR_STEP_DONE,
-    UNREACHABLE,
-    WAITING_VISITOR,
-    WAY_LIFT,
-    WAY_STAIRS,
-)
+from gidabot_navigation.interface import DEFAULT_LANGUAGE, WAY_LIFT, WAY_STAIRS, Cmd, Phase
 
-ENDS = {UNREACHABLE, CANCELLED_HERE, CANCELLED_ELSEWHERE, TIMEOUT, PARTNER_OFFLINE, REJECTED, TOUR_FINISHED}
+ENDS = {Phase.UNREACHABLE, Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE,
+        Phase.REJECTED, Phase.TOUR_FINISHED}
 
 
 @dataclass(frozen=True)
@@ -181,9 +160,9 @@ class VisitorCore:
             self.outcome = f"left: shown a wait of {longest:.0f} s, more than the {c.patience_s:.0f} s it accepts"
             return []
         if c.tour_file:
-            cmd = ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
+            cmd = ButtonPress(Cmd.START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language)
         elif c.goal_id:
-            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(Cmd.REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return []
         return [cmd]
@@ -210,15 +189,15 @@ class VisitorCore:
         ours = self.concerns_visit(goal_uid, self.cfg.tour_file if tour_file is None else tour_file, location_id)
         if phase in ENDS and not ours:
             return
-        if phase == PARTNER_OFFLINE and mine and not goal_uid and not self.finished:
+        if phase == Phase.PARTNER_OFFLINE and mine and not goal_uid and not self.finished:
             self._refused(now, tour_step)
             return
-        if phase == PARTNER_OFFLINE and goal_uid and ours and not self.finished:
+        if phase == Phase.PARTNER_OFFLINE and goal_uid and ours and not self.finished:
             self._trip_given_up(now, goal_uid, tour_step)
             return
-        if phase == ACCEPTED and ours:
+        if phase == Phase.ACCEPTED and ours:
             self._refused_since = None
-        if phase == GO_TO_FLOOR:
+        if phase == Phase.GO_TO_FLOOR:
             if mine:
                 self.present = False
             elif math.isclose(target_floor, self.cfg.floor) and math.isfinite(floor):
@@ -229,7 +208,7 @@ class VisitorCore:
                 else:
                     self.arrivals[goal_uid] = arrival
             return
-        if phase == NO_ROBOT_ON_FLOOR and ours:
+        if phase == Phase.NO_ROBOT_ON_FLOOR and ours:
             if mine:
                 self.present = False
             if not self.cfg.tour_file:
@@ -239,28 +218,28 @@ class VisitorCore:
             return
         if not mine:
             # a refusal elsewhere (PARTNER_OFFLINE without a trip) is asked again there: the visit goes on
-            if phase in ENDS and phase not in (TOUR_FINISHED, PARTNER_OFFLINE):
+            if phase in ENDS and phase not in (Phase.TOUR_FINISHED, Phase.PARTNER_OFFLINE):
                 self.finished, self.outcome = True, f"phase {phase} from {robot}"
             return
-        if phase == WAITING_VISITOR:
+        if phase == Phase.WAITING_VISITOR:
             if self.cfg.no_show and not self.on_start_floor:
                 return                       # it never comes: the robot waiting here gives up (TIMEOUT)
             self.waiting.add(goal_uid)
             if goal_uid not in self.arrivals and tour_step in self.step_arrivals:
                 self.arrivals[goal_uid] = self.step_arrivals.pop(tour_step)
-        elif phase == TOUR_STEP_DONE:
+        elif phase == Phase.TOUR_STEP_DONE:
             self.present = True
             nxt = dict(self.cfg.skips).get(tour_step)
-            cmd = (ButtonPress(SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt, way=self.cfg.way,
-                               language=self.cfg.language) if nxt is not None else
-                   ButtonPress(CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
+            cmd = (ButtonPress(Cmd.SKIP, goal_uid=goal_uid, tour_file=self.cfg.tour_file, tour_step=nxt,
+                               way=self.cfg.way, language=self.cfg.language) if nxt is not None else
+                   ButtonPress(Cmd.CONTINUE, goal_uid=goal_uid, tour_file=self.cfg.tour_file, way=self.cfg.way,
                                language=self.cfg.language))
             self._due.append(_Due(now + self.cfg.think_s, cmd))
-        elif phase == GOAL_REACHED and not self.cfg.tour_file:
+        elif phase == Phase.GOAL_REACHED and not self.cfg.tour_file:
             self.present, self.finished, self.outcome = True, True, "goal reached"
         elif phase in ENDS:
             self.finished = True
-            self.outcome = "tour finished" if phase == TOUR_FINISHED else f"phase {phase}"
+            self.outcome = "tour finished" if phase == Phase.TOUR_FINISHED else f"phase {phase}"
 
     def _trip_given_up(self, now: float, goal_uid: str, step: int) -> None:
         """A robot gave up a trip of this visit: whoever has the person (here now, or arriving here for that
@@ -302,14 +281,14 @@ class VisitorCore:
         if self._refused_since is None:
             self._refused_since = now
         if now - self._refused_since >= self.cfg.retry_for_s:
-            self.finished, self.outcome = True, f"phase {PARTNER_OFFLINE} (gave up after {self.retries} retries)"
+            self.finished, self.outcome = True, f"phase {Phase.PARTNER_OFFLINE} (gave up after {self.retries} retries)"
             return
         c = self.cfg
         if c.tour_file:
-            cmd = (ButtonPress(START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
-                   ButtonPress(SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
+            cmd = (ButtonPress(Cmd.START_TOUR, tour_file=c.tour_file, way=c.way, language=c.language) if step <= 0 else
+                   ButtonPress(Cmd.SKIP, tour_file=c.tour_file, tour_step=step, way=c.way, language=c.language))
         elif c.goal_id:
-            cmd = ButtonPress(REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
+            cmd = ButtonPress(Cmd.REQUEST, goal_id=c.goal_id, way=c.way, language=c.language)
         else:
             return
         self.retries += 1
@@ -322,14 +301,14 @@ class VisitorCore:
             if arrival is not None and now >= arrival:
                 self.waiting.discard(goal_uid)
                 self.present = True
-                self._due.append(_Due(now + self.cfg.think_s, ButtonPress(CONTINUE, goal_uid=goal_uid,
+                self._due.append(_Due(now + self.cfg.think_s, ButtonPress(Cmd.CONTINUE, goal_uid=goal_uid,
                                                                           way=self.cfg.way,
                                                                           language=self.cfg.language)))
         c = self.cfg
         if (c.cancel_after_s >= 0 and self.asked_at is not None and now >= self.asked_at + c.cancel_after_s
                 and self.goal_uids and not self.finished and not self.cancel_sent):
             self.cancel_sent = True          # at the screen where it asked, about its latest trip
-            self._due.append(_Due(now, ButtonPress(CANCEL, goal_uid=self.goal_uids[-1], tour_file=c.tour_file,
+            self._due.append(_Due(now, ButtonPress(Cmd.CANCEL, goal_uid=self.goal_uids[-1], tour_file=c.tour_file,
                                                    way=c.way, language=c.language)))
         ready = [d for d in self._due if d.at <= now]
         self._due = [d for d in self._due if d.at > now]

@@ -34,26 +34,26 @@ import json
 import re
 import time
 from collections.abc import Callable, Mapping
+from importlib.resources import files
 from pathlib import Path
 from typing import Protocol
 
 from aiohttp import web
 
-from gidabot_gui.core.model import EditResultData
 from gidabot_navigation.errors import TourError, TourNameError
 from gidabot_navigation.guiding.messages import CancelData, StaffCommandData
 from gidabot_navigation.interface import DEFAULT_LANGUAGE, LANGUAGES
 from gidabot_navigation.tours.tour_file import MAX_TOUR_BYTES, check_tour_file_name, parse_tour
-from gidabot_navigation.tours.tour_store import TourMessage
-from gidabot_web.dashboard.dashboard import DashboardCore, DashboardRefusal, Section, blueprint_name
+from gidabot_navigation.tours.tour_store import EditResultData, TourMessage
+from gidabot_web.dashboard.dashboard import DashboardCore, Section, blueprint_name
 from gidabot_web.errors import Refused
 from gidabot_web.web.app import WebApp, WebConfig
 from gidabot_web.web.auth import ADMIN, STAFF, Session
 from gidabot_web.web.files import NamedFiles
 from gidabot_web.web.live import LiveHub
 
-STATIC = Path(__file__).resolve().parent / "static"
-WEB_STATIC = Path(__file__).resolve().parent.parent / "web" / "static"
+STATIC = Path(str(files("gidabot_web.dashboard") / "static"))     # the package's data (setup.py package_data)
+WEB_STATIC = Path(str(files("gidabot_web.web") / "static"))
 DAY_RE = re.compile(r"^\d{4}-\d{2}-\d{2}\Z")
 EDIT_TIMEOUT = 5.0          # s to wait for the tour store's answer
 
@@ -143,14 +143,8 @@ class DashboardApp:
             "Content-Disposition": f'attachment; filename="gidabot-{self.core.me}-{day}.csv"'})
 
     # -- actions --------------------------------------------------------------------------
-    def _refusal(self, err: DashboardRefusal) -> Refused:
-        return Refused(err.status, err.reason, str(err))
-
     async def _cancel(self, _request: web.Request, session: Session, body: dict) -> dict:
-        try:
-            cancel = self.core.cancel_trip(body.get("trip"), session.user, self.clock())
-        except DashboardRefusal as err:
-            raise self._refusal(err) from err
+        cancel = self.core.cancel_trip(body.get("trip"), session.user, self.clock())
         self.bus.cancel(cancel)
         self.changed()
         return {"trip": cancel.goal_uid, "cancel": cancel.uid}
@@ -159,19 +153,13 @@ class DashboardApp:
         out = body.get("out")
         if not isinstance(out, bool):
             raise Refused(400, "invalid", "out must be true or false")
-        try:
-            cmd = self.core.set_service(body.get("robot"), out, session.user, body.get("reason", ""), self.clock())
-        except DashboardRefusal as err:
-            raise self._refusal(err) from err
+        cmd = self.core.set_service(body.get("robot"), out, session.user, body.get("reason", ""), self.clock())
         self.bus.staff(cmd)
         self.changed()
         return {"robot": cmd.target_robot, "out": out, "uid": cmd.uid}
 
     async def _ack(self, _request: web.Request, session: Session, body: dict) -> dict:
-        try:
-            alert = self.core.ack_alert(body.get("id"), session.user, self.clock())
-        except DashboardRefusal as err:
-            raise self._refusal(err) from err
+        alert = self.core.ack_alert(body.get("id"), session.user, self.clock())
         self.changed()
         return alert.to_json()
 

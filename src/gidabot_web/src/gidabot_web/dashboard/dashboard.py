@@ -49,7 +49,6 @@ from dataclasses import dataclass, field, replace
 from enum import StrEnum
 from typing import TypeVar
 
-from gidabot_gui.core.model import PendingData, PoseData, RobotStatusData
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding.liveness import PeerLiveness
@@ -57,6 +56,9 @@ from gidabot_navigation.guiding.messages import (
     MAX_STAFF_DETAIL,
     CancelData,
     NavEventData,
+    PendingData,
+    PoseData,
+    RobotStatusData,
     StaffCommandData,
     Trip,
     UidMaker,
@@ -84,6 +86,7 @@ from gidabot_navigation.interface import (
 from gidabot_navigation.relay.links import DiagnosticData, LinkData, LinkSummaryData, link_of, own_ends
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_web.dashboard.history import History, day_of
+from gidabot_web.errors import Refused
 
 # what a trip-ending event says of the trip (a start leg's GO_TO_FLOOR only hands the visitor over)
 OUTCOME_OF = {Phase.GOAL_REACHED: "completed", Phase.TOUR_STEP_DONE: "completed", Phase.TOUR_FINISHED: "completed",
@@ -129,14 +132,6 @@ class Liveness(StrEnum):
     OFFLINE = "offline"            # no status for offline_after s
     MASTER_DOWN = "master_down"    # this robot's relay end says its master does not answer
     LINK_DOWN = "link_down"        # this robot's relay end to it has no connection
-
-
-class DashboardRefusal(Exception):
-    """A staff action that cannot be done: ``status`` (HTTP) and ``reason`` for the page."""
-
-    def __init__(self, status: int, reason: str, message: str) -> None:
-        self.status, self.reason = status, reason
-        super().__init__(message)
 
 
 @dataclass(frozen=True)
@@ -385,10 +380,9 @@ class DashboardCore:
         r.x, r.y, r.yaw = p.x, p.y, p.yaw
         self.touch(Section.ROBOTS)
 
-    def on_pending(self, p: PendingData, eta: Sequence[float], speaker: str | None, now: float) -> None:
-        """A robot's queue, head first, with ``eta`` (s until each goal is done)."""
+    def on_pending(self, p: PendingData, speaker: str | None, now: float) -> None:
         r = self.robots.get(p.robot) if isinstance(p.robot, str) else None
-        if r is None or not _finite(p.wait_new) or not all(_finite(e) for e in eta):
+        if r is None or not _finite(p.wait_new) or not all(_finite(e) for e in p.eta):
             self.count("refused_invalid")
             return
         if not self._speaks(p.robot, speaker):
@@ -396,7 +390,7 @@ class DashboardCore:
         queue = []
         for i, t in enumerate(p.goals):
             if isinstance(t.uid, str) and t.uid:
-                queue.append((t.uid[:160], float(eta[i]) if i < len(eta) else -1.0))
+                queue.append((t.uid[:160], float(p.eta[i]) if i < len(p.eta) else -1.0))
                 self._goal_seen(t, now, quiet=True)
         r.queue, r.queue_at, r.wait_new = queue, now, p.wait_new
         held = {uid for uid, _ in queue}
@@ -585,11 +579,11 @@ class DashboardCore:
         """A staff cancel of a trip in progress: the Cancel to publish (reason admin, from this robot)."""
         tv = self.trips.get(goal_uid) if isinstance(goal_uid, str) else None
         if tv is None:
-            raise DashboardRefusal(404, "unknown_trip", f"no trip {str(goal_uid)[:80]!r} is known here")
+            raise Refused(404, "unknown_trip", f"no trip {str(goal_uid)[:80]!r} is known here")
         if tv.outcome:
-            raise DashboardRefusal(409, "trip_over", f"trip {tv.trip.uid} is over ({tv.outcome})")
+            raise Refused(409, "trip_over", f"trip {tv.trip.uid} is over ({tv.outcome})")
         if tv.cancel is not None:
-            raise DashboardRefusal(409, "already_cancelled", f"trip {tv.trip.uid} is being cancelled already")
+            raise Refused(409, "already_cancelled", f"trip {tv.trip.uid} is being cancelled already")
         cancel = CancelData(uid=self.uids.cancel(), goal_uid=tv.trip.uid, origin_robot=self.me, reason=REASON_ADMIN,
                             detail=f"staff {user} at the dashboard of {self.me}", stamp=0.0)
         tv.cancel = CancelWatch(cancel.uid, user, now, self.involved(tv))
@@ -604,10 +598,10 @@ class DashboardCore:
         """A staff command taking ``target`` out of service (or back): the StaffCommand to publish; applied here
         at once."""
         if not isinstance(target, str) or self.building.find_robot(target) is None:
-            raise DashboardRefusal(404, "unknown_robot", f"{str(target)[:80]!r} is not a robot of the building")
+            raise Refused(404, "unknown_robot", f"{str(target)[:80]!r} is not a robot of the building")
         text = detail if isinstance(detail, str) else ""
         if len(text) > MAX_STAFF_DETAIL or any(ord(ch) < 32 for ch in text):
-            raise DashboardRefusal(400, "detail", f"the reason may have at most {MAX_STAFF_DETAIL} characters "
+            raise Refused(400, "detail", f"the reason may have at most {MAX_STAFF_DETAIL} characters "
                                                   "and no control characters")
         wall = self.wall_at(now)
         known = self.service.get(target)
@@ -789,7 +783,7 @@ class DashboardCore:
     def ack_alert(self, alert_id: object, user: str, now: float) -> Alert:
         a = self.alerts.get(alert_id) if isinstance(alert_id, int) and not isinstance(alert_id, bool) else None
         if a is None:
-            raise DashboardRefusal(404, "unknown_alert", f"no alert {str(alert_id)[:20]!r}")
+            raise Refused(404, "unknown_alert", f"no alert {str(alert_id)[:20]!r}")
         if not a.acked_by:
             a.acked_by, a.acked_wall = user, self.wall_at(now)
             self._save_alert(a)

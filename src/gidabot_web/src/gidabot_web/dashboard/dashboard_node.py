@@ -24,14 +24,12 @@ from pathlib import Path
 import rosgraph
 import rospy
 from aiohttp import web
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from diagnostic_msgs.msg import DiagnosticArray
 
 from gidabot_gui.core.inbox import Inbox
-from gidabot_gui.core.model import EditResultData, PendingData, PoseData, RobotStatusData
 from gidabot_msgs.msg import (
     Cancel,
     Goal,
-    LinkState,
     LinkSummary,
     NavEvent,
     NavPose,
@@ -44,24 +42,32 @@ from gidabot_msgs.msg import (
 )
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import GidaBotError
-from gidabot_navigation.guiding.guiding_node import (
+from gidabot_navigation.guiding.messages import CancelData, StaffCommandData
+from gidabot_navigation.interface import Node, Topic, global_name
+from gidabot_navigation.relay.links import own_ends
+from gidabot_navigation.ros.adapter import diagnostics, sender
+from gidabot_navigation.ros.convert import (
     cancel_from_msg,
     cancel_to_msg,
+    catalog_from_msg,
+    diagnostic_from_msg,
+    edit_result_from_msg,
     event_from_msg,
-    sender,
-    stamp_of,
+    links_from_msg,
+    links_to_msg,
+    pending_from_msg,
+    pose_from_msg,
+    staff_from_msg,
+    staff_to_msg,
+    status_from_msg,
+    tour_to_msg,
     trip_from_msg,
-    yaw_of,
 )
-from gidabot_navigation.guiding.messages import StaffCommandData
-from gidabot_navigation.interface import Node, Topic, global_name
-from gidabot_navigation.relay.links import DiagnosticData, LinkData, LinkSummaryData, own_ends
 from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered, proxy
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_navigation.tours.tour_store import TourMessage
-from gidabot_navigation.tours.tour_store_node import to_core, to_ros
 from gidabot_web.dashboard.app import DashboardApp
 from gidabot_web.dashboard.dashboard import DashboardConfig, DashboardCore
 from gidabot_web.dashboard.history import History
@@ -87,70 +93,6 @@ def default_dashboard_dir(robot: str) -> str:
     history."""
     home = os.environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     return os.path.join(home, "gidabot", robot, "dashboard")
-
-
-# ---------------------------------------------------------------------- conversions
-def status_from_msg(m: RobotStatus) -> RobotStatusData:
-    p = m.nav_pose.position
-    return RobotStatusData(robot=m.robot, floor=m.floor, x=p.x, y=p.y, yaw=yaw_of(m.nav_pose.orientation),
-                           linear=m.linear_velocity, angular=m.angular_velocity, battery=m.battery, state=m.state,
-                           pending=m.pending, current_goal_uid=m.current_goal_uid, busy_for=m.busy_for)
-
-
-def pose_from_msg(m: NavPose) -> PoseData:
-    p = m.nav_pose.position
-    return PoseData(robot=m.robot, floor=m.floor, x=p.x, y=p.y, yaw=yaw_of(m.nav_pose.orientation))
-
-
-def pending_from_msg(m: PendingRequests) -> tuple[PendingData, tuple[float, ...]]:
-    """The pending list and the eta of each of its goals."""
-    return PendingData(robot=m.robot, floor=m.floor, num=m.num, wait_new=m.wait_new,
-                       goals=tuple(trip_from_msg(g) for g in m.goals)), tuple(m.eta)
-
-
-def staff_from_msg(m: StaffCommand) -> StaffCommandData:
-    return StaffCommandData(uid=m.uid, robot=m.robot, user=m.user, command=m.command, target_robot=m.target_robot,
-                            version=m.version, detail=m.detail, stamp=stamp_of(m))
-
-
-def staff_to_msg(c: StaffCommandData) -> StaffCommand:
-    m = StaffCommand()
-    m.header.stamp = rospy.Time.from_sec(max(0.0, c.stamp))
-    m.uid, m.robot, m.user, m.command, m.target_robot = c.uid, c.robot, c.user, c.command, c.target_robot
-    m.version, m.detail = c.version, c.detail
-    return m
-
-
-def link_from_msg(m: LinkState) -> LinkData:
-    return LinkData(peer=m.peer, known=m.known, connected=m.connected, down_s=m.down_s, heard_s=m.heard_s,
-                    rtt_ms=m.rtt_ms, queued=m.queued, resent=m.resent, dropped=m.dropped,
-                    duplicates_suppressed=m.duplicates_suppressed, link_losses=m.link_losses,
-                    peer_master_up=m.peer_master_up)
-
-
-def links_from_msg(m: LinkSummary) -> LinkSummaryData:
-    return LinkSummaryData(robot=m.robot, links=tuple(link_from_msg(k) for k in m.links), stamp=stamp_of(m))
-
-
-def links_to_msg(s: LinkSummaryData) -> LinkSummary:
-    m = LinkSummary()
-    m.header.stamp = rospy.Time.from_sec(max(0.0, s.stamp))
-    m.robot = s.robot
-    m.links = [LinkState(peer=k.peer, known=k.known, connected=k.connected, down_s=k.down_s, heard_s=k.heard_s,
-                         rtt_ms=k.rtt_ms, queued=k.queued, resent=k.resent, dropped=k.dropped,
-                         duplicates_suppressed=k.duplicates_suppressed, link_losses=k.link_losses,
-                         peer_master_up=k.peer_master_up) for k in s.links]
-    return m
-
-
-def diagnostic_from_msg(s: DiagnosticStatus) -> DiagnosticData:
-    return DiagnosticData(name=s.name, level=int(s.level), message=s.message, hardware_id=s.hardware_id,
-                          values={kv.key: kv.value for kv in s.values})
-
-
-def edit_result_from_msg(m: TourEditResult) -> EditResultData:
-    return EditResultData(uid=m.uid, file_name=m.file_name, deleted=m.deleted, ok=m.ok, version=m.version,
-                          reason=m.reason, error=m.error)
 
 
 # ---------------------------------------------------------------------- the node
@@ -276,7 +218,7 @@ class DashboardNode:
         self._state("pose", m.robot, (pose_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _pending(self, m: PendingRequests) -> None:
-        self._state("pending", m.robot, (*pending_from_msg(m), self.speaker(m), time.monotonic()))
+        self._state("pending", m.robot, (pending_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _links(self, m: LinkSummary) -> None:
         self._state("links", m.robot, (links_from_msg(m), self.speaker(m), time.monotonic()))
@@ -300,7 +242,7 @@ class DashboardNode:
 
     def _catalog(self, m: TourCatalog) -> None:
         if sender(m) == global_name(Node.TOUR_STORE):
-            self._state("catalog", "", [to_core(t) for t in m.tours])
+            self._state("catalog", "", catalog_from_msg(m).tours)
 
     def _edit_result(self, m: TourEditResult) -> None:
         if sender(m) == global_name(Node.TOUR_STORE):
@@ -379,19 +321,13 @@ class DashboardNode:
         return True
 
     def _publish_state(self, now: float) -> None:
+        stats = self.core.diagnostics()
         with contextlib.suppress(rospy.ROSException):
             self.links_pub.publish(links_to_msg(self.core.link_summary(now)))
-            status = DiagnosticStatus()
-            status.name = f"dashboard: {self.core.me}"
-            status.hardware_id = self.core.me
-            stats = self.core.diagnostics()
-            status.level = DiagnosticStatus.WARN if stats.get("open_alerts") else DiagnosticStatus.OK
-            status.message = f"{stats['clients']} live clients, {stats['open_alerts']} open alerts"
-            status.values = [KeyValue(str(k), str(v)) for k, v in sorted(stats.items())]
-            arr = DiagnosticArray()
-            arr.header.stamp = rospy.Time.from_sec(time.time())
-            arr.status = [status]
-            self.diag_pub.publish(arr)
+            self.diag_pub.publish(diagnostics(f"dashboard: {self.core.me}", self.core.me, stats,
+                                              bool(stats["open_alerts"]),
+                                              f"{stats['clients']} live clients, {stats['open_alerts']} open alerts",
+                                              time.time()))
 
     def _watch(self) -> None:
         """This robot's master and nodes, once a second (a thread: the calls block up to 0.5 s)."""
@@ -432,14 +368,14 @@ class DashboardNode:
             guard.loop_stopped()
 
     # -- the Bus of the web application ------------------------------------------------------
-    def cancel(self, cancel: object) -> None:
-        self.cancel_pub.publish(cancel_to_msg(cancel))  # type: ignore[arg-type]
+    def cancel(self, cancel: CancelData) -> None:
+        self.cancel_pub.publish(cancel_to_msg(cancel))
 
     def staff(self, command: StaffCommandData) -> None:
         self.staff_pub.publish(staff_to_msg(command))
 
     def tour_edit(self, tour: TourMessage) -> None:
-        self.edit_pub.publish(to_ros(tour))
+        self.edit_pub.publish(tour_to_msg(tour))
 
 
 def main(argv: list[str] | None = None) -> int:
