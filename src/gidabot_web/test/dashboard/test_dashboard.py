@@ -94,11 +94,12 @@ def test_a_peer_whose_master_is_down_or_whose_link_is_down_is_not_online(faculty
     assert core.robots["Kbot"].live is Liveness.MASTER_DOWN and not section(core, Section.SERVER)["master_up"]
 
 
-def test_no_offline_alert_during_the_first_offline_after_seconds(faculty, tmp_path: Path) -> None:
+def test_a_robot_never_heard_is_an_alert_only_after_the_startup_grace(faculty, tmp_path: Path) -> None:
     core = make_core(faculty, tmp_path, now=100.0)
-    core.step(104.0, WALL0 + 104.0)
-    assert not alerts(core)
-    core.step(105.1, WALL0 + 105.1)
+    core.on_status(status(faculty, "Kbot"), "Kbot", 100.5)
+    core.step(129.0, WALL0 + 129.0)
+    assert {a.subject for a in alerts(core, AlertKind.ROBOT_OFFLINE)} == {"Kbot"}      # heard, then silent
+    core.step(130.1, WALL0 + 130.1)
     assert {a.subject for a in alerts(core, AlertKind.ROBOT_OFFLINE)} == set(ROBOTS)
 
 

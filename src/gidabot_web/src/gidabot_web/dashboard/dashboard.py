@@ -20,7 +20,8 @@ Rules (docs/dashboard.md):
 
 - *Offline*: no status for ``offline_after`` s (wall), or this robot's relay end to it says its master is down
   (its nodes may still talk on connections made before, so its status alone would not tell). An offline robot
-  stays where it was last seen.
+  stays where it was last seen. A robot never heard is shown offline at its home, an alert after
+  ``startup_grace`` s (the relays come up).
 - *Alerts* (:class:`AlertKind`): one per (kind, subject) until acknowledged; a condition (offline, link down,
   battery low, a floor whose robots are all out of service) is *active* while it holds and may be acknowledged
   meanwhile (it is not raised again until it ended and came back); an occurrence (goal unreachable, a visitor
@@ -138,6 +139,7 @@ class Liveness(StrEnum):
 class DashboardConfig:
     robot: str
     offline_after: float = 5.0       # s (wall) without a status: offline
+    startup_grace: float = 30.0      # s after start before a robot never heard is an alert (the relays come up)
     battery_low: float = 0.2         # fraction: an alert below ...
     battery_ok: float = 0.25         # ... until above this
     diag_stale: float = 5.0          # s without a relay end's diagnostics: the link is unknown
@@ -406,7 +408,7 @@ class DashboardCore:
             live = self._liveness_of(r.name, now)
             if live != r.live:
                 r.live, changed = live, True
-            grace = now - self.started >= self.cfg.offline_after
+            grace = now - self.started >= (self.cfg.offline_after if r.heard is not None else self.cfg.startup_grace)
             if live is Liveness.ONLINE:
                 self._resolve(AlertKind.ROBOT_OFFLINE, r.name, now)
             elif grace:

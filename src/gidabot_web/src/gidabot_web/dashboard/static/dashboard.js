@@ -514,6 +514,10 @@
     });
     const wanted = location.hash.slice(1);
     showView(document.getElementById("view-" + wanted) ? wanted : "building");
+    window.addEventListener("hashchange", () => {
+      const name = location.hash.slice(1);
+      if (document.getElementById("view-" + name) && name !== view) showView(name);
+    });
     setInterval(() => { if (S.building) { renderFloors(); renderPanel(); if (view === "trips") renderTrips(); } }, 1000);
     Web.live("/live", onMessage, onState);
   }
