@@ -1,5 +1,5 @@
-"""Checks of the system tests with robots on separate machines (issue 16): what one machine can reach on
-another, and which connections cross between them.
+"""Checks of the system tests with robots on separate machines: what one machine can reach on another, and
+which connections cross between them.
 
 Every function that opens a socket runs where it is called: pass it to ``Machines.call`` to run it on a
 machine (a thread inside that machine's network namespace).
@@ -13,6 +13,7 @@ import socket
 import time
 import xmlrpc.client
 from collections.abc import Iterable
+from concurrent.futures import ThreadPoolExecutor
 from urllib.parse import urlparse
 
 from gidabot_navigation.building.model import Building
@@ -21,9 +22,10 @@ from gidabot_sim.runner.machines import Machines
 Address = tuple[str, int]
 
 
-def reachable(targets: Iterable[Address], timeout: float = 1.5) -> set[Address]:
+def reachable(targets: Iterable[Address], timeout: float = 2.0) -> set[Address]:
     """Which of ``targets`` accept a TCP connection from this thread's machine; every connection is tried at
-    once (a firewall that drops packets costs ``timeout`` once, not once per target)."""
+    once (a firewall that drops packets costs ``timeout`` once, not once per target), and a connection
+    made by the deadline counts even if this thread only looks at it after (a loaded machine)."""
     pending: dict[socket.socket, Address] = {}
     ok: set[Address] = set()
     sel = selectors.DefaultSelector()
@@ -38,8 +40,9 @@ def reachable(targets: Iterable[Address], timeout: float = 1.5) -> set[Address]:
             else:
                 s.close()
         deadline = time.monotonic() + timeout
-        while len(ok) < len(pending) and (left := deadline - time.monotonic()) > 0:
-            for key, _ in sel.select(left):
+        while len(ok) < len(pending):
+            left = deadline - time.monotonic()
+            for key, _ in sel.select(max(left, 0.0)):
                 s = key.fileobj
                 assert isinstance(s, socket.socket)
                 sel.unregister(s)
@@ -48,6 +51,8 @@ def reachable(targets: Iterable[Address], timeout: float = 1.5) -> set[Address]:
                 else:
                     del pending[s]
                     s.close()
+            if left <= 0:
+                break
     finally:
         for s in pending:
             s.close()
@@ -72,24 +77,43 @@ def node_apis(master_uri: str) -> dict[str, Address]:
 def assert_only_relay_ports_open(net: Machines, building: Building, outsiders: Iterable[str] = ()) -> int:
     """Each robot's master and every node registered with it answer on the robot's own machine, and from
     every other machine (the other robots and ``outsiders``) only the robot's relay ports can be reached.
-    Returns the number of (master or node, other machine) pairs found closed."""
+    Returns the number of (master or node, other machine) pairs found closed.
+
+    Every machine tries all its targets at once, and the machines try theirs side by side: the firewalls'
+    dropped packets cost one connection timeout in all."""
     robots = [r.name for r in building.robots]
-    closed = 0
+    machines = [*robots, *outsiders]
+    own: dict[str, dict[str, Address]] = {}
+    relay: dict[str, set[Address]] = {}
     for r in robots:
         me = building.robot(r)
-        own = {"master": (me.ip, me.port), **net.call(r, node_apis, me.master_uri)}
-        assert len(own) > 1, f"no node registered with {r}'s master"
-        home = net.call(r, reachable, own.values())
-        assert home == set(own.values()), f"on {r}'s own machine, closed: {sorted(set(own.values()) - home)}"
-        relay = {(me.ip, port) for port in building.relay_ports(r)}
-        for other in [*robots, *outsiders]:
+        own[r] = {"master": (me.ip, me.port), **net.call(r, node_apis, me.master_uri)}
+        assert len(own[r]) > 1, f"no node registered with {r}'s master"
+        relay[r] = {(me.ip, port) for port in building.relay_ports(r)}
+
+    def targets(m: str) -> list[Address]:
+        """From machine ``m``: its own master and nodes, every other robot's and their relay ports."""
+        out = list(own[m].values()) if m in own else []
+        for r in robots:
+            if r != m:
+                out += [*own[r].values(), *relay[r]]
+        return out
+
+    with ThreadPoolExecutor(len(machines)) as pool:
+        got = dict(zip(machines, pool.map(lambda m: net.call(m, reachable, targets(m)), machines), strict=True))
+    closed = 0
+    for r in robots:
+        mine = set(own[r].values())
+        home = got[r] & mine
+        assert home == mine, f"on {r}'s own machine, closed: {sorted(mine - home)}"
+        for other in machines:
             if other == r:
                 continue
-            got = net.call(other, reachable, [*own.values(), *relay])
-            opened = sorted(n for n, a in own.items() if a in got)
+            seen = got[other] & (mine | relay[r])
+            opened = sorted(n for n, a in own[r].items() if a in seen)
             assert not opened, f"{r}'s {opened} reachable from {other}'s machine"
-            assert got == relay, f"relay ports of {r} closed to {other}: {sorted(relay - got)}"
-            closed += len(own)
+            assert seen == relay[r], f"relay ports of {r} closed to {other}: {sorted(relay[r] - seen)}"
+            closed += len(own[r])
     return closed
 
 

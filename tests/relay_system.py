@@ -10,17 +10,14 @@ from __future__ import annotations
 
 import os
 import signal
-import subprocess
-import sys
 import time
 import xmlrpc.client
 from collections.abc import Callable
 from pathlib import Path
 
-from probe import Probe
+from probe import Probe, close_all
 
-from gidabot_navigation.interface import Topic, is_relay_end
-from gidabot_sim.errors import ProcessError
+from gidabot_navigation.interface import Topic, is_relay_end, relay_end_name
 from gidabot_sim.runner.procs import wait_until
 
 REPO = Path(__file__).resolve().parents[1]
@@ -76,8 +73,7 @@ class RelayMesh:
             self.sim.procs.signal(name, signal.SIGINT)
         for name in names:
             self.sim.procs.stop(name)
-        for p in self.probes.values():
-            p.close()
+        close_all(self.probes.values())
 
     def __enter__(self) -> RelayMesh:
         return self
@@ -160,15 +156,18 @@ class RelayMesh:
         return host, int(port)
 
     # -- messages -------------------------------------------------------------------------
+    def ends(self, robot: str) -> list[str]:
+        """Node names of ``robot``'s relay ends, one towards each other robot (on ``robot``'s master)."""
+        return [relay_end_name(*self.pair(robot, o)) for o in self.robots if o != robot]
+
     def publish(self, robot: str, topic: str, type_: str, msg: dict) -> None:
-        """Publish once every relay end (and the probe itself, if subscribed) is connected."""
-        subs = len(self.robots) - 1 + (1 if topic in self.subscribed[robot] else 0)
-        self.probes[robot].pub(topic, type_, msg, subs=subs)
+        """Publish once every relay end of ``robot`` (and its probe, if it records ``topic``) is connected."""
+        self.probes[robot].pub(topic, type_, msg, to=self.ends(robot))
 
     def uids(self, robot: str, topic: str = GOALS) -> list[str]:
         return [m["uid"] for m in self.probes[robot].msgs(topic)]
 
-    def wait_uid(self, robot: str, topic: str, uid: str, timeout: float = 10.0) -> float:
+    def wait_uid(self, robot: str, topic: str, uid: str, timeout: float = 30.0) -> float:
         return wait_until(lambda: uid in self.uids(robot, topic), timeout, f"{uid} on {topic} at {robot}",
                           interval=0.02)
 
@@ -206,41 +205,6 @@ def wait_pid_gone(pid: int, timeout: float) -> None:
         except OSError:
             return True
     wait_until(gone, timeout, f"process {pid} gone")
-
-
-SPOOF_PUBLISHER = r'''
-import sys, time, rospy, roslib.message
-node, topic, type_, mode, n = sys.argv[1:6]
-rospy.init_node(node, disable_signals=True)
-cls = roslib.message.get_message_class(type_)
-if mode == "garbage":            # right type and md5, bytes that are no such message
-    Raw = type("Raw", (rospy.AnyMsg,), {"_type": cls._type, "_md5sum": cls._md5sum,
-                                         "_full_text": cls._full_text, "__slots__": ()})
-    pub = rospy.Publisher(topic, Raw, queue_size=10)
-    msg = Raw(); msg._buff = b"\xff" * 7
-else:                            # a real message (under whatever name this node has)
-    pub = rospy.Publisher(topic, cls, queue_size=10)
-    msg = cls()
-    if hasattr(msg, "uid"):
-        msg.uid = mode
-    if hasattr(msg, "data"):
-        msg.data = mode
-deadline = time.monotonic() + 20
-while pub.get_num_connections() < int(n) and time.monotonic() < deadline:
-    time.sleep(0.02)
-pub.publish(msg)
-time.sleep(1.0)
-print("published", pub.get_num_connections(), flush=True)
-'''
-
-
-def spoof_publish(env: dict, node: str, topic: str, type_: str, mode: str, subs: int) -> str:
-    """Run a short-lived publisher (``mode``: "garbage" or a uid/data string); returns its output."""
-    proc = subprocess.run([sys.executable, "-c", SPOOF_PUBLISHER, node, topic, type_, mode, str(subs)], env=env,
-                          capture_output=True, text=True, timeout=60, start_new_session=True)
-    if proc.returncode != 0:
-        raise ProcessError(f"spoof publisher failed: {proc.stderr[-2000:]}")
-    return proc.stdout
 
 
 def settle(seconds: float) -> None:

@@ -5,14 +5,18 @@ Driven by JSON lines on stdin, one JSON reply line on stdout per command (see
 :class:`probe.Probe` for the Python side). Commands::
 
     {"op": "sub", "topic": T, "type": "pkg/Type"}          subscribe and record every message
-    {"op": "pub", "topic": T, "type": "pkg/Type", "msg": {...}, "subs": 1, "latch": false}
-                                                          publish once at least `subs` subscribers are connected
+    {"op": "pub", "topic": T, "type": "pkg/Type", "msg": {...}, "to": ["/node", ...], "latch": false,
+     "timeout": 60, "raw": null}                          publish once every node of `to` is connected (and
+                                                          this probe, when it records T); `raw`: a list of
+                                                          bytes published as the message instead
+    {"op": "name"}                                         this probe's node name
     {"op": "msgs", "topic": T, "since": 0}                 messages recorded on T (as dicts) from index `since`
     {"op": "status"}                                       master watch: master_up, generation (re-registrations)
     {"op": "quit"}
 
 Messages are converted to and from plain dicts (times as float seconds). The probe keeps
 itself registered across master restarts (gidabot_navigation.ros.master_watch.keep_registered).
+Argument: ``--name NODE`` to run as node NODE instead of an anonymous probe.
 """
 
 from __future__ import annotations
@@ -21,11 +25,11 @@ import json
 import os
 import sys
 import threading
-import time
 
 import genpy
 import roslib.message
 import rospy
+from probe import wait_subscribers
 
 from gidabot_navigation.ros.master_watch import keep_registered
 
@@ -62,7 +66,9 @@ def main() -> int:
     # replies own the real stdout; everything else printed (rospy's log lines) goes to stderr
     replies = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())
-    rospy.init_node("tour_probe", anonymous=True, disable_signals=True)
+    args = rospy.myargv(sys.argv)[1:]
+    name = args[args.index("--name") + 1] if "--name" in args else ""
+    rospy.init_node(name or "tour_probe", anonymous=not name, disable_signals=True)
     watch = keep_registered()
     lock = threading.Lock()
     recorded: dict[str, list] = {}
@@ -93,18 +99,31 @@ def main() -> int:
             elif op == "pub":
                 topic = cmd["topic"]
                 cls = roslib.message.get_message_class(cmd["type"])
+                raw = cmd.get("raw")
                 if topic not in pubs:
+                    if raw is not None:
+                        from gidabot_navigation.relay.end_node import raw_class  # the relay's raw messages
+                        cls = raw_class(cls)
                     pubs[topic] = rospy.Publisher(topic, cls, queue_size=1000, latch=bool(cmd.get("latch")))
-                deadline = time.monotonic() + float(cmd.get("timeout", 15.0))
-                while pubs[topic].get_num_connections() < int(cmd.get("subs", 1)):
-                    if time.monotonic() > deadline:
-                        raise TimeoutError(f"no subscriber on {topic}")
-                    time.sleep(0.02)
-                msg = fill(cls(), cmd.get("msg", {}))
-                if getattr(msg, "_has_header", False):
-                    msg.header.stamp = rospy.Time.now()
-                pubs[topic].publish(msg)
+                want = set(cmd.get("to") or [])
+                if topic in subs:
+                    want.add(rospy.get_name())
+                if not want:
+                    raise ValueError(f"publish on {topic} to whom? name the subscribers that must get it (to)")
+                pub = pubs[topic]
+                wait_subscribers(lambda pub=pub: {c.endpoint_id for c in pub.impl.connections}, want,
+                                 float(cmd.get("timeout", 60.0)), f"publishing on {topic}")
+                if raw is not None:
+                    msg = pub.data_class()
+                    msg._buff = bytes(raw)
+                else:
+                    msg = fill(cls(), cmd.get("msg", {}))
+                    if getattr(msg, "_has_header", False):
+                        msg.header.stamp = rospy.Time.now()
+                pub.publish(msg)
                 reply({"ok": True})
+            elif op == "name":
+                reply({"ok": True, "name": rospy.get_name()})
             elif op == "msgs":
                 with lock:
                     got = recorded.get(cmd["topic"], [])[int(cmd.get("since", 0)):]

@@ -15,15 +15,16 @@ look at; it caches what it fetched, so waiting never transfers a message twice.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable
 from pathlib import Path
 
-from probe import Probe, ProbeError
+from probe import Probe, ProbeError, close_all
 
 from gidabot_navigation.building.model import Building, load_building
-from gidabot_navigation.interface import Topic
+from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
 from gidabot_sim.runner.building_runner import SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address, wait_until
 
@@ -49,6 +50,7 @@ FAILURES = {UNREACHABLE, NO_ROBOT_ON_FLOOR, TIMEOUT, PARTNER_OFFLINE, REJECTED}
 REQUEST, CONTINUE, CANCEL, START_TOUR, SKIP = range(5)
 # actionlib_msgs/GoalStatus
 PREEMPTED, SUCCEEDED = 2, 3
+GUIDING = tuple(global_name(n) for n in GUIDING_NODES)      # both listen to visitor/command
 
 
 class Recorder:
@@ -59,15 +61,13 @@ class Recorder:
         self.probe = Probe(env, log_path, timeout=timeout, command=command)
         self.cache: dict[str, list[dict]] = {}
 
-    def close(self) -> None:
-        self.probe.close()
-
     def sub(self, topic: str, type_: str | None = None) -> None:
         self.probe.sub(topic, type_ or TYPES[topic])
         self.cache.setdefault(topic, [])
 
-    def pub(self, topic: str, msg: dict, subs: int = 1, type_: str | None = None) -> None:
-        self.probe.pub(topic, type_ or TYPES[topic], msg, subs=subs)
+    def pub(self, topic: str, msg: dict, to: tuple[str, ...], type_: str | None = None) -> None:
+        """Publish once the nodes ``to`` (global names) are connected (see :meth:`probe.Probe.pub`)."""
+        self.probe.pub(topic, type_ or TYPES[topic], msg, to=to)
 
     def msgs(self, topic: str) -> list[dict]:
         """Every message recorded on ``topic`` so far (fetches only the new ones)."""
@@ -145,9 +145,9 @@ class SimStack:
     def __enter__(self) -> SimStack:
         try:
             self.sim.start()
-            for r in self.robots:
-                rec = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log", command=self.on_machine(r))
-                self.rec[r] = rec
+            for r in self.robots:     # every recorder starts at once, then each subscribes
+                self.rec[r] = Recorder(self.sim.env(r), self.tmp / f"probe_{r}.log", command=self.on_machine(r))
+            for r, rec in self.rec.items():
                 for topic in self.topics.get(r, self.DEFAULT_TOPICS):
                     rec.sub(topic)
         except BaseException:
@@ -159,8 +159,7 @@ class SimStack:
         self.close()
 
     def close(self) -> None:
-        for rec in self.rec.values():
-            rec.close()
+        close_all(rec.probe for rec in self.rec.values())
         self.sim.stop()
 
     def on_machine(self, robot: str) -> Callable[[list[str]], list[str]]:
@@ -183,9 +182,12 @@ class SimStack:
                 left = deadline - time.monotonic()
                 wait_until(lambda rec=rec: {m["robot"] for m in rec.msgs(PENDING)} >= set(self.robots), max(left, 1.0),
                            f"every robot's pending list on {r}'s master", interval=0.2)
-        for r in self.robots:   # statuses: one short-lived probe per master (2 Hz wall per robot)
-            with Probe(self.sim.env(r), self.tmp / f"probe_status_{r}.log", command=self.on_machine(r)) as p:
+        with contextlib.ExitStack() as probes:   # statuses: a short-lived probe per master, started at once
+            status = {r: probes.enter_context(Probe(self.sim.env(r), self.tmp / f"probe_status_{r}.log",
+                                                    command=self.on_machine(r))) for r in self.robots}
+            for p in status.values():
                 p.sub(STATUS, TYPES[STATUS])
+            for r, p in status.items():
                 left = deadline - time.monotonic()
                 wait_until(lambda p=p: {m["robot"] for m in p.msgs(STATUS)} >= set(self.robots), max(left, 1.0),
                            f"every robot's status on {r}'s master", interval=0.2)
@@ -201,10 +203,10 @@ class SimStack:
         uid = f"{robot}/systest/cmd/{self.n}"
         msg = {"uid": uid, "visitor_id": "systest", "command": command, "language": "en", "tour_step": -1}
         msg.update(fields)
-        self.rec[robot].pub(Topic.VISITOR_COMMAND, msg, subs=2)
+        self.rec[robot].pub(Topic.VISITOR_COMMAND, msg, to=GUIDING)
         return uid
 
-    def request(self, robot: str, goal_id: str, way: str = "stairs", timeout: float = 20.0) -> tuple[str, int]:
+    def request(self, robot: str, goal_id: str, way: str = "stairs", timeout: float = 30.0) -> tuple[str, int]:
         """REQUEST at ``robot``; returns the new goal's uid and the index of ``robot``'s events before it."""
         rec = self.rec[robot]
         since = rec.count(EVENTS)
@@ -220,7 +222,7 @@ class SimStack:
         rec = self.rec[robot]
         msg = {"pose": {"pose": {"position": {"x": x, "y": y, "z": 0.0},
                                  "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}}}
-        rec.pub(Topic.INITIALPOSE, msg)
+        rec.pub(Topic.INITIALPOSE, msg, to=(global_name(Node.SIM),))
         # amcl publishes after a jump; a robot already there publishes nothing new
         wait_until(lambda: dist(self.pose(robot), (x, y)) < 0.3, timeout, f"{robot} relocated to ({x}, {y})")
 

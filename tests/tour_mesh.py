@@ -165,7 +165,7 @@ class TourMesh:
         self.n += 1
         msg = {**msg, "uid": f"systest/edit/{self.n}"}
         since = len(self.probe(robot).msgs(RESULT))
-        self.probe(robot).pub(Topic.TOUR_EDIT, TOUR, msg, subs=1)
+        self.probe(robot).pub(Topic.TOUR_EDIT, TOUR, msg, to=[global_name(Node.TOUR_STORE)])
         if not wait:
             return None
         return self.result(robot, msg["uid"], since)

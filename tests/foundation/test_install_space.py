@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 from gidabot_navigation.building.model import load_building, relocate_building
-from gidabot_sim.runner.building_runner import ProcInfo, process_tree, read_proc
+from gidabot_sim.runner.proc_info import ProcInfo, process_tree, read_proc
 from gidabot_sim.runner.procs import (
     ProcessError,
     ProcessGroup,

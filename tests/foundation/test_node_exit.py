@@ -41,10 +41,11 @@ EXIT_BOUND = 2.0     # s (issue 19.5)
 ROS_NODES = {        # process name -> ROS node name (registered on the master once it runs)
     "goal_manager": global_name(Node.GOAL_MANAGER), "multirobot_navigation": global_name(Node.MULTIROBOT_NAVIGATION),
     "tour_store": global_name(Node.TOUR_STORE), "relay_supervisor": global_name(Node.RELAY_SUPERVISOR),
+    "people": global_name(Node.PEOPLE),
     "relay_end": relay_end_name(ROBOT, "Galtxagorri"), "visitor": global_name(Node.VISITOR),
     "monitor": global_name(Node.MONITOR), "gui": global_name(Node.GUI), "chaos_probe": global_name(Node.CHAOS_PROBE),
     "dashboard": global_name(Node.DASHBOARD),
-}   # the monitor is anonymous: /gidabot_monitor_<pid>_<ms>
+}   # the monitor is anonymous: /monitor_<pid>_<ms>
 
 
 class Robot:
@@ -72,6 +73,7 @@ class Robot:
                            f"_seed_dir:={REPO / 'tours'}"],
             "relay_supervisor": [py, str(NAV_NODES / "relay_supervisor"), *common, f"_secret_file:={secret}",
                                  f"_state_dir:={tmp / 'relay_sup'}"],
+            "people": [py, str(NAV_NODES / "people"), *common],
             "relay_end": end_argv(EndSpec(ROBOT, "Galtxagorri", "a", self.uri, ip, robot_address(2),
                                           free_port(robot_address(2)), ip),
                                   EndOptions(state_dir=str(tmp / "relay_end"), secret_file=str(secret))),

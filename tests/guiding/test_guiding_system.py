@@ -1,4 +1,4 @@
-"""Guiding across the whole simulated building (issue 5, "What it must show", multi-master part).
+"""Guiding across the whole simulated building (multi-master).
 
 Four masters on this session's loopback addresses joined by the relays (6 relays, HMAC), and on
 every one `launch/robot.launch sim:=true gui:=false`: simulator + move_base/amcl stand-ins,
@@ -189,9 +189,10 @@ def test_cancel_on_the_start_floor_stops_the_partner(stack: SimStack) -> None:
           f"MariSorgin stopped {dist(stopped_at, meet):.1f} m before the meeting point")
     assert dist(stopped_at, meet) > 5.0, "MariSorgin was at the meeting point already: nothing was stopped"
 
-    # it stays there (negative check: at 20x a robot still driving would cover ~10 m in this time;
-    # braking from 0.5 m/s at 0.4 m/s^2 takes ~0.3 m)
-    time.sleep(1.0)
+    # it stays there for 20 s of its floor's sim time (negative check: a robot still driving would cover ~10 m
+    # in that time; braking from 0.5 m/s at 0.4 m/s^2 takes ~0.3 m)
+    sim0 = stack.sim.clocks()["MariSorgin"].sim
+    wait_until(lambda: stack.sim.clocks()["MariSorgin"].sim >= sim0 + 20.0, 60, "20 s of MariSorgin's sim time")
     assert dist(stack.pose("MariSorgin"), stopped_at) < 1.0
     for r in ("Tartalo", "MariSorgin"):
         late = [e["phase"] for e in stack.events(r, uid, r, since=n_t if r == "Tartalo" else n_m)]

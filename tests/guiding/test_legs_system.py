@@ -1,4 +1,4 @@
-"""Who serves a leg, on six masters (issue 18, "What it must show": the partition at the decision).
+"""Who serves a leg, on six masters (a partition at the decision).
 
 maps/faculty6: six robots, each on its own master, linked by the 15 relays, `launch/robot.launch sim:=true
 gui:=false` on every one. A visitor at Tartalo (floor 0) asks for 223 on floor 2 by the stairs: of floor 2's
@@ -88,7 +88,7 @@ def test_the_goal_floor_robot_cut_off_at_the_decision_another_takes_the_leg(stac
             cuts.cut(galt, ip)
         cut_at = time.monotonic()
         uid, since = stack.request("Tartalo", "223", way="stairs")
-        assert time.monotonic() - cut_at < 4.0        # asked while Galtxagorri still counts as online
+        answered = time.monotonic() - cut_at         # Galtxagorri still counts as online for a few seconds
         # Lamia gets the goal leg after Galtxagorri's answer_timeout; Tartalo says so
         wait_until(lambda: any(e["phase"] == ASSIGNED and e["leg"] == LEG_GOAL
                                for e in stack.events("Tartalo", uid, "Tartalo", since=since)), 60,
@@ -97,7 +97,8 @@ def test_the_goal_floor_robot_cut_off_at_the_decision_another_takes_the_leg(stac
                    if e["phase"] == ASSIGNED and e["leg"] == LEG_GOAL]
         assert lamia["assignee"] == "Lamia", lamia
         proposals = [m for m in stack.rec["Tartalo"].msgs(GOALS) if m["uid"] == uid]
-        assert any(m["goal_robot"] == "Galtxagorri" for m in proposals), "Galtxagorri was asked first"
+        assert any(m["goal_robot"] == "Galtxagorri" for m in proposals), \
+            f"Galtxagorri was asked first (the request was answered {answered:.1f} s after the cut)"
         # the trip runs: Tartalo to the staircase, Lamia to its meeting point upstairs, Continue, the goal
         stack.wait_event("Lamia", WAITING_VISITOR, goal_uid=uid, timeout=TRIP_WALL)
         stack.wait_event("Tartalo", GO_TO_FLOOR, goal_uid=uid, timeout=TRIP_WALL)
@@ -108,8 +109,14 @@ def test_the_goal_floor_robot_cut_off_at_the_decision_another_takes_the_leg(stac
     # the partition heals: Galtxagorri gets the old proposal late, answers, then drops it; it never moves
     wait_until(lambda: any(m["robot"] == "Galtxagorri" for m in stack.events("Tartalo", uid)), 60,
                "Galtxagorri's late answer through the healed relays")
-    wait_until(lambda: (stack.pending("Galtxagorri", "Galtxagorri") or {"goals": [None]})["goals"] == [], 60,
-               "Galtxagorri's queue empty again")
+    answer = next(m for m in stack.events("Tartalo", uid) if m["robot"] == "Galtxagorri")
+
+    def emptied() -> bool:
+        """Galtxagorri's own pending list, published after its answer (its sim time: a list from before
+        does not count, though it may still be the latest recorded), is empty."""
+        latest = stack.pending("Galtxagorri", "Galtxagorri")
+        return latest is not None and latest["header"]["stamp"] > answer["header"]["stamp"] and latest["goals"] == []
+    wait_until(emptied, 60, "Galtxagorri's queue empty again after its late answer")
     galt_events = stack.events("Galtxagorri", uid, "Galtxagorri")
     assert [e["phase"] for e in galt_events] == [ACCEPTED], galt_events
     goals, events = everything(stack, uid)

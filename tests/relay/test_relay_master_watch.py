@@ -31,7 +31,7 @@ def test_nodes_keep_talking_and_new_subscribers_connect_after_master_restart(pro
     env = ros_env(uri, ip, log_dir=tmp_path / "ros")
     with Probe(env, tmp_path / "pub.log") as pub, Probe(env, tmp_path / "sub1.log") as sub1:
         sub1.sub(TOPIC, TYPE)
-        pub.pub(TOPIC, TYPE, {"data": "before"})
+        pub.pub(TOPIC, TYPE, {"data": "before"}, to=[sub1.name])
         sub1.wait(TOPIC, lambda m: m["data"] == "before", 10, "message before the restart")
         old_pid = master_pid(uri)
 
@@ -44,12 +44,12 @@ def test_nodes_keep_talking_and_new_subscribers_connect_after_master_restart(pro
             wait_until(lambda p=p: p.call(op="status")["generation"] >= 1, 5, "probe re-registered")
         assert len(_publishers(uri, TOPIC)) == 1               # the new master knows the publisher again
 
-        pub.pub(TOPIC, TYPE, {"data": "after"})                # the existing connection still works
+        pub.pub(TOPIC, TYPE, {"data": "after"}, to=[sub1.name])   # the existing connection still works
         sub1.wait(TOPIC, lambda m: m["data"] == "after", 10, "message after the restart")
 
         with Probe(env, tmp_path / "sub2.log") as sub2:        # a node that appears after the restart
             sub2.sub(TOPIC, TYPE)
-            pub.pub(TOPIC, TYPE, {"data": "new"}, subs=2)      # waits until sub2 is connected too
+            pub.pub(TOPIC, TYPE, {"data": "new"}, to=[sub1.name, sub2.name])   # sub2 connected too
             sub2.wait(TOPIC, lambda m: m["data"] == "new", 10, "the new subscriber got the message")
             sub1.wait(TOPIC, lambda m: m["data"] == "new", 10, "the old subscriber got it too")
 
@@ -99,7 +99,7 @@ def _frozen_master_run(procs, tmp_path, mode: str, timeout: float) -> list[str]:
 
 
 def test_log_calls_and_parameter_reads_do_not_block_on_a_frozen_master(procs, tmp_path) -> None:
-    plain = _frozen_master_run(procs, tmp_path, "plain", timeout=4.0)
+    plain = _frozen_master_run(procs, tmp_path, "plain", timeout=2.0)
     assert plain == ["blocked"], plain                 # rospy alone: its first log line waits for the master
     lines = _frozen_master_run(procs, tmp_path, "bounded", timeout=20.0)
     log_s = float(next(line.split()[1] for line in lines if line.startswith("log ")))

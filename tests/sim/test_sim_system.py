@@ -29,6 +29,7 @@ SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
 SIM_NODE = REPO / "src" / "gidabot_sim" / "nodes" / "sim"
 TWO_ROBOTS_LAUNCH = Path(__file__).resolve().parent / "two_robots.launch"
 DIAG = "diagnostic_msgs/DiagnosticArray"
+SIM, MOVE_BASE = [global_name(Node.SIM)], [global_name(Node.MOVE_BASE)]
 
 
 @pytest.fixture
@@ -116,7 +117,7 @@ def test_lockstep_waits_for_move_base_and_goes_on_without_it_when_it_is_frozen(p
         probe.sub(Topic.AMCL_POSE, "geometry_msgs/PoseWithCovarianceStamped")
         probe.wait(Topic.AMCL_POSE, lambda m: True, 60, Topic.AMCL_POSE)
         goal = {"header": {"frame_id": "map"}, "pose": {"position": {"x": 60.0, "y": 12.0}, "orientation": {"w": 1}}}
-        probe.pub(Topic.MOVE_BASE_SIMPLE_GOAL, "geometry_msgs/PoseStamped", goal)
+        probe.pub(Topic.MOVE_BASE_SIMPLE_GOAL, "geometry_msgs/PoseStamped", goal, to=MOVE_BASE)
 
         def move_base() -> dict[str, int]:
             return json.loads(sim_diag(probe).get("participant /move_base", "{}"))
@@ -177,7 +178,7 @@ def test_obstacles_laser_battery_and_hostile_input(procs: ProcessGroup, tmp_path
         assert free_ahead > 10.0                                              # down the corridor
         # a person 2 m ahead: the laser sees it, the latched obstacle list has it
         probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle",
-                  {"id": "person", "action": 0, "shape": 0, "x": 22.0, "y": 12.0, "radius": 0.25})
+                  {"id": "person", "action": 0, "shape": 0, "x": 22.0, "y": 12.0, "radius": 0.25}, to=SIM)
         probe.wait(Topic.SIM_OBSTACLES, lambda m: [o["id"] for o in m["obstacles"]] == ["person"], 10)
         n = len(probe.msgs(Topic.BASE_SCAN))
         seen = probe.wait(Topic.BASE_SCAN, lambda m: m["ranges"][ahead] < 2.0, 10, "the person", since=n)
@@ -194,13 +195,13 @@ def test_obstacles_laser_battery_and_hostile_input(procs: ProcessGroup, tmp_path
             {"id": "tri", "action": 0, "shape": 5, "x": 25.0, "y": 12.0, "radius": 0.2},
         ]
         for msg in bad_obstacles:
-            probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", msg)
+            probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", msg, to=SIM)
         for twist in ({"linear": {"x": "nan"}}, {"angular": {"z": "nan"}}):
-            probe.pub(Topic.CMD_VEL, "geometry_msgs/Twist", twist)
+            probe.pub(Topic.CMD_VEL, "geometry_msgs/Twist", twist, to=SIM)
         wait_until(lambda: sim_diag(probe).get("rejected_obstacle") == str(len(bad_obstacles))
                    and sim_diag(probe).get("rejected_cmd_vel") == "2", 20, "the rejections counted")
         assert [o["id"] for o in probe.msgs(Topic.SIM_OBSTACLES)[-1]["obstacles"]] == ["person"]
-        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", {"action": 2})   # CLEAR
+        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", {"action": 2}, to=SIM)   # CLEAR
         probe.wait(Topic.SIM_OBSTACLES, lambda m: m["obstacles"] == [], 10, "cleared")
         n = len(probe.msgs(Topic.BASE_SCAN))
         probe.wait(Topic.BASE_SCAN, lambda m: m["ranges"][ahead] > 10.0, 10, "the corridor free again", since=n)
@@ -235,7 +236,7 @@ def test_several_robots_on_one_floor_get_their_own_topics(procs: ProcessGroup, t
         deadline = time.monotonic() + 20.0
         while int(sim_diag(probe).get("stalls", 0)) < 1:
             assert time.monotonic() < deadline, "no collision between the robots"
-            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}})
+            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}}, to=SIM)
             time.sleep(0.04)
         truth = "robot_0/" + Topic.BASE_POSE_GROUND_TRUTH
         n = len(probe.msgs(truth))
@@ -243,7 +244,7 @@ def test_several_robots_on_one_floor_get_their_own_topics(procs: ProcessGroup, t
         assert 21.5 - 0.3 - 0.33 - 0.01 <= x0 <= 21.5 - 0.3 - 0.33 + 0.06    # Kbot 0.3 m, Tartalo 0.33 m
         # pushing on is the same contact: counted once, in the diagnostics
         for _ in range(10):
-            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}})
+            probe.pub("robot_0/" + Topic.CMD_VEL, "geometry_msgs/Twist", {"linear": {"x": 0.5}}, to=SIM)
             time.sleep(0.04)
         wait_until(lambda: sim_diag(probe).get("robot_collisions") == "1", 10, "the collision counted")
         assert sim_diag(probe)["robot_deadlocks"] == "0"
@@ -265,7 +266,8 @@ def test_two_robots_driven_by_their_move_base_cross_each_other_without_a_collisi
         for i, (x, y, z, w) in goals.items():
             pose = {"position": {"x": x, "y": y}, "orientation": {"z": z, "w": w}}
             goal = {"header": {"frame_id": "map"}, "pose": pose}
-            probe.pub(f"robot_{i}/{Topic.MOVE_BASE_SIMPLE_GOAL}", "geometry_msgs/PoseStamped", goal)
+            probe.pub(f"robot_{i}/{Topic.MOVE_BASE_SIMPLE_GOAL}", "geometry_msgs/PoseStamped", goal,
+                      to=[f"/robot_{i}/{Node.MOVE_BASE}"])
         for i in goals:
             result = probe.wait(f"robot_{i}/{Topic.MOVE_BASE_RESULT}", lambda m: True, 120, f"robot_{i}'s goal")
             assert result["status"]["status"] == 3, result                 # SUCCEEDED

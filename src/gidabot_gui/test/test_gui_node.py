@@ -18,9 +18,9 @@ import xmlrpc.client
 from pathlib import Path
 
 import pytest
-from probe import Probe
+from probe import Probe, wait_connected
 
-from gidabot_navigation.interface import Cmd, Node, Topic, global_name
+from gidabot_navigation.interface import GUIDING_NODES, Cmd, Node, Topic, global_name
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -29,6 +29,8 @@ FACULTY = REPO / "maps" / "faculty"
 DRIVER = Path(__file__).resolve().parent / "gui_driver.py"
 STATUS = "gidabot_msgs/RobotStatus"
 EVENT = "gidabot_msgs/NavEvent"
+GUI, COMMANDS = global_name(Node.GUI), global_name(Topic.VISITOR_COMMAND)
+OFFLINE_AFTER = 2.0     # s (wall): the guiding nodes' offline_after in the test's own launch
 
 
 class Driver:
@@ -98,20 +100,21 @@ def status(robot: str, floor: float, pending: int = 0, busy: float = 0.0) -> dic
 
 
 def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
-    procs, env, _uri = kbot
+    procs, env, uri = kbot
     driver = Driver(env, "Kbot", tmp_path / "logs" / "gui.log")
     try:
         with Probe(env, tmp_path / "logs" / "probe.log") as probe:
             probe.sub(Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand")
             for name, floor in (("Tartalo", 0), ("Kbot", 1), ("Galtxagorri", 2), ("MariSorgin", 3)):
-                probe.pub(Topic.STATUS, STATUS, status(name, floor, pending=1, busy=240.0))
+                probe.pub(Topic.STATUS, STATUS, status(name, floor, pending=1, busy=240.0), to=[GUI])
             probe.pub(Topic.PENDING, "gidabot_msgs/PendingRequests",
-                      {"robot": "Galtxagorri", "floor": 2, "num": 2, "wait_new": 400.0})
+                      {"robot": "Galtxagorri", "floor": 2, "num": 2, "wait_new": 400.0}, to=[GUI])
             driver.until(lambda s: all(s["robots"].values()) and s["pending"]["Galtxagorri"], 20,
                          "every robot's status and Galtxagorri's pending requests")
             st = driver("pick", goal="223")
             assert st["popup"] == "confirm"
             assert "Galtxagorri meets you there: about" in st["body"]      # its 400 s, and the drive there
+            wait_connected(uri, GUI, COMMANDS, [probe.name])              # the button publishes once
             driver("press", key="go")
             driver("press", key="stairs")
             cmd = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == Cmd.REQUEST, 10, "the REQUEST")
@@ -121,12 +124,12 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
             probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Kbot/event/1", "robot": "Kbot", "phase": 1,
                                                 "goal_uid": uid, "connector": "stairs_west",
                                                 "location_id": "stairs_west", "target_floor": 2.0,
-                                                "language": "en", "way": "stairs"})
+                                                "language": "en", "way": "stairs"}, to=[GUI])
             st = driver.until(lambda s: s["popup"] == "event:ON_THE_WAY", 10, "the walk-behind pop-up")
             assert "walk behind me" in st["note"] and st["cancel"] and "walk behind me" in st["said"]
             # another robot's event is not shown here
             probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Tartalo/event/1", "robot": "Tartalo", "phase": 7,
-                                                "goal_uid": "x"})
+                                                "goal_uid": "x"}, to=[GUI])
             st = driver("cancel")
             cancel = probe.wait(Topic.VISITOR_COMMAND, lambda m: m["command"] == Cmd.CANCEL, 10, "the CANCEL")
             assert cancel["goal_uid"] == uid
@@ -168,7 +171,7 @@ def test_launch_file_registers_the_documented_topics_and_stops_cleanly(kbot, tmp
 
 def test_with_the_real_guiding_nodes_and_simulator(kbot, tmp_path: Path) -> None:
     """Kbot's floor simulated at 10x with its guiding nodes: the GUI's trip end to end, and a refusal."""
-    procs, env, _uri = kbot
+    procs, env, uri = kbot
     launch = tmp_path / "kbot.launch"
     launch.write_text(f"""<launch>
   <param name="/use_sim_time" value="true"/>
@@ -177,14 +180,19 @@ def test_with_the_real_guiding_nodes_and_simulator(kbot, tmp_path: Path) -> None
   </include>
   <include file="{REPO}/launch/guiding.launch">
     <arg name="building" value="{FACULTY}"/> <arg name="robot" value="Kbot"/>
+    <arg name="offline_after" value="{OFFLINE_AFTER:g}"/>
   </include>
 </launch>
 """)
     procs.start("stack", ["roslaunch", "--skip-log-check", str(launch)], env)
     driver = Driver(env, "Kbot", tmp_path / "logs" / "gui.log")
     try:
-        driver.until(lambda s: s["robots"]["Kbot"] and "Here:" in s["here"], 90, "Kbot's status")
-        started = time.monotonic()      # the guiding nodes are up (the trip below may take only a few seconds)
+        # Kbot's goal_manager runs by the time its first pending list is shown (it counts partners never heard
+        # of as online for offline_after s after it started, in wall time: no message says when that ends)
+        driver.until(lambda s: s["robots"]["Kbot"] and "Here:" in s["here"] and s["pending"]["Kbot"], 90,
+                     "Kbot's status and pending list")
+        manager_up = time.monotonic()
+        wait_connected(uri, GUI, COMMANDS, [global_name(n) for n in GUIDING_NODES])   # the buttons publish once
         driver("pick", goal="103")                                   # Dean's Office, same floor
         st = driver("press", key="go")
         assert st["popup"] == "" and st["cancel"]
@@ -192,9 +200,9 @@ def test_with_the_real_guiding_nodes_and_simulator(kbot, tmp_path: Path) -> None
         assert "walk behind me" in st["note"] and "To: Dean's Office (103)" in st["trip"]
         st = driver.until(lambda s: s["popup"] == "event:GOAL_REACHED", 120, "the goal")
         assert "Dean's Office (103)" in st["body"] and not st["cancel"]
-        # the second floor's robot has never been heard of: refused at once, nothing queued
-        # goal_manager counts a robot never heard of as online for its first 5 s (wall): let them pass
-        time.sleep(max(0.0, 8.0 - (time.monotonic() - started)))
+        # the second floor's robot has never been heard of: refused at once, nothing queued (once the goal
+        # manager's first offline_after s are over, usually long before the trip above ends)
+        wait_until(lambda: time.monotonic() - manager_up > OFFLINE_AFTER + 0.5, 30, "Galtxagorri counted offline")
         driver("pick", goal="223")
         driver("press", key="go")
         st = driver("press", key="stairs")

@@ -52,6 +52,10 @@ def test_constants_match_the_messages() -> None:
     assert set(interface.STAFF_COMMAND_NAMES) == set(interface.StaffCmd)
 
 
+def test_the_visitor_sights_match_the_message() -> None:
+    assert {k: int(v) for k, v in constants("VisitorTrack.msg").items()} == {s.name: int(s) for s in interface.Sight}
+
+
 def test_the_relays_whitelist_of_the_package_lists_exactly_the_shared_topics() -> None:
     listed = load_shared_topics(SHARED_TOPICS_FILE)          # (name, type, class) of each
     assert sorted(listed, key=lambda t: t.name) == sorted(interface.SHARED_TOPICS, key=lambda t: t.name)

@@ -32,10 +32,11 @@ from tf2_msgs.msg import TFMessage
 
 from gidabot_msgs.msg import Obstacle
 from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
-from gidabot_navigation.interface import Service, Topic
+from gidabot_navigation.interface import Node, Service, Topic, global_name
 from gidabot_sim.ros.convert import pose_msg
 
 NAME = "sim_navigation"
+SIM, MOVE_BASE = global_name(Node.SIM), global_name(Node.MOVE_BASE)   # subscribers of what the test publishes
 
 
 def wait_for(predicate, timeout: float, what: str) -> None:
@@ -74,8 +75,8 @@ class SimNavigation(unittest.TestCase):
         while not cls.client.wait_for_server(rospy.Duration(0.5)):
             assert time.monotonic() < deadline, "no move_base action server"
         rospy.wait_for_message(Topic.AMCL_POSE, PoseWithCovarianceStamped, timeout=60)
-        wait_for(lambda: cls.truth is not None and cls.obstacles.get_num_connections() > 0
-                 and cls.initialpose.get_num_connections() > 0, 30, "the simulator")
+        wait_for(lambda: cls.truth is not None and cls.obstacles.impl.has_connection(SIM)
+                 and cls.initialpose.impl.has_connection(SIM), 60, "the simulator")
 
     @classmethod
     def _on_truth(cls, msg: Odometry) -> None:
@@ -160,8 +161,8 @@ class SimNavigation(unittest.TestCase):
         self.client.cancel_goal()
         wait_for(lambda: self.client.get_state() == GoalStatus.PREEMPTED, 10, "PREEMPTED")
         wait_for(lambda: self.speed() < 0.02, 5, "the robot to stop")      # 0.7 m/s at 0.6 m/s^2: ~1.2 s sim
-        stopped = self.pose()
-        time.sleep(0.5)                                                     # 5 s sim
+        stopped, t_stop = self.pose(), rospy.get_time()
+        wait_for(lambda: rospy.get_time() >= t_stop + 5.0, 30, "5 s of sim time standing still")
         self.assertLess(math.hypot(self.pose().x - stopped.x, self.pose().y - stopped.y), 0.01)
 
     def test_5_a_new_goal_preempts_the_current_one(self) -> None:
@@ -242,7 +243,7 @@ class SimNavigation(unittest.TestCase):
         subs = [rospy.Subscriber(Topic.MOVE_BASE_RESULT, MoveBaseActionResult, results.append),
                 rospy.Subscriber(Topic.MOVE_BASE_FEEDBACK, MoveBaseActionFeedback, feedback.append)]
         simple = rospy.Publisher(Topic.MOVE_BASE_SIMPLE_GOAL, PoseStamped, queue_size=1)
-        wait_for(lambda: simple.get_num_connections() > 0 and all(s.get_num_connections() for s in subs), 10,
+        wait_for(lambda: simple.impl.has_connection(MOVE_BASE) and all(s.get_num_connections() for s in subs), 30,
                  "connections")
         goal = PoseStamped()
         goal.header.frame_id = "map"

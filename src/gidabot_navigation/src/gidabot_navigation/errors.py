@@ -99,6 +99,15 @@ class GuidingStateError(GuidingError):
     """A guiding state file cannot be read or written."""
 
 
+# -- perception (people detection and tracking) ----------------------------------------------
+class PerceptionError(GidaBotError):
+    """The people detector or tracker cannot do what was asked (a bad parameter)."""
+
+
+class ScanError(PerceptionError):
+    """A laser scan is malformed (non-finite angles, no beams, a negative increment...); it was not used."""
+
+
 # -- relay -----------------------------------------------------------------------------------
 class RelayConfigError(GidaBotError):
     """The relay's configuration (shared topics, link parameters, secret) is invalid."""

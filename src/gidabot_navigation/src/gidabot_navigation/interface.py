@@ -26,6 +26,7 @@ class Node:
     MULTIROBOT_NAVIGATION = "multirobot_navigation"   # the paper's name of the node that drives move_base
     TOUR_STORE = "tour_store"
     RELAY_SUPERVISOR = "relay_supervisor"
+    PEOPLE = "people"                  # the people detector and tracker (the visitor behind the robot)
     GUI = "gui"
     DASHBOARD = "dashboard"            # the staff web dashboard (gidabot_web): its staff commands and cancels speak for
     #                                    this robot
@@ -35,7 +36,7 @@ class Node:
     AMCL = "amcl"
     # what runs the simulated building, never on a robot
     VISITOR = "visitor"                # the simulated visitor (one per floor)
-    MONITOR = "gidabot_monitor"        # the demo's progress monitor (anonymous: rospy appends a suffix)
+    MONITOR = "monitor"                # the demo's progress monitor (anonymous: rospy appends a suffix)
     CHAOS_PROBE = "chaos_probe"
 
 
@@ -45,6 +46,9 @@ GUIDING_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION)
 def global_name(node: str) -> str:
     """The global name of node ``node``: what subscribers see as the callerid of its messages."""
     return "/" + node
+
+
+GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # the callerids of a robot's guiding nodes
 
 
 # -- relay ends ---------------------------------------------------------------------------------
@@ -86,6 +90,10 @@ class Topic:
     TOUR_EDIT = "tour_store/edit"
     TOUR_EDIT_RESULT = "tour_store/edit_result"
     TOUR_CATALOG = "tour_store/catalog"
+    # the people the robot's laser tracks, and the visitor it guides: never shared with other robots
+    PEOPLE_TRACKS = "people/tracks"
+    PEOPLE_VISITOR = "people/visitor"
+    PEOPLE_VISITOR_LOCK = "people/visitor_lock"
     # the robot's navigation stack and base (standard names)
     MOVE_BASE = "move_base"                               # the move_base action's namespace
     MOVE_BASE_GOAL = "move_base/goal"
@@ -200,6 +208,11 @@ RELEASE_PHASES = frozenset({Phase.GO_TO_FLOOR, Phase.NO_ROBOT_ON_FLOOR})
 SERVING_PHASES = frozenset({Phase.ON_THE_WAY, Phase.GOAL_REACHED, Phase.GO_TO_FLOOR, Phase.GOING_TO_MEETING,
                             Phase.WAITING_VISITOR, Phase.NO_ROBOT_ON_FLOOR, Phase.TOUR_STEP_DONE,
                             Phase.TOUR_FINISHED, Phase.PARTNER_LOST, Phase.PARTNER_BACK})
+# phases by which a robot says it brought the visitor to the trip's goal (a tour's stop, or its last)
+GOAL_REACHED_PHASES = frozenset({Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED})
+# phases after which a visitor's trip counts as done: its goal reached, or the visitor sent alone to a floor
+# without robot (NO_ROBOT_ON_FLOOR: they find the place there)
+TRIP_DONE_PHASES = GOAL_REACHED_PHASES | {Phase.NO_ROBOT_ON_FLOOR}
 
 
 def phase_name(phase: int) -> str:
@@ -261,6 +274,20 @@ LEG_PROPOSED = 1         # the origin robot asked that robot; it answers ACCEPTE
 LEG_COMMITTED = 2        # that robot serves the leg; never changes afterwards
 LEG_STATES = (LEG_NONE, LEG_PROPOSED, LEG_COMMITTED)
 LEG_STATE_NAMES = {LEG_NONE: "none", LEG_PROPOSED: "proposed", LEG_COMMITTED: "committed"}
+
+# -- gidabot_msgs/VisitorTrack sights: what the robot's laser knows of the visitor it guides (docs/perception.md)
+class Sight(IntEnum):
+    """gidabot_msgs/VisitorTrack ``sight`` (same numbers)."""
+
+    NONE = 0            # no visitor locked
+    ACQUIRING = 1       # a lock was asked for; no track in the lock cone yet
+    SEEN = 2            # the visitor's track was updated by the latest scan
+    HIDDEN = 3          # predicted inside the laser's field of view but not seen (occluded, missed)
+    OUT_OF_VIEW = 4     # predicted outside the laser's field of view (e.g. behind a front laser): turn to look
+    LOST = 5            # unseen beyond the budgets, or never found in the lock cone
+
+
+SIGHT_NAMES = {s: s.name.lower().replace("_", " ") for s in Sight}
 
 # -- the visitors' languages (building names, tours, pop-ups, speech) -------------------------
 LANGUAGES = ("eu", "en", "es")

@@ -7,7 +7,8 @@ import threading
 import pytest
 
 from gidabot_navigation.interface import Node, global_name, relay_end_name
-from gidabot_navigation.ros.replay import ReplayBuffer, peer_of, replay_to_peer
+from gidabot_navigation.ros.replay import ReplayBuffer, replay_to_peer
+from gidabot_navigation.ros.rospy_internals import peer_of
 
 
 class Clock:
@@ -42,17 +43,10 @@ class Conn:
 
 
 class Impl:
-    """Stands for rospy's _PublisherImpl: a lock around every peer publish."""
+    """Stands for rospy's _PublisherImpl: a lock around every peer publish (rospy_internals.publisher_lock)."""
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
-        self.locked_sends = 0
-
-    def acquire(self) -> None:
-        self.lock.acquire()
-
-    def release(self) -> None:
-        self.lock.release()
 
 
 def publish_single_for(conn: Conn, impl: Impl, sent: list) -> object:
@@ -70,10 +64,10 @@ def test_replay_goes_to_a_late_subscriber_under_the_lock_and_to_relays_unless_a_
     impl, sent = Impl(), []
     node = global_name(Node.GOAL_MANAGER)
     assert peer_of(publish_single_for(Conn(node), impl, sent)) == node
-    assert replay_to_peer(buf, impl, publish_single_for(Conn(node), impl, sent)) == 3
+    assert replay_to_peer(buf, impl.lock, publish_single_for(Conn(node), impl, sent)) == 3
     assert sent == [(node, "event-0"), (node, "event-1"), (node, "event-2")]
     relay = Conn(relay_end_name("Tartalo", "Kbot"))
-    assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent), skip_relays=True) == 0
-    assert replay_to_peer(buf, impl, publish_single_for(relay, impl, sent)) == 3     # a node's events: forwarded
+    assert replay_to_peer(buf, impl.lock, publish_single_for(relay, impl, sent), skip_relays=True) == 0
+    assert replay_to_peer(buf, impl.lock, publish_single_for(relay, impl, sent)) == 3     # a node's events: forwarded
     assert buf.replayed == 6 and not impl.lock.locked()
     assert peer_of(lambda data: None) == ""           # unknown peer: replayed to

@@ -14,11 +14,12 @@ import sys
 # subcommand -> (module, one-line help). Keep sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("gidabot_sim.cli", "benchmarks: 'bench dashboard', 'bench demo', 'bench relay', 'bench sim' (--json)"),
-    "chaos": ("gidabot_sim.chaos.chaos", "a tour under injected faults (links, masters, nodes, hostile input); table"),
+    "chaos": ("gidabot_sim.chaos.command",
+              "a tour under injected faults (links, masters, nodes, hostile input); table"),
     "check": ("gidabot_navigation.cli", "validate a building directory or tour files"),
     "dashboard-passwd": ("gidabot_web.dashboard.passwd", "set (or --delete) a user of a robot's staff dashboard"),
-    "demo": ("gidabot_sim.demo.demo", "run the simulated building through a tour, record it, print the tables"),
-    "report": ("gidabot_sim.demo.report", "the paper's tables and path plots from a run folder's rosbags"),
+    "demo": ("gidabot_sim.demo.command", "run the simulated building through a tour, record it, print the tables"),
+    "report": ("gidabot_sim.report.command", "the paper's tables and path plots from a run folder's rosbags"),
 }
 
 # gidabot bench <name>

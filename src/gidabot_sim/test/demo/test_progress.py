@@ -20,7 +20,8 @@ from gidabot_navigation.interface import (
     global_name,
     relay_end_name,
 )
-from gidabot_sim.demo.progress import Progress, Visit, stops_done
+from gidabot_sim.demo.progress import Progress, Visit
+from gidabot_sim.report.visits import stops_done
 
 GM, NAV = global_name(Node.GOAL_MANAGER), global_name(Node.MULTIROBOT_NAVIGATION)
 TOUR = "long_tour.tour"

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from gidabot_sim.demo import demo
+from gidabot_sim.demo import command
 from gidabot_sim.demo.trace import (
     Trace,
     TraceWriter,
@@ -210,9 +210,9 @@ def test_the_summary_prints_the_stalls_the_kinds_and_the_largest(tmp_path: Path)
 
 
 def test_demo_accepts_trace() -> None:
-    assert demo.parse_args(["--trace"]).trace is True
-    assert demo.parse_args([]).trace is False
-    assert "--trace" in demo.__doc__ and "trace.jsonl" in demo.__doc__
+    assert command.parse_args(["--trace"]).trace is True
+    assert command.parse_args([]).trace is False
+    assert "--trace" in command.__doc__ and "trace.jsonl" in command.__doc__
 
 
 def test_lateness_made_up_later_counts_in_the_windows_not_in_the_net(tmp_path: Path) -> None:

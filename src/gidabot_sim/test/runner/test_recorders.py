@@ -1,10 +1,10 @@
-"""Which recorder of a restarted master stops when (gidabot_sim.runner.building_runner.obsolete_recorders)."""
+"""Which recorder of a restarted master stops when (gidabot_sim.runner.recorders)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from gidabot_sim.runner.building_runner import obsolete_recorders
+from gidabot_sim.runner.recorders import obsolete_recorders
 
 T, T1, T2 = Path("Tartalo.bag"), Path("Tartalo.1.bag"), Path("Tartalo.2.bag")
 

@@ -27,6 +27,8 @@ DRIVE_TYPES = ("differential", "synchro")
 DEFAULT_RELAY_PORT = 11411       # a robot's first relay link port (building file key relay_port)
 CATEGORIES = ("office", "lab", "lecture", "service", "entrance", "meeting", "other")
 FLOOR_TOLERANCE = 1e-3
+FULL_CIRCLE = 2.0 * math.pi
+FOV_TOLERANCE = 1e-3     # rad: a laser's fov written as 6.2832 is the full circle
 # ids of the building, its locations and connectors; robot names (they name ROS nodes). \Z, not $: "$" would
 # also match before a trailing newline ("faculty\n")
 _ID_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,31}\Z")
@@ -79,6 +81,21 @@ class Connector:
 
 
 @dataclass(frozen=True)
+class LaserSensor:
+    """A robot's planar laser (``base_scan``): it sees ``fov`` rad centred on its mount's yaw (all round by
+    default), from ``range_min`` to ``range_max`` m, mounted at ``mount`` (x, y in m, yaw in rad) on base_link."""
+
+    fov: float = FULL_CIRCLE
+    range_min: float = 0.05
+    range_max: float = 20.0
+    mount: Pose2D = Pose2D(0.0, 0.0, 0.0)
+
+    @property
+    def full_circle(self) -> bool:
+        return self.fov >= FULL_CIRCLE
+
+
+@dataclass(frozen=True)
 class Robot:
     name: str
     floor: float
@@ -91,6 +108,7 @@ class Robot:
     radius: float              # m
     home: Pose2D
     relay_port: int = DEFAULT_RELAY_PORT   # first TCP port of its listening relay ends (relay_ports)
+    laser: LaserSensor = LaserSensor()     # building file key sensors.laser
 
     @property
     def ip(self) -> str:
@@ -599,7 +617,7 @@ def _load_robots(chk: _Checker, value: object, by_floor: _Floors) -> list[Robot]
         doc = chk.mapping(item, where)
         required = ("name", "floor", "master_uri", "drive", "max_linear", "max_angular",
                     "max_linear_accel", "max_angular_accel", "radius", "home")
-        if not chk.keys(doc, where, required, ("relay_port",)):
+        if not chk.keys(doc, where, required, ("relay_port", "sensors")):
             continue
         name = doc["name"]
         if not isinstance(name, str) or not _ROBOT_RE.match(name):
@@ -623,6 +641,7 @@ def _load_robots(chk: _Checker, value: object, by_floor: _Floors) -> list[Robot]
                 for k in ("max_linear", "max_angular", "max_linear_accel", "max_angular_accel", "radius")}
         home = chk.pose(doc["home"], f"{where}.home")
         relay_port = _relay_port(chk, doc.get("relay_port", DEFAULT_RELAY_PORT), f"{where}.relay_port", i)
+        laser = _laser(chk, doc.get("sensors", {}), f"{where}.sensors")
         if floor is not None and home is not None:
             _in_free_space(chk, floor, home, f"{where}.home", f"the home pose of {name}")
             radius = nums["radius"] or 0.0
@@ -632,12 +651,35 @@ def _load_robots(chk: _Checker, value: object, by_floor: _Floors) -> list[Robot]
                     chk.problem(f"{where}.home", f"the home of {name} overlaps the home of {other.name} on floor "
                                                  f"{floor.label} ({-gap:.2f} m); robots of one floor park apart")
         if floor is None or uri is None or home is None or drive not in DRIVE_TYPES or None in nums.values() \
-                or relay_port is None:
+                or relay_port is None or laser is None:
             continue
         robots.append(Robot(name=name, floor=floor.id, master_uri=uri, drive=drive, home=home,
-                            relay_port=relay_port, **nums))  # type: ignore[arg-type]
+                            relay_port=relay_port, laser=laser, **nums))  # type: ignore[arg-type]
     _shared_addresses(chk, robots)
     return robots
+
+
+def _laser(chk: _Checker, value: object, where: str) -> LaserSensor | None:
+    """``sensors: {laser: {fov, range_min, range_max, mount}}``, every key optional (defaults of
+    :class:`LaserSensor`)."""
+    n = len(chk.problems)
+    sensors = chk.mapping(value, where)
+    chk.keys(sensors, where, (), ("laser",))
+    doc = chk.mapping(sensors.get("laser", {}), f"{where}.laser")
+    chk.keys(doc, f"{where}.laser", (), ("fov", "range_min", "range_max", "mount"))
+    default = LaserSensor()
+    fov = chk.number(doc.get("fov", default.fov), f"{where}.laser.fov", positive=True)
+    if fov is not None and fov > FULL_CIRCLE + FOV_TOLERANCE:
+        chk.problem(f"{where}.laser.fov", f"{_show(doc['fov'])} must be at most 2 pi (6.2832 rad: all round)")
+    low = chk.number(doc.get("range_min", default.range_min), f"{where}.laser.range_min")
+    high = chk.number(doc.get("range_max", default.range_max), f"{where}.laser.range_max", positive=True)
+    if low is not None and high is not None and not 0 <= low < high:
+        chk.problem(f"{where}.laser", f"range_min {low:g}, range_max {high:g}: must satisfy 0 <= range_min < "
+                                      "range_max (m)")
+    mount = chk.pose(doc.get("mount", [0.0, 0.0, 0.0]), f"{where}.laser.mount")
+    if len(chk.problems) > n or fov is None or low is None or high is None or mount is None:
+        return None
+    return LaserSensor(min(fov, FULL_CIRCLE), low, high, mount)
 
 
 def _shared_addresses(chk: _Checker, robots: list[Robot]) -> None:

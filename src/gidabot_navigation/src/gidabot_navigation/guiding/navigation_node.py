@@ -46,6 +46,7 @@ from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_loop, run_node
 from gidabot_navigation.ros.params import param_number, param_text, robot_params
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
+from gidabot_navigation.ros.rospy_internals import connected_subscribers
 
 QUEUE_SIZE = 2000
 DURABLE_INPUTS = ("pending", "cancel", "event", "command", "result")   # may change the state kept across restarts
@@ -359,7 +360,8 @@ class NavigationNode:
         if status is None:
             return False
         server = sender(status)
-        return bool(server) and ac.pub_goal.impl.has_connection(server) and ac.pub_cancel.impl.has_connection(server)
+        return bool(server) and server in connected_subscribers(ac.pub_goal) \
+            and server in connected_subscribers(ac.pub_cancel)
 
     # -- outputs --------------------------------------------------------------------------
     def publish_status(self) -> None:

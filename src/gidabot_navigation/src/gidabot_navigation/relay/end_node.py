@@ -1,9 +1,10 @@
 """ROS adapter of one relay end: the node ``/gidabot_relay_<A>_<B>`` on one robot's master.
 
-The decisions live in :mod:`gidabot_navigation.relay.end` (ROS-free). This module reads the parameters
-once, subscribes the shared topics as raw bytes, publishes what the peer sends with
-the real type, owns the TCP link (one I/O thread with a selector; rospy callbacks
-only hand bytes to the core and try a non-blocking send) and the master watch.
+It wires rospy to the ROS-free parts: the end's decisions (:mod:`gidabot_navigation.relay.end`),
+its socket loop (:mod:`gidabot_navigation.relay.link_io`, run in the main thread) and the delivery
+hold (:mod:`gidabot_navigation.relay.delivery_hold`). This module reads the options once,
+subscribes the shared topics as raw bytes and hands them to the core, publishes what the peer
+sends with the real type, reports the master watch's events, and publishes diagnostics.
 Started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`) as
 ``python -m gidabot_navigation.relay.end_node``, never by hand.
 """
@@ -11,15 +12,12 @@ Started by the relay supervisor (:mod:`gidabot_navigation.relay.supervisor`) as
 from __future__ import annotations
 
 import contextlib
-import errno
 import http.client
 import io
 import os
-import selectors
 import socket
 import struct
 import sys
-import threading
 import time
 import xmlrpc.client
 from collections.abc import Callable
@@ -32,26 +30,23 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from gidabot_navigation.errors import GidaBotError, RelayConfigError
 from gidabot_navigation.interface import EVENT, STATE, Topic, TopicSpec, is_relay_end, relay_end_name
+from gidabot_navigation.relay.delivery_hold import DeliveryHold, subscribers_in_system_state
 from gidabot_navigation.relay.end import (
     EXIT_CONFIG,
     EXIT_PORT,
     PARENT_ENV,
-    Action,
-    Close,
     RelayEndConfig,
     RelayEndCore,
     load_shared_topics,
     read_secret,
 )
 from gidabot_navigation.relay.journal import Journal
+from gidabot_navigation.relay.link_io import LinkIO, Periodic, open_listener, tcp_connector
 from gidabot_navigation.resources import resource
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import MasterEvent, MasterWatch, bound_master_calls, keep_registered, proxy
 from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayBuffer, replay_to_peer
-
-CONNECT_TIMEOUT = 1.0    # s for one TCP connect attempt
-RETRY_INTERVAL = 0.25    # s between connect attempts
-RECV_BYTES = 1 << 18
+from gidabot_navigation.ros.rospy_internals import close_connections_from, connected_subscribers, publisher_lock
 
 
 @dataclass(frozen=True)
@@ -191,16 +186,10 @@ class _StateLatch(rospy.SubscribeListener):
         self.node, self.topic = node, topic
 
     def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
-        # rospy calls this from the thread accepting the connection WITHOUT the publisher's lock,
-        # while the I/O thread may be publishing: both serialise into the publisher's one buffer,
-        # which produced empty/garbled messages. Publish under the lock Publisher.publish takes.
-        impl = self.node.pubs[self.topic].impl
+        lock = publisher_lock(self.node.pubs[self.topic])
         for msg in self.node.states_for_new_subscriber(self.topic):
-            impl.acquire()
-            try:
+            with lock:
                 peer_publish(msg)
-            finally:
-                impl.release()
 
 
 class _EventReplay(rospy.SubscribeListener):
@@ -212,15 +201,8 @@ class _EventReplay(rospy.SubscribeListener):
 
     def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
         # relays never forward what a relay published: no replay to the other relay ends of this master
-        replay_to_peer(self.node.replays[self.topic], self.node.pubs[self.topic].impl, peer_publish, skip_relays=True)
-
-
-@dataclass
-class _Sock:
-    sock: socket.socket
-    outbuf: bytearray
-    connecting: bool = False
-    deadline: float = 0.0
+        replay_to_peer(self.node.replays[self.topic], publisher_lock(self.node.pubs[self.topic]), peer_publish,
+                       skip_relays=True)
 
 
 class RelayEndNode:
@@ -278,26 +260,25 @@ class RelayEndNode:
         specs = load_shared_topics(params.topics_file or resource("config", "shared_topics.yaml"))
         self.specs = {s.name: s for s in specs}
         classes = {s.name: _message_class(s) for s in specs}
-        secret = read_secret(params.secret_file) if params.secret_file else None
-        cfg = RelayEndConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
-                             md5s={n: c._md5sum for n, c in classes.items()}, secret=secret,
-                             max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
-                             max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
-                             heartbeat=params.heartbeat,
-                             link_timeout=params.link_timeout, state_rate=params.state_rate,
-                             header_topics=frozenset(s.name for s in specs
-                                                     if s.kind == EVENT and classes[s.name]._has_header))
-        self.cfg = cfg
-        journal = Journal(Path(params.state_dir) / f"{cfg.pair}.{params.side}.journal")
-        self.lock = threading.Lock()
-        self.core = RelayEndCore(cfg, journal, time.monotonic, RosLog(), make_validator(classes),
+        self.cfg = end_config(params, specs, classes)
+        journal = Journal(Path(params.state_dir) / f"{self.cfg.pair}.{params.side}.journal")
+        self.core = RelayEndCore(self.cfg, journal, time.monotonic, RosLog(), make_validator(classes),
                                  make_speaker(classes))
         self.raw = {n: raw_class(c) for n, c in classes.items()}
         self._last_latched: dict[str, str] = {}
         self.pruned = 0                      # subscriptions to relay publishers closed
         self.pubs: dict[str, rospy.Publisher] = {}
-        self.replays = {s.name: ReplayBuffer(params.replay_window, params.replay_limit) for s in specs
-                        if s.kind == EVENT}
+        self.events = [s.name for s in specs if s.kind == EVENT]
+        self.replays = {t: ReplayBuffer(params.replay_window, params.replay_limit) for t in self.events}
+        # at start (journal replay) too: events are held until this master's subscribers are connected
+        self.hold = DeliveryHold(self.events, params.hold_grace, time.monotonic())
+        self.core.set_delivery_open(False)
+        self.io = LinkIO(self.core, time.monotonic,
+                         connect=tcp_connector(params.link_host, params.link_port, params.bind_ip)
+                         if params.side == "a" else None,
+                         on_heartbeat=self._housekeeping,
+                         jobs=(Periodic(1.0 / params.diagnostics_rate, self._publish_diagnostics),),
+                         after_io=self._deliver)
         for s in specs:
             if s.kind == STATE:
                 self.pubs[s.name] = rospy.Publisher(s.name, self.raw[s.name], queue_size=100, latch=True,
@@ -308,54 +289,41 @@ class RelayEndNode:
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=5)
         self.subs = [rospy.Subscriber(s.name, rospy.AnyMsg, self._on_local, callback_args=s.name)
                      for s in specs]
-        # delivery hold across restarts of this end's master
-        self.expected_subs: dict[str, set[str]] = {s.name: set() for s in specs if s.kind == EVENT}
-        # at start (journal replay) too: hold events until this master's subscribers are connected
-        self.core.set_delivery_open(False)
-        self.reopen_deadline: float | None = time.monotonic() + params.hold_grace
-        # I/O
-        self.sel = selectors.DefaultSelector()
-        self.socks: dict[int, _Sock] = {}
-        self._next_id = 1
-        self._wake_r, self._wake_w = socket.socketpair()
-        self._wake_r.setblocking(False)
-        self._wake_w.setblocking(False)
-        self.sel.register(self._wake_r, selectors.EVENT_READ, "wake")
-        self.listener: socket.socket | None = None
-        self._next_connect = 0.0
-        self._stop = threading.Event()
-        self._io_thread: threading.Thread | None = None
+        self.supervisor_pid = os.environ.get(PARENT_ENV, "")    # the end exits when its supervisor is gone
         self.watch = watch
         if watch is not None:
             watch.add_listener(self._on_master_event)
 
-    # -- startup --------------------------------------------------------------------------
     def listen(self) -> None:
         """End b: bind the link port (raises OSError if it cannot)."""
-        if self.params.side != "b":
-            return
-        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        try:
-            sock.bind((self.params.link_host, self.params.link_port))
-        except OSError:
-            sock.close()
-            raise
-        sock.listen(8)
-        sock.setblocking(False)
-        self.listener = sock
-        self.sel.register(sock, selectors.EVENT_READ, "listen")
+        if self.params.side == "b":
+            self.io.listen(open_listener(self.params.link_host, self.params.link_port))
+
+    def run(self) -> None:
+        """The I/O loop, until rospy shuts down, :meth:`stop`, or the supervisor is gone."""
+        self.io.run(self._keep_running)
+
+    def stop(self) -> None:
+        self.io.stop()
+
+    def _keep_running(self) -> bool:
+        if rospy.is_shutdown():
+            return False
+        parent = self.supervisor_pid
+        if parent and str(os.getppid()) != parent:
+            rospy.logerr(f"{self.core.name}: the relay supervisor (pid {parent}) is gone; exiting")
+            return False
+        return True
 
     # -- rospy callbacks (any thread): hand over and return --------------------------------
     def _on_local(self, msg: rospy.AnyMsg, topic: str) -> None:
         header = msg._connection_header or {}
         payload = msg._buff if isinstance(msg._buff, bytes) else bytes(msg._buff)
-        with self.lock:
-            self._apply(self.core.local_message(topic, header.get("callerid", ""), header.get("type", ""),
-                                                header.get("md5sum", ""), payload))
+        self.io.perform(lambda core: core.local_message(topic, header.get("callerid", ""), header.get("type", ""),
+                                                        header.get("md5sum", ""), payload))
 
     def states_for_new_subscriber(self, topic: str) -> list[rospy.AnyMsg]:
-        with self.lock:
+        with self.io.lock:
             latest = self.core.latest_states(topic)
             skip = self._last_latched.get(topic)
         out = []
@@ -368,232 +336,20 @@ class RelayEndNode:
 
     def _on_master_event(self, event: MasterEvent, watch: MasterWatch) -> None:
         now = time.monotonic()
-        with self.lock:
+        with self.io.lock:
             if event is MasterEvent.DOWN:
                 self.core.set_master_up(False)
+                self.hold.master_down()
                 self.core.set_delivery_open(False)
-                self.reopen_deadline = None
             elif event is MasterEvent.REREGISTER:
                 self.core.set_master_up(True)
+                self.hold.master_back(now)
                 self.core.set_delivery_open(False)
-                self.reopen_deadline = now + self.params.hold_grace
-        self._wake()
+        self.io.wake()
 
-    # -- actions (lock held) --------------------------------------------------------------
-    def _apply(self, actions: list[Action]) -> None:
-        """Carry out the core's actions: append and send at once (non-blocking); the I/O thread
-        sends what the socket could not take yet. Every send happens under the lock, in order."""
-        wake = False
-        for act in actions:
-            s = self.socks.get(act.conn)
-            if s is None:
-                continue
-            if isinstance(act, Close):
-                s.outbuf.clear()
-                self._close_sock(act.conn, notify=False)
-                continue
-            s.outbuf += act.data
-            self._flush(s)
-            if s.outbuf:
-                wake = True
-        if wake and threading.current_thread() is not self._io_thread:
-            self._wake()
-
-    def _flush(self, s: _Sock) -> None:
-        try:
-            while s.outbuf:
-                n = s.sock.send(s.outbuf)
-                if n <= 0:
-                    break
-                del s.outbuf[:n]
-        except (BlockingIOError, InterruptedError):
-            pass
-        except OSError:
-            s.outbuf.clear()        # the reader side will see the connection fail
-
-    def _wake(self) -> None:
-        with contextlib.suppress(BlockingIOError, OSError):
-            self._wake_w.send(b"\0")
-
-    def _close_sock(self, conn_id: int, notify: bool, reason: str = "closed") -> None:
-        s = self.socks.pop(conn_id, None)
-        if s is None:
-            return
-        with contextlib.suppress(KeyError, ValueError):
-            self.sel.unregister(s.sock)
-        with contextlib.suppress(OSError):
-            s.sock.close()
-        if notify:
-            self.core.connection_closed(conn_id, reason)
-
-    # -- the I/O thread -------------------------------------------------------------------
-    def run(self) -> None:
-        self._io_thread = threading.current_thread()
-        period = 1.0 / self.params.diagnostics_rate
-        next_diag = time.monotonic()
-        next_tick = time.monotonic()
-        parent = os.environ.get(PARENT_ENV, "")
-        try:
-            while not rospy.is_shutdown() and not self._stop.is_set():
-                if parent and str(os.getppid()) != parent:
-                    rospy.logerr(f"{self.core.name}: the relay supervisor (pid {parent}) is gone; exiting")
-                    break
-                now = time.monotonic()
-                with self.lock:
-                    timeout = min(self.core.next_tick_in(), max(0.0, next_tick - now), max(0.0, next_diag - now))
-                    self._update_interest()
-                if self.params.side == "a":
-                    self._maybe_connect(now)
-                    timeout = min(timeout, RETRY_INTERVAL)
-                for key, mask in self.sel.select(timeout):
-                    self._handle(key, mask)
-                now = time.monotonic()
-                self._check_connect_timeouts(now)
-                housekeeping = now >= next_tick
-                with self.lock:
-                    # the core's own schedule too (a coalesced state due): the select above waited
-                    # for it, so skipping it here would make the next select return at once (a spin)
-                    if housekeeping or self.core.next_tick_in() <= 0:
-                        self._apply(self.core.tick())
-                if housekeeping:
-                    next_tick = now + self.params.heartbeat / 2
-                    self._update_hold(now)
-                    self._prune_relay_connections()
-                self._deliver()
-                if now >= next_diag:
-                    next_diag = max(next_diag + period, now)
-                    self._publish_diagnostics()
-        finally:
-            with self.lock:
-                self._apply(self.core.shutdown())
-                for cid in list(self.socks):
-                    self._close_sock(cid, notify=False)
-            if self.listener is not None:
-                self.listener.close()
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._wake()
-
-    def _update_interest(self) -> None:
-        for cid, s in self.socks.items():
-            want = selectors.EVENT_WRITE if s.connecting else \
-                selectors.EVENT_READ | (selectors.EVENT_WRITE if s.outbuf else 0)
-            try:
-                key = self.sel.get_key(s.sock)
-                if key.events != want:
-                    self.sel.modify(s.sock, want, cid)
-            except KeyError:
-                self.sel.register(s.sock, want, cid)
-
-    def _handle(self, key: selectors.SelectorKey, mask: int) -> None:
-        if key.data == "wake":
-            with contextlib.suppress(BlockingIOError, OSError):
-                while self._wake_r.recv(4096):
-                    pass
-            return
-        if key.data == "listen":
-            self._accept()
-            return
-        cid = key.data
-        s = self.socks.get(cid)
-        if s is None:
-            return
-        if s.connecting:
-            self._finish_connect(cid, s)
-            return
-        if mask & selectors.EVENT_READ:
-            try:
-                data = s.sock.recv(RECV_BYTES)
-            except (BlockingIOError, InterruptedError):
-                data = None
-            except OSError as err:
-                with self.lock:
-                    self._close_sock(cid, notify=True, reason=f"receive error: {err.strerror}")
-                return
-            if data == b"":
-                with self.lock:
-                    self._close_sock(cid, notify=True, reason="connection closed by the other side")
-                return
-            if data:
-                with self.lock:
-                    self._apply(self.core.data_received(cid, data))
-        if mask & selectors.EVENT_WRITE:
-            with self.lock:
-                s = self.socks.get(cid)
-                if s is not None:
-                    self._flush(s)
-
-    def _accept(self) -> None:
-        assert self.listener is not None
-        while True:
-            try:
-                sock, _ = self.listener.accept()
-            except (BlockingIOError, InterruptedError):
-                return
-            except OSError as err:
-                rospy.logwarn(f"{self.core.name}: accept failed: {err.strerror}")
-                return
-            self._add_sock(sock, initiator=False)
-
-    def _add_sock(self, sock: socket.socket, initiator: bool) -> None:
-        sock.setblocking(False)
-        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-        cid = self._next_id
-        self._next_id += 1
-        with self.lock:
-            self.socks[cid] = _Sock(sock, bytearray())
-            self.sel.register(sock, selectors.EVENT_READ, cid)
-            self._apply(self.core.connection_opened(cid, initiator))
-
-    def _maybe_connect(self, now: float) -> None:
-        with self.lock:
-            busy = self.core.active is not None or any(s.connecting for s in self.socks.values()) \
-                or bool(self.core.conns)
-        if busy or now < self._next_connect:
-            return
-        self._next_connect = now + RETRY_INTERVAL
-        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        try:
-            if self.params.bind_ip:
-                sock.bind((self.params.bind_ip, 0))
-            sock.setblocking(False)
-            err = sock.connect_ex((self.params.link_host, self.params.link_port))
-        except OSError as e:
-            sock.close()
-            with self.lock:
-                self.core.rlog.warning("connect", f"{self.core.name}: cannot connect to {self.params.link_host}:"
-                                                  f"{self.params.link_port} from {self.params.bind_ip}: {e.strerror}")
-            return
-        if err not in (0, errno.EINPROGRESS):
-            sock.close()
-            return
-        cid = self._next_id
-        self._next_id += 1
-        with self.lock:
-            self.socks[cid] = _Sock(sock, bytearray(), connecting=True, deadline=now + CONNECT_TIMEOUT)
-            self.sel.register(sock, selectors.EVENT_WRITE, cid)
-
-    def _finish_connect(self, cid: int, s: _Sock) -> None:
-        err = s.sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
-        with self.lock:
-            if err != 0:
-                self._close_sock(cid, notify=False)
-                return
-            s.connecting = False
-            s.sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self.sel.modify(s.sock, selectors.EVENT_READ, cid)
-            self._apply(self.core.connection_opened(cid, True))
-
-    def _check_connect_timeouts(self, now: float) -> None:
-        with self.lock:
-            for cid, s in list(self.socks.items()):
-                if s.connecting and now > s.deadline:
-                    self._close_sock(cid, notify=False)
-
-    # -- deliveries (I/O thread only, so they stay in order) -------------------------------
+    # -- the I/O loop's jobs (its thread only, so deliveries stay in order) ------------------
     def _deliver(self) -> None:
-        with self.lock:
+        with self.io.lock:
             deliveries = self.core.take_deliveries()
         if not deliveries:
             return
@@ -603,7 +359,7 @@ class RelayEndNode:
             raw._buff = d.msg.payload
             try:
                 if d.kind == STATE:
-                    with self.lock:
+                    with self.io.lock:
                         self._last_latched[d.msg.topic] = d.msg.callerid
                     self.pubs[d.msg.topic].publish(raw)
                     states += 1
@@ -614,51 +370,27 @@ class RelayEndNode:
             except rospy.ROSException as err:       # shutting down
                 rospy.logwarn(f"{self.core.name}: cannot publish on {d.msg.topic}: {err}")
                 break
-        with self.lock:
+        with self.io.lock:
             self.core.delivered(events, states)
 
+    def _housekeeping(self, now: float) -> None:
+        self._update_hold(now)
+        # subscriptions to relay publishers (itself, the other relay ends of this master): their messages
+        # are never forwarded (dropped by caller id), so receiving them only costs CPU
+        self.pruned += sum(close_connections_from(sub, is_relay_end) for sub in self.subs)
+
     def _update_hold(self, now: float) -> None:
-        """Track event subscribers; reopen held delivery once every subscriber is connected.
-
-        "Every subscriber" = the non-relay subscribers connected before the hold, plus those
-        the master lists now; delivery reopens when all of them are connected to this end's
-        publishers, or when ``hold_grace`` is over (then it says who is missing)."""
-        current = {t: {c.endpoint_id for c in self.pubs[t].impl.connections if not is_relay_end(c.endpoint_id or "")}
-                   for t in self.expected_subs}
-        with self.lock:
-            held, up, deadline = not self.core.delivery_open, self.core.master_up, self.reopen_deadline
-        if not held:
-            if up:
-                self.expected_subs = current
-            return
-        if deadline is None or not up:
-            return
-        registered = self._registered_subscribers()
-        want = {t: {n for n in self.expected_subs[t] | registered.get(t, set()) if not is_relay_end(n)}
-                for t in current}
-        missing = {t: sorted(want[t] - current[t]) for t in current if want[t] - current[t]}
-        if missing and now < deadline:
-            return
-        with self.lock:
+        connected = {t: connected_subscribers(self.pubs[t]) for t in self.events}
+        with self.io.lock:
+            ask = self.hold.deciding(self.core.master_up)
+        registered = self._registered_subscribers() if ask else {}     # XML-RPC: not under the lock
+        with self.io.lock:
+            release = self.hold.update(now, connected, self.core.master_up, registered)
+            if release is None:
+                return
             self.core.set_delivery_open(True)
-            self.reopen_deadline = None
             held_events = len(self.core.state.pending_in)
-        why = ("grace period over, still missing " + "; ".join(f"{t}: {', '.join(m)}" for t, m in missing.items())
-               if missing else "every subscriber is connected")
-        rospy.loginfo(f"{self.core.name}: delivering {held_events} held event(s): {why}")
-
-    def _prune_relay_connections(self) -> None:
-        """Close this end's subscriptions to relay publishers (itself and the other relay ends on this
-        master): their messages are never forwarded, so receiving them only costs CPU. Messages that
-        arrive before the pruning are dropped by caller id anyway. rospy does not reconnect a closed
-        connection until the master's publisher list changes (then the next tick prunes it again)."""
-        for sub in self.subs:
-            for c in list(sub.impl.connections):
-                header = getattr(c, "header", None) or {}
-                if is_relay_end(str(header.get("callerid", ""))):
-                    with contextlib.suppress(Exception):     # rospy transport internals: best effort
-                        c.close()
-                    self.pruned += 1
+        rospy.loginfo(f"{self.core.name}: delivering {held_events} held event(s): {release.why}")
 
     def _registered_subscribers(self) -> dict[str, set[str]]:
         """Subscribers of the shared event topics registered with this end's master ({} if it does not answer)."""
@@ -668,39 +400,55 @@ class RelayEndNode:
             code, _, state = proxy(self.watch.master_uri, 0.3).getSystemState(self.watch.caller_id)
         except (OSError, xmlrpc.client.Error, http.client.HTTPException, ValueError):
             return {}
-        if code != 1:
-            return {}
-        return {topic: set(nodes) for topic, nodes in state[1] if topic in self.expected_subs}
+        return subscribers_in_system_state(state, self.events) if code == 1 else {}
 
-    # -- diagnostics ----------------------------------------------------------------------
-    def _publish_diagnostics(self) -> None:
-        with self.lock:
+    def _publish_diagnostics(self, now: float) -> None:
+        with self.io.lock:
             snap = self.core.snapshot()
             down_since = self.core.link_down_since
-        status = DiagnosticStatus()
-        status.name = f"relay {self.cfg.robot_a}-{self.cfg.robot_b}: {self.cfg.robot}"
-        status.hardware_id = self.cfg.node_name
-        if not snap["connected"]:
-            status.level = DiagnosticStatus.ERROR
-            since = "" if down_since is None else f" for {time.monotonic() - down_since:.1f} s"
-            status.message = f"link to {self.cfg.peer_robot} down{since}; {snap['queue_depth']} event(s) queued"
-        elif snap["peer_master_up"] is False or not snap["master_up"] or not snap["delivery_open"]:
-            status.level = DiagnosticStatus.WARN
-            who = self.cfg.peer_robot if snap["peer_master_up"] is False else self.cfg.robot
-            status.message = f"connected; master of {who} down or restarting, events held"
-        else:
-            status.level = DiagnosticStatus.OK
-            status.message = f"connected to {self.cfg.peer_robot}, rtt {snap['rtt_ms']} ms"
         snap["link_address"] = f"{self.params.link_host}:{self.params.link_port}"
         snap["pruned_relay_connections"] = self.pruned
         snap["side"] = self.params.side
         snap["replayed_events"] = sum(r.replayed for r in self.replays.values())
-        status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
         arr = DiagnosticArray()
         arr.header.stamp = rospy.Time.now()
-        arr.status = [status]
+        arr.status = [diagnostic_status(self.cfg, snap, None if down_since is None else now - down_since)]
         with contextlib.suppress(rospy.ROSException):
             self.diag_pub.publish(arr)
+
+
+def end_config(params: Params, specs: tuple[TopicSpec, ...], classes: dict[str, type]) -> RelayEndConfig:
+    """The core's configuration from the options and the shared topics' message classes."""
+    return RelayEndConfig(robot_a=params.robot_a, robot_b=params.robot_b, side=params.side, topics=specs,
+                          md5s={n: c._md5sum for n, c in classes.items()},
+                          secret=read_secret(params.secret_file) if params.secret_file else None,
+                          max_message_bytes=params.max_message_bytes, max_queue=params.max_queue,
+                          max_inbound=params.max_inbound, max_queue_bytes=params.max_queue_bytes,
+                          heartbeat=params.heartbeat, link_timeout=params.link_timeout,
+                          state_rate=params.state_rate,
+                          header_topics=frozenset(s.name for s in specs
+                                                  if s.kind == EVENT and classes[s.name]._has_header))
+
+
+def diagnostic_status(cfg: RelayEndConfig, snap: dict[str, object], down_for: float | None) -> DiagnosticStatus:
+    """The end's ``/diagnostics`` status from the core's snapshot (plus the adapter's values);
+    ``down_for``: s since the link went down (None: up)."""
+    status = DiagnosticStatus()
+    status.name = f"relay {cfg.robot_a}-{cfg.robot_b}: {cfg.robot}"
+    status.hardware_id = cfg.node_name
+    if not snap["connected"]:
+        status.level = DiagnosticStatus.ERROR
+        since = "" if down_for is None else f" for {down_for:.1f} s"
+        status.message = f"link to {cfg.peer_robot} down{since}; {snap['queue_depth']} event(s) queued"
+    elif snap["peer_master_up"] is False or not snap["master_up"] or not snap["delivery_open"]:
+        status.level = DiagnosticStatus.WARN
+        who = cfg.peer_robot if snap["peer_master_up"] is False else cfg.robot
+        status.message = f"connected; master of {who} down or restarting, events held"
+    else:
+        status.level = DiagnosticStatus.OK
+        status.message = f"connected to {cfg.peer_robot}, rtt {snap['rtt_ms']} ms"
+    status.values = [KeyValue(k, "" if v is None else str(v)) for k, v in snap.items()]
+    return status
 
 
 def _message_class(spec: TopicSpec) -> type:
@@ -725,7 +473,7 @@ def main(argv: list[str] | None = None) -> int:
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
 
     bound_master_calls()     # init_node's own calls to a master that does not answer are bounded too
-    guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    guard = rospy_exit_guard("relay_end")   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
     # no ROS time: liveness is wall time, and /clock (100 Hz at 10x sim speed) would cost ~1 % of a core
     rospy.init_node(relay_end_name(params.robot_a, params.robot_b).lstrip("/"), argv=argv, disable_rostime=True,
                     disable_signals=True)

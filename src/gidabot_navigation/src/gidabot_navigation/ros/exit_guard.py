@@ -2,7 +2,7 @@
 
 Why rospy's own handling is not enough: rospy's SIGINT handler runs ``rospy.signal_shutdown``
 *inside the signal handler*, i.e. in the main thread at whatever point that thread was
-interrupted. Two ways this never returns were found in the simulator:
+interrupted. Two ways it then never returns:
 
 * The main thread publishes (the simulator's tick loop, move_base's control loop). A queued
   publisher connection (``rospy.impl.tcpros_pubsub.QueuedConnection``) holds a plain,
@@ -243,20 +243,12 @@ class ExitGuard:
 def rospy_shutdown(reason: str) -> None:
     """``rospy.signal_shutdown``, without its idle half second: rospy's registration thread waits 0.5 s
     on a condition between two looks at the shutdown flag, and signal_shutdown joins it; a shutdown
-    hook (run once the flag is set) wakes it, so the shutdown takes milliseconds (measured ~0.6 s -> ~0.1 s)."""
+    hook (run once the flag is set) wakes it, so the shutdown takes milliseconds (~0.6 s -> ~0.1 s)."""
     import rospy
-    import rospy.core
-    import rospy.impl.registration as registration
 
-    listeners = getattr(registration.get_registration_listeners(), "listeners", [])
-    conds = [m.cond for m in list(listeners) if isinstance(m, registration.RegManager)]
+    from gidabot_navigation.ros.rospy_internals import wake_registration_thread_on_shutdown
 
-    def wake_registration_thread(_reason: str) -> None:
-        for cond in conds:
-            with cond:
-                cond.notify_all()
-
-    rospy.core.add_shutdown_hook(wake_registration_thread)
+    wake_registration_thread_on_shutdown()
     rospy.signal_shutdown(reason)
 
 

@@ -3,9 +3,10 @@
 rospy's ``/rosout`` handler asks the master for ``/rosout_disable_topics_generation`` on every
 log call for as long as the master has no such parameter (``subscribeParam``: an XML-RPC call
 without a timeout, under the lock rospy holds for all its calls to that master): a node whose
-master does not answer (frozen, or unreachable) blocked in its first log line about it.
+master does not answer (frozen, or unreachable) would block in its first log line about it.
 :func:`never_block_on_rosout` answers that question from the process's parameter cache, once
-and for all; :func:`gidabot_navigation.ros.master_watch.keep_registered` calls it.
+and for all (through :mod:`gidabot_navigation.ros.rospy_internals`);
+:func:`gidabot_navigation.ros.master_watch.keep_registered` calls it.
 """
 
 from __future__ import annotations
@@ -32,11 +33,6 @@ def never_block_on_rosout(value: bool | None = None) -> bool:
     """Put ``/rosout_disable_topics_generation`` in rospy's parameter cache (``value``, or rospy's
     default False) unless it is there already, so that logging never calls the master. Returns the
     value the cache holds."""
-    from rospy.impl.paramserver import get_param_server_cache
+    from gidabot_navigation.ros.rospy_internals import param_cache_get_or_set
 
-    cache = get_param_server_cache()
-    try:
-        return bool(cache.get(ROSOUT_TOPICS_PARAM))
-    except KeyError:
-        cache.set(ROSOUT_TOPICS_PARAM, bool(value))
-        return bool(value)
+    return param_cache_get_or_set(ROSOUT_TOPICS_PARAM, bool(value))

@@ -145,16 +145,14 @@ def bound_master_calls(timeout: float = RPC_TIMEOUT) -> str:
     after (the existing proxy gets the bounded transport); rospy retries a registration that failed.
     """
     import rosgraph
-    import rospy.core
+
+    from gidabot_navigation.ros.rospy_internals import bound_master_proxy
 
     if not timeout > 0:
         raise MasterWatchError(f"timeout must be positive seconds, got {timeout!r}")
     uri = rosgraph.get_master_uri()
-    server = rospy.core.xmlrpcapi(uri)
-    if server is None:
+    if not bound_master_proxy(uri, _TimeoutTransport(timeout)):
         raise MasterWatchError(f"ROS_MASTER_URI {uri!r} is not a usable URI")
-    # ServerProxy keeps its transport in a name-mangled attribute; the transport holds the HTTP connection
-    server._ServerProxy__transport = _TimeoutTransport(timeout)  # type: ignore[attr-defined]
     return uri
 
 
@@ -399,12 +397,10 @@ class MasterWatch:
 
 def rospy_registrations() -> Registrations:
     """The current publications, subscriptions and services of this rospy node."""
-    from rospy.impl.registration import get_service_manager, get_topic_manager
+    from gidabot_navigation.ros.rospy_internals import node_registrations
 
-    tm, sm = get_topic_manager(), get_service_manager()
-    return Registrations(publications=[(n, t) for n, t in tm.get_publications()] if tm else [],
-                         subscriptions=[(n, t) for n, t in tm.get_subscriptions()] if tm else [],
-                         services=[(n, u) for n, u in sm.get_services()] if sm else [])
+    publications, subscriptions, services = node_registrations()
+    return Registrations(publications=publications, subscriptions=subscriptions, services=services)
 
 
 def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIMEOUT,
@@ -420,15 +416,15 @@ def keep_registered(period: float = DEFAULT_PERIOD, timeout: float = DEFAULT_TIM
     """
     import rosgraph
     import rospy
-    import rospy.core
 
     from gidabot_navigation.ros.log import ROSOUT_TOPICS_PARAM, RosLog, never_block_on_rosout
+    from gidabot_navigation.ros.rospy_internals import node_initialized
 
-    if not rospy.core.is_initialized():
+    if not node_initialized():
         raise MasterWatchError("keep_registered() must be called after rospy.init_node()")
     if not period > 0 or not timeout > 0:
         raise MasterWatchError(f"period and timeout must be positive seconds, got {period!r} and {timeout!r}")
-    node_uri = rospy.core.get_node_uri()
+    node_uri = rospy.get_node_uri()
     if not node_uri:
         raise MasterWatchError("this node has no slave API URI yet; call keep_registered() after rospy.init_node()")
     bound_master_calls()

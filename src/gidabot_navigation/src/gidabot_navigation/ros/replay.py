@@ -21,9 +21,11 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from contextlib import AbstractContextManager
 from typing import Any
 
 from gidabot_navigation.interface import is_relay_end
+from gidabot_navigation.ros.rospy_internals import peer_of, publisher_lock
 
 DEFAULT_WINDOW = 60.0     # wall s of events a late subscriber gets again
 
@@ -66,24 +68,11 @@ class ReplayBuffer:
             self._items.popleft()
 
 
-def peer_of(peer_publish: Callable[..., Any]) -> str:
-    """The caller id of the subscriber a rospy ``peer_publish`` callable sends to ("" if unknown).
-
-    rospy's ``publish_single`` closes over the new connection, whose ``endpoint_id`` is the
-    subscriber's caller id; this is best effort (an unknown peer gets the replay)."""
-    for cell in getattr(peer_publish, "__closure__", None) or ():
-        try:
-            endpoint = getattr(cell.cell_contents, "endpoint_id", None)
-        except (AttributeError, ValueError):     # an empty cell
-            continue
-        if isinstance(endpoint, str):
-            return endpoint
-    return ""
-
-
-def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., Any], skip_relays: bool = False) -> int:
-    """Send ``buffer``'s recent items through ``peer_publish`` under the publisher's lock (rospy's
-    ``peer_publish`` shares the publisher's serialisation buffer with ``publish``). Returns the count.
+def replay_to_peer(buffer: ReplayBuffer, lock: AbstractContextManager[Any], peer_publish: Callable[..., Any],
+                   skip_relays: bool = False) -> int:
+    """Send ``buffer``'s recent items through ``peer_publish``, each under the publisher's ``lock``
+    (:func:`gidabot_navigation.ros.rospy_internals.publisher_lock`: rospy's ``peer_publish`` shares the
+    publisher's serialisation buffer with ``publish``). Returns the count.
 
     ``skip_relays`` (a relay's own publishers): no replay to a relay subscriber, which would never
     forward it. A node's events are replayed to a relay end too: one that (re)started missed them, and
@@ -92,11 +81,8 @@ def replay_to_peer(buffer: ReplayBuffer, impl: Any, peer_publish: Callable[..., 
         return 0
     sent = 0
     for msg in buffer.recent():
-        impl.acquire()
-        try:
+        with lock:
             peer_publish(msg)
-        finally:
-            impl.release()
         sent += 1
     buffer.replayed += sent
     return sent
@@ -116,7 +102,7 @@ class ReplayPublisher:
 
         class _Listener(rospy.SubscribeListener):
             def peer_subscribe(self, topic_name: str, topic_publish: Callable, peer_publish: Callable) -> None:
-                replay_to_peer(owner.buffer, owner.pub.impl, peer_publish)
+                replay_to_peer(owner.buffer, publisher_lock(owner.pub), peer_publish)
 
         self.buffer = ReplayBuffer(window, max(1, queue_size // 2) if limit is None else limit)
         self.pub = rospy.Publisher(topic, data_class, queue_size=queue_size, latch=latch,

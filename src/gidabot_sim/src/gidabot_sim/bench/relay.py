@@ -20,23 +20,22 @@ at p99; every mesh delivers every message once, with no stall over ``--max-stall
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import json
 import os
-import select
-import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 from gidabot_navigation.building.model import DEFAULT_RELAY_PORT
-from gidabot_navigation.interface import Topic
 from gidabot_navigation.relay.supervisor import EndOptions, EndSpec, RelaySupervisor, end_argv
+from gidabot_sim.bench.workers import Worker, percentile
+from gidabot_sim.runner.command_line import bench_arguments, progress_printer
 from gidabot_sim.runner.machines import Machines
+from gidabot_sim.runner.proc_info import cpu_seconds
 from gidabot_sim.runner.procs import (
     ProcessGroup,
     free_port_run,
@@ -48,156 +47,7 @@ from gidabot_sim.runner.procs import (
 )
 
 SECRET = "bench-relay-secret-0123456789"
-CLK_TCK = os.sysconf("SC_CLK_TCK")
-
-
-# -- the worker: one rospy process that publishes and/or records goals ------------------------------
-def worker(argv: Sequence[str]) -> int:
-    """``bench_relay worker --robot R --role pub|sub|both --expect A,B --rate HZ --count N``.
-
-    Line protocol on stdin/stdout: prints ``{"event": "warm_ok"}`` once a warm-up message of
-    every expected origin arrived (pub: at once); on ``go`` publishes ``count`` goals at
-    ``rate`` and prints ``{"event": "sent"}``; on ``report`` prints every receipt; ``quit``.
-    """
-    import genpy
-    import rospy
-
-    from gidabot_msgs.msg import Goal
-
-    ap = argparse.ArgumentParser(prog="bench_relay worker")
-    ap.add_argument("--robot", required=True)
-    ap.add_argument("--role", choices=("pub", "sub", "both"), required=True)
-    ap.add_argument("--expect", default="")
-    ap.add_argument("--subs", type=int, default=1)
-    ap.add_argument("--rate", type=float, default=100.0)
-    ap.add_argument("--count", type=int, default=1000)
-    ap.add_argument("--phase", type=float, default=0.0, help="s to wait after 'go' (spreads the robots' sends)")
-    args = ap.parse_args(list(argv))
-    out = os.fdopen(os.dup(sys.stdout.fileno()), "w", buffering=1)
-    os.dup2(sys.stderr.fileno(), sys.stdout.fileno())          # rospy's log lines stay off the protocol
-    rospy.init_node(f"bench_{args.role}_{args.robot}", disable_signals=True)
-    expect = {e for e in args.expect.split(",") if e}
-    warm_from: set[str] = set()
-    recv: dict[str, list[tuple[int, float]]] = {}
-
-    def on_goal(msg: Goal) -> None:
-        now = time.time()
-        origin, _, k = msg.uid.rpartition("/")
-        if origin.startswith("warm:"):
-            warm_from.add(origin[5:])
-            return
-        recv.setdefault(origin, []).append((int(k), (now - msg.header.stamp.to_sec()) * 1000.0))
-
-    if args.role in ("sub", "both"):
-        rospy.Subscriber(Topic.GOALS, Goal, on_goal, queue_size=None, tcp_nodelay=True)
-    pub = rospy.Publisher(Topic.GOALS, Goal, queue_size=1000) if args.role in ("pub", "both") else None
-
-    def send(uid: str) -> None:
-        g = Goal()
-        g.uid, g.origin_robot, g.goal_id, g.tour_step = uid, args.robot, "bench", -1
-        g.header.stamp = genpy.Time.from_sec(time.time())
-        assert pub is not None
-        pub.publish(g)
-
-    if pub is not None:
-        deadline = time.monotonic() + 120
-        while pub.get_num_connections() < args.subs and time.monotonic() < deadline:
-            time.sleep(0.05)
-    warm_ok = False
-    next_warm = 0.0
-    while True:
-        if not warm_ok and warm_from >= expect:
-            warm_ok = True
-            out.write(json.dumps({"event": "warm_ok"}) + "\n")
-        if pub is not None and time.monotonic() >= next_warm:
-            next_warm = time.monotonic() + 0.3
-            send(f"warm:{args.robot}/0")
-        ready, _, _ = select.select([sys.stdin], [], [], 0.05)
-        if not ready:
-            continue
-        line = sys.stdin.readline()
-        if not line or line.strip() == "quit":
-            break
-        cmd = line.strip()
-        if cmd == "go" and pub is not None:
-            period = 1.0 / args.rate
-            start = time.monotonic() + args.phase
-            for k in range(args.count):
-                delay = start + k * period - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-                send(f"{args.robot}/{k}")
-            out.write(json.dumps({"event": "sent"}) + "\n")
-            next_warm = float("inf")
-        elif cmd == "go":
-            next_warm = float("inf")
-        elif cmd == "report":
-            out.write(json.dumps({"event": "report", "recv": recv}) + "\n")
-    rospy.signal_shutdown("bench done")
-    return 0
-
-
-# -- the orchestrator -------------------------------------------------------------------------------
-class Worker:
-    def __init__(self, group: ProcessGroup, name: str, env: dict[str, str], args: list[str],
-                 command: list[str] | None = None, module: str = "gidabot_sim.bench.relay") -> None:
-        """``python -m <module> worker <args>`` (the benchmark modules' workers speak this line protocol);
-        ``command``: what runs that command line (a robot's machine); none = this machine."""
-        log = open(group.log_dir / f"{name}.log", "ab") if group.log_dir else subprocess.DEVNULL  # noqa: SIM115
-        self.proc = subprocess.Popen([*(command or []), sys.executable, "-m", module, "worker", *args],
-                                     env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True,
-                                     bufsize=1, start_new_session=True)
-        if hasattr(log, "close"):
-            log.close()
-        self.name = name
-
-    def send(self, cmd: str) -> None:
-        assert self.proc.stdin is not None
-        self.proc.stdin.write(cmd + "\n")
-        self.proc.stdin.flush()
-
-    def expect(self, event: str, timeout: float) -> dict:
-        assert self.proc.stdout is not None
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            ready, _, _ = select.select([self.proc.stdout], [], [], max(0.0, deadline - time.monotonic()))
-            if not ready:
-                break
-            line = self.proc.stdout.readline()
-            if not line:
-                raise RuntimeError(f"bench worker {self.name} exited (code {self.proc.poll()})")
-            msg = json.loads(line)
-            if msg.get("event") == event:
-                return msg
-        raise RuntimeError(f"bench worker {self.name}: no {event!r} within {timeout:g} s")
-
-    def close(self) -> None:
-        if self.proc.poll() is None:
-            try:
-                self.send("quit")
-                self.proc.wait(timeout=5)
-            except (OSError, subprocess.TimeoutExpired):
-                self.proc.kill()
-                self.proc.wait(timeout=5)
-
-
-def percentile(values: list[float], q: float) -> float:
-    if not values:
-        return float("nan")
-    s = sorted(values)
-    return s[min(len(s) - 1, max(0, int(round(q / 100.0 * (len(s) - 1)))))]
-
-
-def cpu_seconds(pids: list[int]) -> float:
-    total = 0
-    for pid in pids:
-        try:
-            with open(f"/proc/{pid}/stat") as f:
-                fields = f.read().rsplit(")", 1)[1].split()
-            total += int(fields[11]) + int(fields[12])           # utime + stime
-        except (OSError, IndexError, ValueError):
-            continue
-    return total / CLK_TCK
+NODE = "gidabot_sim.bench.relay_node"     # the worker
 
 
 @dataclass
@@ -275,13 +125,13 @@ def side_by_side(tmp: Path, rate: float, count: int, log, machines: bool = False
         try:
             env_a = ros_env(robots.uris[0], robots.ips[0], log_dir=tmp / "logs_pair" / "A")
             env_b = ros_env(robots.uris[1], robots.ips[1], log_dir=tmp / "logs_pair" / "B")
-            direct = Worker(group, "direct_sub", env_a, ["--robot", "A", "--role", "sub", "--expect", "R0"],
+            direct = Worker(group, "direct_sub", env_a, NODE, ["--robot", "A", "--role", "sub", "--expect", "R0"],
                             robots.command(0))
-            relayed = Worker(group, "relayed_sub", env_b, ["--robot", "B", "--role", "sub", "--expect", "R0"],
+            relayed = Worker(group, "relayed_sub", env_b, NODE, ["--robot", "B", "--role", "sub", "--expect", "R0"],
                              robots.command(1))
             # subscribers: the direct one, and end a of the relay (which forwards to B)
-            pub = Worker(group, "pub", env_a, ["--robot", "R0", "--role", "pub", "--subs", "2", "--rate", str(rate),
-                                               "--count", str(count)], robots.command(0))
+            pub = Worker(group, "pub", env_a, NODE, ["--robot", "R0", "--role", "pub", "--subs", "2",
+                                                     "--rate", str(rate), "--count", str(count)], robots.command(0))
             workers = [direct, relayed, pub]
             try:
                 wait_warm(workers, 120)
@@ -323,7 +173,7 @@ def mesh(tmp: Path, n: int, rate: float, seconds: float, idle: float, log, machi
             for i, name in enumerate(robots.names):
                 env = ros_env(robots.uris[i], robots.ips[i], log_dir=tmp / f"logs_{tag}" / name)
                 others = ",".join(x for x in robots.names if x != name)
-                workers.append(Worker(group, f"worker_{name}", env,
+                workers.append(Worker(group, f"worker_{name}", env, NODE,
                                       ["--robot", name, "--role", "both", "--expect", others, "--subs", str(n),
                                        "--rate", str(rate), "--count", str(count), "--phase", str(i / n / rate)],
                                       robots.command(i)))
@@ -403,10 +253,7 @@ def targets_missed(res: dict, max_added_p50: float, max_relayed_p99: float, max_
 
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
-    if argv and argv[0] == "worker":
-        return worker(argv[1:])
-    ap = argparse.ArgumentParser(prog="gidabot bench relay", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--json", action="store_true", help="print one JSON object")
+    ap = bench_arguments("gidabot bench relay", __doc__)
     ap.add_argument("--machines", action="store_true",
                     help="every robot a separate machine (network namespace): relayed messages cross a network hop")
     ap.add_argument("--max-added-p50", type=float, default=1.0, help="target: ms the relay adds at p50 (1)")
@@ -419,11 +266,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--mesh-seconds", type=float, default=10.0, help="publishing time of a mesh run (default 10)")
     ap.add_argument("--idle", type=float, default=5.0, help="s of idle CPU measurement per mesh (default 5)")
     args = ap.parse_args(argv)
-
-    def log(msg: str) -> None:
-        if not args.json:
-            print(msg, flush=True)
-
+    log = progress_printer(args.json)
     with tempfile.TemporaryDirectory(prefix="gidabot-bench-relay-") as tmpdir:
         tmp = Path(tmpdir)
         (tmp / "secret").write_text(SECRET)

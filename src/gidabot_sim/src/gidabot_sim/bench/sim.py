@@ -28,36 +28,38 @@ Exit status 1 when a target is missed.
 
 from __future__ import annotations
 
-import argparse
+import contextlib
 import itertools
 import json
-import os
 import select
 import statistics
 import subprocess
 import sys
 import time
-import xmlrpc.client
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
+from gidabot_navigation.building.model import Building, Robot, load_building, relocate_building
+from gidabot_navigation.interface import GUIDING_NODES, Node, global_name
 from gidabot_navigation.resources import resource
 from gidabot_sim.bench.closed_loop import FloorLoop
 from gidabot_sim.errors import ProcessError
-from gidabot_sim.navstack.move_base import SUCCEEDED, MoveBaseCore
-from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
+from gidabot_sim.navstack.move_base import MoveBaseCore
+from gidabot_sim.runner.command_line import bench_arguments, print_verdict
+from gidabot_sim.runner.proc_info import cpu_seconds
+from gidabot_sim.runner.procs import ProcessGroup, node_pid, robot_address, ros_env, start_master, wait_until
 from gidabot_sim.world.kinematics import Limits
 from gidabot_sim.world.world import LaserSpec
 
 TARGETS = {"planner_median_ms": 50.0, "planner_max_ms": 200.0, "real_time_factor": 10.0, "stack_factor": 100.0,
            "stack_rate_pct": 80.0}
 STACK_NODES = tuple(global_name(n) for n in (Node.SIM, Node.MOVE_BASE, Node.AMCL, *GUIDING_NODES))
+FLOOR_NODES = tuple(global_name(n) for n in (Node.SIM, Node.MOVE_BASE, Node.AMCL))
 TOUR_FLOOR = 1.0
-PHASES = ("laser", "no_laser", "idle")
-IDLE_SIM_S = 60.0
+PHASES = ("laser", "no_laser", "idle")      # of the floor under ROS (sim_node's ros-driver)
 
 
 def places(building: Building, floor: float) -> list[Pose2D]:
@@ -113,63 +115,88 @@ def bench_rtf(building: Building, floor: float = TOUR_FLOOR) -> dict:
 
 # -- the floor under ROS ------------------------------------------------------------------
 
-def _cpu_seconds(pid: int) -> float:
-    with open(f"/proc/{pid}/stat", encoding="ascii") as f:
-        fields = f.read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+@dataclass(frozen=True)
+class FloorMaster:
+    """The robot of one floor with a master of its own, in a temporary folder."""
+
+    base: Building          # the building as given
+    robot: Robot
+    tmp: Path
+    procs: ProcessGroup
+    uri: str                # its master
+    ip: str
+    building: Path          # the building relocated to that master
+
+    def env(self) -> dict[str, str]:
+        return ros_env(self.uri, self.ip, log_dir=self.tmp / "ros")
 
 
-def _node_pid(master_uri: str, node: str) -> int | None:
-    try:
-        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode("/bench", node)
-        if code != 1:
-            return None
-        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid("/bench")
-        return int(pid) if code == 1 else None
-    except (OSError, xmlrpc.client.Error):
-        return None
-
-
-def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
-    """Launch one floor at ``speed`` and drive the tour through the ROS interfaces; CPU of the three nodes."""
+@contextlib.contextmanager
+def floor_master(building_dir: Path, floor: float, prefix: str) -> Iterator[FloorMaster]:
+    """The robot of ``floor`` and its master, for the block; everything stopped and removed after."""
     base = load_building(building_dir)
     robot = next(iter(base.robots_on(floor)), None)
     if robot is None:
         raise ProcessError(f"floor {floor:g} has no robot")
-    with TemporaryDirectory(prefix="gidabot-bench-") as tmp, ProcessGroup(Path(tmp) / "logs") as procs:
+    with TemporaryDirectory(prefix=prefix) as tmp, ProcessGroup(Path(tmp) / "logs") as procs:
         ip = robot_address(base.robots.index(robot))
         uri = start_master(procs, "master", ip)
         path = relocate_building(building_dir, Path(tmp) / "building", {robot.name: uri})
-        env = ros_env(uri, ip, log_dir=Path(tmp) / "ros")
-        procs.start("floor", ["roslaunch", "--skip-log-check", str(resource("launch", "sim_floor.launch")),
-                              f"building:={path}", f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"], env)
-        pids: dict[str, int] = {}
+        yield FloorMaster(base, robot, Path(tmp), procs, uri, ip, path)
 
-        def found() -> bool:
-            for node in (global_name(Node.SIM), global_name(Node.MOVE_BASE), global_name(Node.AMCL)):
-                pid = pids.get(node) or _node_pid(uri, node)
-                if pid:
-                    pids[node] = pid
-            return len(pids) == 3
 
-        wait_until(found, 60.0, "the floor's nodes")
-        goals = [[g.x, g.y, g.yaw] for g in tour(load_building(path), floor)]
-        driver = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.sim", "--ros-driver", json.dumps(goals)],
-                                  env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                  start_new_session=True)
+def node_pids(uri: str, nodes: tuple[str, ...], timeout: float) -> dict[str, int]:
+    """node -> pid of every one of ``nodes`` once all are registered on the master at ``uri``."""
+    pids: dict[str, int] = {}
+
+    def found() -> bool:
+        for node in nodes:
+            pid = pids.get(node) or node_pid(uri, node, "/bench")
+            if pid:
+                pids[node] = pid
+        return len(pids) == len(nodes)
+
+    wait_until(found, timeout, "the floor's nodes")
+    return pids
+
+
+@contextlib.contextmanager
+def driver(kind: str, spec: object, env: dict[str, str]) -> Iterator[subprocess.Popen]:
+    """A driver of :mod:`gidabot_sim.bench.sim_node` (``kind``: ros-driver, stack-driver) on the floor's master,
+    for the block; killed after if it still runs."""
+    proc = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.sim_node", kind, json.dumps(spec)],
+                            env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait(timeout=10)
+
+
+def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
+    """Launch one floor at ``speed`` and drive the tour through the ROS interfaces; CPU of the three nodes."""
+    with floor_master(building_dir, floor, "gidabot-bench-") as fm:
+        robot, tmp = fm.robot, fm.tmp
+        env = fm.env()
+        fm.procs.start("floor", ["roslaunch", "--skip-log-check", str(resource("launch", "sim_floor.launch")),
+                                 f"building:={fm.building}", f"robot:={robot.name}", f"speed:={speed:g}", "seed:=1"],
+                       env)
+        pids = node_pids(fm.uri, FLOOR_NODES, 60.0)
+        goals = [[g.x, g.y, g.yaw] for g in tour(load_building(fm.building), floor)]
         phases = {}
-        try:
-            ready = driver.stdout.readline()
+        with driver("ros-driver", goals, env) as proc:
+            ready = proc.stdout.readline()
             if not ready.startswith("READY"):
                 raise ProcessError(f"bench driver did not get ready: {ready!r} (logs in {tmp})")
             for _ in PHASES:
-                cpu0 = {n: _cpu_seconds(p) for n, p in pids.items()}
+                cpu0 = {n: cpu_seconds([p]) for n, p in pids.items()}
                 wall0 = time.monotonic()
-                driver.stdin.write("GO\n")
-                driver.stdin.flush()
-                line = _read_line(driver, timeout)
+                proc.stdin.write("GO\n")
+                proc.stdin.flush()
+                line = _read_line(proc, timeout)
                 wall = time.monotonic() - wall0
-                cpu = {n: _cpu_seconds(p) - cpu0[n] for n, p in pids.items()}
+                cpu = {n: cpu_seconds([p]) - cpu0[n] for n, p in pids.items()}
                 result = json.loads(line)
                 percent = {n.strip("/"): round(100.0 * c / wall, 1) for n, c in cpu.items()}
                 percent["total"] = round(sum(100.0 * c / wall for c in cpu.values()), 1)
@@ -178,10 +205,6 @@ def bench_ros(building_dir: Path, speed: float, floor: float = TOUR_FLOOR, timeo
                     "achieved_factor": round(result["sim_s"] / result["wall_s"], 2), "goals": result["outcomes"],
                     "laser_hz_sim": round(result["scans"] / max(result["sim_s"], 1e-9), 2),
                     "cpu_percent_of_one_core": percent}
-        finally:
-            if driver.poll() is None:
-                driver.kill()
-            driver.wait(timeout=10)
     laser_cpu = phases.get("laser", {}).get("cpu_percent_of_one_core", {}).get("total", 0.0)
     # extrapolation, not a measurement: the speed at which the three nodes would fill one core
     capacity = round(speed * 100.0 / laser_cpu, 1) if laser_cpu > 0 else None
@@ -207,62 +230,39 @@ def stack_places(building: Building, floor: float) -> list[str]:
 
 def bench_stack(building_dir: Path, floor: float = TOUR_FLOOR, timeout: float = 240.0) -> dict:
     """One floor with its simulator, stand-ins and guiding nodes, no speed ceiling: a visitor's three requests."""
-    base = load_building(building_dir)
-    robot = next(iter(base.robots_on(floor)), None)
-    if robot is None:
-        raise ProcessError(f"floor {floor:g} has no robot")
-    with TemporaryDirectory(prefix="gidabot-bench-stack-") as tmp, ProcessGroup(Path(tmp) / "logs") as procs:
-        ip = robot_address(base.robots.index(robot))
-        uri = start_master(procs, "master", ip)
-        path = relocate_building(building_dir, Path(tmp) / "building", {robot.name: uri})
-        launch = Path(tmp) / "stack.launch"
+    with floor_master(building_dir, floor, "gidabot-bench-stack-") as fm:
+        robot, tmp = fm.robot, fm.tmp
+        launch = tmp / "stack.launch"
         launch.write_text(f"""<launch>
   <param name="/use_sim_time" value="true"/>
   <include file="{resource("launch", "sim_floor.launch")}">
-    <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
+    <arg name="building" value="{fm.building}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="speed" value="max"/> <arg name="seed" value="1"/>
   </include>
   <include file="{resource("launch", "guiding.launch")}">
-    <arg name="building" value="{path}"/> <arg name="robot" value="{robot.name}"/>
+    <arg name="building" value="{fm.building}"/> <arg name="robot" value="{robot.name}"/>
     <arg name="status_rate" value="0.02"/> <arg name="pose_rate" value="0.05"/>
-    <arg name="state_dir" value="{Path(tmp) / 'guiding'}"/>
+    <arg name="state_dir" value="{tmp / 'guiding'}"/>
   </include>
 </launch>
 """, encoding="utf-8")
-        env = ros_env(uri, ip, log_dir=Path(tmp) / "ros")
-        procs.start("stack", ["roslaunch", "--skip-log-check", str(launch)], env)
-        pids: dict[str, int] = {}
-
-        def found() -> bool:
-            for node in STACK_NODES:
-                pid = pids.get(node) or _node_pid(uri, node)
-                if pid:
-                    pids[node] = pid
-            return len(pids) == len(STACK_NODES)
-
-        wait_until(found, 90.0, "the floor's nodes")
-        driver = subprocess.Popen([sys.executable, "-m", "gidabot_sim.bench.sim", "--stack-driver",
-                                   json.dumps({"robot": robot.name, "goals": stack_places(base, floor)})],
-                                  env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                  start_new_session=True)
-        try:
-            ready = _read_line(driver, 90.0)
+        env = fm.env()
+        fm.procs.start("stack", ["roslaunch", "--skip-log-check", str(launch)], env)
+        pids = node_pids(fm.uri, STACK_NODES, 90.0)
+        with driver("stack-driver", {"robot": robot.name, "goals": stack_places(fm.base, floor)}, env) as proc:
+            ready = _read_line(proc, 90.0)
             if not ready.startswith("READY"):
                 raise ProcessError(f"bench driver did not get ready: {ready!r} (logs in {tmp})")
-            cpu0 = {n: _cpu_seconds(p) for n, p in pids.items()}
+            cpu0 = {n: cpu_seconds([p]) for n, p in pids.items()}
             wall0 = time.monotonic()
-            driver.stdin.write("GO\n")
-            driver.stdin.flush()
-            done = _read_line(driver, timeout)          # at the end of the drive: the CPU over it
-            cpu = {n.strip("/"): _cpu_seconds(p) - cpu0[n] for n, p in pids.items()}
+            proc.stdin.write("GO\n")
+            proc.stdin.flush()
+            done = _read_line(proc, timeout)          # at the end of the drive: the CPU over it
+            cpu = {n.strip("/"): cpu_seconds([p]) - cpu0[n] for n, p in pids.items()}
             cpu_wall = time.monotonic() - wall0
             if not done.startswith("DONE"):
                 raise ProcessError(f"bench driver: {done!r} (logs in {tmp})")
-            result = json.loads(_read_line(driver, 30.0))
-        finally:
-            if driver.poll() is None:
-                driver.kill()
-            driver.wait(timeout=10)
+            result = json.loads(_read_line(proc, 30.0))
     sim_s, wall_s = result["sim_s"], result["wall_s"]
     guide_sim, guide_wall = result["guiding_sim_s"], result["guiding_wall_s"]
     return {"robot": robot.name, "goals": result["outcomes"], "places": result["places"], "sim_s": round(sim_s, 1),
@@ -276,63 +276,6 @@ def bench_stack(building_dir: Path, floor: float = TOUR_FLOOR, timeout: float = 
             "rates_pct": result["rates_pct"]}
 
 
-def stack_driver(spec: dict) -> int:
-    """Runs in a subprocess on the floor's master: a visitor's requests, one after the other; JSON of the drive,
-    with the rates in the floor's /diagnostics over it."""
-    import rospy
-    from diagnostic_msgs.msg import DiagnosticArray
-
-    from gidabot_msgs.msg import NavEvent, VisitorCommand
-    from gidabot_sim.demo.report import DiagSample, controller_rates, loop_rates
-
-    robot, goals = spec["robot"], spec["goals"]
-    rospy.init_node("bench_visitor", disable_signals=True)
-    events: list[tuple[float, NavEvent]] = []       # (wall s received, event)
-    diags: list[DiagSample] = []
-    rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, lambda m: events.append((time.monotonic(), m)), queue_size=100)
-    rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, lambda m: diags.extend(
-        DiagSample(m.header.stamp.to_sec(), st.name, tuple((kv.key, kv.value) for kv in st.values))
-        for st in m.status), queue_size=100)
-    pub = rospy.Publisher(Topic.VISITOR_COMMAND, VisitorCommand, queue_size=10)
-    deadline = time.monotonic() + 60.0
-    while (pub.get_num_connections() < 2 or rospy.get_time() <= 0.0) and time.monotonic() < deadline:
-        time.sleep(0.05)       # goal_manager and multirobot_navigation subscribe; the clock runs
-    time.sleep(6.0)            # (a robot never heard counts as online for 5 s: the others must be offline)
-    print("READY", flush=True)
-    if sys.stdin.readline().strip() != "GO":
-        return 1
-    wall0, sim0 = time.monotonic(), rospy.get_time()
-    outcomes = []
-    guiding_sim = guiding_wall = 0.0
-    for k, goal in enumerate(goals):
-        n = len(events)
-        msg = VisitorCommand(uid=f"{robot}/bench/cmd/{k}", visitor_id="bench", command=VisitorCommand.REQUEST,
-                             goal_id=goal, way="stairs", language="en")
-        msg.header.stamp = rospy.Time.now()
-        pub.publish(msg)
-        end = time.monotonic() + 120.0
-        done = None
-        while done is None and time.monotonic() < end:
-            done = next(((w, e) for w, e in events[n:] if e.robot == robot and e.location_id == goal
-                         and e.phase in (NavEvent.GOAL_REACHED, NavEvent.UNREACHABLE, NavEvent.REJECTED)), None)
-            time.sleep(0.01)
-        start = next(((w, e) for w, e in events[n:] if e.robot == robot and e.phase == NavEvent.ON_THE_WAY), None)
-        if done is not None and start is not None and done[1].phase == NavEvent.GOAL_REACHED:
-            guiding_sim += done[1].header.stamp.to_sec() - start[1].header.stamp.to_sec()
-            guiding_wall += done[0] - start[0]
-        phase = None if done is None else done[1].phase
-        outcomes.append({NavEvent.GOAL_REACHED: "reached", None: "timed out"}.get(phase, f"phase {phase}"))
-    sim1, wall1 = rospy.get_time(), time.monotonic()
-    print("DONE", flush=True)
-    time.sleep(1.5)            # the diagnostics after the drive
-    samples = sorted(diags, key=lambda d: d.t)
-    rates = {node: r["rate_pct"] for node, r in controller_rates(samples, sim0, sim1).items()}
-    rates.update({node: r["rate_pct"] for node, r in loop_rates(samples, sim0, sim1).items()})
-    print(json.dumps({"sim_s": sim1 - sim0, "wall_s": wall1 - wall0, "outcomes": outcomes, "places": goals,
-                      "guiding_sim_s": guiding_sim, "guiding_wall_s": guiding_wall, "rates_pct": rates}), flush=True)
-    return 0
-
-
 def _read_line(proc: subprocess.Popen, timeout: float) -> str:
     ready, _, _ = select.select([proc.stdout], [], [], timeout)
     line = proc.stdout.readline() if ready else ""
@@ -341,69 +284,13 @@ def _read_line(proc: subprocess.Popen, timeout: float) -> str:
     return line
 
 
-def ros_driver(goals: list[list[float]]) -> int:
-    """Runs in a subprocess on the floor's master: subscribe base_scan, drive the goals, print JSON."""
-    import actionlib
-    import rospy
-    from move_base_msgs.msg import MoveBaseAction, MoveBaseGoal
-    from sensor_msgs.msg import LaserScan
-
-    from gidabot_sim.ros.convert import pose_msg
-
-    rospy.init_node("bench_driver", disable_signals=True)
-    scans = [0]
-    scan_sub = rospy.Subscriber(Topic.BASE_SCAN, LaserScan, lambda _m: scans.__setitem__(0, scans[0] + 1),
-                                queue_size=50)
-    client = actionlib.SimpleActionClient(Topic.MOVE_BASE, MoveBaseAction)
-    deadline = time.monotonic() + 60.0
-    while not client.wait_for_server(rospy.Duration(0.5)):     # sim time: the clock may not run yet
-        if time.monotonic() > deadline:
-            print("NOSERVER", flush=True)
-            return 1
-    while scans[0] == 0 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    print("READY", flush=True)
-    for phase in PHASES:
-        if sys.stdin.readline().strip() != "GO":
-            return 1
-        if phase == "no_laser":
-            scan_sub.unregister()
-            goals = goals[::-1]
-        wall0, sim0, scans0 = time.monotonic(), rospy.get_time(), scans[0]
-        outcomes = []
-        if phase == "idle":                       # parked, waiting for visitors: most of a demo
-            goals = []
-            while rospy.get_time() - sim0 < IDLE_SIM_S and time.monotonic() - wall0 < 60.0:
-                time.sleep(0.05)
-        for x, y, yaw in goals:
-            goal = MoveBaseGoal()
-            goal.target_pose.header.frame_id = "map"
-            goal.target_pose.pose = pose_msg(Pose2D(x, y, yaw))
-            client.send_goal(goal)
-            end = time.monotonic() + 120.0
-            while not client.wait_for_result(rospy.Duration(1.0)) and time.monotonic() < end:
-                pass
-            state = client.get_state()
-            outcomes.append({3: SUCCEEDED, 4: "aborted", 2: "preempted"}.get(state, f"state {state}"))
-        print(json.dumps({"phase": phase, "wall_s": time.monotonic() - wall0, "sim_s": rospy.get_time() - sim0,
-                          "scans": scans[0] - scans0, "outcomes": outcomes}), flush=True)
-    return 0
-
-
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="gidabot bench sim", description=__doc__.split("\n\n")[0])
-    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser = bench_arguments("gidabot bench sim", __doc__)
     parser.add_argument("--building", default=str(resource("maps", "faculty")),
                         help="building directory (default: the faculty)")
     parser.add_argument("--speed", type=float, default=10.0, help="speed factor of the ROS run (default 10)")
     parser.add_argument("--no-ros", action="store_true", help="skip the run under ROS")
-    parser.add_argument("--ros-driver", metavar="GOALS", help=argparse.SUPPRESS)
-    parser.add_argument("--stack-driver", metavar="SPEC", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
-    if args.ros_driver:
-        return ros_driver(json.loads(args.ros_driver))
-    if args.stack_driver:
-        return stack_driver(json.loads(args.stack_driver))
     building = load_building(args.building)
     planner = bench_planner(building)
     rtf = bench_rtf(building, TOUR_FLOOR if building.find_floor(TOUR_FLOOR) else building.floors[0].id)
@@ -467,9 +354,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{stack['guiding_wall_s']} wall s -> {stack['guiding_factor']}x")
         print("  CPU per sim s: " + ", ".join(f"{n} {v} ms" for n, v in stack["cpu_ms_per_sim_s"].items()))
         print("  rates (% of nominal): " + ", ".join(f"{n} {v:.0f}" for n, v in stack["rates_pct"].items()))
-    for text in missed:
-        print(f"missed: {text}")
-    print("PASS" if report["pass"] else "FAIL")
+    print_verdict(missed)
     return 0 if report["pass"] else 1
 
 

@@ -20,7 +20,7 @@ It watches what its master delivers and acts on it when the chaos runner asks:
   made at start), so the runner can tell which node counted a hostile message it just sent.
 
 Driven by JSON lines on stdin, one JSON reply per line on stdout (``ChaosProbeClient``
-in :mod:`gidabot_sim.chaos.chaos`). The probe keeps itself registered across master restarts
+in :mod:`gidabot_sim.chaos.probe_client`). The probe keeps itself registered across master restarts
 (``keep_registered``). Node name ``/chaos_probe`` (its caller id tells its own hostile
 messages apart).
 
@@ -131,7 +131,7 @@ class ChaosProbeNode:
         self.diag_sub = rospy.Subscriber(Topic.DIAGNOSTICS, DiagnosticArray, self._on_diag, queue_size=100)
         # publishers of every hostile message, made now: when one is sent, every subscriber (the relays
         # too, which carry it to the other robots) is connected already
-        from gidabot_sim.chaos.core import HOSTILE_MESSAGES
+        from gidabot_sim.chaos.hostile import HOSTILE_MESSAGES
 
         for h in HOSTILE_MESSAGES:
             self._publisher(h.topic, h.type)
@@ -328,7 +328,7 @@ def main(argv: list[str] | None = None) -> int:
     from gidabot_navigation.ros.exit_guard import rospy_exit_guard
     from gidabot_navigation.ros.master_watch import keep_registered
 
-    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not (issue 19.5)
+    rospy_exit_guard(Node.CHAOS_PROBE)   # exit within 1 s of SIGINT/SIGTERM, master frozen or not
     rospy.init_node(Node.CHAOS_PROBE, disable_signals=True, disable_rostime=True)
     keep_registered()
     node = ChaosProbeNode(args.robot, args.out)

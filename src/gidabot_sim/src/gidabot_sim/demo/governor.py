@@ -3,67 +3,31 @@
 Every floor's clock advances in lockstep with its controllers, so at any ceiling they run at their nominal
 rate in sim time; what a floor cannot sustain shows as wall time *behind* the ceiling (its timeline slot's
 ``behind`` counter), and a run whose floors were behind for more than 1 % of the tour is *degraded*
-(:mod:`gidabot_sim.demo.report`). The demo passes the floors' clocks to :meth:`SpeedGovernor.look` a few times
-per wall second and sets every floor's ceiling to what it returns. Over each window of ``window`` wall seconds:
+(:mod:`gidabot_sim.report.rates`). The demo passes the floors' clocks to :meth:`SpeedGovernor.look` a few
+times per wall second and sets every floor's ceiling to what it returns. Over each window of ``window`` wall
+seconds:
 
-- a floor could not keep up at all (the slowest floor achieved less than ``keep_up`` of the ceiling over the
-  window, and was behind it): the ceiling becomes ``back_off`` times the slowest floor's achieved factor;
-- the floors kept up but their time behind the ceiling, since the last change, is over the *budget*
-  (``budget`` of the wall time since then, counted over at least ``horizon`` seconds): short stalls of a
-  floor (tens of milliseconds: a process not scheduled, on a busy machine, a few times per tour) cost a little
-  of the budget each, and only their rate says the ceiling is too high. The ceiling becomes ``back_off`` times
-  what it was;
-- after either, no later raise goes above ``back_off`` times the ceiling that failed (the ``limit``) until the
-  floors have kept the budget (at most half of it spent) for ``calm`` wall seconds since the back-off; then the
-  limit is lifted and the ceiling may be raised past the level that failed again. The calm period doubles with
-  every back-off of the run: a transient load (the start-up's last processes, a compiler beside the run) caps
-  the run for a few seconds, not for the rest of it, and a ceiling the machine cannot hold is probed again ever
-  more rarely (each failed probe costs at most the budget);
-- the floors' time behind since judging started (the ``settle`` seconds, which the governor cannot change, are
-  the report's) is over ``run_budget`` of that time (counted over at least ``horizon`` seconds; the report
-  marks a run degraded above 1 % of the tour):
-  the ceiling becomes ``back_off`` times what it was; again only if the excess grows by a quarter of the budget
-  (``budget`` x ``horizon`` / 4) since: the floors need time at a lower pace to get back within it, and backing
-  off at every window while they did brought one run from 55x to 5x; holding a pace whose stalls made the excess
-  grow left another degraded (1.05 %). A raise may fail, and a failure costs up to the budget:
-  the ceiling is raised only while the time behind since judging started leaves half of that within
-  ``run_budget``;
-- a back-off for the budget (either) that did not make the floors' time behind per second fall below ``helps``
-  times what it was at the ceiling it left, where the floors had otherwise kept pace with it (the slowest
-  achieved at least ``paced`` of it since the change before), is undone: the stalls do not depend on the speed
-  there (the robots' own processes bursting at a tour step, see below), going slower only makes the run slower,
-  so that ceiling is held for the rest of the run (``flat_at``) unless a floor cannot keep up at all. Where the
-  floors fell short of the ceiling itself they were at the edge of what they can compute, and slower does help
-  even when the next second does not show it yet (a run raised to 88.57x, above the 73.1x a fixed 100x ceiling
-  achieved, held 88.57x this way and ended degraded, 1.2 % behind);
-- a window never takes the ceiling below ``max_drop`` times what it was (a floor starved for a second says the
-  machine was busy then, not how busy it stays);
-- every floor kept up, the budget is not half spent and one of them waited for the ceiling (it held the floor
-  back) for ``patience`` windows in a row: the ceiling is raised by ``raise_by``, up to the limit and ``high``;
+- a floor could not keep up at all (the slowest floor achieved less than ``keep_up`` of the ceiling and was
+  behind it): the ceiling becomes ``back_off`` times the slowest floor's achieved factor;
+- the floors kept up but their time behind since the last change is over ``budget`` of the wall time since
+  then (counted over at least ``horizon`` seconds), or their time behind since judging started is over
+  ``run_budget`` of that time and has grown by a quarter of ``budget`` x ``horizon`` since the last back-off
+  for it: the ceiling becomes ``back_off`` times what it was;
+- after a back-off, no raise goes above ``back_off`` times the ceiling that failed (the ``limit``) until the
+  floors have kept half the budget for ``calm`` wall seconds, a period that doubles with every back-off;
+- a back-off for the budget that did not make the floors' time behind per second fall below ``helps`` times
+  what it was, where the floors had otherwise kept pace with the ceiling it left (the slowest achieved at
+  least ``paced`` of it), is undone and that ceiling held for the rest of the run (``flat_at``): the stalls
+  do not depend on the speed there. Where the floors fell short of the ceiling itself, slower does help;
+- a window never takes the ceiling below ``max_drop`` times what it was;
+- every floor kept up, at most half the budget is spent, the run's time behind leaves room for a failed
+  try, and a floor waited for the ceiling for ``patience`` windows in a row: the ceiling is raised by
+  ``raise_by``, up to the limit and ``high``;
 - otherwise it is held.
 
-(A first version backed off on any window with more than 2 % of it behind: on this 2-core machine every
-floor stalls for 30-60 ms a few times per tour at any speed above 30x, and each stall took the ceiling down
-by another 10 %: from 50x to 31x within one tour. A second one never lifted the limit: a stall in the tour's
-first seconds, the start-up's last processes still running, held 40.5x for the whole tour.)
-
-Judging starts only once the tour runs (``active``) and has run for ``settle`` wall seconds: idle floors keep up
-with any ceiling, which says nothing about the floors while their robots drive; and the start-up (every robot's
-nodes starting at once, a floor whose simulator is up before the others) starves the floors for a while, which
-says nothing about the tour either (the first bench demo at ``max`` backed off to the lowest ceiling on it and
-held it for the whole tour). The demo starts the visit a few seconds after every robot is up
-(``START_SETTLE_WALL_S``; before, the tour started while both cores were still busy with the start-up,
-``/proc/stat``), and the first window starts ``settle`` seconds after the tour does, past the burst of the
-tour's first hand-off (the report still counts the floors' time behind over the whole tour).
-
-What this cannot do: on this 2-core machine the floors' time behind comes mostly from short stalls when the
-robots' own processes burst at a tour step (``gidabot demo --trace``: goal managers used twice their usual CPU
-in the stall windows, docs/demo.md); they hardly depend on the speed, so backing off on them makes the run
-slower without making them rarer (docs/demo.md: before ``helps``, a quiet afternoon's bench held 36.45x and
-another 32.81x, where its 50x run was not degraded, and beside ``make test`` the lowest ceiling). Those of the
-tour's first seconds spend much of ``run_budget`` early, and no raise comes until the judged time has grown
-past them: in a 30 s tour that can hold a ceiling below what the floors sustain for most of the run (one max run
-held 45x for 20 s while its floors waited for the ceiling, docs/demo.md).
+Judging starts once the tour runs (``active``) and has run for ``settle`` wall seconds: idle floors keep up
+with any ceiling, and the start-up starves the floors for a while; neither says anything about the floors
+while their robots drive. Rules and measured runs: docs/demo.md, *Speed*.
 """
 
 from __future__ import annotations

@@ -21,7 +21,6 @@ start floor, about the visit's tour or goal) ends a visit without a trip.
 from __future__ import annotations
 
 import contextlib
-import json
 import math
 from dataclasses import dataclass, field
 
@@ -29,27 +28,12 @@ from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import Trip, validate_trip
 from gidabot_navigation.guiding.state import trip_from_dict
-from gidabot_navigation.interface import GUIDING_NODES, PHASE_NAMES, Phase, global_name, relay_end_name
+from gidabot_navigation.interface import GUIDING_CALLERIDS, PHASE_NAMES, TRIP_DONE_PHASES, Phase, relay_end_name
+from gidabot_sim.report.visits import MonitorFeed, stops_done, visit_completed
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
 # gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
 FAILURES = {p: PHASE_NAMES[p] for p in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.REJECTED)}
-# phases that complete a goal: reached, or the visitor sent to a floor without robot to find it alone
-COMPLETIONS = (Phase.GOAL_REACHED, Phase.TOUR_STEP_DONE, Phase.TOUR_FINISHED, Phase.NO_ROBOT_ON_FLOOR)
-
-
-def stops_done(steps: set[int], alone: frozenset[int]) -> set[int]:
-    """The tour stops done, from the steps whose goal was completed: a goal that sends the visitor to a stop on
-    a floor without robot (``alone``: those steps) also covers the stops on such floors right after it, which
-    get no goal of their own (docs/guiding.md, tour mode)."""
-    done = set(steps)
-    for k in sorted(steps):
-        j = k + 1
-        while k in alone and j in alone:
-            done.add(j)
-            j += 1
-    return done
-GUIDING_CALLERIDS = tuple(global_name(n) for n in GUIDING_NODES)   # what a robot's guiding nodes publish as
 
 
 @dataclass(frozen=True)
@@ -96,22 +80,6 @@ class Visit:
         about = rec.get("tour_file") == self.tour_file if self.tour_file else rec.get("location_id") == self.goal_id
         return (robot in starters and about and not rec.get("goal_uid")
                 and self.sent_by(robot, rec.get("callerid")))
-
-
-class MonitorFeed:
-    """Something fed the monitor's JSON lines (monitor.jsonl): :meth:`feed` takes one record."""
-
-    def feed(self, rec: dict) -> bool:
-        raise NotImplementedError
-
-    def feed_line(self, line: str) -> bool:
-        """Take one JSON line; return True when the visible progress changed (a line that is not a JSON
-        object changes nothing)."""
-        try:
-            rec = json.loads(line)
-        except json.JSONDecodeError:
-            return False
-        return self.feed(rec) if isinstance(rec, dict) else False
 
 
 @dataclass
@@ -189,13 +157,12 @@ class Progress(MonitorFeed):
         self.events += 1
         if phase not in (Phase.ACCEPTED, Phase.ASSIGNED, Phase.DECLINED):   # who serves which leg: not worth a line
             self.robot, self.phase = robot, PHASE_NAMES.get(phase, f"phase {phase}")
-        if phase in COMPLETIONS and trip is not None:
+        if phase in TRIP_DONE_PHASES and trip is not None:
             self.completed.add(trip.uid)
             if trip.tour_step >= 0:
                 self.steps.add(trip.tour_step)
         if not self.finished:
-            if phase == Phase.TOUR_FINISHED or (phase in (Phase.GOAL_REACHED, Phase.NO_ROBOT_ON_FLOOR)
-                                                and not self.tour_mode):
+            if visit_completed(phase, self.tour_mode):
                 self._finish("completed", rec)
             elif phase in FAILURES:
                 self._finish(f"{FAILURES[phase]} ({robot}: {rec.get('detail', '')})", rec)

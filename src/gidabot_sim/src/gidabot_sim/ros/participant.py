@@ -13,11 +13,10 @@ import warnings
 from collections.abc import Callable, Iterable
 
 import rospy
-import rospy.impl.simtime
-import rospy.rostime
 
 from gidabot_msgs.msg import StepDone
 from gidabot_navigation.interface import Topic
+from gidabot_navigation.ros.rospy_internals import take_over_ros_time
 from gidabot_sim.ros.convert import stamp
 
 
@@ -33,12 +32,11 @@ def own_time() -> Callable[[float], None]:
     """Stop receiving ``/clock`` (rospy subscribed this node to it, ``/use_sim_time`` being set) and return a
     setter of this process's ROS time: the simulator sets its own, the participants set it from what the
     simulator sends them (their work is stamped with the step it is for, never with a later ``/clock``).
-    Uses rospy internals; without them (another rospy) the node keeps ``/clock`` and the setter does nothing."""
-    sub = getattr(rospy.impl.simtime, "_clock_sub", None)
-    setter = getattr(rospy.rostime, "_set_rostime", None)
-    if sub is None or setter is None:
+    Uses rospy internals (:func:`gidabot_navigation.ros.rospy_internals.take_over_ros_time`); without them
+    (another rospy) the node keeps ``/clock`` and the setter does nothing."""
+    setter = take_over_ros_time()
+    if setter is None:
         return lambda _t: None
-    sub.unregister()
     return lambda t: setter(stamp(t))
 
 

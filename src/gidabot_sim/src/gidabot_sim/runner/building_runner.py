@@ -14,11 +14,8 @@ robots, the visitor, the monitor and the masters.
 
 A master can be stopped and started again (:meth:`stop_master`,
 :meth:`start_master_again`, fault injection): ``rosbag record`` never re-registers
-with a restarted master, so it would miss publishers that (re)start afterwards;
-that robot's recording then goes on in a new bag part (``<robot>.<n>.bag``; the
-old recorder is stopped once a newer part records -- a recorder starts only with the
-simulated clock, which may stand still for minutes while a floor that was down catches
-up -- and has for a few seconds), and :attr:`bags` lists every part that recorded.
+with a restarted master, so that robot's recording then goes on in a new bag part
+(:mod:`gidabot_sim.runner.recorders`; ``recorders.bags`` lists every part that recorded).
 
 With ``machines``, a robot's master and launch run in its namespace with its clock; the
 tools of the simulated world (the visitor, the recorder, the monitor, the chaos probes) run in
@@ -34,7 +31,6 @@ import contextlib
 import json
 import os
 import secrets
-import shutil
 import signal
 import socket
 import subprocess
@@ -49,25 +45,18 @@ from typing import TypeVar
 import rospkg
 
 from gidabot_navigation.building.model import Building, load_building, relocate_building
-from gidabot_navigation.interface import SHARED_TOPICS, Node, Topic, global_name
+from gidabot_navigation.interface import Node
 from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, MachinesError, ProcessError
 from gidabot_sim.runner.forward import Forward
 from gidabot_sim.runner.machines import Machines
+from gidabot_sim.runner.proc_info import ProcInfo, process_tree, read_proc
 from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
+from gidabot_sim.runner.recorders import RECORDED_TOPICS, Recorders
 from gidabot_sim.world.mates import Mates
 from gidabot_sim.world.timeline import Clock, Timeline
 
 T = TypeVar("T")
-# where `gidabot demo` and `gidabot chaos` put their runs by default: runs/ of the checkout (tools/env.sh sets
-# GIDABOT_ROOT; bin/gidabot sources it), else of the current directory
-RUNS = Path(os.environ.get("GIDABOT_ROOT", ".")) / "runs"
-RECORDER_OVERLAP = 5.0   # wall s the old recorder of a restarted master goes on after a newer one records
-# what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands, the robot's
-# localisation, when its move_base took each goal (Table 5's legs start then) and the floor's /diagnostics
-# (its simulator's timing, its controllers' and guiding loops' rates)
-RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
-                   global_name(Topic.MOVE_BASE_CURRENT_GOAL), Topic.DIAGNOSTICS)
 
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
@@ -75,6 +64,20 @@ MACHINE_MASTER_PORT = 11311   # every robot's master on a machine of its own: th
 DASHBOARD_PORT = 8080         # every robot's dashboard on a machine of its own: the default port
 STAFF_MACHINE = "staff"       # with machines and dashboards: the staff's computer, the only one that reaches them
 CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
+# Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
+# time (2 Hz status, 5 Hz poses by default): at 20x that would be 40 + 100 messages per wall second per
+# robot, every one of them handled by three relay ends and the recorder on each master (they cost more
+# CPU than the rest of the building together). The relays forward at most 10 per second anyway; Table 5
+# distances come from each robot's own /amcl_pose (a sample every 0.1 m), not from /gidabot/poses.
+STATUS_WALL_HZ, POSE_WALL_HZ = 2.0, 5.0
+STATUS_RATE, POSE_RATE = 2.0, 5.0       # guiding's defaults (Hz of ROS time), used up to 1x
+
+
+def state_rate_args(speed: float) -> dict[str, str]:
+    """The launch arguments of guiding's state topics at ``speed`` (sim s per wall s): their defaults, slowed
+    down in sim time so that their wall-time rates stay at most STATUS_WALL_HZ and POSE_WALL_HZ."""
+    return {"status_rate": f"{min(STATUS_RATE, STATUS_WALL_HZ / speed):.4g}",
+            "pose_rate": f"{min(POSE_RATE, POSE_WALL_HZ / speed):.4g}"}
 
 
 def node_executable(package: str, name: str) -> str:
@@ -118,83 +121,6 @@ def set_param(master_uri: str, key: str, value: object) -> None:
         raise DemoError(f"cannot set {key} on the master {master_uri}: {err}") from err
     if code != 1:
         raise DemoError(f"cannot set {key} on the master {master_uri}: {msg}")
-
-
-def obsolete_recorders(retired: dict[str, tuple[str, int]], bags: dict[str, list[Path]],
-                       recording_from: dict[Path, float], now: float, overlap: float = RECORDER_OVERLAP) -> list[str]:
-    """The retired recorders to stop now: ``retired`` maps a recorder to (robot, its bag part); one is stopped
-    once a later part of its robot has been recording (``recording_from``: when its file appeared) for
-    ``overlap`` s. Until then it records on: a new recorder waits for the simulated clock, which may stand still
-    for minutes (the other floors wait while one that was down catches up), and stopping the old one after a
-    fixed time left the master unrecorded (a chaos run's missing part and gap)."""
-    out = []
-    for name, (robot, n) in retired.items():
-        started = [recording_from[p] for p in bags.get(robot, [])[n + 1:] if p in recording_from]
-        if started and now - min(started) >= overlap:
-            out.append(name)
-    return out
-
-
-@dataclass(frozen=True)
-class ProcInfo:
-    """One process, from ``/proc/<pid>/stat`` and its command line."""
-
-    pid: int
-    ppid: int
-    pgid: int
-    start: int              # start time (clock ticks since boot): tells a reused pid apart
-    cpu_s: float            # user + system CPU seconds so far
-    argv: tuple[str, ...]
-
-    @property
-    def label(self) -> str:
-        """The ROS node name (``__name:=``), else the program's name."""
-        argv = self.argv
-        for arg in argv:
-            if arg.startswith("__name:="):
-                return arg.split(":=", 1)[1]
-        if len(argv) >= 2 and Path(argv[0]).name.startswith("python"):
-            if argv[1] == "-m" and len(argv) >= 3:
-                return argv[2].rsplit(".", 1)[-1]
-            return "python -c" if argv[1] == "-c" else Path(argv[1]).name
-        return Path(argv[0]).name if argv else "?"
-
-
-def read_proc(pid: int) -> ProcInfo | None:
-    """``/proc/<pid>`` of a live process, or None (gone, or not readable)."""
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text(encoding="ascii", errors="replace")
-        argv = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
-    except OSError:
-        return None
-    fields = stat[stat.rfind(")") + 2:].split()
-    if len(fields) < 20 or fields[0] == "Z":
-        return None
-    tick = os.sysconf("SC_CLK_TCK")
-    return ProcInfo(pid, int(fields[1]), int(fields[2]), int(fields[19]), (int(fields[11]) + int(fields[12])) / tick,
-                    tuple(a.decode(errors="replace") for a in argv if a))
-
-
-def process_tree(roots: set[int]) -> dict[int, ProcInfo]:
-    """Every live process that is one of ``roots`` or descends from one (roslaunch starts each node in
-    a session of its own, so process groups alone do not find them)."""
-    procs = {}
-    for entry in os.scandir("/proc"):
-        if entry.name.isdigit():
-            info = read_proc(int(entry.name))
-            if info is not None:
-                procs[info.pid] = info
-    children: dict[int, list[int]] = {}
-    for info in procs.values():
-        children.setdefault(info.ppid, []).append(info.pid)
-    found: dict[int, ProcInfo] = {}
-    todo = [pid for pid in roots if pid in procs]
-    while todo:
-        pid = todo.pop()
-        if pid not in found:
-            found[pid] = procs[pid]
-            todo.extend(children.get(pid, []))
-    return found
 
 
 @dataclass
@@ -242,11 +168,7 @@ class SimulatedBuilding:
         self._root: dict[int, str] = {}         # pid -> the managed process it descends from
         self.killed_leftovers: list[str] = []   # processes stop() had to kill after their parents were gone
         self.forced: list[str] = []             # nodes that ignored SIGINT for NODE_GRACE s (robot/node (signal))
-        self.bags: dict[str, list[Path]] = {}    # robot -> its bag parts, in order
-        self.retired: dict[str, tuple[str, int]] = {}   # old recorders -> (robot, bag part): stopped once a
-        self._retired_stopped: set[str] = set()          # later part has recorded RECORDER_OVERLAP s
-        self._recording_from: dict[Path, float] = {}    # bag part -> monotonic time its file was first seen
-        self.never_recorded: list[str] = []              # parts replaced before they recorded (no valid time)
+        self.recorders = Recorders(self.run_dir)  # every robot's bag parts and their recorders
         self.net: Machines | None = None         # the machines (namespaces) of the run, with ``machines``
         self.off: set[str] = set()               # robots whose machine is off (machine_off)
         self.timeline: Timeline | None = None
@@ -426,13 +348,10 @@ class SimulatedBuilding:
 
     def start_recorder(self, robot: str) -> Path:
         """A ``rosbag record`` of the shared topics on ``robot``'s master, into its next bag part."""
-        parts = self.bags.setdefault(robot, [])
-        n = len(parts)
-        bag = self.run_dir / (f"{robot}.bag" if n == 0 else f"{robot}.{n}.bag")
-        name = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
+        name, bag = self.recorders.next_part(robot)
         self.procs.start(name, self.command(robot, [rosbag_record_binary(), "--quiet", "--min-space", "100M", "-O",
                                                     str(bag), *RECORDED_TOPICS]), self.env(robot))
-        parts.append(bag)
+        self.recorders.add(robot, bag)
         return bag
 
     def start_visitor(self, robot: str) -> None:
@@ -465,11 +384,10 @@ class SimulatedBuilding:
                    interval=0.02)
         up = time.monotonic()
         self.call(robot, set_param, uri, "/use_sim_time", True)
-        if self.record and self.bags.get(robot):
-            n = len(self.bags[robot]) - 1
-            old_rec = f"record_{robot}" if n == 0 else f"record_{robot}.{n}"
+        if self.record and self.recorders.bags.get(robot):
+            n = len(self.recorders.bags[robot]) - 1
             self.start_recorder(robot)
-            self.retired[old_rec] = (robot, n)
+            self.recorders.retire(robot, n)
         return up
 
     def machine_off(self, robot: str) -> list[int]:
@@ -504,19 +422,8 @@ class SimulatedBuilding:
         RECORDER_OVERLAP s (until then the old one records on: no gap while the new one waits for the simulated
         clock); look at the floors' clocks (:meth:`sim_time_at`)."""
         self.clocks()
-        now = time.monotonic()
-        running = {n: r for n, r in self.retired.items() if n not in self._retired_stopped and self.procs.alive(n)}
-        for part in (p for parts in self.bags.values() for p in parts[1:]):
-            self._recording_since(part, now)
-        for name in obsolete_recorders(running, self.bags, self._recording_from, now):
+        for name in self.recorders.obsolete(time.monotonic(), self.procs.alive):
             self.procs.signal(name, signal.SIGINT)      # bag closed and indexed; reaped by stop()
-            self._retired_stopped.add(name)
-
-    def _recording_since(self, bag: Path, now: float) -> float | None:
-        """When ``bag``'s recorder was first seen writing it (rosbag creates ``<bag>.active`` once it records)."""
-        if bag not in self._recording_from and (bag.exists() or bag.with_name(bag.name + ".active").exists()):
-            self._recording_from[bag] = now
-        return self._recording_from.get(bag)
 
     def launch_robot(self, robot: str) -> None:
         """(Re)start robot's whole stack (its roslaunch) against its master."""
@@ -591,7 +498,8 @@ class SimulatedBuilding:
         """Names of processes that should be running and are not (a failed launch, a dead master; not those of a
         machine that is off)."""
         off = {f"{kind}_{r}" for r in self.off for kind in ("robot", "master")}
-        return [n for n in self.procs.names() if not self.procs.alive(n) and n not in self.retired and n not in off]
+        return [n for n in self.procs.names()
+                if not self.procs.alive(n) and n not in self.recorders.retired and n not in off]
 
     def process_groups(self) -> dict[str, int]:
         """name -> process group id of every process started (each is its group's leader)."""
@@ -632,11 +540,4 @@ class SimulatedBuilding:
             self.killed_leftovers.append(f"{info.label} (pid {info.pid})")
         if self.net is not None:    # whatever is left inside the machines, then the namespaces and their links
             self.killed_leftovers += [f"pid {pid} (in a machine's namespace)" for pid in self.net.destroy()]
-        for active in self.run_dir.glob("*.bag.active"):   # a recorder that had to be killed
-            subprocess.run(["rosbag", "reindex", str(active)], capture_output=True, timeout=120, check=False)
-            shutil.move(str(active), str(active.with_suffix("")))
-            for orig in self.run_dir.glob("*.bag.orig.active"):   # reindex's backup
-                orig.unlink()
-        for robot, parts in self.bags.items():   # replaced before the clock let them record: the older part did
-            self.never_recorded += [p.name for p in parts[1:] if not p.exists()]
-            self.bags[robot] = [parts[0], *(p for p in parts[1:] if p.exists())] if parts else parts
+        self.recorders.close()

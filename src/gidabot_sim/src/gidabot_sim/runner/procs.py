@@ -132,6 +132,28 @@ def master_pid(uri: str, timeout: float = 0.5) -> int | None:
         socket.setdefaulttimeout(old)
 
 
+def node_uri(master_uri: str, node: str, caller: str) -> str:
+    """The XML-RPC URI of node ``node`` (a global name) registered on the master at ``master_uri`` ("" when it
+    is not registered or the master does not answer); ``caller``: the caller id the master is asked as."""
+    try:
+        code, _, uri = xmlrpc.client.ServerProxy(master_uri).lookupNode(caller, node)
+    except (OSError, xmlrpc.client.Error):
+        return ""
+    return str(uri) if code == 1 else ""
+
+
+def node_pid(master_uri: str, node: str, caller: str) -> int | None:
+    """PID of node ``node`` registered on the master at ``master_uri``, None when it cannot be asked."""
+    uri = node_uri(master_uri, node, caller)
+    if not uri:
+        return None
+    try:
+        code, _, pid = xmlrpc.client.ServerProxy(uri).getPid(caller)
+    except (OSError, xmlrpc.client.Error):
+        return None
+    return int(pid) if code == 1 else None
+
+
 def ros_env(master_uri: str, ip: str, base: Mapping[str, str] | None = None,
             log_dir: Path | None = None, **extra: str) -> dict[str, str]:
     """Environment of a process that belongs to the robot whose master is ``master_uri``."""

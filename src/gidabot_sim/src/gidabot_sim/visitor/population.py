@@ -15,7 +15,7 @@ A plan says what the visitor *chooses* (:attr:`VisitorPlan.intent`): ``complete`
 should complete), ``cancel`` (cancelling, or completing before the cancel, is as chosen),
 ``no_show`` (the trip should end in a timeout); and whether it confirms at all is its choice
 at the screen (leaving is as chosen). The report checks each trip against it
-(:mod:`gidabot_sim.demo.crowd`).
+(:mod:`gidabot_sim.report.crowd`).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Statistics of a run with many visitors, from the monitor's JSON lines (ROS-free; issue 18).
+"""Statistics of a run with many visitors, from the monitor's JSON lines (ROS-free).
 
 Input: the visitors' plans (:mod:`gidabot_sim.visitor.population`) and the monitor's records
 (``monitor.jsonl``: every Goal and NavEvent seen on one master; the relays bring every
@@ -34,7 +34,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from gidabot_navigation.interface import FINAL_PHASES, LEG_COMMITTED, LEG_GOAL, LEG_START, PHASE_NAMES, Phase
-from gidabot_sim.demo.progress import MonitorFeed
+from gidabot_sim.report.visits import MonitorFeed, visit_completed
 from gidabot_sim.visitor.population import INTENT_CANCEL, INTENT_COMPLETE, INTENT_NO_SHOW, VisitorPlan
 
 COMPLETED, CANCELLED, TIMED_OUT, FAILED, UNFINISHED = "completed", "cancelled", "timed out", "failed", "unfinished"
@@ -322,7 +322,7 @@ def _duplicated(goals: Sequence[_Goal]) -> int:
 
 def _ending(phase: object, tour: bool) -> str:
     """How an event of a visitor's trip ends the visit ("" = it does not)."""
-    if phase == Phase.TOUR_FINISHED or (not tour and phase in (Phase.GOAL_REACHED, Phase.NO_ROBOT_ON_FLOOR)):
+    if visit_completed(phase, tour):
         return COMPLETED
     if phase in (Phase.CANCELLED_HERE, Phase.CANCELLED_ELSEWHERE):
         return CANCELLED

@@ -20,7 +20,10 @@ from gidabot_navigation.interface import (
     global_name,
     relay_end_name,
 )
-from gidabot_sim.demo import report
+from gidabot_sim.report.bags import EventSample, PoseSample, RobotRecord
+from gidabot_sim.report.command import main
+from gidabot_sim.report.tables import MAX_GOAL_START_LAG, analyse, guiding_intervals, leg_audit, path_length
+from gidabot_sim.report.text import format_tables
 
 REPO = Path(__file__).resolve().parents[4]
 
@@ -106,7 +109,7 @@ def test_tables_from_bags(tmp_path: Path) -> None:
            "robots": [{"name": "Tartalo", "floor": 0, "bag": "Tartalo.bag"}]}
     (tmp_path / "run.json").write_text(json.dumps(run))
 
-    assert report.main([str(tmp_path), "--json"]) == 0
+    assert main([str(tmp_path), "--json"]) == 0
     out = json.loads((tmp_path / "report.json").read_text())
     row = out["robots"][0]
     assert (row["received"], row["processed"]) == (3, 1)     # v/1 accepted but never run: not processed
@@ -114,35 +117,35 @@ def test_tables_from_bags(tmp_path: Path) -> None:
     assert row["mean_velocity_mps"] == pytest.approx(1.0)
     assert out["tour"]["completed"] == 1 and out["tour"]["sim_to_wall"] == pytest.approx(10.0)
     assert len(out["plots"]) == 4 and all(Path(p).stat().st_size > 10_000 for p in out["plots"])
-    assert "Tartalo" in report.format_tables(out)
+    assert "Tartalo" in format_tables(out)
 
 
 def test_guiding_intervals_and_length() -> None:
-    ev = [report.EventSample(0, "R", "a", Phase.ON_THE_WAY), report.EventSample(5, "R", "a", Phase.GO_TO_FLOOR),
-          report.EventSample(9, "R", "b", Phase.ON_THE_WAY), report.EventSample(12, "R", "b", Phase.CANCELLED_HERE)]
-    assert report.guiding_intervals(ev) == [(0, 5), (9, 12)]
-    poses = [report.PoseSample(t, float(t), 0.0) for t in range(13)]
-    assert report.path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)
-    assert report.path_length(poses + [report.PoseSample(13, float("nan"), 0.0)]) == pytest.approx(12.0)
+    ev = [EventSample(0, "R", "a", Phase.ON_THE_WAY), EventSample(5, "R", "a", Phase.GO_TO_FLOOR),
+          EventSample(9, "R", "b", Phase.ON_THE_WAY), EventSample(12, "R", "b", Phase.CANCELLED_HERE)]
+    assert guiding_intervals(ev) == [(0, 5), (9, 12)]
+    poses = [PoseSample(t, float(t), 0.0) for t in range(13)]
+    assert path_length(poses, [(0, 5), (9, 12)]) == pytest.approx(8.0)
+    assert path_length(poses + [PoseSample(13, float("nan"), 0.0)]) == pytest.approx(12.0)
 
 
 def test_guiding_starts_when_move_base_took_the_legs_goal() -> None:
     """The guiding node decides (ON_THE_WAY) and move_base takes the goal a little later in wall time: at high
     speeds that latency is sim time no robot spent guiding. A goal taken before the ON_THE_WAY (the pickup's),
     after the leg, or implausibly late (a goal sent again after a restart) does not move the start."""
-    ev = [report.EventSample(10, "R", "a", Phase.ON_THE_WAY), report.EventSample(40, "R", "a", Phase.GOAL_REACHED),
-          report.EventSample(50, "R", "b", Phase.ON_THE_WAY), report.EventSample(80, "R", "b", Phase.GO_TO_FLOOR),
-          report.EventSample(90, "R", "c", Phase.ON_THE_WAY), report.EventSample(95, "R", "c", Phase.GOAL_REACHED)]
-    starts = [2.0, 11.2, 20.0, 50.0 + report.MAX_GOAL_START_LAG + 1, 96.0]
-    assert report.guiding_intervals(ev, starts) == [(11.2, 40), (50, 80), (90, 95)]
-    assert report.guiding_intervals(ev) == [(10, 40), (50, 80), (90, 95)]      # bags without current_goal
+    ev = [EventSample(10, "R", "a", Phase.ON_THE_WAY), EventSample(40, "R", "a", Phase.GOAL_REACHED),
+          EventSample(50, "R", "b", Phase.ON_THE_WAY), EventSample(80, "R", "b", Phase.GO_TO_FLOOR),
+          EventSample(90, "R", "c", Phase.ON_THE_WAY), EventSample(95, "R", "c", Phase.GOAL_REACHED)]
+    starts = [2.0, 11.2, 20.0, 50.0 + MAX_GOAL_START_LAG + 1, 96.0]
+    assert guiding_intervals(ev, starts) == [(11.2, 40), (50, 80), (90, 95)]
+    assert guiding_intervals(ev) == [(10, 40), (50, 80), (90, 95)]      # bags without current_goal
 
 
 def test_missing_run_folder(tmp_path: Path, capsys) -> None:
-    assert report.main([str(tmp_path)]) == 1
+    assert main([str(tmp_path)]) == 1
     assert "run.json: cannot read" in capsys.readouterr().err
     (tmp_path / "run.json").write_text(json.dumps({"robots": [{"name": "Kbot"}]}))
-    assert report.main([str(tmp_path)]) == 1
+    assert main([str(tmp_path)]) == 1
     assert "Kbot.bag: missing bag of robot Kbot" in capsys.readouterr().err
 
 
@@ -173,7 +176,7 @@ def test_distance_from_the_robots_own_localisation(tmp_path: Path) -> None:
     run = {"tour": "t.tour", "goals": 1, "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}],
            "building": str(REPO / "maps" / "faculty")}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    assert report.main([str(tmp_path), "--json"]) == 0
+    assert main([str(tmp_path), "--json"]) == 0
     out = json.loads((tmp_path / "report.json").read_text())
     assert out["robots"][0]["distance_m"] == pytest.approx(10.0, abs=0.05)
     assert out["robots"][0]["time_s"] == pytest.approx(20.0)
@@ -198,7 +201,7 @@ def test_an_unreadable_message_is_skipped_and_counted(tmp_path: Path, capsys) ->
         writer.write(conn, int(5e9), buf.getvalue())
     run = {"goals": 0, "robots": [{"name": "Tartalo", "floor": 0}], "building": str(REPO / "maps" / "faculty")}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    assert report.main([str(tmp_path), "--no-plots"]) == 0
+    assert main([str(tmp_path), "--no-plots"]) == 0
     assert f"Tartalo: {Topic.POSES}: 1 message(s) in the bag could not be deserialised" in capsys.readouterr().out
     assert json.loads((tmp_path / "report.json").read_text())["unreadable_messages"] == {f"Tartalo: {Topic.POSES}": 1}
 
@@ -229,32 +232,32 @@ def test_bag_parts_are_read_together_and_hostile_goals_are_not_counted(tmp_path:
     run = {"tour": "t.tour", "goals": 2, "building": str(REPO / "maps" / "faculty"),
            "robots": [{"name": "Tartalo", "floor": 0, "bag": "Tartalo.bag", "bags": ["Tartalo.bag", "Tartalo.1.bag"]}]}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0
+    assert main([str(tmp_path), "--json", "--no-plots"]) == 0
     out = json.loads((tmp_path / "report.json").read_text())
     row = out["robots"][0]
     assert (row["received"], row["processed"]) == (2, 2)
     assert row["time_s"] == pytest.approx(10.0)           # one ON_THE_WAY (in both parts) -> GOAL_REACHED
     assert out["rejected_goals"] == {"Tartalo": len(hostile)}
-    assert "were not goals" in report.format_tables(out)
+    assert "were not goals" in format_tables(out)
 
 
 def test_leg_audit_from_the_robots_records() -> None:
     """Each leg's robot from every bag: committed in a goal, named in ASSIGNED, serving phases."""
-    t = report.RobotRecord("Tartalo", 0.0, assignments={("T/v/1", LEG_START, "Tartalo", LEG_COMMITTED),
+    t = RobotRecord("Tartalo", 0.0, assignments={("T/v/1", LEG_START, "Tartalo", LEG_COMMITTED),
                                                          ("T/v/1", LEG_GOAL, "Galtxagorri", LEG_PROPOSED),
                                                          ("T/v/1", LEG_GOAL, "Lamia", LEG_COMMITTED)})
-    t.events = [report.EventSample(1, "Tartalo", "T/v/1", Phase.ASSIGNED, leg=LEG_GOAL, assignee="Lamia"),
-                report.EventSample(2, "Tartalo", "T/v/1", Phase.ON_THE_WAY, leg=LEG_START),
-                report.EventSample(9, "Tartalo", "T/v/1", Phase.GO_TO_FLOOR, leg=LEG_START)]
-    galt = report.RobotRecord("Galtxagorri", 2.0, events=[report.EventSample(20, "Galtxagorri", "T/v/1", Phase.ACCEPTED,
+    t.events = [EventSample(1, "Tartalo", "T/v/1", Phase.ASSIGNED, leg=LEG_GOAL, assignee="Lamia"),
+                EventSample(2, "Tartalo", "T/v/1", Phase.ON_THE_WAY, leg=LEG_START),
+                EventSample(9, "Tartalo", "T/v/1", Phase.GO_TO_FLOOR, leg=LEG_START)]
+    galt = RobotRecord("Galtxagorri", 2.0, events=[EventSample(20, "Galtxagorri", "T/v/1", Phase.ACCEPTED,
                                                                        leg=LEG_GOAL)])
-    lamia = report.RobotRecord("Lamia", 2.0, events=[report.EventSample(3, "Lamia", "T/v/1", Phase.GOING_TO_MEETING,
+    lamia = RobotRecord("Lamia", 2.0, events=[EventSample(3, "Lamia", "T/v/1", Phase.GOING_TO_MEETING,
                                                                   leg=LEG_GOAL)])
-    legs = report.leg_audit([t, galt, lamia])
+    legs = leg_audit([t, galt, lamia])
     assert legs == {"legs": 2, "double_served": [], "unserved": [], "served_by": {"Tartalo": 1, "Lamia": 1}}
-    galt.events.append(report.EventSample(21, "Galtxagorri", "T/v/1", Phase.GOING_TO_MEETING, leg=LEG_GOAL))
-    assert report.leg_audit([t, galt, lamia])["double_served"] == [["T/v/1", LEG_GOAL, ["Galtxagorri", "Lamia"]]]
-    text = report.format_tables({**report.analyse([t, galt, lamia], {}), "tour": {
+    galt.events.append(EventSample(21, "Galtxagorri", "T/v/1", Phase.GOING_TO_MEETING, leg=LEG_GOAL))
+    assert leg_audit([t, galt, lamia])["double_served"] == [["T/v/1", LEG_GOAL, ["Galtxagorri", "Lamia"]]]
+    text = format_tables({**analyse([t, galt, lamia], {}), "tour": {
         "time_s": 0, "distance_m": 0, "mean_velocity_mps": 0, "completed": 0, "goals": 1, "sim_s": 0, "wall_s": 0,
         "sim_to_wall": 0}})
     assert "Legs: 2, 1 served by two robots or more, 0 by none" in text
@@ -290,7 +293,7 @@ def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
     run = {"tour": "t.tour", "goals": 3, "building": str(REPO / "maps" / "faculty"),
            "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}]}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    assert report.main([str(tmp_path), "--json", "--no-plots"]) == 0
+    assert main([str(tmp_path), "--json", "--no-plots"]) == 0
     out = json.loads((tmp_path / "report.json").read_text())
     row = out["robots"][0]
     assert (row["received"], row["processed"]) == (3, 2)
@@ -345,7 +348,7 @@ def _crowd_run(tmp_path: Path, *, collisions: tuple[int | None, ...] = (0, 0), n
            "outcome": "completed", "seed": 5, "visitors": len(visitors), "population": population,
            "robots": [{"name": "Kbot", "floor": 1, "bag": "Kbot.bag"}]}
     (tmp_path / "run.json").write_text(json.dumps(run))
-    code = report.main([str(tmp_path), "--json", "--no-plots"])
+    code = main([str(tmp_path), "--json", "--no-plots"])
     out = json.loads((tmp_path / "report.json").read_text())
     assert code == (1 if out["verdict"] == "FAILED" else 0)
     return out
@@ -360,7 +363,7 @@ def test_a_run_with_many_visitors_gets_their_statistics_and_a_verdict_that_can_f
     assert (out["collisions"], out["deadlocks"], out["problems"]) == (0, 0, [])
     assert (out["legs_double_served"], out["legs_unserved"], out["wait_mean_s"], out["wait_p95_s"]) == (0, 0, 4.0, 4.0)
     assert out["population"]["per_robot"][0]["legs_served"] == 2
-    text = report.format_tables(out)
+    text = format_tables(out)
     assert "Visitors: 2 (seed 5): 1 completed" in text and "Verdict: PASSED" in text
     assert "Collisions (robot-robot): 0" in text
     out = _crowd_run(tmp_path / "not_chosen", no_show_b=False)

@@ -6,7 +6,7 @@ import json
 import math
 
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, LEG_PROPOSED, Phase
-from gidabot_sim.demo.crowd import CANCELLED, COMPLETED, TIMED_OUT, UNFINISHED, Crowd, percentile
+from gidabot_sim.report.crowd import CANCELLED, COMPLETED, TIMED_OUT, UNFINISHED, Crowd, percentile
 from gidabot_sim.visitor.population import VisitorPlan
 
 

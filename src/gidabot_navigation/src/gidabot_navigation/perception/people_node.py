@@ -1,0 +1,262 @@
+"""ROS adapter of the people tracker: the ``people`` node (one per robot, on the robot's own master).
+
+The detector and the tracker live in :mod:`gidabot_navigation.perception.detector` and
+:mod:`gidabot_navigation.perception.people`, the robot's pose at a scan's time in
+:mod:`gidabot_navigation.perception.robot_pose` (all ROS-free). This module reads the parameters once,
+converts messages, and runs one loop that owns the tracker: callbacks only enqueue.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import queue
+import time
+from dataclasses import dataclass
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, Pose, PoseWithCovarianceStamped, Quaternion, Vector3
+from nav_msgs.msg import Odometry
+from sensor_msgs.msg import LaserScan
+from std_msgs.msg import Bool
+
+from gidabot_msgs.msg import Person, PersonArray, VisitorTrack
+from gidabot_navigation.building.geometry import Pose2D, all_finite, quaternion_to_yaw, yaw_to_quaternion
+from gidabot_navigation.building.model import load_building
+from gidabot_navigation.errors import ParamError, ScanError
+from gidabot_navigation.interface import SIGHT_NAMES, Node, Topic
+from gidabot_navigation.perception.detector import Detector, DetectorParams, Scan, fov_mismatch, occupied_lookup
+from gidabot_navigation.perception.people import PeopleReport, PeopleTracker, Track, TrackerParams, VisitorReport
+from gidabot_navigation.perception.robot_pose import RobotPose
+from gidabot_navigation.ros.exit_guard import ExitGuard
+from gidabot_navigation.ros.node_main import run_node
+from gidabot_navigation.ros.params import param_number, param_text
+
+QUEUE_SIZE = 50          # messages waiting for the loop (scans, poses, lock wishes); more are dropped
+NAN = math.nan
+
+
+@dataclass(frozen=True)
+class Params:
+    building: str
+    robot: str
+    use_map: bool
+    map_margin: float
+    max_range: float
+    tracker: TrackerParams
+    diagnostics_rate: float
+
+    @staticmethod
+    def read() -> Params:
+        use_map = rospy.get_param("~use_map", True)
+        if not isinstance(use_map, bool):
+            raise ParamError(f"{rospy.resolve_name('~use_map')} must be true or false, got {use_map!r}")
+        d = TrackerParams()
+        tracker = TrackerParams(
+            lock_bearing=param_number("~lock_bearing", d.lock_bearing, -2 * math.pi, 2 * math.pi, strict=False),
+            lock_half_angle=param_number("~lock_half_angle", d.lock_half_angle, 0.0, math.pi),
+            lock_distance=param_number("~lock_distance", d.lock_distance),
+            lock_window=param_number("~lock_window", d.lock_window),
+            visitor_lost_after=param_number("~visitor_lost_after", d.visitor_lost_after),
+            out_of_view_lost_after=param_number("~out_of_view_lost_after", d.out_of_view_lost_after))
+        return Params(param_text("~building", required=True), param_text("~robot", required=True), use_map,
+                      param_number("~map_margin", 0.1, strict=False), param_number("~max_range", 8.0), tracker,
+                      param_number("~diagnostics_rate", 1.0))
+
+
+def pose_of(pose: Pose) -> Pose2D | None:
+    """The planar pose of a geometry_msgs/Pose; None when not finite or the quaternion is not a rotation."""
+    p, q = pose.position, pose.orientation
+    if not all_finite(p.x, p.y, q.x, q.y, q.z, q.w) or abs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01:
+        return None
+    return Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
+
+
+def person_msg(tr: Track) -> Person:
+    m = Person()
+    m.id, m.visitor, m.confidence, m.unseen = tr.id, tr.visitor, tr.confidence, tr.unseen
+    m.position, m.velocity = Point(tr.x, tr.y, 0.0), Vector3(tr.vx, tr.vy, 0.0)
+    return m
+
+
+def visitor_msg(v: VisitorReport, stamp: rospy.Time) -> VisitorTrack:
+    """The report as a message: NaN where the report has no value."""
+    m = VisitorTrack()
+    m.header.stamp, m.header.frame_id = stamp, "map"
+    m.sight, m.id, m.confidence = int(v.sight), v.track_id or 0, v.confidence
+
+    def num(value: float | None) -> float:
+        return NAN if value is None else value
+
+    m.position = Point(num(v.x), num(v.y), 0.0)
+    m.velocity = Vector3(num(v.vx), num(v.vy), 0.0)
+    m.distance, m.behind, m.bearing, m.unseen = num(v.distance), num(v.behind), num(v.bearing), num(v.unseen)
+    if v.last_seen is not None:
+        seen = v.last_seen.pose
+        m.last_seen = Pose(Point(seen.x, seen.y, 0.0), Quaternion(*yaw_to_quaternion(seen.yaw)))
+        m.last_seen_stamp = rospy.Time.from_sec(max(0.0, v.last_seen.t))
+    else:
+        m.last_seen = Pose(Point(NAN, NAN, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))
+    return m
+
+
+class PeopleNode:
+    """Tracks the people this robot's laser sees and the visitor it guides.
+
+    Subscribed topics:
+      - ``base_scan`` (sensor_msgs/LaserScan: angles rad in the laser's frame, ranges m): every scan is
+        detected and tracked, at the time of its stamp; a malformed one is dropped and counted.
+      - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped, map frame: m, unit quaternion): the robot's
+        pose; scans before the first one are dropped.
+      - ``odom`` (nav_msgs/Odometry): carries the latest ``amcl_pose`` to each scan's time (optional).
+      - ``people/visitor_lock`` (std_msgs/Bool; latch it): the guiding core's wish. A change to true locks
+        the visitor (the confirmed track in the lock cone, behind the robot by default; the node keeps
+        looking for ``~lock_window`` s), false lets it go; the same value again changes nothing (publish
+        false, then true, to lock anew).
+
+    Published topics (this robot's own: never in the relays' shared list):
+      - ``people/tracks`` (gidabot_msgs/PersonArray, map frame: m, m/s) after each scan: the confirmed tracks.
+      - ``people/visitor`` (gidabot_msgs/VisitorTrack) after each scan and at each lock or unlock: SEEN,
+        HIDDEN, OUT_OF_VIEW (turn to look), LOST...; position (m), velocity (m/s), distance and how far behind
+        the robot (m), bearing (rad), time unseen (s), where and when last seen, confidence (0..1).
+      - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``people: <robot>`` at ``~diagnostics_rate``:
+        scans tracked and dropped (malformed, no pose yet, queue full), the mean and largest time a scan
+        took (ms), people tracked, the visitor's sight, and a warning when the scans' field of view differs
+        from the building file's ``sensors.laser.fov``.
+
+    Parameters:
+      - ``~building`` (str, required): building.yaml or its directory; ``~robot`` (str, required).
+      - ``~use_map`` (bool, default true): reject segments lying on occupied cells of the robot's floor map,
+        grown by ``~map_margin`` (m, default 0.1).
+      - ``~max_range`` (m, default 8): farther returns are ignored.
+      - ``~lock_bearing`` (rad, default pi: behind), ``~lock_half_angle`` (rad, default 1.2),
+        ``~lock_distance`` (m, default 2.5), ``~lock_window`` (s, default 5): the lock cone and how long a
+        lock waits for someone in it.
+      - ``~visitor_lost_after`` (s, default 3): unseen in view this long, the visitor is LOST;
+        ``~out_of_view_lost_after`` (s, default 20): unseen this long in all, LOST too.
+      - ``~diagnostics_rate`` (Hz, default 1).
+    """
+
+    def __init__(self, params: Params) -> None:
+        self.params = params
+        building = load_building(params.building)
+        robot = building.robot(params.robot)
+        self.robot, self.laser = robot.name, robot.laser
+        floor = building.floor(robot.floor)
+        occupied = occupied_lookup(floor.map, params.map_margin) if params.use_map else None
+        detector = Detector(DetectorParams(max_range=params.max_range), mount=robot.laser.mount, occupied=occupied)
+        self.tracker = PeopleTracker(detector, params.tracker)
+        self.poses = RobotPose()
+        self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
+        self.counts = {"scans": 0, "malformed": 0, "no_pose": 0, "dropped": 0, "bad_pose": 0}
+        self.step_ms: list[float] = []
+        self.last_error = ""
+        self.fov_problem = ""
+        self.last: PeopleReport | None = None
+        self.tracks_pub = rospy.Publisher(Topic.PEOPLE_TRACKS, PersonArray, queue_size=5)
+        self.visitor_pub = rospy.Publisher(Topic.PEOPLE_VISITOR, VisitorTrack, queue_size=5)
+        self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
+        self.subs = [rospy.Subscriber(Topic.BASE_SCAN, LaserScan, self._enqueue, "scan", queue_size=5),
+                     rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._enqueue, "amcl", queue_size=5),
+                     rospy.Subscriber(Topic.ODOM, Odometry, self._enqueue, "odom", queue_size=20),
+                     rospy.Subscriber(Topic.PEOPLE_VISITOR_LOCK, Bool, self._enqueue, "lock", queue_size=5)]
+
+    # -- callbacks: enqueue, return --------------------------------------------------------------
+    def _enqueue(self, msg: object, kind: str) -> None:
+        try:
+            self.inbox.put_nowait((kind, msg))
+        except queue.Full:
+            self.counts["dropped"] += 1
+
+    def _wake(self) -> None:
+        """End the loop's wait at once (from the exit guard's thread)."""
+        with contextlib.suppress(queue.Full):
+            self.inbox.put_nowait(("wake", None))
+
+    # -- the loop that owns the tracker ----------------------------------------------------------
+    def run(self, guard: ExitGuard) -> None:
+        """Handle what comes in, in order, until shutdown or the guard's signal (which wakes it); diagnostics at
+        their rate."""
+        guard.set_wake(self._wake)
+        period = 1.0 / self.params.diagnostics_rate
+        due = time.monotonic() + period
+        try:
+            while not rospy.is_shutdown() and not guard.requested:
+                with contextlib.suppress(queue.Empty):
+                    self.handle(*self.inbox.get(timeout=min(0.2, max(0.0, due - time.monotonic()))))
+                if time.monotonic() >= due:
+                    due = max(due + period, time.monotonic())
+                    self._publish_diagnostics()
+        finally:
+            guard.loop_stopped()
+
+    def handle(self, kind: str, msg: object) -> None:
+        if kind == "scan":
+            self._scan(msg)  # type: ignore[arg-type]
+        elif kind in ("amcl", "odom"):
+            pose = pose_of(msg.pose.pose)  # type: ignore[attr-defined]
+            stamp = msg.header.stamp.to_sec()  # type: ignore[attr-defined]
+            if pose is None or not all_finite(stamp):
+                self.counts["bad_pose"] += 1
+            elif kind == "amcl":
+                self.poses.localised(stamp, pose)
+            else:
+                self.poses.odometry(stamp, pose)
+        elif kind == "lock" and self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
+            rospy.loginfo(f"people: visitor {'lock' if msg.data else 'unlock'}: "  # type: ignore[attr-defined]
+                          f"{SIGHT_NAMES[self.tracker.visitor.sight]}")
+            self.visitor_pub.publish(visitor_msg(self.tracker.visitor, rospy.Time.now()))
+
+    def _scan(self, msg: LaserScan) -> None:
+        t = msg.header.stamp.to_sec()
+        try:
+            scan = Scan.checked(msg.angle_min, msg.angle_increment, msg.ranges, msg.range_min, msg.range_max)
+        except ScanError as err:
+            self.counts["malformed"] += 1
+            self.last_error = str(err)[:300]
+            return
+        robot = self.poses.at(t)
+        if robot is None:
+            self.counts["no_pose"] += 1
+            return
+        if not self.counts["scans"]:
+            self.fov_problem = fov_mismatch(self.laser.fov, scan)
+            if self.fov_problem:
+                rospy.logwarn(f"people: {self.fov_problem}")
+        start = time.thread_time()
+        report = self.tracker.step(scan, robot, t)
+        self.step_ms.append((time.thread_time() - start) * 1e3)
+        self.counts["scans"] += 1
+        self.last = report
+        arr = PersonArray()
+        arr.header.stamp, arr.header.frame_id = msg.header.stamp, "map"
+        arr.people = [person_msg(tr) for tr in report.tracks]
+        self.tracks_pub.publish(arr)
+        self.visitor_pub.publish(visitor_msg(report.visitor, msg.header.stamp))
+
+    def _publish_diagnostics(self) -> None:
+        status = DiagnosticStatus()
+        status.name, status.hardware_id = f"people: {self.robot}", self.robot
+        sight = SIGHT_NAMES[self.tracker.visitor.sight]
+        people = len(self.last.tracks) if self.last is not None else 0
+        status.level = DiagnosticStatus.WARN if self.fov_problem or self.last_error else DiagnosticStatus.OK
+        status.message = f"{people} people, visitor {sight}" + (f"; {self.fov_problem}" if self.fov_problem else "")
+        values = {**self.counts, "people": people, "visitor": sight}
+        if self.step_ms:
+            values |= {"step_ms_mean": f"{sum(self.step_ms) / len(self.step_ms):.3f}",
+                       "step_ms_max": f"{max(self.step_ms):.3f}"}
+            self.step_ms.clear()
+        if self.last_error:
+            values["last_error"] = self.last_error
+            self.last_error = ""          # warned once
+        status.values = [KeyValue(k, str(v)) for k, v in values.items()]
+        arr = DiagnosticArray()
+        arr.header.stamp = rospy.Time.now()
+        arr.status = [status]
+        self.diag_pub.publish(arr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_node(Node.PEOPLE, lambda: PeopleNode(Params.read()),
+                    lambda n: f"people of {n.robot}: laser {math.degrees(n.laser.fov):.0f} deg declared", argv)

@@ -1,0 +1,90 @@
+"""System test of the people node on a simulated floor (one master on loopback): a person standing behind the
+robot (a run-time disc obstacle of the simulator) is tracked and locked as the visitor, lost once it is gone,
+and the node exits within 2 s of SIGINT."""
+
+from __future__ import annotations
+
+import math
+import signal
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+import yaml
+from probe import Probe
+
+from gidabot_navigation.building.model import load_building, relocate_building
+from gidabot_navigation.interface import Sight, Topic
+from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
+
+pytestmark = pytest.mark.system
+REPO = Path(__file__).resolve().parents[2]
+FACULTY = REPO / "maps" / "faculty"
+SIM_LAUNCH = REPO / "launch" / "sim_floor.launch"
+PEOPLE = REPO / "src" / "gidabot_navigation" / "nodes" / "people"
+ROBOT = "Kbot"
+ROBOT_AT = (20.0, 12.0)                # facing +x, in the corridor of floor 1
+# behind and to the left, inside the view of the simulated laser (270 degrees: it does not see straight behind)
+PERSON_AT = (19.65, 12.95)
+EXIT_BOUND = 2.0                       # s
+
+
+@pytest.fixture
+def procs(tmp_path: Path) -> Iterator[ProcessGroup]:
+    with ProcessGroup(tmp_path / "logs") as group:
+        yield group
+
+
+def _floor(procs: ProcessGroup, tmp_path: Path) -> tuple[Path, dict[str, str]]:
+    """Kbot's master, its building (with the simulator's laser declared), the simulated floor."""
+    ip = robot_address([r.name for r in load_building(FACULTY).robots].index(ROBOT))
+    uri = start_master(procs, "master", ip)
+    building = relocate_building(FACULTY, tmp_path / "building", {ROBOT: uri})
+    doc = yaml.safe_load(building.read_text())
+    kbot = next(r for r in doc["robots"] if r["name"] == ROBOT)
+    kbot["sensors"] = {"laser": {"fov": 1.5 * math.pi, "mount": [0.1, 0.0, 0.0]}}     # the simulator's laser
+    building.write_text(yaml.safe_dump(doc, sort_keys=False))
+    env = ros_env(uri, ip, log_dir=tmp_path / "ros")
+    procs.start("floor", ["roslaunch", "--skip-log-check", str(SIM_LAUNCH), f"building:={building}",
+                          f"robot:={ROBOT}", f"initial_pose:=[{ROBOT_AT[0]}, {ROBOT_AT[1]}, 0.0]", "seed:=5"], env)
+    return building, env
+
+
+def _obstacle(action: int, x: float = 0.0, y: float = 0.0) -> dict:
+    return {"header": {"frame_id": "map"}, "id": "visitor", "action": action, "shape": 0, "x": x, "y": y,
+            "radius": 0.22}
+
+
+@pytest.mark.timeout(300)
+def test_a_person_behind_the_robot_is_locked_as_the_visitor_and_lost_when_gone(procs: ProcessGroup,
+                                                                               tmp_path: Path) -> None:
+    building, env = _floor(procs, tmp_path)
+    procs.start("people", [sys.executable, str(PEOPLE), f"_building:={building}", f"_robot:={ROBOT}",
+                           "_visitor_lost_after:=1.0", "_lock_half_angle:=1.4"], env)
+    with Probe(env, tmp_path / "probe.log", timeout=60) as probe:
+        probe.sub(Topic.PEOPLE_TRACKS, "gidabot_msgs/PersonArray")
+        probe.sub(Topic.PEOPLE_VISITOR, "gidabot_msgs/VisitorTrack")
+        probe.sub(Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray")
+        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", _obstacle(0, *PERSON_AT))
+        probe.wait(Topic.PEOPLE_TRACKS, lambda m: any(math.dist((p["position"]["x"], p["position"]["y"]), PERSON_AT)
+                                                      < 0.15 for p in m["people"]), 90, "the person tracked")
+        assert all(not any(math.dist((p["position"]["x"], p["position"]["y"]), PERSON_AT) > 0.5 for p in m["people"])
+                   for m in probe.msgs(Topic.PEOPLE_TRACKS)), "a track where nobody is (walls, door frames)"
+        probe.pub(Topic.PEOPLE_VISITOR_LOCK, "std_msgs/Bool", {"data": True}, latch=True)
+        seen = probe.wait(Topic.PEOPLE_VISITOR, lambda m: m["sight"] == Sight.SEEN, 30, "the visitor seen")
+        assert seen["id"] > 0 and seen["behind"] == pytest.approx(ROBOT_AT[0] - PERSON_AT[0], abs=0.1)
+        assert seen["distance"] == pytest.approx(math.dist(ROBOT_AT, PERSON_AT), abs=0.1)
+        diag = probe.wait(Topic.DIAGNOSTICS, lambda m: any(s["name"] == f"people: {ROBOT}" and
+                                                           int(dict((kv["key"], kv["value"]) for kv in s["values"])
+                                                               ["scans"]) > 0 for s in m["status"]), 30, "diagnostics")
+        status = next(s for s in diag["status"] if s["name"] == f"people: {ROBOT}")
+        assert status["level"] == 0, status                                 # the declared laser is the scans'
+        since = len(probe.msgs(Topic.PEOPLE_VISITOR))
+        probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", _obstacle(1))
+        lost = probe.wait(Topic.PEOPLE_VISITOR, lambda m: m["sight"] == Sight.LOST, 30, "the visitor lost", since)
+        assert lost["id"] == seen["id"] and lost["last_seen"]["position"]["x"] == pytest.approx(PERSON_AT[0], abs=0.1)
+        sights = [m["sight"] for m in probe.msgs(Topic.PEOPLE_VISITOR, since)]
+        assert Sight.HIDDEN in sights[:sights.index(Sight.LOST)]
+    procs.signal("people", signal.SIGINT)
+    wait_until(lambda: not procs.alive("people"), EXIT_BOUND, "the people node's exit", interval=0.02)
