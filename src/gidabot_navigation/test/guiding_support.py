@@ -27,12 +27,13 @@ from gidabot_navigation.guiding.messages import (
     SendCancel,
     SendEvent,
     SendGoal,
+    StaffCommandData,
     StopMoving,
     Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.trips import TripPlanner
-from gidabot_navigation.interface import Cmd, Phase
+from gidabot_navigation.interface import Cmd, Phase, StaffCmd
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 
@@ -264,6 +265,18 @@ class Bus:
 
     def skip(self, robot: str, tour_file: str, step: int, goal_uid: str = "") -> None:
         self.command(robot, Cmd.SKIP, tour_file=tour_file, tour_step=step, goal_uid=goal_uid)
+
+    def staff(self, at: str, target: str, out: bool, version: int = 1, user: str = "sara", detail: str = "") -> None:
+        """A staff command at ``at``'s dashboard takes ``target`` out of service (``out``) or back; every robot
+        gets it (the dashboard's own robot directly, the others through a relay)."""
+        cmd = StaffCommandData(uid=f"{at}/staff/t.{version}", robot=at, user=user,
+                               command=StaffCmd.OUT_OF_SERVICE if out else StaffCmd.BACK_IN_SERVICE,
+                               target_robot=target, version=version, detail=detail)
+        for name, r in self.robots.items():
+            self._to(name, lambda r=r, relay=name != at: self.run(r.name, r.gm.on_staff(cmd, self.now_ros,
+                                                                                       self.now_wall, relay)),
+                     at, cmd)
+        self.pump()
 
     def status_all(self, robots: list[str] | None = None) -> None:
         """Every robot hears a status of each robot in ``robots`` (default: all) now (wall time)."""

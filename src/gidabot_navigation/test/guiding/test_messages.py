@@ -67,7 +67,7 @@ HOSTILE = [
     ("unknown start id", {"start_id": "nowhere"}, "location"),
     ("start leg of a robot of another floor", {"start_robot": "Kbot"}, "assignment"),
     ("start leg without robot", {"start_robot": "", "start_state": LEG_NONE}, "assignment"),
-    ("goal leg not assigned", {"goal_robot": "", "goal_state": LEG_NONE}, "assignment"),
+    ("goal leg named but in no state", {"goal_state": LEG_NONE}, "assignment"),
     ("unknown leg state", {"goal_state": 7}, "assignment"),
     ("leg state not a number", {"goal_state": True}, "assignment"),
     ("negative attempt", {"attempt": -1}, "assignment"),
@@ -81,6 +81,12 @@ def test_hostile_trips_are_rejected_with_a_reason(faculty, what: str, change: di
         validate_trip(faculty, replace(good_trip(faculty), **change))
     assert err.value.reason == reason, (what, str(err.value))
     assert len(str(err.value)) < 400
+
+
+def test_a_goal_leg_given_to_nobody_is_valid(faculty) -> None:
+    """The goal floor's robots are all out of service: nobody serves the goal leg, the visitor goes alone."""
+    out = validate_trip(faculty, replace(good_trip(faculty), goal_robot="", goal_state=LEG_NONE))
+    assert (out.goal_robot, out.goal_state) == ("", LEG_NONE)
 
 
 def test_one_floor_trip_with_a_connector_is_rejected(faculty) -> None:

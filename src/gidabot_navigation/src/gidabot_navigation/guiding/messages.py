@@ -548,6 +548,8 @@ def _leg(building: Building, trip: Trip, leg: str, floor: float, exists: bool) -
             raise GoalRejected("assignment", f"{leg} leg assigned to {show(robot)} ({LEG_STATE_NAMES[state]}): {why}")
         return "", LEG_NONE
     if state == LEG_NONE:
+        if leg == LEG_GOAL and not robot:
+            return "", LEG_NONE       # the goal floor's robots are all out of service: the visitor goes alone
         raise GoalRejected("assignment", f"{leg} leg on floor {format_floor(floor)} has no robot assigned "
                                          f"(robots there: {', '.join(r.name for r in building.robots_on(floor))})")
     serving = building.find_robot(robot)
