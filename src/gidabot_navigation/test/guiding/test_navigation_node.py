@@ -57,7 +57,7 @@ class FakeActionClient:
     def __init__(self, *_args: object) -> None:
         self.goals: list[tuple[object, FakeHandle, object]] = []
         self.last_status_msg = SimpleNamespace(_connection_header={"callerid": "/move_base"})
-        connected = SimpleNamespace(impl=SimpleNamespace(has_connection=lambda server: server == "/move_base"))
+        connected = SimpleNamespace(impl=SimpleNamespace(connections=[SimpleNamespace(endpoint_id="/move_base")]))
         self.pub_goal = self.pub_cancel = connected
 
     def send_goal(self, goal: object, transition_cb: object) -> FakeHandle:

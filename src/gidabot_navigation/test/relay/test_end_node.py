@@ -10,7 +10,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from gidabot_msgs.msg import Goal, RobotStatus
 from gidabot_navigation.errors import RelayConfigError
-from gidabot_navigation.interface import Topic, TopicSpec
+from gidabot_navigation.interface import RobotState, Topic, TopicSpec
 from gidabot_navigation.relay.end import load_shared_topics
 from gidabot_navigation.relay.end_node import (
     Params,
@@ -85,7 +85,7 @@ def test_the_speaker_is_the_robot_field_of_a_state_and_nobody_else() -> None:
 def test_a_raw_class_publishes_bytes_under_the_real_type() -> None:
     cls = raw_class(RobotStatus)
     msg = cls()
-    data = raw(RobotStatus(robot="Kbot", state="idle"))
+    data = raw(RobotStatus(robot="Kbot", state=RobotState.IDLE))
     msg._buff = data
     assert (cls._type, cls._md5sum, cls._full_text) == (RobotStatus._type, RobotStatus._md5sum, RobotStatus._full_text)
     assert raw(msg) == data

@@ -22,6 +22,7 @@ import genpy
 import pytest
 
 import gidabot_msgs.msg as gidabot_msgs
+from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.guiding import messages as forms
 from gidabot_navigation.interface import (
     LEG_COMMITTED,
@@ -32,8 +33,10 @@ from gidabot_navigation.interface import (
     Cmd,
     Phase,
     RobotState,
+    Sight,
     StaffCmd,
 )
+from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
 from gidabot_navigation.relay.links import LinkData, LinkSummaryData
 from gidabot_navigation.ros import convert
 from gidabot_navigation.tours.tour_store import CatalogData, EditResultData, IndexEntry, TourIndexData, TourMessage
@@ -41,6 +44,7 @@ from gidabot_navigation.tours.tour_store import CatalogData, EditResultData, Ind
 REPO = Path(__file__).resolve().parents[4]
 SIMULATOR_MESSAGES = {"Obstacle", "ObstacleArray", "StepDone"}     # converted in gidabot_sim
 PARTS = {"LinkState"}                                              # converted as part of LinkSummary
+ELEMENT_MESSAGES = {"Person"}                                       # converted inside PersonArray
 
 # samples: every field set to a value other than its default, numbers exact in float32
 TRIP = forms.Trip(uid="Kbot/v/k1.2", origin_robot="Kbot", visitor_id="v", initial_floor=1.0, initial_x=30.5,
@@ -76,6 +80,12 @@ LINKS = LinkSummaryData(robot="Kbot", links=(
     LinkData(peer="Tartalo", known=True, connected=True, down_s=1.5, heard_s=0.5, rtt_ms=0.75, queued=3, resent=4,
              dropped=5, duplicates_suppressed=6, link_losses=7, peer_master_up=True),
     LinkData(peer="MariSorgin")), stamp=107.0)
+PERSON = Track(id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25, confidence=0.75, unseen=0.5, confirmed=True, visitor=True)
+PEOPLE = PeopleData(tracks=(PERSON, replace(PERSON, id=8, visitor=False)), stamp=106.5)
+VISITOR = VisitorTrackData(VisitorReport(sight=Sight.HIDDEN, track_id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25,
+                                         distance=1.5, behind=1.25, bearing=3.0, unseen=0.75,
+                                         last_seen=LastSeen(Pose2D(3.0, -1.0, 1.5), 105.5), confidence=0.5),
+                           stamp=106.75)
 
 
 @dataclass(frozen=True)
@@ -100,6 +110,8 @@ CASES = [
     Case(gidabot_msgs.TourEditResult, convert.edit_result_to_msg, convert.edit_result_from_msg, RESULT),
     Case(gidabot_msgs.StaffCommand, convert.staff_to_msg, convert.staff_from_msg, STAFF),
     Case(gidabot_msgs.LinkSummary, convert.links_to_msg, convert.links_from_msg, LINKS),
+    Case(gidabot_msgs.PersonArray, convert.people_to_msg, convert.people_from_msg, PEOPLE),
+    Case(gidabot_msgs.VisitorTrack, convert.visitor_track_to_msg, convert.visitor_track_from_msg, VISITOR),
 ]
 IDS = [c.cls._type for c in CASES]
 
@@ -132,7 +144,7 @@ def differences(a: object, b: object) -> list[str]:
 def test_every_message_has_its_conversion() -> None:
     messages = {name for name, cls in vars(gidabot_msgs).items()
                 if isinstance(cls, type) and issubclass(cls, genpy.Message)}
-    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES | PARTS
+    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES | ELEMENT_MESSAGES | PARTS
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)
@@ -225,6 +237,19 @@ def test_a_diagnostic_status_is_read_with_its_values() -> None:
     assert (d.name, d.level, d.message, d.hardware_id, dict(d.values)) == (
         "relay Kbot-MariSorgin: Kbot", 2, "down", "/gidabot_relay_Kbot_MariSorgin",
         {"connected": "False", "rtt_ms": ""})
+
+
+def test_a_visitor_report_without_values_goes_as_nan_and_comes_back_as_none() -> None:
+    none = VisitorTrackData(VisitorReport(sight=Sight.ACQUIRING), stamp=3.0)
+    msg = wire(convert.visitor_track_to_msg(none))
+    assert math.isnan(msg.distance) and msg.id == 0 and msg.last_seen_stamp == genpy.Time(0)
+    assert convert.visitor_track_from_msg(msg) == none
+    assert convert.person_from_msg(convert.person_to_msg(PERSON)) == PERSON
+
+
+def test_a_visitor_track_with_an_unknown_sight_is_refused() -> None:
+    with pytest.raises(ValueError, match="sight 9"):
+        convert.visitor_track_from_msg(gidabot_msgs.VisitorTrack(sight=9))
 
 
 def test_a_tour_index_with_arrays_of_different_lengths_is_refused() -> None:

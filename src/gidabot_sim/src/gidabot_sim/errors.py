@@ -34,6 +34,10 @@ class NavGoalRejected(SimError):
     """A navigation goal (of the move_base stand-in) is invalid (not finite, invalid quaternion, wrong frame)."""
 
 
+class PlanRefused(SimError):
+    """The move_base stand-in refuses a make_plan request (as move_base does while a goal runs)."""
+
+
 class StepDoneRejected(SimError):
     """A lockstep participant's answer (gidabot_msgs/StepDone) is malformed, or one participant too many."""
 

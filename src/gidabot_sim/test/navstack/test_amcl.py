@@ -1,4 +1,5 @@
-"""The amcl stand-in's core and the pose tracker: noise, publishing policy, relocation, map -> odom."""
+"""The amcl stand-in's core, its node's loop and the pose tracker: noise, publishing policy, relocation,
+map -> odom, tf only for listeners, every ground truth answered."""
 
 from __future__ import annotations
 
@@ -6,10 +7,11 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import ListLog
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_sim.errors import SimConfigError
-from gidabot_sim.navstack.amcl import AmclConfig, AmclCore, OdomHistory, PoseTracker
+from gidabot_sim.errors import PoseRejected, SimConfigError
+from gidabot_sim.navstack.amcl import AmclConfig, AmclCore, AmclLoop, OdomHistory, PoseTracker
 from gidabot_sim.world.kinematics import Twist2D, compose
 
 
@@ -77,3 +79,28 @@ def test_pose_tracker_pairs_estimates_with_odometry_of_the_same_stamp() -> None:
     assert history.at(2.86) == Pose2D(29, 0, 0) and history.at(0.0).x in (19, 20)   # older ones dropped
     history.add(0.5, Pose2D(-1, 0, 0))                      # time went back: start over
     assert history.latest == (0.5, Pose2D(-1, 0, 0))
+
+
+
+def test_the_node_loop_answers_every_ground_truth_and_sends_tf_only_to_listeners() -> None:
+    log = ListLog()
+    loop = AmclLoop(AmclCore(AmclConfig(noise_xy=0.0, noise_yaw=0.0), np.random.default_rng(3)), log, tf_rate=1.0,
+                    tolerance=0.1)
+    first = loop.on_truth(0.0, lambda: Pose2D(5.0, 2.0, 0.0), tf_listeners=False)
+    assert first.estimate is not None and first.map_odom is None and not first.follow_odom and first.done == 0.0
+    same = loop.on_truth(0.2, lambda: Pose2D(5.0, 2.0, 0.0), tf_listeners=True)
+    assert same.estimate is None and same.follow_odom and same.map_odom is None     # no odometry yet
+    loop.on_odom(lambda: (0.3, Pose2D(1.0, 0.0, 0.0)))
+    moved = loop.on_truth(0.3, lambda: Pose2D(6.0, 2.0, 0.0), tf_listeners=True)
+    assert moved.estimate is not None and close(moved.map_odom, Pose2D(5.0, 2.0, 0.0), 1e-6)
+    assert moved.tf_stamp == pytest.approx(0.4) and moved.done == 0.3
+    quiet = loop.on_truth(0.5, lambda: Pose2D(6.0, 2.0, 0.0), tf_listeners=True)
+    assert quiet.estimate is None and quiet.map_odom is None                       # tf at 1 Hz, or with an estimate
+
+    def bad() -> Pose2D:
+        raise PoseRejected("base_pose_ground_truth: non-finite values (nan, ...)")
+
+    rejected = loop.on_truth(0.6, bad, tf_listeners=True)
+    assert (rejected.estimate, rejected.map_odom, rejected.done) == (None, None, 0.6)
+    loop.on_odom(bad)
+    assert loop.rejected.counts == {"base_pose_ground_truth": 1, "odom": 1} and len(log.lines) == 2

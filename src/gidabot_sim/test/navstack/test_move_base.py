@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import pytest
+from sim_support import ListLog
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
@@ -19,16 +20,6 @@ from gidabot_sim.world.kinematics import Limits
 
 FACULTY = Path(__file__).resolve().parents[4] / "maps" / "faculty"
 
-
-class ListLog:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def info(self, msg: str) -> None:
-        self.lines.append(msg)
-
-    def warning(self, msg: str) -> None:
-        self.lines.append("W " + msg)
 
 
 @pytest.fixture(scope="module")

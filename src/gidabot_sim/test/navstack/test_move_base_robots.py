@@ -9,6 +9,7 @@ import math
 
 import numpy as np
 import pytest
+from sim_support import ListLog
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
@@ -22,16 +23,6 @@ RES = 0.05
 LIMITS = Limits(0.5, 1.0, 0.5, 1.5, "differential")
 RADIUS = 0.3
 
-
-class ListLog:
-    def __init__(self) -> None:
-        self.lines: list[str] = []
-
-    def info(self, msg: str) -> None:
-        self.lines.append(msg)
-
-    def warning(self, msg: str) -> None:
-        self.lines.append("W " + msg)
 
 
 def floor_map(width: float, height: float, free: list[tuple[float, float, float, float]]) -> OccupancyMap:

@@ -15,7 +15,7 @@ from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
 from gidabot_navigation.building.planning import Circle, Rectangle
 from gidabot_sim.errors import CommandRejected, ObstacleRejected, PoseRejected, SimConfigError
 from gidabot_sim.world.kinematics import Limits
-from gidabot_sim.world.world import MAX_OBSTACLES, BatteryModel, LaserSpec, RobotSpec, World, obstacle_shape
+from gidabot_sim.world.world import MAX_OBSTACLES, BatteryModel, LaserSpec, RobotSpec, World
 
 RES = 0.05
 FACULTY = Path(__file__).resolve().parents[4] / "maps" / "faculty"
@@ -130,12 +130,6 @@ def test_obstacles_block_robots_and_the_laser() -> None:
         world.add_obstacle("onto", Circle(world.robots[0].pose.x + 0.4, 3.0, 0.2))
     with pytest.raises(ObstacleRejected, match="id"):
         world.add_obstacle("bad id!", Circle(3.0, 5.0, 0.2))
-    with pytest.raises(ObstacleRejected, match="radius"):
-        obstacle_shape(0, 3.0, 5.0, 0.0, -1.0, 0.0, 0.0)
-    with pytest.raises(ObstacleRejected, match="shape"):
-        obstacle_shape(7, 3.0, 5.0, 0.0, 1.0, 0.0, 0.0)
-    with pytest.raises(ObstacleRejected, match="finite"):
-        obstacle_shape(1, math.nan, 5.0, 0.0, 0.0, 1.0, 1.0)
     assert world.remove_obstacle("door") and not world.remove_obstacle("door")
     assert world.obstacle_version > version
     assert world.scan(0)[ahead] == pytest.approx(9.95 - world.laser_pose(0).x, abs=1e-6)

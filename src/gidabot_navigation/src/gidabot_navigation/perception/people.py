@@ -170,6 +170,23 @@ class PeopleReport:
     ambiguous: bool = False                # the visitor's assignment was ambiguous this step
 
 
+@dataclass(frozen=True)
+class PeopleData:
+    """A ``gidabot_msgs/PersonArray``: the confirmed tracks of one scan; ``stamp``: s, the scan's time."""
+
+    tracks: tuple[Track, ...] = ()
+    stamp: float = 0.0
+
+
+@dataclass(frozen=True)
+class VisitorTrackData:
+    """A ``gidabot_msgs/VisitorTrack``: what the robot knew of its visitor after one scan; ``stamp``: s, the
+    scan's time."""
+
+    report: VisitorReport = field(default_factory=lambda: VisitorReport(Sight.NONE))
+    stamp: float = 0.0
+
+
 class PeopleTracker:
     """Tracks the people a robot's laser sees and keeps the visitor it guides (see the module's docstring)."""
 

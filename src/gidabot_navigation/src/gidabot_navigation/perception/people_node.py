@@ -16,25 +16,31 @@ from dataclasses import dataclass
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, Pose, PoseWithCovarianceStamped, Quaternion, Vector3
+from geometry_msgs.msg import Pose, PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from sensor_msgs.msg import LaserScan
 from std_msgs.msg import Bool
 
-from gidabot_msgs.msg import Person, PersonArray, VisitorTrack
-from gidabot_navigation.building.geometry import Pose2D, all_finite, quaternion_to_yaw, yaw_to_quaternion
+from gidabot_msgs.msg import PersonArray, VisitorTrack
+from gidabot_navigation.building.geometry import Pose2D, all_finite, quaternion_to_yaw
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.errors import ParamError, ScanError
 from gidabot_navigation.interface import SIGHT_NAMES, Node, Topic
 from gidabot_navigation.perception.detector import Detector, DetectorParams, Scan, fov_mismatch, occupied_lookup
-from gidabot_navigation.perception.people import PeopleReport, PeopleTracker, Track, TrackerParams, VisitorReport
+from gidabot_navigation.perception.people import (
+    PeopleData,
+    PeopleReport,
+    PeopleTracker,
+    TrackerParams,
+    VisitorTrackData,
+)
 from gidabot_navigation.perception.robot_pose import RobotPose
+from gidabot_navigation.ros import convert
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number, param_text
 
 QUEUE_SIZE = 50          # messages waiting for the loop (scans, poses, lock wishes); more are dropped
-NAN = math.nan
 
 
 @dataclass(frozen=True)
@@ -71,34 +77,6 @@ def pose_of(pose: Pose) -> Pose2D | None:
     if not all_finite(p.x, p.y, q.x, q.y, q.z, q.w) or abs(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w - 1.0) > 0.01:
         return None
     return Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
-
-
-def person_msg(tr: Track) -> Person:
-    m = Person()
-    m.id, m.visitor, m.confidence, m.unseen = tr.id, tr.visitor, tr.confidence, tr.unseen
-    m.position, m.velocity = Point(tr.x, tr.y, 0.0), Vector3(tr.vx, tr.vy, 0.0)
-    return m
-
-
-def visitor_msg(v: VisitorReport, stamp: rospy.Time) -> VisitorTrack:
-    """The report as a message: NaN where the report has no value."""
-    m = VisitorTrack()
-    m.header.stamp, m.header.frame_id = stamp, "map"
-    m.sight, m.id, m.confidence = int(v.sight), v.track_id or 0, v.confidence
-
-    def num(value: float | None) -> float:
-        return NAN if value is None else value
-
-    m.position = Point(num(v.x), num(v.y), 0.0)
-    m.velocity = Vector3(num(v.vx), num(v.vy), 0.0)
-    m.distance, m.behind, m.bearing, m.unseen = num(v.distance), num(v.behind), num(v.bearing), num(v.unseen)
-    if v.last_seen is not None:
-        seen = v.last_seen.pose
-        m.last_seen = Pose(Point(seen.x, seen.y, 0.0), Quaternion(*yaw_to_quaternion(seen.yaw)))
-        m.last_seen_stamp = rospy.Time.from_sec(max(0.0, v.last_seen.t))
-    else:
-        m.last_seen = Pose(Point(NAN, NAN, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))
-    return m
 
 
 class PeopleNode:
@@ -206,7 +184,8 @@ class PeopleNode:
         elif kind == "lock" and self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
             rospy.loginfo(f"people: visitor {'lock' if msg.data else 'unlock'}: "  # type: ignore[attr-defined]
                           f"{SIGHT_NAMES[self.tracker.visitor.sight]}")
-            self.visitor_pub.publish(visitor_msg(self.tracker.visitor, rospy.Time.now()))
+            self.visitor_pub.publish(convert.visitor_track_to_msg(VisitorTrackData(self.tracker.visitor,
+                                                                                   rospy.get_time())))
 
     def _scan(self, msg: LaserScan) -> None:
         t = msg.header.stamp.to_sec()
@@ -229,11 +208,9 @@ class PeopleNode:
         self.step_ms.append((time.thread_time() - start) * 1e3)
         self.counts["scans"] += 1
         self.last = report
-        arr = PersonArray()
-        arr.header.stamp, arr.header.frame_id = msg.header.stamp, "map"
-        arr.people = [person_msg(tr) for tr in report.tracks]
-        self.tracks_pub.publish(arr)
-        self.visitor_pub.publish(visitor_msg(report.visitor, msg.header.stamp))
+        stamp = msg.header.stamp.to_sec()
+        self.tracks_pub.publish(convert.people_to_msg(PeopleData(report.tracks, stamp)))
+        self.visitor_pub.publish(convert.visitor_track_to_msg(VisitorTrackData(report.visitor, stamp)))
 
     def _publish_diagnostics(self) -> None:
         status = DiagnosticStatus()

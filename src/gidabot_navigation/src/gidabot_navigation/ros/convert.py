@@ -23,6 +23,9 @@ TourCatalog         :class:`~gidabot_navigation.tours.tour_store.CatalogData`
 TourEditResult      :class:`~gidabot_navigation.tours.tour_store.EditResultData`
 StaffCommand        :class:`~gidabot_navigation.guiding.messages.StaffCommandData`
 LinkSummary         :class:`~gidabot_navigation.relay.links.LinkSummaryData` (its LinkState: ``LinkData``)
+PersonArray         :class:`~gidabot_navigation.perception.people.PeopleData`
+Person              :class:`~gidabot_navigation.perception.people.Track` (inside a PersonArray)
+VisitorTrack        :class:`~gidabot_navigation.perception.people.VisitorTrackData`
 ==================  ============================================================
 
 ``diagnostic_msgs/DiagnosticStatus`` is read as :class:`~gidabot_navigation.relay.links.DiagnosticData` here too
@@ -37,7 +40,7 @@ import math
 
 import genpy
 from diagnostic_msgs.msg import DiagnosticStatus
-from geometry_msgs.msg import Point, Pose, Quaternion
+from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 
 from gidabot_msgs.msg import (
     Cancel,
@@ -47,6 +50,8 @@ from gidabot_msgs.msg import (
     NavEvent,
     NavPose,
     PendingRequests,
+    Person,
+    PersonArray,
     RobotStatus,
     StaffCommand,
     Tour,
@@ -54,8 +59,9 @@ from gidabot_msgs.msg import (
     TourEditResult,
     TourIndex,
     VisitorCommand,
+    VisitorTrack,
 )
-from gidabot_navigation.building.geometry import quaternion_to_yaw, yaw_to_quaternion
+from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw, yaw_to_quaternion
 from gidabot_navigation.guiding.messages import (
     MAX_DETAIL,
     CancelData,
@@ -67,6 +73,8 @@ from gidabot_navigation.guiding.messages import (
     StaffCommandData,
     Trip,
 )
+from gidabot_navigation.interface import Sight
+from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
 from gidabot_navigation.relay.links import DiagnosticData, LinkData, LinkSummaryData
 from gidabot_navigation.tours.tour_store import (
     CatalogData,
@@ -333,3 +341,73 @@ def diagnostic_from_msg(s: DiagnosticStatus) -> DiagnosticData:
     """One status of a ``diagnostic_msgs/DiagnosticArray`` (its values as a mapping: the last of a key given twice)."""
     return DiagnosticData(name=s.name, level=int(s.level), message=s.message, hardware_id=s.hardware_id,
                           values={kv.key: kv.value for kv in s.values})
+
+
+# ---------------------------------------------------------------------------------- the people the laser sees
+def person_from_msg(m: Person) -> Track:
+    """A published person: a confirmed track."""
+    return Track(id=m.id, x=m.position.x, y=m.position.y, vx=m.velocity.x, vy=m.velocity.y,
+                 confidence=m.confidence, unseen=m.unseen, confirmed=True, visitor=m.visitor)
+
+
+def person_to_msg(t: Track) -> Person:
+    m = Person()
+    m.id, m.visitor, m.confidence, m.unseen = t.id, t.visitor, t.confidence, t.unseen
+    m.position, m.velocity = Point(t.x, t.y, 0.0), Vector3(t.vx, t.vy, 0.0)
+    return m
+
+
+def people_from_msg(m: PersonArray) -> PeopleData:
+    return PeopleData(tracks=tuple(person_from_msg(p) for p in m.people), stamp=stamp_of(m))
+
+
+def people_to_msg(p: PeopleData) -> PersonArray:
+    m = PersonArray()
+    m.header.stamp, m.header.frame_id = ros_time(p.stamp), "map"
+    m.people = [person_to_msg(t) for t in p.tracks]
+    return m
+
+
+def _value(x: float) -> float | None:
+    return None if math.isnan(x) else x
+
+
+def _number(x: float | None) -> float:
+    return math.nan if x is None else x
+
+
+def visitor_track_from_msg(m: VisitorTrack) -> VisitorTrackData:
+    """The visitor report of a message; NaN is "no value" (None). An unknown ``sight`` raises ValueError."""
+    try:
+        sight = Sight(m.sight)
+    except ValueError:
+        raise ValueError(f"VisitorTrack sight {m.sight!r} is not one of {[int(s) for s in Sight]}") from None
+    seen_t = m.last_seen_stamp.to_sec()
+    last_seen = None
+    if seen_t > 0:
+        q = m.last_seen.orientation
+        last_seen = LastSeen(Pose2D(m.last_seen.position.x, m.last_seen.position.y,
+                                    quaternion_to_yaw(q.x, q.y, q.z, q.w)), seen_t)
+    report = VisitorReport(sight=sight, track_id=m.id or None, x=_value(m.position.x), y=_value(m.position.y),
+                           vx=_value(m.velocity.x), vy=_value(m.velocity.y), distance=_value(m.distance),
+                           behind=_value(m.behind), bearing=_value(m.bearing), unseen=_value(m.unseen),
+                           last_seen=last_seen, confidence=m.confidence)
+    return VisitorTrackData(report=report, stamp=stamp_of(m))
+
+
+def visitor_track_to_msg(d: VisitorTrackData) -> VisitorTrack:
+    """The report as a message: NaN where the report has no value, a zero ``last_seen_stamp`` when never seen."""
+    v, m = d.report, VisitorTrack()
+    m.header.stamp, m.header.frame_id = ros_time(d.stamp), "map"
+    m.sight, m.id, m.confidence = int(v.sight), v.track_id or 0, v.confidence
+    m.position = Point(_number(v.x), _number(v.y), 0.0)
+    m.velocity = Vector3(_number(v.vx), _number(v.vy), 0.0)
+    m.distance, m.behind, m.bearing, m.unseen = _number(v.distance), _number(v.behind), _number(v.bearing), \
+        _number(v.unseen)
+    if v.last_seen is not None:
+        seen = v.last_seen.pose
+        m.last_seen = Pose(Point(seen.x, seen.y, 0.0), Quaternion(*yaw_to_quaternion(seen.yaw)))
+        m.last_seen_stamp = ros_time(max(0.0, v.last_seen.t))
+    else:
+        m.last_seen = Pose(Point(math.nan, math.nan, 0.0), Quaternion(0.0, 0.0, 0.0, 1.0))
+    return m

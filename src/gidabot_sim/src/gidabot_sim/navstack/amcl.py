@@ -7,6 +7,9 @@ when to publish it (amcl publishes after the robot moved ``update_min_d`` or
 turned ``update_min_a``, and after a relocation), and computes the ``map -> odom``
 transform from the estimate and the odometry at the same stamp.
 
+:class:`AmclLoop` is what the ``/amcl`` node runs: it feeds the core every ground truth of the simulator
+(and the odometry, needed only for tf), and says what to publish for it and that the step is answered.
+
 :class:`PoseTracker` is what the move_base stand-in uses instead of a tf
 listener: ``map -> base`` = ``map -> odom`` (from the latest estimate and the
 odometry at its stamp) composed with the latest odometry.
@@ -16,13 +19,19 @@ from __future__ import annotations
 
 import bisect
 import math
+import threading
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
 from gidabot_navigation.building.geometry import Pose2D, wrap_angle
+from gidabot_navigation.interface import Topic
+from gidabot_navigation.logs import Logger
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.world.clock import Periodic
 from gidabot_sim.world.kinematics import ZERO, Twist2D, compose, inverse
+from gidabot_sim.world.rejections import CountingLog
 
 
 @dataclass(frozen=True)
@@ -148,6 +157,51 @@ class AmclCore:
         if odom is None:
             return None
         return compose(self.last.pose, inverse(odom))
+
+
+@dataclass(frozen=True)
+class TruthAnswer:
+    """What the amcl node does for one ground truth: publish ``estimate`` (None: none is due), tf ``map -> odom``
+    = ``map_odom`` stamped ``tf_stamp`` (None: none), subscribe to odometry or not (``follow_odom``: only tf
+    needs it), then answer the simulator through ``done``."""
+
+    estimate: Estimate | None
+    map_odom: Pose2D | None
+    tf_stamp: float
+    follow_odom: bool
+    done: float
+
+
+class AmclLoop:
+    """The amcl stand-in as its node runs it: :class:`AmclCore` on the simulator's ground truth (a lockstep
+    participant, idle, answering every ground truth once its estimate is out), tf at ``tf_rate`` (Hz, sim time)
+    and with every estimate, stamped ``tolerance`` s ahead as amcl does. Odometry and ground truth arrive in
+    different threads."""
+
+    def __init__(self, core: AmclCore, log: Logger, tf_rate: float = 10.0, tolerance: float = 0.1) -> None:
+        self.core = core
+        self.tf_due = Periodic(tf_rate)
+        self.tolerance = tolerance
+        self.rejected = CountingLog(log.error)
+        self.lock = threading.Lock()
+
+    def on_odom(self, read: Callable[[], tuple[float, Pose2D]]) -> None:
+        """An odometry message (``read()``: stamp and pose in the odom frame)."""
+        odom = self.rejected.read(Topic.ODOM, "amcl: ignoring", read)
+        if odom is not None:
+            with self.lock:
+                self.core.on_odom(*odom)
+
+    def on_truth(self, t: float, read: Callable[[], Pose2D], tf_listeners: bool) -> TruthAnswer:
+        """The ground truth stamped ``t`` (``read()``: the true pose); ``tf_listeners``: somebody listens to /tf."""
+        truth = self.rejected.read(Topic.BASE_POSE_GROUND_TRUTH, "amcl: ignoring", read)
+        if truth is None:
+            return TruthAnswer(None, None, t, tf_listeners, t)
+        with self.lock:
+            estimate = self.core.on_truth(t, truth)
+            tf_due = self.tf_due.due(t) or estimate is not None
+            map_odom = self.core.map_to_odom() if tf_due and tf_listeners else None
+        return TruthAnswer(estimate, map_odom, t + self.tolerance, tf_listeners, t)
 
 
 class PoseTracker:

@@ -1,13 +1,14 @@
-"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclCore`).
+"""ROS adapter of the amcl stand-in: the ``/amcl`` node (core: :class:`gidabot_sim.navstack.amcl.AmclLoop`).
 
 A lockstep participant of the floor's simulator (docs/simulator.md, "Lockstep"): it answers every
-ground-truth message, so the world does not step on before the estimate for it is out.
+ground-truth message, so the world does not step on before the estimate for it is out. The node reads its
+parameters, hands each message to the core and publishes what the core returns (conversions:
+:mod:`gidabot_sim.ros.convert`).
 """
 
 from __future__ import annotations
 
 import math
-import threading
 
 import numpy as np
 import rospy
@@ -15,24 +16,15 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import Odometry
 from tf2_msgs.msg import TFMessage
 
-from gidabot_navigation.building.geometry import Pose2D, quaternion_to_yaw
 from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.interface import Node, Topic
 from gidabot_navigation.ros.exit_guard import rospy_exit_guard
+from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.master_watch import keep_registered
 from gidabot_navigation.ros.params import param_number
-from gidabot_sim.navstack.amcl import AmclConfig, AmclCore
-from gidabot_sim.ros import convert as ru
+from gidabot_sim.navstack.amcl import AmclConfig, AmclCore, AmclLoop
+from gidabot_sim.ros import convert
 from gidabot_sim.ros.participant import StepAnswers, own_time
-from gidabot_sim.world.clock import Periodic
-
-
-def _pose2d(msg: Odometry) -> Pose2D | None:
-    p, q = msg.pose.pose.position, msg.pose.pose.orientation
-    values = (p.x, p.y, q.x, q.y, q.z, q.w)
-    if not all(math.isfinite(v) for v in values):
-        return None
-    return Pose2D(p.x, p.y, quaternion_to_yaw(q.x, q.y, q.z, q.w))
 
 
 class AmclNode:
@@ -63,19 +55,15 @@ class AmclNode:
 
     def __init__(self) -> None:
         def num(name: str, default: float) -> float:
-            return param_number(name, default, -math.inf, strict=False)
+            return param_number(f"~{name}", default, -math.inf, strict=False)
 
-        config = AmclConfig(noise_xy=num("~noise_xy", 0.03), noise_yaw=num("~noise_yaw", 0.02),
-                            noise_tau=num("~noise_tau", 3.0), update_min_d=num("~update_min_d", 0.1),
-                            update_min_a=num("~update_min_a", 0.1))
-        seed = int(rospy.get_param("~seed", -1))
-        self.core = AmclCore(config, np.random.default_rng(None if seed < 0 else seed))
-        self.tf_due = Periodic(param_number("~tf_rate", 10.0))
-        self.tolerance = num("~transform_tolerance", 0.1)
+        config = AmclConfig(**{name: num(name, getattr(AmclConfig, name))
+                               for name in ("noise_xy", "noise_yaw", "noise_tau", "update_min_d", "update_min_a")})
+        seed = int(num("seed", -1))
+        self.loop = AmclLoop(AmclCore(config, np.random.default_rng(None if seed < 0 else seed)), RosLog(),
+                             param_number("~tf_rate", 10.0), num("transform_tolerance", 0.1))
         self.global_frame = str(rospy.get_param("~global_frame_id", "map"))
         self.odom_frame = str(rospy.get_param("~odom_frame_id", "odom"))
-        self.lock = threading.Lock()
-        self.rejected = ru.CountingLog(rospy.logerr)
         self.pose_pub = rospy.Publisher(Topic.AMCL_POSE, PoseWithCovarianceStamped, queue_size=5, latch=True)
         self.tf_pub = rospy.Publisher(Topic.TF, TFMessage, queue_size=10)
         self.odom_sub: rospy.Subscriber | None = None
@@ -85,51 +73,25 @@ class AmclNode:
         self.answers.answer(0.0, idle=True, inputs=[self.truth_topic])     # known to the simulator from the start
         rospy.Subscriber(Topic.BASE_POSE_GROUND_TRUTH, Odometry, self._on_truth, queue_size=10, tcp_nodelay=True)
 
-    def _follow_odom(self) -> None:
-        """Odometry is needed only for tf: subscribe while /tf has listeners (saves CPU on both sides)."""
-        wanted = self.tf_pub.get_num_connections() > 0
-        if wanted and self.odom_sub is None:
-            self.odom_sub = rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10)
-        elif not wanted and self.odom_sub is not None:
-            self.odom_sub.unregister()
-            self.odom_sub = None
-
     def _on_odom(self, msg: Odometry) -> None:
-        pose = _pose2d(msg)
-        if pose is None:
-            self.rejected.reject("odom", "amcl: ignoring odom with a non-finite pose")
-        else:
-            with self.lock:
-                self.core.on_odom(msg.header.stamp.to_sec(), pose)
+        self.loop.on_odom(lambda: convert.odometry_of(msg, Topic.ODOM)[:2])
 
     def _on_truth(self, msg: Odometry) -> None:
         t = msg.header.stamp.to_sec()
         self.set_time(t)
-        self._estimate(msg, t)
-        self.answers.answer(t, idle=True, inputs=[self.truth_topic])
-
-    def _estimate(self, msg: Odometry, t: float) -> None:
-        """Process one ground truth: publish the estimate (when due) and tf."""
-        truth = _pose2d(msg)
-        if truth is None:
-            self.rejected.reject(Topic.BASE_POSE_GROUND_TRUTH, "amcl: ignoring a non-finite ground-truth pose")
-            return
-        self._follow_odom()
-        with self.lock:
-            estimate = self.core.on_truth(t, truth)
-            tf_due = self.tf_due.due(t) or estimate is not None
-            map_odom = self.core.map_to_odom() if tf_due and self.tf_pub.get_num_connections() else None
-        if estimate is not None:
-            out = PoseWithCovarianceStamped()
-            out.header.stamp = ru.stamp(estimate.stamp)
-            out.header.frame_id = self.global_frame
-            out.pose.pose = ru.pose_msg(estimate.pose)
-            out.pose.covariance = list(estimate.covariance)
-            self.pose_pub.publish(out)
-        if map_odom is not None:
-            self.tf_pub.publish(TFMessage(transforms=[ru.transform(self.global_frame, self.odom_frame, map_odom,
-                                                                   t + self.tolerance)]))
-
+        out = self.loop.on_truth(t, lambda: convert.odometry_of(msg, Topic.BASE_POSE_GROUND_TRUTH)[1],
+                                 self.tf_pub.get_num_connections() > 0)
+        if out.follow_odom and self.odom_sub is None:
+            self.odom_sub = rospy.Subscriber(Topic.ODOM, Odometry, self._on_odom, queue_size=10)
+        elif not out.follow_odom and self.odom_sub is not None:
+            self.odom_sub.unregister()
+            self.odom_sub = None
+        if out.estimate is not None:
+            self.pose_pub.publish(convert.estimate_msg(out.estimate, self.global_frame))
+        if out.map_odom is not None:
+            tf = convert.transform(self.global_frame, self.odom_frame, out.map_odom, out.tf_stamp)
+            self.tf_pub.publish(TFMessage(transforms=[tf]))
+        self.answers.answer(out.done, idle=True, inputs=[self.truth_topic])
 
 def main() -> None:
     # installed before init_node: a signal while init_node waits on a frozen master would run rospy's

@@ -17,7 +17,8 @@ import rospy
 from gidabot_msgs.msg import StepDone
 from gidabot_navigation.interface import Topic
 from gidabot_navigation.ros.rospy_internals import take_over_ros_time
-from gidabot_sim.ros.convert import stamp
+from gidabot_sim.ros.convert import stamp, step_done_msg
+from gidabot_sim.world.lockstep import Answer
 
 
 def synchronous_publisher(topic: str, msg_type: type, latch: bool = False) -> rospy.Publisher:
@@ -56,6 +57,5 @@ class StepAnswers:
     def answer(self, done: float, idle: bool, inputs: Iterable[str] = ()) -> None:
         """Everything up to sim time ``done`` is done and published; ``idle`` and ``inputs`` (resolved names) as in
         gidabot_msgs/StepDone."""
-        self.pub.publish(StepDone(node=self.node, session=self.session, done=stamp(done), idle=idle,
-                                  inputs=list(inputs), commands=self.commands))
+        self.pub.publish(step_done_msg(Answer(self.node, self.session, done, idle, tuple(inputs), self.commands)))
         self.answers += 1

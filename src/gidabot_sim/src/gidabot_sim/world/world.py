@@ -43,7 +43,6 @@ import numpy as np
 from gidabot_navigation.building.geometry import Pose2D, wrap_angle
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.building.planning import Circle, Rectangle, Shape, rasterize
-from gidabot_navigation.errors import ObstacleError
 from gidabot_sim.errors import ObstacleRejected, PoseRejected, SimConfigError
 from gidabot_sim.world.kinematics import (
     ZERO,
@@ -600,15 +599,3 @@ class World:
                 seen.append(j)
         return seen
 
-
-def obstacle_shape(kind: int, x: float, y: float, yaw: float, radius: float, width: float,
-                   height: float) -> Shape:
-    """A shape from the fields of a gidabot_msgs/Obstacle (``kind`` 0 = CIRCLE, 1 = RECTANGLE)."""
-    try:
-        if kind == 0:
-            return Circle(x, y, radius)
-        if kind == 1:
-            return Rectangle(x, y, width, height, yaw)
-    except ObstacleError as err:
-        raise ObstacleRejected(str(err)) from err
-    raise ObstacleRejected(f"obstacle shape {kind!r}: expected 0 (CIRCLE) or 1 (RECTANGLE)")
