@@ -28,9 +28,9 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field, replace
-from typing import Any
+from typing import Any, TypeVar
 
 from gidabot_navigation.building.model import Building, Location, format_floor
 from gidabot_navigation.errors import GoalRejected, GuidingError, GuidingStateError, NoRouteError
@@ -103,6 +103,7 @@ from gidabot_navigation.tours.tour_file import MAX_GOALS
 from gidabot_navigation.tours.tour_store import TourMessage
 
 PROGRESS_PHASES = (Phase.ON_THE_WAY, Phase.GOING_TO_MEETING, Phase.WAITING_VISITOR)
+M = TypeVar("M")   # a message form checked by :meth:`GoalManagerCore._admit`
 
 
 @dataclass(frozen=True)
@@ -434,15 +435,8 @@ class GoalManagerCore:
 
     def on_cancel(self, cancel: CancelData, now_ros: float, now_wall: float, from_relay: bool = False) -> list[Action]:
         """A Cancel from /gidabot/cancels: drop the goal, queued or running, and tell the visitor why."""
-        try:
-            cancel = validate_cancel(self.building, cancel)
-        except GoalRejected as err:
-            self._count_rejection(err)
-            self.warn.warning("cancel", f"cancel rejected: {err}")
-            return []
-        if from_relay and cancel.origin_robot == self.me:
-            self.stats.inc("rejected_spoofed")
-            self.warn.warning("spoofed", f"cancel {cancel.uid} claims to come from {self.me} but came through a relay")
+        cancel = self._admit("cancel", validate_cancel, cancel, lambda c: c.origin_robot, from_relay)
+        if cancel is None:
             return []
         return self._apply_cancel(cancel, now_ros, here=False)
 
@@ -531,16 +525,8 @@ class GoalManagerCore:
         is a floor without robot (the goal leg goes to nobody: the visitor finds the place alone). This robot,
         taken out of service, finishes the trip it is running and hands back every other leg it holds
         (:meth:`_hand_back`); back in service, it is proposed legs again."""
-        try:
-            cmd = validate_staff(self.building, cmd)
-        except GoalRejected as err:
-            self._count_rejection(err)
-            self.warn.warning("staff", f"staff command refused: {err}")
-            return []
-        if from_relay and cmd.robot == self.me:
-            self.stats.inc("rejected_spoofed")
-            self.warn.warning("spoofed", f"staff command {cmd.uid} claims to come from {self.me} but came through "
-                                         "a relay")
+        cmd = self._admit("staff command", validate_staff, cmd, lambda c: c.robot, from_relay)
+        if cmd is None:
             return []
         known = self.service.get(cmd.target_robot)
         if known is not None and cmd.key <= known.key:
@@ -894,6 +880,23 @@ class GoalManagerCore:
     def _new_cancel(self, goal_uid: str, reason: str, detail: str, now_ros: float) -> CancelData:
         return CancelData(uid=self.uids.cancel(), goal_uid=goal_uid, origin_robot=self.me, reason=reason,
                           detail=detail, stamp=now_ros)
+
+    def _admit(self, what: str, validate: Callable[[Building, M], M], item: M, sender: Callable[[M], str],
+               from_relay: bool) -> M | None:
+        """``item`` validated, or None (counted and logged): invalid, or claiming to be this robot's while it came
+        through a relay."""
+        try:
+            item = validate(self.building, item)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.warn.warning(what, f"{what} rejected: {err}")
+            return None
+        if from_relay and sender(item) == self.me:
+            self.stats.inc("rejected_spoofed")
+            self.warn.warning("spoofed", f"{what} {getattr(item, 'uid', '')} claims to come from {self.me} but came "
+                                         "through a relay")
+            return None
+        return item
 
     def _count_rejection(self, err: GoalRejected) -> None:
         self.stats.inc("rejected")
