@@ -145,3 +145,55 @@ def test_out_of_service_survives_a_restart_of_the_goal_manager(faculty6) -> None
     again = GoalManagerCore(faculty6, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="u")
     again.load_state(state)
     assert not again.in_service("Galtxagorri") and again.in_service("Lamia")
+
+
+def test_a_leg_committed_to_a_robot_already_out_of_service_is_handed_back(faculty6) -> None:
+    """Lamia accepted a proposal, then staff took it out before the commit reached it: it hands the leg back."""
+    bus = bus6(faculty6, auto_move=False)
+    bus.request("Galtxagorri", "231")                              # Galtxagorri busy: the goal leg goes to Lamia
+    bus.tap = lambda sender, robot, what: "keep" if (sender == "Tartalo" and robot == "Lamia"
+                                                     and getattr(getattr(what, "trip", None), "goal_state", None)
+                                                     == LEG_COMMITTED) else "pass"
+    bus.request("Tartalo", "223")
+    uid = trip_to(bus, "223")
+    assert (newest(bus, uid).goal_robot, newest(bus, uid).goal_state) == ("Lamia", LEG_COMMITTED)
+    bus.tap = None
+    bus.staff("Kbot", "Lamia", out=True)
+    for _ in range(len(bus.kept)):
+        bus.release()
+    bus.pump()
+    assert any(e.robot == "Lamia" and e.goal_uid == uid and e.phase == Phase.DECLINED for e in bus.events)
+    assert uid not in bus.queue_of("Lamia")
+    assert (newest(bus, uid).goal_robot, newest(bus, uid).goal_state) == ("Galtxagorri", LEG_COMMITTED)
+    check_invariant(bus)
+
+
+def test_a_commit_that_crossed_the_hand_back_is_not_served_even_back_in_service(faculty6) -> None:
+    """Lamia handed back a proposal it had accepted; Tartalo's commit to it was under way (relays keep each link's
+    order, so it arrives before the snapshot giving the leg to Galtxagorri). Lamia, back in service meanwhile,
+    hands that commit back again and never serves the leg."""
+    bus = bus6(faculty6, auto_move=False)
+    bus.request("Galtxagorri", "231")
+    bus.tap = lambda sender, robot, what: "keep" if (sender == "Tartalo" and robot == "Lamia"
+                                                     and isinstance(getattr(what, "trip", None), Trip)) else "pass"
+    bus.request("Tartalo", "223")
+    uid = trip_to(bus, "223")
+    proposal = [k for k in bus.kept if k[1].trip.goal_state != LEG_COMMITTED]
+    assert proposal                                   # the proposal is kept too: deliver it first
+    bus.release(0)
+    bus.pump()
+    assert uid in bus.queue_of("Lamia")               # accepted (the commit is on its way)
+    bus.tap = lambda sender, robot, what: "keep" if (sender == "Tartalo" and robot == "Lamia"
+                                                     and isinstance(getattr(what, "trip", None), Trip)) else "pass"
+    bus.staff("Kbot", "Lamia", out=True)              # hands it back: Tartalo moves the leg to Galtxagorri
+    assert uid not in bus.queue_of("Lamia")
+    bus.tap = None
+    bus.staff("Kbot", "Lamia", out=False, version=2)
+    while bus.kept:                                   # the commit to Lamia, then the newer attempts, in order
+        bus.release(0)
+        bus.pump()
+    assert uid not in bus.queue_of("Lamia")
+    assert Phase.GOING_TO_MEETING not in bus.phases("Lamia", uid)
+    assert bus.phases("Lamia", uid).count(Phase.DECLINED) == 2          # the proposal, then the crossing commit
+    assert (newest(bus, uid).goal_robot, newest(bus, uid).goal_state) == ("Galtxagorri", LEG_COMMITTED)
+    check_invariant(bus)

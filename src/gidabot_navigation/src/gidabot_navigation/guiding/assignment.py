@@ -401,12 +401,19 @@ class LegRecord:
     accepted: set[str] = field(default_factory=set)     # robots that answered ACCEPTED
     declined: set[str] = field(default_factory=set)
     committed_at: dict[str, int] = field(default_factory=dict)   # robot -> the first attempt committing it there
+    proposed_at: dict[str, set[int]] = field(default_factory=dict)   # robot -> the attempts proposing it there
     declined_at: dict[str, int] = field(default_factory=dict)    # robot -> the newest attempt it declined
 
     @property
     def handed_back(self) -> set[str]:
-        """Robots that had the leg committed and handed it back (a DECLINED after the commit) before serving it."""
-        return {r for r, at in self.committed_at.items() if self.declined_at.get(r, -1) >= at} - self.served
+        """Robots that had the leg committed and handed it back before serving it: a DECLINED of the proposal that
+        led to the commit, or of a later attempt."""
+        out = set()
+        for robot, at in self.committed_at.items():
+            proposal = max((a for a in self.proposed_at.get(robot, ()) if a < at), default=at)
+            if self.declined_at.get(robot, -1) >= proposal:
+                out.add(robot)
+        return out - self.served
 
     @property
     def robots(self) -> set[str]:
@@ -450,6 +457,8 @@ def audit_legs(goals: Iterable[Trip], events: Iterable[NavEventData]) -> LegAudi
             if state == LEG_NONE:
                 continue
             rec = legs.setdefault((trip.uid, leg), LegRecord())
+            if state == LEG_PROPOSED:
+                rec.proposed_at.setdefault(trip.leg_robot(leg), set()).add(trip.attempt)
             if state == LEG_COMMITTED:
                 robot = trip.leg_robot(leg)
                 rec.committed.add(robot)

@@ -164,6 +164,7 @@ class GoalManagerCore:
         self._releases: OrderedDict[str, float] = OrderedDict()
         self._now_ros = 0.0                                # ROS time of the event being handled (ranking)
         self.service: dict[str, StaffCommandData] = {}     # robot -> the staff command in force for it
+        self._handed = SeenSet()                           # trips whose leg this robot handed back (out of service)
         self.assigner = Assigner(self.me, cfg.assign, self._rank, self._alone)   # the trips this robot originated
         self.legs = LegBook(self.me)                       # the assignments naming this robot
         self.fleet: dict[str, RobotView] = {}              # the other robots' queues and poses
@@ -318,7 +319,7 @@ class GoalManagerCore:
             self.version += 1
             if state == LEG_COMMITTED:
                 self.legs.settled(trip.uid)
-                if not self.in_service(self.me) and not self._started_here(trip):
+                if not self.in_service(self.me) and not self._started_here(held):      # (as its navigation knew it)
                     return self._hand_back(trip, now_ros, now_wall)
             return []
         if state == LEG_PROPOSED:
@@ -335,6 +336,7 @@ class GoalManagerCore:
                 self.stats.inc("declined")
                 return [self._event(Phase.DECLINED, trip, now_ros, leg=leg, detail=why)]
             self.legs.first_answer(trip.uid, leg)      # accepted (an ACCEPTED per leg for a commit seen later)
+            self._handed.discard(trip.uid)             # a new proposal accepted after a hand-back
             self.legs.holding(trip.uid, now_wall)
             return self._keep(trip, leg, eta, now_ros)
         if len(self.queue) >= self.cfg.max_queue:
@@ -347,7 +349,10 @@ class GoalManagerCore:
             self.assigner.close(trip.uid)
             phase = Phase.REJECTED if trip.origin_robot == self.me else Phase.CANCELLED_HERE
             return [SendCancel(cancel), self._event(phase, trip, now_ros, detail=f"the queue of {self.me} is full")]
-        # committed here without an answer seen here (its proposal expired, or never reached this robot)
+        # committed here without an answer seen here (its proposal expired, or never reached this robot); a commit
+        # that crossed this robot's hand-back of the proposal is handed back again
+        if not self.in_service(self.me) or trip.uid in self._handed:
+            return self._hand_back(trip, now_ros, now_wall)
         actions = self._keep(trip, leg, self._eta_for(trip, leg, now_ros, now_wall), now_ros)
         return actions if self.legs.first_answer(trip.uid, leg) else []
 
@@ -563,8 +568,10 @@ class GoalManagerCore:
 
     def _started_here(self, trip: Trip) -> bool:
         """Whether this robot may have started ``trip``: its navigation reported progress, or it heads the queue
-        (the navigation runs the queue in order and may have started it before saying so)."""
-        return trip.uid in self._phase or (bool(self.queue) and self.queue[0].uid == trip.uid)
+        committed here (the navigation runs the queue in order and may have started it before saying so)."""
+        leg = trip.leg_of(self.me)
+        return trip.uid in self._phase or (bool(self.queue) and self.queue[0].uid == trip.uid and leg is not None
+                                           and trip.leg_state(leg) == LEG_COMMITTED)
 
     def _hand_back(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
         """This robot, out of service, hands back its leg of ``trip`` (not started): it drops the trip and says so
@@ -575,6 +582,7 @@ class GoalManagerCore:
         self._pop(trip.uid)
         self._phase.pop(trip.uid, None)
         self.legs.settled(trip.uid)
+        self._handed.add(trip.uid)
         self.stats.inc("handed_back")
         why = f"{self.me} is {self._out_text(self.me)}: it hands the {leg} leg back"
         self.log.info(f"{trip.uid}: {why}")
@@ -604,7 +612,7 @@ class GoalManagerCore:
             "waits": [asdict(w) for w in self.waits.all()],
             "early_continues": [asdict(c) for c in self._early_continues.values()],
             "assignments": self.assigner.state(), "legs": self.legs.state(remember),
-            "service": [asdict(c) for c in self.service.values()],
+            "service": [asdict(c) for c in self.service.values()], "handed": self._handed.recent(remember),
             "stats": dict(self.stats),
         }
 
@@ -618,7 +626,7 @@ class GoalManagerCore:
     def _load_state(self, state: dict[str, Any]) -> None:
         queue = [trip_from_dict(t) for t in state.get("queue", [])]
         seen = {name: str_list(state.get(name, []), name) for name in
-                ("goals_seen", "cancels_seen", "events_seen", "cancelled", "commands_seen")}
+                ("goals_seen", "cancels_seen", "events_seen", "cancelled", "commands_seen", "handed")}
         phase_raw = state.get("phase", {})
         if not isinstance(phase_raw, dict):
             raise GuidingStateError("phase: expected an object")
