@@ -61,8 +61,11 @@ def set_service(browser: Browser, robot: str, out: bool, reason: str = "") -> No
     browser.view("building")
     browser.click_mark(f'#floors g.robot[data-robot="{robot}"]')
     browser.wait(lambda: robot in browser.css("#robot-panel h2").text, 5, f"{robot}'s panel")
-    if reason:
-        browser.css("#service-reason").send_keys(reason)
+    if reason:                     # typed into the panel's field (rebuilt with every update: kept by the page)
+        browser.wait(lambda: browser.driver.execute_script(
+            "const i = document.getElementById('service-reason'); if (!i) return false;"
+            "i.focus(); i.value = arguments[0]; i.dispatchEvent(new Event('input')); return true;", reason),
+            5, "the reason typed")
     button = f'#robot-panel button[data-action="service"][data-robot="{robot}"]'
     browser.click(button)
     browser.click(f'{button}[data-step="2"]')

@@ -123,7 +123,9 @@ def test_a_cancel_from_the_page_stops_the_trip_on_every_robot_involved(stack: Si
         stack.wait_event(robot, CANCELLED_ELSEWHERE, uid, timeout=10, on=robot)
         wait_until(lambda robot=robot: uid not in {g["uid"] for g in stack.pending(robot, robot)["goals"]}, 10,
                    f"{robot}'s queue without the trip")
-    assert all(g["uid"] != uid for r in stack.robots for g in (stack.pending("Kbot", r) or {"goals": []})["goals"])
+    wait_until(lambda: all(g["uid"] != uid for r in stack.robots
+                           for g in (stack.pending("Kbot", r) or {"goals": []})["goals"]), 10,
+               "every robot's queue without the trip, as Kbot hears them")
     browser.shot("trips-cancelled")
 
 

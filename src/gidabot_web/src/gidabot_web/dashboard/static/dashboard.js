@@ -10,6 +10,7 @@
   let view = "building";
   let historyDay = "";
   const armed = new Map();         // two-step buttons: key -> time armed
+  const reasons = new Map();       // robot -> the out-of-service reason typed in its panel (kept across renders)
   const STATE_TEXTS = {
     idle: "Ready", guiding: "Guiding a visitor", to_meeting: "Going to meet a visitor",
     waiting: "Waiting for a visitor", returning: "Going back home", error: "Navigation problem",
@@ -172,6 +173,7 @@
     const links = (S.links && (r.name === S.links.me ? S.links.mine : (S.links.others[r.name] || {}).links)) || [];
     const current = S.trips.find((tr) => tr.uid === r.current);
     const leg = current && current.legs.find((l) => l.robot === r.name);
+    const typing = document.activeElement && document.activeElement.id === "service-reason";
     panel.replaceChildren(
       el("h2", {}, r.name, r.out_of_service ? el("span", { class: "tag out" }, t("out of service")) : null),
       el("button", { type: "button", class: "close", onclick: () => { selected = null; renderAll(); } }, "×"),
@@ -185,6 +187,11 @@
         el("td", {}, k.peer), el("td", { class: k.connected ? "ok" : "bad" }, linkState(k)),
         el("td", {}, k.rtt_ms >= 0 ? t("{ms} ms", { ms: number(k.rtt_ms, 1) }) : "")))) : el("p", {}, t("unknown")),
       serviceBox(r));
+    const input = typing && $("service-reason");
+    if (input) {                   // the panel is rebuilt with every update: staff go on typing where they were
+      input.focus();
+      input.setSelectionRange(input.value.length, input.value.length);
+    }
   }
 
   function serviceBox(r) {
@@ -193,8 +200,14 @@
     const who = s ? { user: s.user, robot: s.robot, time: clock(s.wall) } : null;
     const note = s ? el("p", { class: "service-note" }, s.out ? t("Taken out of service by {user} at {robot} ({time})", who)
       : t("Put back in service by {user} at {robot} ({time})", who), s.detail ? " · " + s.detail : "") : null;
-    const reason = el("input", { id: "service-reason", size: 24, placeholder: t("Reason") });
-    const act = () => Web.post("/api/robots/service", { robot: r.name, out: !r.out_of_service, reason: reason.value });
+    const reason = el("input", { id: "service-reason", size: 24, placeholder: t("Reason"), value: reasons.get(r.name) ?? "",
+                                 oninput: (e) => reasons.set(r.name, e.target.value) });
+    const act = async () => {
+      const answer = await Web.post("/api/robots/service",
+                                    { robot: r.name, out: !r.out_of_service, reason: reasons.get(r.name) ?? "" });
+      reasons.delete(r.name);
+      return answer;
+    };
     return el("div", { class: "service" }, note, reason,
       twoStep("service:" + r.name, r.out_of_service ? t("Back in service") : t("Take out of service"),
         t("Confirm"), act, { "data-action": "service", "data-robot": r.name }));
