@@ -63,7 +63,7 @@ def main() -> int:
                 uri = start_master(procs, "master", ip, port=int(uri.rsplit(":", 1)[1].strip("/")))
             if not procs.alive("master"):
                 procs.signal("master", signal.SIGCONT)
-            procs.start("sim", [sys.executable, "-c", WRAP, str(NODES / "sim"), f"__name:={Node.SIM}",
+            procs.start("sim", [sys.executable, "-c", WRAP, str(NODES / "world"), f"__name:={Node.SIM}",
                                 f"_building:={building}", f"_robot:={robot}", f"_speed:={a.speed}",
                                 "_use_sim_time:=true"], env)
             procs.start("move_base", [sys.executable, str(NODES / "move_base"), f"__name:={Node.MOVE_BASE}",

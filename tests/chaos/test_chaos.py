@@ -1,4 +1,4 @@
-"""Reliability under faults (issue 9), the small version: `bin/gidabot chaos --profile quick` on a short tour.
+"""Reliability under faults, the small version: `bin/gidabot chaos --profile quick` on a short tour.
 
 Four masters, six relays, every robot's nodes and the simulated visitor run a four-goal tour
 (three floor changes) while one or two faults of every kind are injected: a link cut by

@@ -1,5 +1,5 @@
 """System test: every long-running node of a robot exits within 2 s of SIGINT or SIGTERM, its master frozen
-(SIGSTOP) or not (issue 19.5; gidabot_navigation.ros.exit_guard).
+(SIGSTOP) or not (gidabot_navigation.ros.exit_guard).
 
 Without the guard, rospy unregisters from the master in its signal handler with an XML-RPC call without a
 timeout: with the master frozen, goal_manager, multirobot_navigation, tour_store, the relay ends and
@@ -37,7 +37,7 @@ SIM_NODES = REPO / "src" / "gidabot_sim" / "nodes"
 GUI_NODE = REPO / "src" / "gidabot_gui" / "nodes" / "gui"
 DASHBOARD_NODE = REPO / "src" / "gidabot_web" / "nodes" / "dashboard"
 ROBOT = "Kbot"
-EXIT_BOUND = 2.0     # s (issue 19.5)
+EXIT_BOUND = 2.0     # s
 ROS_NODES = {        # process name -> ROS node name (registered on the master once it runs)
     "goal_manager": global_name(Node.GOAL_MANAGER), "multirobot_navigation": global_name(Node.MULTIROBOT_NAVIGATION),
     "tour_store": global_name(Node.TOUR_STORE), "relay_supervisor": global_name(Node.RELAY_SUPERVISOR),
@@ -84,7 +84,7 @@ class Robot:
                           f"_port:={free_port(ip)}"],
         }
         if stand_ins:
-            starts |= {"sim": [py, str(SIM_NODES / "sim"), f"__name:={Node.SIM}", *common, "_speed:=20",
+            starts |= {"sim": [py, str(SIM_NODES / "world"), f"__name:={Node.SIM}", *common, "_speed:=20",
                                "_use_sim_time:=true"],
                        "move_base": [py, str(SIM_NODES / "move_base"), f"__name:={Node.MOVE_BASE}", *common],
                        "amcl": [py, str(SIM_NODES / "amcl"), f"__name:={Node.AMCL}"]}

@@ -1,4 +1,4 @@
-"""Tour mode across the whole simulated building (issue 6, "What it must show", last item).
+"""Tour mode across the whole simulated building.
 
 The paper's Table 4 tour (`tours/real_world.tour`: 8 goals over 4 floors) runs with the simulated
 visitor to TOUR_FINISHED: 4 masters linked by the relays, `launch/robot.launch sim:=true gui:=false`

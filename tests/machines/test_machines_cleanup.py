@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from gidabot_sim.runner import machines as mm
+from gidabot_sim.runner import machines
 from gidabot_sim.runner.procs import wait_until
 
 pytestmark = pytest.mark.system
@@ -34,7 +34,7 @@ def _host_links() -> str:
 
 
 def _alive(pid: int) -> bool:
-    return mm.process_start(pid) is not None
+    return machines.process_start(pid) is not None
 
 
 def test_a_killed_runs_namespaces_are_removed_by_the_next_run_and_a_run_removes_its_own() -> None:
@@ -42,22 +42,22 @@ def test_a_killed_runs_namespaces_are_removed_by_the_next_run_and_a_run_removes_
                            start_new_session=True)
     try:
         prefix, sleeper = run.stdout.readline().split()
-        left = [n for n in mm.list_netns() if n.startswith(prefix + "-")]
+        left = [n for n in machines.list_netns() if n.startswith(prefix + "-")]
         assert len(left) == 3, left                              # the bridge's namespace and A's and B's
         assert "gbm" not in _host_links()                         # the bridge and veths are not on the host
     finally:
         os.killpg(run.pid, signal.SIGKILL)                        # the run crashes: nothing is cleaned up
         run.wait(timeout=10)
-    assert set(left) <= set(mm.list_netns()) and _alive(int(sleeper))
-    assert set(left) <= set(mm.leftovers(mm.list_netns()))
+    assert set(left) <= set(machines.list_netns()) and _alive(int(sleeper))
+    assert set(left) <= set(machines.leftovers(machines.list_netns()))
 
-    with mm.Machines(["A"]) as net:                               # the next run
+    with machines.Machines(["A"]) as net:                               # the next run
         assert set(left) <= set(net.removed_leftovers)
-        assert not set(left) & set(mm.list_netns())
+        assert not set(left) & set(machines.list_netns())
         wait_until(lambda: not _alive(int(sleeper)), 10, "the process left in the dead run's namespace killed")
         inside = subprocess.Popen(net.wrap("A", ["sleep", "600"]), start_new_session=True)
-        mine = [n for n in mm.list_netns() if n.startswith(net.owner.prefix + "-")]
+        mine = [n for n in machines.list_netns() if n.startswith(net.owner.prefix + "-")]
         assert len(mine) == 2
-    assert not set(mine) & set(mm.list_netns())                   # its own namespaces are gone
+    assert not set(mine) & set(machines.list_netns())                   # its own namespaces are gone
     wait_until(lambda: inside.poll() is not None, 10, "the process left in this run's namespace killed")
     assert "gbm" not in _host_links()

@@ -1,4 +1,4 @@
-"""Robots on separate machines (issue 16): each robot a network namespace of its own, a firewall that admits
+"""Robots on separate machines: each robot a network namespace of its own, a firewall that admits
 from the other machines only its relay ports, and the relays between them.
 
 The only connections between two machines are relay links; masters and nodes cannot be reached from

@@ -1,4 +1,4 @@
-"""A cross-floor trip between robots on separate machines (issue 16, "What it must show").
+"""A cross-floor trip between robots on separate machines.
 
 The whole simulated building as `gidabot demo --machines` runs it (`SimulatedBuilding(machines=True)`):
 each robot a network namespace of its own with its master, `launch/robot.launch sim:=true` and a

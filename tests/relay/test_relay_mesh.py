@@ -1,4 +1,4 @@
-"""Relays on the faculty's 4 masters (issue 3): exactly once, all topics both ways, no loops, n(n-1)/2 relays.
+"""Relays on the faculty's 4 masters: exactly once, all topics both ways, no loops, n(n-1)/2 relays.
 
 Each test starts launch/relays.launch for every robot (with a secret file), one probe per robot.
 """

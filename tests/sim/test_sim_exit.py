@@ -48,7 +48,7 @@ def start_floor(procs: ProcessGroup, tmp_path: Path, speed: str = "20") -> dict[
     building = relocate_building(FACULTY, tmp_path / "building", {ROBOT: uri})
     env = ros_env(uri, ip, log_dir=tmp_path / "ros")
     common = [f"_building:={building}", f"_robot:={ROBOT}"]
-    procs.start("sim", [sys.executable, str(NODES / "sim"), f"__name:={Node.SIM}", *common, f"_speed:={speed}",
+    procs.start("sim", [sys.executable, str(NODES / "world"), f"__name:={Node.SIM}", *common, f"_speed:={speed}",
                         "_use_sim_time:=true"], env)
     procs.start("move_base", [sys.executable, str(NODES / "move_base"), f"__name:={Node.MOVE_BASE}", *common], env)
     procs.start("amcl", [sys.executable, str(NODES / "amcl"), f"__name:={Node.AMCL}"], env)

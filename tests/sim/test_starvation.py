@@ -3,7 +3,7 @@
 `bin/gidabot demo` runs a short tour at 20x. While the second goal runs, the simulator of the floor doing
 the work (Kbot's, floor 1) is stopped (SIGSTOP) for 2 wall seconds, then continued. Its clock, read from
 the run's timeline file throughout, stands still while it is stopped and afterwards never advances faster
-than the 20x ceiling (before issue 17 it jumped 40 s ahead at once); the tour still completes, with the
+than the 20x ceiling (it must never jump 40 s ahead at once); the tour still completes, with the
 same Table 3; and the report marks the run degraded (the floor was behind its ceiling for more than 1 %
 of the tour), naming the floor.
 """

@@ -8,7 +8,7 @@ from dataclasses import replace
 import pytest
 
 from gidabot_navigation.errors import GoalRejected
-from gidabot_navigation.guiding import messages as gt
+from gidabot_navigation.guiding import messages
 from gidabot_navigation.guiding.messages import (
     MAX_STAFF_DETAIL,
     CommandData,
@@ -131,15 +131,15 @@ def test_a_tour_goes_on_from_a_floor_without_robot(faculty3) -> None:
 
 
 def test_events_about_legs_are_checked(faculty6) -> None:
-    ev = gt.NavEventData(uid="Kbot/event/gm.x.1", robot="Kbot", floor=1.0, goal_uid="Kbot/v/gm.x.1",
+    ev = messages.NavEventData(uid="Kbot/event/gm.x.1", robot="Kbot", floor=1.0, goal_uid="Kbot/v/gm.x.1",
                          phase=Phase.ASSIGNED, leg=LEG_GOAL, attempt=3, assignee="Lamia", eta=42.0)
-    assert gt.validate_event(faculty6, ev).assignee == "Lamia"
-    assert gt.validate_event(faculty6, replace(ev, eta=math.nan)).eta == 0.0
+    assert messages.validate_event(faculty6, ev).assignee == "Lamia"
+    assert messages.validate_event(faculty6, replace(ev, eta=math.nan)).eta == 0.0
     for change, reason in (({"leg": "middle"}, "leg"), ({"attempt": -2}, "assignment"),
                            ({"assignee": ""}, "assignment"), ({"assignee": "Nobody"}, "robot"),
                            ({"goal_uid": ""}, "leg"), ({"phase": Phase.ACCEPTED, "leg": ""}, "leg")):
         with pytest.raises(GoalRejected) as err:
-            gt.validate_event(faculty6, replace(ev, **change))
+            messages.validate_event(faculty6, replace(ev, **change))
         assert err.value.reason == reason, change
 
 
@@ -159,14 +159,14 @@ def test_commands_are_checked() -> None:
 
 
 def test_uids_are_unique_across_restarts() -> None:
-    a, b = gt.UidMaker("Kbot", "gm"), gt.UidMaker("Kbot", "gm", boot="other")
+    a, b = messages.UidMaker("Kbot", "gm"), messages.UidMaker("Kbot", "gm", boot="other")
     assert a.event() != b.event()
     assert a.event() != a.event()
     assert a.goal("v").startswith("Kbot/v/gm.") and a.cancel().startswith("Kbot/cancel/gm.")
 
 
 def test_seen_set_is_bounded() -> None:
-    s = gt.SeenSet(limit=3)
+    s = messages.SeenSet(limit=3)
     assert s.add("a") and not s.add("a")
     for x in "bcd":
         s.add(x)

@@ -176,7 +176,7 @@ def test_a_robot_named_by_a_newer_assignment_steers_the_visit(faculty6) -> None:
 
 
 def test_hostile_traffic_does_not_steer_the_visit(faculty, tour: Progress) -> None:
-    """The issue 19 run: the demo stopped at 'unreachable (Kbot: ... about an unknown trip)'. Now only the
+    """Hostile traffic must not stop the demo (as 'unreachable (Kbot: ... about an unknown trip)'): only the
     visit's own trips, from the robots they involve, published by those robots' nodes, count."""
     p = tour
     mine = goal(faculty, "Tartalo/sim-visitor/f.1", "Tartalo", "305", 0, sim=1, wall=1)   # floor 0 -> 3

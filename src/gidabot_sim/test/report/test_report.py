@@ -264,7 +264,7 @@ def test_leg_audit_from_the_robots_records() -> None:
 
 
 def test_table3_leaves_hostile_input_out(tmp_path: Path) -> None:
-    """Issue 19.7: hostile traffic on Kbot's master (invalid goals, valid-looking goals from a foreign node,
+    """Hostile traffic on Kbot's master (invalid goals, valid-looking goals from a foreign node,
     ACCEPTED events for trips that do not exist, extra tour completions and legs claiming Kbot) must not
     change received (goals Kbot validated and kept), processed (trips Kbot ran) or the completions."""
     pytest.importorskip("gidabot_msgs.msg")

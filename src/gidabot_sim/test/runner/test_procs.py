@@ -1,4 +1,4 @@
-"""Test networks: two sessions on one machine never get the same 127.N.0.x (issue 19.6)."""
+"""Test networks: two sessions on one machine never get the same 127.N.0.x."""
 
 from __future__ import annotations
 

@@ -3,16 +3,16 @@
 from __future__ import annotations
 
 from gidabot_navigation.interface import Cmd, Phase
-from gidabot_sim.visitor import visitor as v
+from gidabot_sim.visitor import visitor
 
 
-def cfg(robot: str, floor: float, **kw) -> v.VisitorConfig:
-    return v.VisitorConfig(robot=robot, floor=floor, **kw)
+def cfg(robot: str, floor: float, **kw) -> visitor.VisitorConfig:
+    return visitor.VisitorConfig(robot=robot, floor=floor, **kw)
 
 
 def test_only_start_floor_starts_the_tour() -> None:
-    t0 = v.VisitorCore(cfg("Tartalo", 0, tour_file="real_world.tour"))
-    t3 = v.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour"))
+    t0 = visitor.VisitorCore(cfg("Tartalo", 0, tour_file="real_world.tour"))
+    t3 = visitor.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour"))
     [cmd] = t0.start(0.0)
     assert cmd.command == Cmd.START_TOUR and cmd.tour_file == "real_world.tour" and cmd.way == "stairs"
     assert t3.start(0.0) == [] and not t3.present
@@ -20,7 +20,7 @@ def test_only_start_floor_starts_the_tour() -> None:
 
 
 def test_single_target_request() -> None:
-    core = v.VisitorCore(cfg("Tartalo", 0, goal_id="014", way="lift", language="eu"))
+    core = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="014", way="lift", language="eu"))
     [cmd] = core.start(0.0)
     assert (cmd.command, cmd.goal_id, cmd.way, cmd.language) == (Cmd.REQUEST, "014", "lift", "eu")
     core.on_event(50.0, "e1", "Tartalo", Phase.GOAL_REACHED, "g1", 0, 0)
@@ -28,7 +28,7 @@ def test_single_target_request() -> None:
 
 
 def test_cross_floor_walk_then_continue() -> None:
-    up = v.VisitorCore(cfg("MariSorgin", 3, stairs_s_per_floor=20.0, think_s=2.0))
+    up = visitor.VisitorCore(cfg("MariSorgin", 3, stairs_s_per_floor=20.0, think_s=2.0))
     # the robot up there arrives first and waits
     up.on_event(10.0, "e1", "MariSorgin", Phase.WAITING_VISITOR, "g1", 3, 3)
     assert up.step(10.0) == []
@@ -41,7 +41,7 @@ def test_cross_floor_walk_then_continue() -> None:
 
 
 def test_visitor_late_robot_later() -> None:
-    core = v.VisitorCore(cfg("Kbot", 1, way="lift", lift_wait_s=25, lift_s_per_floor=5, think_s=0))
+    core = visitor.VisitorCore(cfg("Kbot", 1, way="lift", lift_wait_s=25, lift_s_per_floor=5, think_s=0))
     core.on_event(0.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 1)      # arrives at 30
     core.on_event(40.0, "e2", "Kbot", Phase.WAITING_VISITOR, "g", 1, 1)    # robot gets there at 40
     [cmd] = core.step(40.0)
@@ -49,13 +49,13 @@ def test_visitor_late_robot_later() -> None:
 
 
 def test_leaving_and_duplicates() -> None:
-    core = v.VisitorCore(cfg("Tartalo", 0))
+    core = visitor.VisitorCore(cfg("Tartalo", 0))
     assert core.present
     core.on_event(5.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 2)
     assert not core.present
     core.on_event(5.0, "e2", "Galtxagorri", Phase.WAITING_VISITOR, "g", 2, 2)  # another floor's robot
     assert core.step(1000.0) == []
-    other = v.VisitorCore(cfg("Galtxagorri", 2, think_s=0))
+    other = visitor.VisitorCore(cfg("Galtxagorri", 2, think_s=0))
     for _ in range(2):  # a duplicated event is handled once
         other.on_event(5.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g", 0, 2)
         other.on_event(6.0, "e3", "Galtxagorri", Phase.WAITING_VISITOR, "g", 2, 2)
@@ -63,7 +63,7 @@ def test_leaving_and_duplicates() -> None:
 
 
 def test_tour_steps_continue_and_skip() -> None:
-    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", skips=((3, 5),), think_s=1.0))
+    core = visitor.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", skips=((3, 5),), think_s=1.0))
     core.on_event(10.0, "a", "Kbot", Phase.TOUR_STEP_DONE, "g2", 1, 1, tour_step=2)
     [cmd] = core.step(11.0)
     assert cmd.command == Cmd.CONTINUE and cmd.tour_file == "t.tour"
@@ -76,7 +76,7 @@ def test_tour_steps_continue_and_skip() -> None:
 
 def test_failures_end_the_visit() -> None:
     for phase in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.CANCELLED_ELSEWHERE):
-        core = v.VisitorCore(cfg("Kbot", 1))
+        core = visitor.VisitorCore(cfg("Kbot", 1))
         core.on_event(1.0, "x", "Tartalo", phase, "g", 0, 1)
         assert core.finished
 
@@ -84,11 +84,11 @@ def test_failures_end_the_visit() -> None:
 def test_walk_time() -> None:
     c = cfg("R", 0, stairs_s_per_floor=20, lift_wait_s=25, lift_s_per_floor=5)
     assert c.walk_time(0, 3) == 60
-    assert v.VisitorConfig(robot="R", floor=0, way="lift").walk_time(3, 0) == 25 + 15
+    assert visitor.VisitorConfig(robot="R", floor=0, way="lift").walk_time(3, 0) == 25 + 15
 
 
 def test_arriving_on_another_floor_never_restarts_the_tour() -> None:
-    up = v.VisitorCore(cfg("MariSorgin", 3, tour_file="long_tour.tour", think_s=0.0))
+    up = visitor.VisitorCore(cfg("MariSorgin", 3, tour_file="long_tour.tour", think_s=0.0))
     up.on_event(10.0, "e1", "Tartalo", Phase.GO_TO_FLOOR, "g2", 0, 3)
     up.on_event(20.0, "e2", "MariSorgin", Phase.WAITING_VISITOR, "g2", 3, 3)
     [cmd] = up.step(70.0)
@@ -100,7 +100,7 @@ def test_arriving_on_another_floor_never_restarts_the_tour() -> None:
 
 
 def test_answers_to_other_commands_do_not_end_the_visit() -> None:
-    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour"))
+    core = visitor.VisitorCore(cfg("Kbot", 1, tour_file="t.tour"))
     # somebody typed an unknown room, or a hostile tour file name, at Kbot's screen
     core.on_event(1.0, "r1", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="", location_id="999")
     core.on_event(2.0, "r2", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="../x.tour")
@@ -108,7 +108,7 @@ def test_answers_to_other_commands_do_not_end_the_visit() -> None:
     assert not core.finished
     core.on_event(4.0, "r4", "Kbot", Phase.REJECTED, "", 1, 1, tour_file="t.tour")     # our START_TOUR refused
     assert core.finished
-    single = v.VisitorCore(cfg("Tartalo", 0, goal_id="014"))
+    single = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="014"))
     single.on_event(1.0, "s1", "Tartalo", Phase.REJECTED, "", 0, 0, tour_file="", location_id="zzz")
     assert not single.finished
     single.on_event(2.0, "s2", "Tartalo", Phase.UNREACHABLE, "", 0, 0, tour_file="", location_id="014")
@@ -116,7 +116,7 @@ def test_answers_to_other_commands_do_not_end_the_visit() -> None:
 
 
 def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None:
-    core = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", retry_s=30.0, retry_for_s=100.0))
+    core = visitor.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", retry_s=30.0, retry_for_s=100.0))
     core.on_event(10.0, "p1", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=4, tour_file="t.tour")
     assert not core.finished and core.step(39.0) == []
     [cmd] = core.step(40.0)
@@ -127,7 +127,7 @@ def test_a_request_refused_because_a_partner_is_offline_is_asked_again() -> None
     assert not core.finished                          # the clock restarted at the accepted goal
     core.on_event(301.0, "p4", "Kbot", Phase.PARTNER_OFFLINE, "", 1, 3, tour_step=5, tour_file="t.tour")
     assert core.finished and "gave up" in core.outcome
-    start = v.VisitorCore(cfg("Tartalo", 0, tour_file="t.tour", retry_s=5.0))
+    start = visitor.VisitorCore(cfg("Tartalo", 0, tour_file="t.tour", retry_s=5.0))
     start.on_event(1.0, "q", "Tartalo", Phase.PARTNER_OFFLINE, "", 0, 1, tour_step=0, tour_file="t.tour")
     assert [c.command for c in start.step(6.0)] == [Cmd.START_TOUR]
 
@@ -136,7 +136,7 @@ def test_a_refusal_at_another_robot_does_not_end_the_visit_here() -> None:
     """Tartalo refused a step (its partner offline, nothing queued) and asks again itself; the node of the floor
     the person reaches later must still ask again for a trip that is given up there."""
     kw = dict(tour_file="t.tour", retry_s=30.0, think_s=0.0)
-    galtx = v.VisitorCore(cfg("Galtxagorri", 2, **kw))
+    galtx = visitor.VisitorCore(cfg("Galtxagorri", 2, **kw))
     galtx.on_event(10.0, "r", "Tartalo", Phase.PARTNER_OFFLINE, "", 0, 1, tour_step=1, tour_file="t.tour")
     assert not galtx.finished
     galtx.on_event(100.0, "d", "Galtxagorri", Phase.TOUR_STEP_DONE, "Kbot/v/2", 2, 2, tour_step=2,
@@ -150,34 +150,34 @@ def test_a_refusal_at_another_robot_does_not_end_the_visit_here() -> None:
 def test_a_trip_a_robot_gave_up_is_asked_for_again_where_the_person_is() -> None:
     kw = dict(tour_file="t.tour", retry_s=30.0, think_s=0.0, stairs_s_per_floor=20.0)
     # the start robot's floor still has the person (never released): it asks again for the same step
-    here = v.VisitorCore(cfg("Tartalo", 0, **kw))
+    here = visitor.VisitorCore(cfg("Tartalo", 0, **kw))
     here.on_event(1.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
     assert not here.finished and here.step(30.0) == []
     [cmd] = here.step(31.0)
     assert (cmd.command, cmd.tour_step) == (Cmd.SKIP, 3) and here.retries == 1
     # the goal floor: the person was sent there (GO_TO_FLOOR known), asks again after arriving
-    there = v.VisitorCore(cfg("Kbot", 1, **kw))
+    there = visitor.VisitorCore(cfg("Kbot", 1, **kw))
     there.on_event(5.0, "g", "Tartalo", Phase.GO_TO_FLOOR, "Tartalo/v/1", 0, 1, tour_step=3)   # arrives at 25
     there.on_event(6.0, "w", "Kbot", Phase.WAITING_VISITOR, "Tartalo/v/1", 1, 1, tour_step=3)
     there.on_event(10.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
     assert not there.finished and there.step(54.0) == []          # no Continue for the given-up trip
     assert [(c.command, c.tour_step) for c in there.step(55.0)] == [(Cmd.SKIP, 3)]
     # the person's release comes after the news (a partition held it): asked again after arriving then
-    late = v.VisitorCore(cfg("Kbot", 1, **kw))
+    late = visitor.VisitorCore(cfg("Kbot", 1, **kw))
     late.on_event(10.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=0, tour_file="t.tour")
     assert late.step(100.0) == [] and not late.present
     late.on_event(100.0, "g", "Tartalo", Phase.GO_TO_FLOOR, "Tartalo/v/1", 0, 1, tour_step=0)   # arrives at 120
     assert late.step(149.0) == []
     assert [c.command for c in late.step(150.0)] == [Cmd.START_TOUR]
     # a floor the person is not on, and is not sent to, does nothing
-    away = v.VisitorCore(cfg("Galtxagorri", 2, **kw))
+    away = visitor.VisitorCore(cfg("Galtxagorri", 2, **kw))
     away.on_event(1.0, "o", "Kbot", Phase.PARTNER_OFFLINE, "Tartalo/v/1", 1, 1, tour_step=3, tour_file="t.tour")
     assert away.step(1000.0) == [] and not away.finished
 
 
 def test_two_robots_on_the_start_floor_one_starts() -> None:
-    kbot = v.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
-    basajaun = v.VisitorCore(cfg("Basajaun", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
+    kbot = visitor.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
+    basajaun = visitor.VisitorCore(cfg("Basajaun", 1, start_floor=1, start_robot="Kbot", goal_id="101"))
     assert len(kbot.start(0.0)) == 1 and basajaun.start(0.0) == [] and not basajaun.present
 
 
@@ -185,10 +185,10 @@ def test_stops_on_a_floor_without_robot_are_visited_alone() -> None:
     """Table 4 on faculty3: Kbot (floor 1) sends the visitor to 223 and 274 on floor 2 (no robot); the visitor
     spends visit_s at each, then walks to floor 3, where MariSorgin waits for step 6."""
     floors = (0, 0, 1, 1, 2, 2, 3, 3)
-    up = v.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour", think_s=2.0, visit_s=60.0,
+    up = visitor.VisitorCore(cfg("MariSorgin", 3, tour_file="real_world.tour", think_s=2.0, visit_s=60.0,
                            robot_floors=(0, 1, 3)))
     up.on_tour(floors)
-    kbot = v.VisitorCore(cfg("Kbot", 1, tour_file="real_world.tour", robot_floors=(0, 1, 3)))
+    kbot = visitor.VisitorCore(cfg("Kbot", 1, tour_file="real_world.tour", robot_floors=(0, 1, 3)))
     kbot.on_tour(floors)
     kbot.present = True
     for core in (up, kbot):
@@ -204,19 +204,19 @@ def test_stops_on_a_floor_without_robot_are_visited_alone() -> None:
 
 
 def test_a_tour_ending_on_a_floor_without_robot_ends_the_visit() -> None:
-    kbot = v.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", robot_floors=(0, 1, 3)))
+    kbot = visitor.VisitorCore(cfg("Kbot", 1, tour_file="t.tour", robot_floors=(0, 1, 3)))
     kbot.on_event(10.0, "e1", "Kbot", Phase.TOUR_FINISHED, "g", 1, 2, 3, tour_file="t.tour", location_id="223")
     assert kbot.finished and kbot.outcome == "tour finished"
 
 
 def test_a_single_target_on_a_floor_without_robot_ends_the_visit() -> None:
-    tartalo = v.VisitorCore(cfg("Tartalo", 0, goal_id="223"))
+    tartalo = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="223"))
     tartalo.on_event(10.0, "e1", "Tartalo", Phase.NO_ROBOT_ON_FLOOR, "g", 0, 2, location_id="223")
     assert tartalo.finished and "alone" in tartalo.outcome and not tartalo.present
 
 
 def test_a_visitor_who_cancels_presses_cancel_for_its_latest_trip_at_its_start_robot() -> None:
-    start = v.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="305", cancel_after_s=40.0,
+    start = visitor.VisitorCore(cfg("Kbot", 1, start_floor=1, start_robot="Kbot", goal_id="305", cancel_after_s=40.0,
                               visitor_id="visitor3"))
     [ask] = start.start(100.0)
     assert ask.command == Cmd.REQUEST and start.step(139.0) == []
@@ -225,7 +225,7 @@ def test_a_visitor_who_cancels_presses_cancel_for_its_latest_trip_at_its_start_r
     [cmd] = start.step(142.0)
     assert (cmd.command, cmd.goal_uid) == (Cmd.CANCEL, "Kbot/visitor3/1")
     assert start.step(200.0) == []               # once
-    done = v.VisitorCore(cfg("Kbot", 1, start_floor=1, goal_id="104", cancel_after_s=40.0))
+    done = visitor.VisitorCore(cfg("Kbot", 1, start_floor=1, goal_id="104", cancel_after_s=40.0))
     done.start(0.0)
     done.on_goal("g")
     done.on_event(30.0, "e1", "Kbot", Phase.GOAL_REACHED, "g", 1, 1)
@@ -233,7 +233,7 @@ def test_a_visitor_who_cancels_presses_cancel_for_its_latest_trip_at_its_start_r
 
 
 def test_a_no_show_never_continues_at_the_meeting_point() -> None:
-    up = v.VisitorCore(cfg("MariSorgin", 3, start_floor=0, start_robot="Tartalo", no_show=True, think_s=0))
+    up = visitor.VisitorCore(cfg("MariSorgin", 3, start_floor=0, start_robot="Tartalo", no_show=True, think_s=0))
     up.on_event(10.0, "e1", "MariSorgin", Phase.WAITING_VISITOR, "g1", 3, 3)
     up.on_event(12.0, "e2", "Tartalo", Phase.GO_TO_FLOOR, "g1", 0, 3)
     assert up.step(1000.0) == []
@@ -242,16 +242,16 @@ def test_a_no_show_never_continues_at_the_meeting_point() -> None:
 
 
 def test_a_visitor_shown_a_wait_beyond_its_patience_does_not_confirm() -> None:
-    patient = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
+    patient = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
     [cmd] = patient.start(0.0, (30.0, 590.0))
     assert cmd.command == Cmd.REQUEST and not patient.left and patient.shown == (30.0, 590.0)
-    hurried = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
+    hurried = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=600.0))
     assert hurried.start(0.0, (30.0, 601.0)) == [] and hurried.left and hurried.finished
     assert "601 s" in hurried.outcome and "600 s" in hurried.outcome
     assert hurried.step(1000.0) == []                     # nothing more: it went away
-    unknown = v.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=10.0))
+    unknown = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="305", patience_s=10.0))
     assert len(unknown.start(0.0, (None, None))) == 1     # nothing shown it could judge: it confirms
-    anyone = v.VisitorCore(cfg("Tartalo", 0, goal_id="305"))
+    anyone = visitor.VisitorCore(cfg("Tartalo", 0, goal_id="305"))
     assert len(anyone.start(0.0, (5000.0,))) == 1        # no patience set: waits however long
 
 
@@ -264,7 +264,7 @@ def test_the_screen_shows_the_waits_the_robot_will_decide_on() -> None:
     from gidabot_navigation.guiding.messages import Trip
 
     building = load_building(Path(__file__).resolve().parents[4] / "maps" / "faculty6")
-    screen = v.Screen(building)
+    screen = visitor.Screen(building)
     for r in building.robots:
         screen.on_status(r.name, 100.0, (r.home.x, r.home.y))
     start, goal = screen.waits("Tartalo", "223", "stairs", 100.0)

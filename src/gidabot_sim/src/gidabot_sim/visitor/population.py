@@ -1,4 +1,4 @@
-"""A population of simulated visitors, deterministic from a seed (ROS-free; issue 18, *many visitors*).
+"""A population of simulated visitors, deterministic from a seed (ROS-free).
 
 ``make_population`` draws K visitors: each arrives at a random time (exponential gaps,
 ``mean_gap_s`` apart on average) on a random floor with robots, at the screen of one of them,
