@@ -32,8 +32,9 @@ needs exactly one of them, whatever the network does. The protocol (``docs/guidi
 6. A robot taken out of service (a staff command) hands back the committed legs it has not started:
    a DECLINED of the committed robot for its committed leg. The requester then proposes the leg to
    the other robots of its floor as in 4 (a new attempt; the robot that handed it back is not asked
-   again in that round). A goal leg whose floor has no robot in service left (``alone``) is given to
-   nobody (``LEG_NONE``): the visitor finds the goal alone, as on a floor without robot.
+   again in that round). A commit that reaches the robot after it handed the leg back is handed back
+   again. A goal leg whose floor has no robot in service left (``alone``) is given to nobody
+   (``LEG_NONE``): the visitor finds the goal alone, as on a floor without robot.
 
 Safety (never two robots on a leg) rests only on 3, 5 and 6: one writer commits a leg, it moves
 only when its robot handed it back (and stopped holding it), and nobody acts without a commit,
@@ -190,7 +191,7 @@ class Assigner:
         older proposal, or from a robot the leg is not proposed to now, changes nothing."""
         rec = self.legs.get(goal_uid, {}).get(leg)
         if rec is not None and rec.state == LEG_COMMITTED and rec.robot == robot and not accepted and not rec.done \
-                and attempt > rec.attempt:       # (a DECLINED of an older proposal to it is not a hand-back)
+                and attempt > rec.attempt:       # (an answer to the proposal itself, or an older one, is no hand-back)
             return self._handed_back(goal_uid, leg, robot, detail, now_wall)
         if rec is None or rec.state != LEG_PROPOSED or rec.robot != robot or attempt < rec.attempt:
             return []
