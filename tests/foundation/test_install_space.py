@@ -98,8 +98,10 @@ def test_one_robot_runs_from_the_install_space(tmp_path: Path) -> None:
     for resource in ("launch/robot.launch", "config/shared_topics.yaml", "maps/faculty/building.yaml",
                      "tours/real_world.tour"):
         assert (share / resource).is_file() and not (share / resource).is_symlink(), resource
-    for program in ("gidabot_navigation/goal_manager", "gidabot_sim/sim", "gidabot_gui/gui"):
+    for program in ("gidabot_navigation/goal_manager", "gidabot_sim/world", "gidabot_gui/gui"):
         assert os.access(install / "lib" / program, os.X_OK), program
+    editor_page = install / "lib/python3/dist-packages/gidabot_web/editor/static"     # gidabot edit's package data
+    assert {"index.html", "editor.js", "editor.css"} <= {p.name for p in editor_page.iterdir()}
 
     env = sourced(install / "setup.bash", clean_env(tmp_path / "home"))
     for var in ("ROS_PACKAGE_PATH", "PYTHONPATH", "CMAKE_PREFIX_PATH"):

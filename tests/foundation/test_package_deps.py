@@ -32,7 +32,8 @@ def pypi_names(root: Path) -> set[str]:
     for line in (root / "requirements.txt").read_text().splitlines():
         line = line.split("#", 1)[0].strip()
         if line:
-            names.add(re.split(r"[=<>~!\[; ]", line, maxsplit=1)[0].lower().replace("-", "_"))
+            name = re.split(r"[=<>~!\[; ]", line, maxsplit=1)[0].lower().replace("-", "_")
+            names |= {name, name.split(".")[0]}          # ruamel.yaml is imported as ruamel
     return names
 
 

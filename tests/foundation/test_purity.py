@@ -5,9 +5,10 @@ By location, in every package's Python package ``src/<pkg>/src/<pkg>/``:
 - **adapters** may import anything: modules named ``*_node.py`` and every module of a ``ros/``
   subpackage (the tooling's processes on a master too: the monitor, the chaos probe, the benchmarks'
   workers and drivers);
-- **tooling**: gidabot_sim's ``runner/``, ``demo/``, ``chaos/``, ``bench/`` and ``report/`` never run on a
-  robot: no module outside them imports one of them. Of the tooling, ``runner/`` (it starts masters and
-  launches and finds node executables) may import ROS; the rest of it (the report, the chaos bookkeeping,
+- **tooling**: gidabot_sim's ``runner/``, ``demo/``, ``chaos/``, ``bench/`` and ``report/``, and gidabot_web's
+  ``editor/`` (the building editor, whose preview runs ``gidabot demo``) never run on a robot: no module
+  outside them imports one of them. Of the tooling, ``runner/`` (it starts masters and launches and finds
+  node executables) may import ROS; the rest of it (the report, the chaos bookkeeping,
   the governor, the timing...) is ROS-free like a core, its adapters aside. The tools keep to themselves:
   one imports no other, only what they share (``runner/``, and ``report/``'s modules: the report of a run
   folder), and no module imports a tool's ``command.py`` (bin/gidabot reaches it by name);
@@ -29,7 +30,8 @@ from pathlib import Path
 from source_imports import QT, Import, imports, module_files, packages
 
 REPO = Path(__file__).resolve().parents[2]
-TOOLING = {"gidabot_sim": ("runner", "demo", "chaos", "bench", "report")}   # never runs on a robot
+TOOLING = {"gidabot_sim": ("runner", "demo", "chaos", "bench", "report"),    # never runs on a robot
+           "gidabot_web": ("editor",)}            # the building editor: its preview runs gidabot demo
 ROS_TOOLING = {"gidabot_sim": ("runner",)}   # the tooling that may import ROS (besides its adapters)
 SHARED_TOOLING = {"gidabot_sim": ("runner", "report")}   # what every tool may import; no tool imports another
 QT_PACKAGES = {"gidabot_gui": "core"}    # package -> its Qt-free subpackage; the rest is the Qt part
@@ -71,7 +73,7 @@ def wrong(imp: Import, where: str, module: str = "") -> str:
         return TOOLING_WHERE
     if theirs and imp.module.split(".")[2] == "command":
         return COMMAND_WHERE
-    if theirs and theirs != mine and theirs not in SHARED_TOOLING[imp.top]:
+    if theirs and theirs != mine and theirs not in SHARED_TOOLING.get(imp.top, ()):
         return TOOL_WHERE
     if where in ("adapter", "ros tooling"):
         return ""

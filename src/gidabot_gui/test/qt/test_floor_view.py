@@ -105,3 +105,40 @@ def test_the_goal_is_a_red_pin_standing_on_it(view) -> None:
     assert pixel(view, wx, wy - 1.0 * s) == "#C0392B"
     view.set_goal(None)
     assert pixel(view, wx, wy - 1.0 * s) != "#C0392B"
+
+
+def test_keep_out_zones_are_drawn_for_admins_only(qapp, faculty) -> None:
+    """A floor's keep-out zones (building file key keep_out) are hatched in red in admin mode, not shown to
+    visitors."""
+    from dataclasses import replace
+
+    from gidabot_gui.qt.theme import DANGER
+    from gidabot_navigation.building.geometry import Polygon
+    from gidabot_navigation.building.model import KeepOut
+
+    zone = KeepOut("stairs_top", Polygon(((50.0, 14.0), (56.0, 14.0), (56.0, 20.0), (50.0, 20.0))))
+    v = FloorView(replace(faculty.floor(1), keep_out=(zone,)))
+    v.resize(700, 320)
+    v.show()
+    qapp.processEvents()
+    try:
+        points = [v.map_to_widget(x / 4, y / 4) for x in range(201, 224, 2) for y in range(58, 78, 2)]
+        outside = [v.map_to_widget(x, 17.0) for x in (45.0, 58.0)]
+
+        def redness() -> list[int]:
+            image = v.grab().toImage()
+            return [QColor(image.pixel(round(x), round(y))).red() - QColor(image.pixel(round(x), round(y))).green()
+                    for x, y in points + outside]
+
+        before = redness()
+        v.set_show_keep_out(True)
+        after = redness()
+        n = len(points)
+        assert all(a > b + 15 for a, b in zip(after[:n], before[:n], strict=True))   # tinted red inside
+        assert after[n:] == before[n:]                                                 # nothing outside
+        assert any(pixel(v, *xy) == DANGER for xy in points)                           # the hatching
+        v.set_show_keep_out(False)
+        assert redness() == before
+    finally:
+        v.close()
+        v.deleteLater()

@@ -3,7 +3,10 @@
     gidabot check maps/faculty         (the rules: docs/building-format.md)
     gidabot check tours/long_tour.tour [more.tour ...] --building maps/faculty
 
-Prints every problem (file, key or line, value) and exits 1 if there is any. A tour
+Prints every problem (file, key or line, value) and exits 1 if there is any. A building
+that passes may still get warnings (``WARN`` lines: a parked robot leaving too little room
+for another robot of its floor to pass, ``building/passing.py``); they do not fail it. A
+draft (``draft: true``, saved by ``gidabot edit`` while its checks failed) fails. A tour
 file in a form the tour store accepts but writes differently (CRLF line endings,
 byte-order mark, spacing...) passes, with a note.
 """
@@ -14,6 +17,7 @@ import argparse
 from pathlib import Path
 
 from gidabot_navigation.building.model import Building, load_building
+from gidabot_navigation.building.passing import passing_warnings
 from gidabot_navigation.building.reachability import reachability_problems
 from gidabot_navigation.errors import BuildingError, TourError, TourNameError
 from gidabot_navigation.tours.tour_file import check_tour_file_name, format_tour, parse_tour
@@ -45,8 +49,12 @@ def main(argv: list[str]) -> int:
                 print(f"FAIL {path}: {err}")
                 failures += 1
                 continue
+            warnings = passing_warnings(b)
             print(f"ok   {path}: building {b.id!r}: {len(b.floors)} floors, {len(b.locations)} locations, "
-                  f"{len(b.connectors)} connectors, {len(b.robots)} robots, {len(b.relay_pairs())} relays")
+                  f"{len(b.connectors)} connectors, {len(b.robots)} robots, {len(b.relay_pairs())} relays"
+                  + (f", {len(warnings)} warning(s)" if warnings else ""))
+            for warning in warnings:
+                print(f"WARN {warning}")
             continue
         try:
             check_tour_file_name(path.name)

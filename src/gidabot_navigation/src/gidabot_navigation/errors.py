@@ -16,14 +16,24 @@ class GidaBotError(Exception):
 
 @dataclass(frozen=True)
 class Problem:
-    """One problem found in a data file: where (file, key or line) and what."""
+    """One problem found in a data file: where (file, key or line) and what.
+
+    ``floor`` and ``marks`` place it on a floor's map when it has a place there (the building editor shows it):
+    each mark is (x, y, what) in that floor's map metres, ``what`` one of :data:`MARKS`.
+    """
 
     file: str
     where: str
     message: str
+    floor: float | None = None
+    marks: tuple[tuple[float, float, str], ...] = ()
 
     def __str__(self) -> str:
         return f"{self.file}: {self.where}: {self.message}"
+
+
+MARKS = ("place", "closed", "reached", "narrow", "zone")   # the place, where the way closes, the last point reached,
+#                                                          the narrowest point, a keep-out zone
 
 
 class ProblemsError(GidaBotError):
@@ -49,6 +59,10 @@ class TourError(ProblemsError):
 
 class TourNameError(GidaBotError):
     """A tour file name is unsafe or malformed."""
+
+
+class AlignmentError(GidaBotError):
+    """Matching points do not determine an alignment (too few, all at one spot, a mirror image)."""
 
 
 class PlanningError(GidaBotError):

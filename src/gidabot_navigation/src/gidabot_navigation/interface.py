@@ -38,6 +38,7 @@ class Node:
     VISITOR = "visitor"                # the simulated visitor (one per floor)
     MONITOR = "monitor"                # the demo's progress monitor (anonymous: rospy appends a suffix)
     CHAOS_PROBE = "chaos_probe"
+    EDITOR_PREVIEW = "gidabot_editor_preview"   # the building editor's pose reader in a preview (anonymous)
 
 
 GUIDING_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION)

@@ -191,6 +191,32 @@ BROKEN: list[tuple[str, Callable[[dict], None], str]] = [
      "locations[*].id: '101\\n' must be a string of letters, digits"),
     ("robot name with a trailing newline", lambda d: d["robots"][1].update(name="Kbot\n"),
      "robots[1].name: 'Kbot\\n' must start with a letter"),
+    ("keep-out zone with two points", lambda d: d["floors"][0].update(
+        keep_out=[{"id": "glass", "polygon": [[40.0, 13.0], [44.0, 13.0]]}]),
+     "floors[0].keep_out[0].polygon: [[40.0, 13.0], [44.0, 13.0]]: must be a list of 3 to 500 points"),
+    ("keep-out zone whose outline crosses itself", lambda d: d["floors"][0].update(
+        keep_out=[{"id": "bowtie", "polygon": [[40.0, 11.0], [44.0, 13.0], [44.0, 11.0], [40.0, 13.0]]}]),
+     "floors[0].keep_out[0].polygon: [[40.0, 11.0], [44.0, 13.0], [44.0, 11.0], [40.0, 13.0]]: edges 0-1 and 2-3 "
+     "cross"),
+    ("keep-out zone off the map", lambda d: d["floors"][1].update(
+        keep_out=[{"id": "far", "polygon": [[400.0, 11.0], [404.0, 11.0], [404.0, 13.0]]}]),
+     "floors[1].keep_out[0].polygon: keep-out zone far (400..404, 11..13 m) lies outside the map"),
+    ("two keep-out zones with one id", lambda d: d["floors"][1].update(
+        keep_out=[{"id": "z", "polygon": [[40.0, 13.0], [41.0, 13.0], [41.0, 13.4]]},
+                  {"id": "z", "polygon": [[50.0, 13.0], [51.0, 13.0], [51.0, 13.4]]}]),
+     "floors[1].keep_out[1].id: duplicate keep-out zone id 'z' on this floor"),
+    ("a location inside a keep-out zone", lambda d: d["floors"][2].update(
+        keep_out=[{"id": "office_223", "polygon": [[36.0, 11.0], [38.0, 11.0], [38.0, 12.0], [36.0, 12.0]]}]),
+     "locations[30].pose: (37, 11.4) is inside keep-out zone office_223 of floor 2, where robots never go; "
+     "location 223 must be outside it"),
+    ("floor aligned to itself", lambda d: d["floors"][1].update(aligned_to={"floor": 1, "pose": [0.0, 0.0, 0.0]}),
+     "floors[1].aligned_to.floor: floor 1 is aligned to itself"),
+    ("floors aligned in a loop", lambda d: (d["floors"][1].update(aligned_to={"floor": 2, "pose": [0.0, 0.0, 0.0]}),
+                                            d["floors"][2].update(aligned_to={"floor": 1, "pose": [0.0, 0.0, 0.0]})),
+     "floors[1].aligned_to: floor 1: the floors' aligned_to come back to it in a loop"),
+    ("a draft saved by the editor", lambda d: d.update(draft=True),
+     "draft: true: the building editor saved this building as a draft (its checks failed); open it with "
+     "`gidabot edit "),
     ("blueprint_transform with the wrong scale", lambda d: d["floors"][3]["blueprint_transform"].update(scale=32.0),
      "connectors[2].meeting[3].pose: (67.6, 12) is at pixel (2187, 24) of the blueprint floor3.png, outside its "
      "1200x432 pixels"),

@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "check": ("gidabot_navigation.cli", "validate a building directory or tour files"),
     "dashboard-passwd": ("gidabot_web.dashboard.passwd", "set (or --delete) a user of a robot's staff dashboard"),
     "demo": ("gidabot_sim.demo.command", "run the simulated building through a tour, record it, print the tables"),
+    "edit": ("gidabot_web.editor.app", "the building editor in the browser: maps and blueprints in, a building out"),
     "report": ("gidabot_sim.report.command", "the paper's tables and path plots from a run folder's rosbags"),
 }
 

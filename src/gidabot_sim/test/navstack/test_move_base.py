@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 
 import pytest
+from building_support import GLASS, faculty_with_keep_out
 from sim_support import ListLog
 
 from gidabot_navigation.building.geometry import Pose2D
@@ -180,3 +181,23 @@ def test_no_pose_aborts_and_bad_goals_are_rejected(faculty) -> None:
         core.set_goal(Pose2D(math.nan, 12.0, 0.0), 20.0)
     with pytest.raises(Exception, match="controller_frequency"):
         NavConfig(controller_frequency=0.0)
+
+
+def test_keep_out_zones_are_driven_around_and_goals_inside_abort(faculty, tmp_path: Path) -> None:
+    """A keep-out zone of the building file (floor 1, the north half of the corridor at x 43..47) is lethal for
+    move_base: the robot drives past it on the free side, and a goal inside it aborts at once."""
+    building = load_building(faculty_with_keep_out(tmp_path / "faculty", 1, "glass", GLASS))
+    zone = building.floor(1).keep_out[0].polygon
+    sim = loop(building)
+    goal = Pose2D(50.0, 12.0, 0.0)
+    start, stalls = sim.world.time, sim.world.robots[0].stalls
+    sim.nav.set_goal(goal, sim.world.time)
+    while sim.world.time - start < 200:
+        result = sim.tick()
+        p = sim.pose
+        assert not zone.contains_point(p.x, p.y) and sim.world.clearance(p.x, p.y) >= sim.robot.radius - 1e-6
+        if result is not None and result.outcome is not None:
+            break
+    assert result.outcome == SUCCEEDED and sim.world.robots[0].stalls == stalls
+    out = sim.drive(Pose2D(45.0, 12.8, 0.0), timeout=30)
+    assert out.outcome == ABORTED and "inside keep-out zone glass" in out.text and out.duration < 0.5

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from building_support import GLASS, faculty_with_keep_out
 
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.model import load_building
@@ -340,3 +341,39 @@ def test_the_mates_file_holds_each_robots_latest_motion(tmp_path) -> None:
         Mates.open(tmp_path / "junk")
     with pytest.raises(SimConfigError, match="cannot open"):
         Mates.open(tmp_path / "none")
+
+
+def test_keep_out_zones_stop_bodies_but_not_the_laser() -> None:
+    """A keep-out zone (a glass wall, the top of a staircase) is solid for robots and invisible to the laser."""
+    from gidabot_navigation.building.geometry import Polygon
+
+    glass = Polygon(((6.0, 0.0), (6.2, 0.0), (6.2, 6.0), (6.0, 6.0)))
+    world = World(hall(), dt=0.02, keep_out={"glass": glass})
+    world.add_robot(spec(), Pose2D(4.0, 3.0, 0.0))
+    ranges = world.scan(0, noisy=False)
+    assert ranges[180] == pytest.approx(10.0 - 0.05 - 4.0 - 0.1, abs=0.06)   # the far wall, through the zone
+    drive(world, 0, 0.6, 0.0, 0.0, 8.0)
+    robot = world.robots[0]
+    assert robot.stalled and 5.6 <= robot.pose.x + 0.3 <= 6.0 + 1e-6       # stopped at the zone's edge
+    assert world.clearance(5.0, 3.0) == pytest.approx(0.95, abs=0.03)       # rasterised with half a cell more
+    with pytest.raises(PoseRejected, match="keep-out zone"):
+        world.teleport(0, Pose2D(6.1, 3.0, 0.0))
+    world.add_obstacle("box", Circle(2.0, 1.0, 0.3))                     # a rebuild keeps the zone solid
+    assert world.clearance(5.0, 3.0) == pytest.approx(0.95, abs=0.03)       # rasterised with half a cell more
+    assert World(hall()).clearance(5.0, 3.0) == pytest.approx(2.95, abs=0.03)   # no zone: only the walls
+
+
+def test_a_floors_world_and_move_base_hold_its_keep_out_zones(tmp_path: Path) -> None:
+    """What the simulator and move_base nodes build from the building file: the floor's map with its keep-out
+    zones (solid for the robots, lethal for the planner)."""
+    from gidabot_sim.navstack.move_base import MoveBaseCore
+
+    floor = load_building(faculty_with_keep_out(tmp_path / "faculty", 1, "glass", GLASS)).floor(1)
+    world = World.of_floor(floor, dt=0.02)
+    assert world.grid is floor.map
+    world.add_robot(spec(), Pose2D(40.0, 12.0, 0.0))
+    with pytest.raises(PoseRejected, match="keep-out zone"):
+        world.teleport(0, Pose2D(45.0, 12.8, 0.0))
+    core = MoveBaseCore.for_floor(floor, 0.3, DIFF)
+    assert list(core.planner.keep_out) == ["glass"] and core.planner.keep_out_at(45.0, 12.8) == "glass"
+    assert World.of_floor(load_building(FACULTY).floor(1)).clearance(45.0, 12.8) > 0.3      # no zone, no wall

@@ -28,3 +28,12 @@ class Refused(WebError):
         self.status = status
         self.reason = reason
         super().__init__(message or reason)
+
+
+class EditError(WebError):
+    """An edit of the building editor cannot be applied (a path that is not in the document, a value that is not
+    plain data, a file name outside the building folder); nothing of it was applied."""
+
+
+class PreviewError(WebError):
+    """The building editor's preview (the simulated building on the edited building) cannot start or run."""

@@ -1,4 +1,4 @@
-"""One floor's blueprint with the robots on it (and, in admin mode, Set location).
+"""One floor's blueprint with the robots on it (and, in admin mode, Set location and the floor's keep-out zones).
 
 Map metres -> blueprint pixels by the building's
 :class:`~gidabot_navigation.building.geometry.BlueprintTransform`; blueprint pixels ->
@@ -12,10 +12,21 @@ import math
 from dataclasses import dataclass
 
 from PyQt5.QtCore import QPointF, QRectF, QSize, Qt, pyqtSignal
-from PyQt5.QtGui import QBrush, QColor, QFont, QFontMetrics, QPainter, QPainterPath, QPen, QPixmap, QTransform
+from PyQt5.QtGui import (
+    QBrush,
+    QColor,
+    QFont,
+    QFontMetrics,
+    QPainter,
+    QPainterPath,
+    QPen,
+    QPixmap,
+    QPolygonF,
+    QTransform,
+)
 from PyQt5.QtWidgets import QSizePolicy, QWidget
 
-from gidabot_gui.qt.theme import ACCENT, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
+from gidabot_gui.qt.theme import ACCENT, DANGER, FONT_FAMILY, OFFLINE, OTHER_ROBOT, PRIMARY, Theme, heading_polygon
 from gidabot_navigation.building.model import Floor
 
 TURN_GAIN = 1.5    # a blueprint is turned when that shows it at least this much larger
@@ -75,7 +86,8 @@ class RobotMark:
 
 
 class FloorView(QWidget):
-    """Paints a floor's blueprint, its robots, the goal, and the pose being set."""
+    """Paints a floor's blueprint, its robots, the goal, and the pose being set; with ``show_keep_out`` (admin mode
+    only: visitors need not see them) the floor's keep-out zones, hatched in red."""
 
     location_tapped = pyqtSignal(float, float)          # map x, y of a tap (visitor mode)
     pose_dragged = pyqtSignal(float, float, float, float)  # blueprint px: press u, v, release u, v
@@ -89,6 +101,7 @@ class FloorView(QWidget):
         self.goal: tuple[float, float] | None = None     # map x, y of the current goal on this floor
         self.featured: list[tuple[float, float]] = []
         self.setting_pose = False
+        self.show_keep_out = False
         self.press_px: tuple[float, float] | None = None  # blueprint px
         self.drag_px: tuple[float, float] | None = None
         self.theme = Theme()
@@ -129,6 +142,11 @@ class FloorView(QWidget):
     def set_goal(self, goal: tuple[float, float] | None) -> None:
         if goal != self.goal:
             self.goal = goal
+            self.update()
+
+    def set_show_keep_out(self, on: bool) -> None:
+        if on != self.show_keep_out:
+            self.show_keep_out = on
             self.update()
 
     def set_setting_pose(self, on: bool) -> None:
@@ -179,6 +197,8 @@ class FloorView(QWidget):
         if self._scaled is not None:
             p.drawPixmap(int(m.ox), int(m.oy), self._scaled)
         scale_px = self.floor.transform.scale * m.k                   # widget px per metre
+        if self.show_keep_out:
+            self._paint_keep_out(p)
         for x, y in self.featured:
             wx, wy = self.map_to_widget(x, y)
             p.setPen(Qt.NoPen)
@@ -191,6 +211,17 @@ class FloorView(QWidget):
         if self.setting_pose and self.press_px is not None:
             self._paint_pose(p, m)
         p.end()
+
+    def _paint_keep_out(self, p: QPainter) -> None:
+        edge, fill = QColor(DANGER), QColor(DANGER)
+        fill.setAlpha(60)
+        for zone in self.floor.keep_out:
+            outline = QPolygonF([QPointF(*self.map_to_widget(x, y)) for x, y in zone.polygon.points])
+            p.setPen(QPen(edge, 2))
+            p.setBrush(QBrush(fill))
+            p.drawPolygon(outline)
+            p.setBrush(QBrush(edge, Qt.BDiagPattern))
+            p.drawPolygon(outline)
 
     def _paint_goal(self, p: QPainter, wx: float, wy: float) -> None:
         s = 16.0 * self.theme.scale

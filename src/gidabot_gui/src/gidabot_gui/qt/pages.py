@@ -264,6 +264,10 @@ class FloorPage(Page):
         self.grid.font_floor = theme.px(15)
         self.grid._relayout()
 
+    def set_admin(self, on: bool) -> None:
+        """Admin mode shows the floor's keep-out zones on the blueprint (visitors do not see them)."""
+        self.view.set_show_keep_out(on)
+
     def set_setting_location(self, on: bool) -> None:
         """Admin's Set location (``on``): the whole page for the map, a bar with the instructions, Apply (once a
         pose was dragged) and Cancel; else the legend and the location buttons."""

@@ -508,6 +508,8 @@ class MainWindow(QWidget):
         self.admin_btn.setIcon(icon("unlock" if unlocked else "lock", "#FFFFFF"))
         self.set_location_btn.setVisible(unlocked)
         self.tours_page.set_admin(unlocked)
+        for page in self.floor_pages.values():
+            page.set_admin(unlocked)
 
     def _update_tours_page(self) -> None:
         flow = self.visitor.flow

@@ -4,6 +4,9 @@ One YAML file per building, ``maps/<building>/building.yaml``; its format is
 documented in ``docs/building-format.md``. :func:`load_building` validates
 everything and raises one :class:`BuildingError` listing every problem with
 file, key and value, so a new building needs only data files, no code.
+:func:`building_from_doc` does the same for a document already read (the
+building editor checks the one being edited); a building saved as a draft
+(``draft: true``) is refused unless ``allow_draft``.
 """
 
 from __future__ import annotations
@@ -11,13 +14,13 @@ from __future__ import annotations
 import ipaddress
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from urllib.parse import urlparse
 
 import yaml
 
-from gidabot_navigation.building.geometry import BlueprintTransform, Pose2D
+from gidabot_navigation.building.geometry import BlueprintTransform, Polygon, Pose2D, polygon_problem
 from gidabot_navigation.building.occupancy import OccupancyMap, load_map
 from gidabot_navigation.building.yaml_text import DuplicateKeyError, load_yaml
 from gidabot_navigation.errors import BuildingError, MapError, Problem
@@ -41,6 +44,29 @@ def format_floor(floor: float) -> str:
 
 
 @dataclass(frozen=True)
+class KeepOut:
+    """A zone of a floor robots never enter (building file key ``keep_out``): lethal for the planner, solid for the
+    simulated robots, invisible to the simulated laser."""
+
+    id: str
+    polygon: Polygon
+
+
+@dataclass(frozen=True)
+class FloorAlignment:
+    """Where a floor's map frame lies in another floor's map frame (building file key ``aligned_to``, set by the
+    building editor): lets the editor show one floor over the other."""
+
+    floor: float
+    pose: Pose2D
+
+    def to_other(self, x: float, y: float) -> tuple[float, float]:
+        """A point of this floor's map in the other floor's map (m)."""
+        c, s = math.cos(self.pose.yaw), math.sin(self.pose.yaw)
+        return (self.pose.x + c * x - s * y, self.pose.y + s * x + c * y)
+
+
+@dataclass(frozen=True)
 class Floor:
     id: float
     names: dict[str, str]
@@ -49,10 +75,21 @@ class Floor:
     transform: BlueprintTransform
     map: OccupancyMap = field(repr=False, compare=False)
     blueprint_size: tuple[int, int] = (0, 0)   # pixels (width, height) of the blueprint image
+    keep_out: tuple[KeepOut, ...] = ()
+    aligned_to: FloorAlignment | None = None
 
     @property
     def label(self) -> str:
         return format_floor(self.id)
+
+    @property
+    def keep_out_zones(self) -> dict[str, Polygon]:
+        """The keep-out zones by id (what :class:`~gidabot_navigation.building.planning.GridPlanner` takes)."""
+        return {z.id: z.polygon for z in self.keep_out}
+
+    def keep_out_at(self, x: float, y: float) -> KeepOut | None:
+        """The keep-out zone (x, y) lies in, or None."""
+        return next((z for z in self.keep_out if z.polygon.contains_point(x, y)), None)
 
 
 @dataclass(frozen=True)
@@ -129,6 +166,7 @@ class Building:
     locations: tuple[Location, ...]
     connectors: tuple[Connector, ...]
     robots: tuple[Robot, ...]
+    draft: bool = False          # saved by the editor while its checks failed: only the editor loads it
 
     # -- lookups --------------------------------------------------------
     def floor_ids(self) -> list[float]:
@@ -246,8 +284,6 @@ def relocate_building(src: str | Path, dest_dir: str | Path, master_uris: dict[s
 
 
 def _replace_robot(robot: Robot, uri: str) -> Robot:
-    from dataclasses import replace
-
     return replace(robot, master_uri=uri)
 
 
@@ -258,12 +294,14 @@ def _replace_robot(robot: Robot, uri: str) -> Robot:
 class _Checker:
     """Collects problems while reading one building file."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, files: FloorFiles) -> None:
         self.path = path
+        self.files = files
         self.problems: list[Problem] = []
 
-    def problem(self, where: str, message: str) -> None:
-        self.problems.append(Problem(str(self.path), where, message))
+    def problem(self, where: str, message: str, floor: float | None = None,
+                marks: tuple[tuple[float, float, str], ...] = ()) -> None:
+        self.problems.append(Problem(str(self.path), where, message, floor, marks))
 
     def mapping(self, value: object, where: str) -> dict:
         if isinstance(value, dict):
@@ -350,15 +388,72 @@ def _show(value: object) -> str:
     return text if len(text) <= 60 else text[:57] + "..."
 
 
-def load_building(path: str | Path) -> Building:
+DRAFT_MESSAGE = ("true: the building editor saved this building as a draft (its checks failed); open it with "
+                 "`gidabot edit {dir}`, fix the problems it lists and save it again")
+
+
+class FloorFiles:
+    """Reads the floors' map and blueprint files for :func:`building_from_doc`: each time they are asked for
+    (every node, ``gidabot check``), or, with ``cache``, again only when a file changed on disk (its size or
+    modification time: the building editor checks after every change)."""
+
+    def __init__(self, cache: bool = False) -> None:
+        self.cache = cache
+        self._maps: dict[tuple[str, int, int], OccupancyMap] = {}
+        self._sizes: dict[tuple[str, int, int], tuple[int, int]] = {}
+
+    @staticmethod
+    def _key(path: Path) -> tuple[str, int, int]:
+        st = path.stat()
+        return (str(path.resolve()), st.st_mtime_ns, st.st_size)
+
+    def load_map(self, path: Path) -> OccupancyMap:
+        """The map_server map at ``path`` (:class:`MapError`); with the cache, keyed by the map YAML's and its
+        image's stamps."""
+        if not self.cache:
+            return load_map(path)
+        try:
+            image = load_yaml(path.read_text(encoding="utf-8"))
+            image_path = path.parent / str(image.get("image", "")) if isinstance(image, dict) else path
+            key = (*self._key(path), *self._key(image_path))
+        except (OSError, UnicodeDecodeError, yaml.YAMLError):
+            return load_map(path)                        # it reports what is wrong
+        if key not in self._maps:
+            self._maps = {k: v for k, v in self._maps.items() if k[0] != key[0]}
+            self._maps[key] = load_map(path)
+        return self._maps[key]
+
+    def image_size(self, path: Path) -> tuple[int, int]:
+        """(width, height) of the image at ``path`` once it decoded completely (OSError, ValueError or PIL's
+        UnidentifiedImageError when it does not)."""
+        key = self._key(path) if self.cache else None
+        if key is not None and key in self._sizes:
+            return self._sizes[key]
+        from PIL import Image
+
+        with Image.open(path) as img:
+            img.load()
+            size = img.size
+        if key is not None:
+            self._sizes[key] = size
+        return size
+
+
+def load_building(path: str | Path, allow_draft: bool = False) -> Building:
     """Load and validate ``building.yaml`` (or a directory holding one).
 
-    Raises :class:`BuildingError` listing every problem found.
+    Raises :class:`BuildingError` listing every problem found; a draft (``draft: true``) is one of them unless
+    ``allow_draft``.
     """
     path = Path(path)
     if path.is_dir():
         path = path / "building.yaml"
-    chk = _Checker(path)
+    return building_from_doc(read_building_doc(path), path, allow_draft)
+
+
+def read_building_doc(path: Path) -> object:
+    """The YAML document of building file ``path`` (:class:`BuildingError` when it cannot be read or parsed, or
+    gives a key twice in one mapping)."""
     try:
         raw = path.read_text(encoding="utf-8")
     except OSError as err:
@@ -366,13 +461,25 @@ def load_building(path: str | Path) -> Building:
     except UnicodeDecodeError as err:
         raise BuildingError([Problem(str(path), "file", f"not UTF-8 text: {err}")]) from err
     try:
-        doc = load_yaml(raw)
+        return load_yaml(raw)
     except DuplicateKeyError as err:
         raise BuildingError([Problem(str(path), f"line {err.line}", err.problem)]) from err
     except yaml.YAMLError as err:
         raise BuildingError([Problem(str(path), "file", f"not valid YAML: {err}")]) from err
+
+
+def building_from_doc(doc: object, path: Path, allow_draft: bool = False, files: FloorFiles | None = None) -> Building:
+    """Validate the building document ``doc`` (plain YAML data) of the building file ``path`` (files it names are
+    relative to its directory); :class:`BuildingError` listing every problem."""
+    chk = _Checker(path, files or FloorFiles())
     doc = chk.mapping(doc, "(top level)")
-    chk.keys(doc, "", ("id", "name", "floors", "locations", "connectors", "robots"))
+    chk.keys(doc, "", ("id", "name", "floors", "locations", "connectors", "robots"), ("draft",))
+    draft = doc.get("draft", False)
+    if not isinstance(draft, bool):
+        chk.problem("draft", f"{_show(draft)} must be true or false")
+        draft = False
+    elif draft and not allow_draft:
+        chk.problem("draft", DRAFT_MESSAGE.format(dir=path.parent))
     building_id = doc.get("id", "x")
     if not isinstance(building_id, str) or not _ID_RE.match(building_id):
         chk.problem("id", f"{_show(building_id)} must be 1-32 letters, digits, '_', '.', '-' starting with a letter "
@@ -394,17 +501,15 @@ def load_building(path: str | Path) -> Building:
     if chk.problems:
         raise BuildingError(chk.problems)
     return Building(building_id, building_name, path, tuple(floors), tuple(locations),
-                    tuple(connectors), tuple(robots))
+                    tuple(connectors), tuple(robots), draft=draft)
 
 
 def _image_size(chk: _Checker, path: Path, where: str) -> tuple[int, int] | None:
     """(width, height) of the image at ``path`` once it decoded completely, else a problem."""
-    from PIL import Image, UnidentifiedImageError
+    from PIL import UnidentifiedImageError
 
     try:
-        with Image.open(path) as img:
-            img.load()
-            return img.size
+        return chk.files.image_size(path)
     except (OSError, UnidentifiedImageError, ValueError) as err:
         chk.problem(where, f"{path.name!r} is not a readable image (PNG, JPEG, PGM...): {err}")
         return None
@@ -417,20 +522,24 @@ def _on_blueprint(chk: _Checker, floor: Floor, pose: Pose2D, where: str) -> None
     if not (0 <= u < w and 0 <= v < h):
         chk.problem(where, f"({pose.x:g}, {pose.y:g}) is at pixel ({u:.0f}, {v:.0f}) of the blueprint "
                            f"{floor.blueprint_file.name}, outside its {w}x{h} pixels: check blueprint_transform "
-                           f"of floor {floor.label}")
+                           f"of floor {floor.label}", floor.id, ((pose.x, pose.y, "place"),))
 
 
 def _in_free_space(chk: _Checker, floor: Floor, pose: Pose2D, where: str, what: str) -> None:
     _on_blueprint(chk, floor, pose, where)
     grid = floor.map
+    at = ((pose.x, pose.y, "place"),)
     if not grid.contains(pose.x, pose.y):
         w, h = grid.size_m
         x0, y0 = grid.origin_x, grid.origin_y
         chk.problem(where, f"({pose.x:g}, {pose.y:g}) is outside the map of floor {floor.label} "
-                           f"(x {x0:g}..{x0 + w:g}, y {y0:g}..{y0 + h:g} m)")
+                           f"(x {x0:g}..{x0 + w:g}, y {y0:g}..{y0 + h:g} m)", floor.id, at)
     elif not grid.is_free(pose.x, pose.y):
         chk.problem(where, f"({pose.x:g}, {pose.y:g}) is inside a wall or unknown space on floor "
-                           f"{floor.label}; {what} must be in free space")
+                           f"{floor.label}; {what} must be in free space", floor.id, at)
+    elif (zone := floor.keep_out_at(pose.x, pose.y)) is not None:
+        chk.problem(where, f"({pose.x:g}, {pose.y:g}) is inside keep-out zone {zone.id} of floor {floor.label}, "
+                           f"where robots never go; {what} must be outside it", floor.id, at)
 
 
 class _Floors(dict):
@@ -446,10 +555,12 @@ class _Floors(dict):
 def _load_floors(chk: _Checker, value: object) -> tuple[list[Floor], set[float]]:
     floors: list[Floor] = []
     unusable: set[float] = set()
+    alignments: dict[float, tuple[str, object]] = {}
     for i, item in enumerate(chk.seq(value, "floors")):
         where = f"floors[{i}]"
         doc = chk.mapping(item, where)
-        if not chk.keys(doc, where, ("id", "names", "map", "blueprint", "blueprint_transform")):
+        if not chk.keys(doc, where, ("id", "names", "map", "blueprint", "blueprint_transform"),
+                        ("keep_out", "aligned_to")):
             continue
         fid = chk.number(doc["id"], f"{where}.id")
         names = chk.names(doc["names"], f"{where}.names")
@@ -474,19 +585,86 @@ def _load_floors(chk: _Checker, value: object) -> tuple[list[Floor], set[float]]
         grid = None
         if map_file is not None:
             try:
-                grid = load_map(map_file)
+                grid = chk.files.load_map(map_file)
             except MapError as err:
                 chk.problem(f"{where}.map", str(err))
+        zones = _keep_out(chk, doc.get("keep_out", []), f"{where}.keep_out", grid, fid)
         size = _image_size(chk, blueprint, f"{where}.blueprint") if blueprint is not None else None
-        if None in (fid, map_file, blueprint, transform, grid, size) or len(names) != len(LANGUAGES):
+        if None in (fid, map_file, blueprint, transform, grid, size, zones) or len(names) != len(LANGUAGES):
             if fid is not None:
                 unusable.add(fid)
             continue
+        if "aligned_to" in doc:
+            alignments[fid] = (f"{where}.aligned_to", doc["aligned_to"])  # type: ignore[index]
         floors.append(Floor(fid, names, map_file, blueprint, transform, grid,  # type: ignore[arg-type]
-                            blueprint_size=size))  # type: ignore[arg-type]
+                            blueprint_size=size, keep_out=zones))  # type: ignore[arg-type]
     if not floors and not chk.problems:
         chk.problem("floors", "a building needs at least one floor")
+    floors = _aligned(chk, floors, unusable, alignments)
     return floors, unusable
+
+
+def _keep_out(chk: _Checker, value: object, where: str, grid: OccupancyMap | None,
+              floor: float | None) -> tuple[KeepOut, ...] | None:
+    """A floor's ``keep_out`` zones: ``[{id, polygon: [[x, y], ...]}]`` (None when one is wrong: reported)."""
+    n = len(chk.problems)
+    zones: list[KeepOut] = []
+    for j, item in enumerate(chk.seq(value, where)):
+        zwhere = f"{where}[{j}]"
+        doc = chk.mapping(item, zwhere)
+        if not chk.keys(doc, zwhere, ("id", "polygon")):
+            continue
+        zid = doc["id"]
+        if not isinstance(zid, str) or not _ID_RE.match(zid):
+            chk.problem(f"{zwhere}.id", f"{_show(zid)} must be a string of letters, digits, '_', '.', '-'")
+            continue
+        if any(z.id == zid for z in zones):
+            chk.problem(f"{zwhere}.id", f"duplicate keep-out zone id {zid!r} on this floor")
+            continue
+        problem = polygon_problem(doc["polygon"])
+        if problem is not None:
+            chk.problem(f"{zwhere}.polygon", f"{_show(doc['polygon'])}: {problem}")
+            continue
+        zone = KeepOut(zid, Polygon(tuple(tuple(pt) for pt in doc["polygon"])))
+        if grid is not None:
+            x0, y0, x1, y1 = zone.polygon.bounds()
+            w, h = grid.size_m
+            if x1 < grid.origin_x or y1 < grid.origin_y or x0 > grid.origin_x + w or y0 > grid.origin_y + h:
+                chk.problem(f"{zwhere}.polygon", f"keep-out zone {zid} ({x0:g}..{x1:g}, {y0:g}..{y1:g} m) lies "
+                                                 f"outside the map (x {grid.origin_x:g}..{grid.origin_x + w:g}, "
+                                                 f"y {grid.origin_y:g}..{grid.origin_y + h:g} m)", floor,
+                            tuple((x, y, "zone") for x, y in zone.polygon.points))
+                continue
+        zones.append(zone)
+    return None if len(chk.problems) > n else tuple(zones)
+
+
+def _aligned(chk: _Checker, floors: list[Floor], unusable: set[float],
+             alignments: dict[float, tuple[str, object]]) -> list[Floor]:
+    """The floors with their ``aligned_to: {floor, pose}`` (another floor; no chain of them may come back)."""
+    found: dict[float, FloorAlignment] = {}
+    by_floor = _Floors({f.id: f for f in floors}, unusable)
+    for fid, (where, value) in alignments.items():
+        doc = chk.mapping(value, where)
+        if not chk.keys(doc, where, ("floor", "pose")):
+            continue
+        other = _floor_ref(chk, doc["floor"], f"{where}.floor", by_floor)
+        pose = chk.pose(doc["pose"], f"{where}.pose")
+        if other is not None and other.id == fid:
+            chk.problem(f"{where}.floor", f"floor {format_floor(fid)} is aligned to itself; name another floor")
+        elif other is not None and pose is not None:
+            found[fid] = FloorAlignment(other.id, pose)
+    for fid in list(found):
+        seen, at = {fid}, found[fid].floor
+        while at in found:
+            if at in seen:
+                chk.problem(alignments[fid][0], f"floor {format_floor(fid)}: the floors' aligned_to come back to "
+                                                "it in a loop; one floor of each group is aligned to none")
+                del found[fid]
+                break
+            seen.add(at)
+            at = found[at].floor
+    return [replace(f, aligned_to=found.get(f.id)) for f in floors]
 
 
 def _floor_ref(chk: _Checker, value: object, where: str, by_floor: _Floors) -> Floor | None:

@@ -6,8 +6,10 @@ estimate trip lengths (which staircase minimises the whole trip, wait times).
 The costmap follows ROS costmap_2d's static + inflation layers:
 
 * *lethal* cells: occupied or unknown map cells (unknown space is never
-  entered), cells covered by obstacles added with :meth:`GridPlanner.add_obstacle`
-  and cells marked by a sensor (:meth:`GridPlanner.set_sensor_marks`);
+  entered), the floor's keep-out zones (polygons the building file draws: the top of a
+  staircase, a glass wall the laser does not see; ``keep_out``), cells covered by
+  obstacles added with :meth:`GridPlanner.add_obstacle` and cells marked by a sensor
+  (:meth:`GridPlanner.set_sensor_marks`);
 * *inscribed* cells: closer than ``robot_radius`` to a lethal cell (the robot's
   centre may not go there: its disc would touch the obstacle);
 * an exponential cost decay out to ``inflation_radius`` like costmap_2d's
@@ -35,12 +37,14 @@ changed cells, so a person stepping into a corridor costs a few milliseconds.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 import pyastar2d
 from scipy import ndimage
 
+from gidabot_navigation.building.geometry import Polygon
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.errors import ObstacleError, PlanningError
 
@@ -126,7 +130,7 @@ class Rectangle:
 Shape = Circle | Rectangle
 
 
-def rasterize(shape: Shape, grid: OccupancyMap) -> tuple[tuple[slice, slice], np.ndarray] | None:
+def rasterize(shape: Shape | Polygon, grid: OccupancyMap) -> tuple[tuple[slice, slice], np.ndarray] | None:
     """Cells covered by ``shape``: ((row slice, col slice), mask) or None if off the grid.
 
     Conservative: a cell is covered when its centre lies within half a cell of the
@@ -148,6 +152,16 @@ def rasterize(shape: Shape, grid: OccupancyMap) -> tuple[tuple[slice, slice], np
     if not mask.any():
         return None
     return (slice(r0, r1), slice(c0, c1)), mask
+
+
+def keep_out_mask(grid: OccupancyMap, zones: Iterable[Polygon]) -> np.ndarray:
+    """Cells covered by the keep-out ``zones`` (bool, grid shape; rasterised as :func:`rasterize` does)."""
+    mask = np.zeros(grid.cells.shape, dtype=bool)
+    for zone in zones:
+        cells = rasterize(zone, grid)
+        if cells is not None:
+            mask[cells[0]] |= cells[1]
+    return mask
 
 
 # ---------------------------------------------------------------------------
@@ -194,7 +208,7 @@ class GridPlanner:
     (inscribed radius); ``inflation_radius`` (m, >= robot_radius): where the cost
     decay ends; ``cost_scaling`` (1/m) and ``inflation_cost`` (weight of a cell at the
     inscribed radius, on top of 1) shape the decay; ``goal_tolerance`` (m): how far a
-    goal inside the inscribed zone may be moved.
+    goal inside the inscribed zone may be moved; ``keep_out``: the floor's keep-out zones by id (lethal, as walls).
 
     Obstacles (:meth:`add_obstacle`, :meth:`remove_obstacle`) and sensor marks
     (:meth:`set_sensor_marks`) update the costmap; :attr:`version` increases with
@@ -202,7 +216,8 @@ class GridPlanner:
     """
 
     def __init__(self, grid: OccupancyMap, robot_radius: float, inflation_radius: float | None = None,
-                 cost_scaling: float = 3.0, inflation_cost: float = 4.0, goal_tolerance: float = 0.5) -> None:
+                 cost_scaling: float = 3.0, inflation_cost: float = 4.0, goal_tolerance: float = 0.5,
+                 keep_out: Mapping[str, Polygon] | None = None) -> None:
         for name, value in (("robot_radius", robot_radius), ("cost_scaling", cost_scaling),
                             ("inflation_cost", inflation_cost), ("goal_tolerance", goal_tolerance)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
@@ -218,11 +233,14 @@ class GridPlanner:
         self.inflation_cost = float(inflation_cost)
         self.goal_tolerance = float(goal_tolerance)
         self.version = 0
+        self.keep_out = dict(keep_out or {})
         self._static = grid.cells != FREE                       # occupied or unknown
+        self._keep_out = keep_out_mask(grid, self.keep_out.values())
+        self._fixed = self._static | self._keep_out             # what no run-time change clears
         self._obstacles: dict[str, Shape] = {}
         self._obstacle_mask = np.zeros_like(self._static)
         self._marks = np.zeros_like(self._static)
-        self._lethal = self._static.copy()
+        self._lethal = self._fixed.copy()
         self._dist = np.zeros(self._static.shape, dtype=np.float32)   # m to the nearest lethal cell
         self._weights = np.zeros(self._static.shape, dtype=np.float32)
         self._labels: np.ndarray | None = None
@@ -236,14 +254,21 @@ class GridPlanner:
 
     @property
     def lethal(self) -> np.ndarray:
-        """Mask of lethal cells (map obstacles, unknown space, obstacles, sensor marks). Do not modify."""
+        """Mask of lethal cells (map obstacles, unknown space, keep-out zones, obstacles, sensor marks). Do not
+        modify."""
         return self._lethal
 
     @property
+    def keep_out_cells(self) -> np.ndarray:
+        """Mask of the cells of the keep-out zones. Do not modify."""
+        return self._keep_out
+
+    @property
     def static_distance(self) -> np.ndarray:
-        """Distance (m) of every cell to the nearest occupied/unknown *map* cell (computed once)."""
+        """Distance (m) of every cell to the nearest occupied/unknown *map* cell or keep-out zone (computed
+        once)."""
         if not hasattr(self, "_static_dist"):
-            self._static_dist = (ndimage.distance_transform_edt(~self._static) * self.grid.resolution
+            self._static_dist = (ndimage.distance_transform_edt(~self._fixed) * self.grid.resolution
                                  ).astype(np.float32)
         return self._static_dist
 
@@ -306,7 +331,7 @@ class GridPlanner:
             self._apply_lethal(changed)
 
     def _apply_lethal(self, changed: np.ndarray) -> None:
-        self._lethal = self._static | self._obstacle_mask | self._marks
+        self._lethal = self._fixed | self._obstacle_mask | self._marks
         rows, cols = np.nonzero(changed)
         self._update_region((int(rows.min()), int(rows.max()) + 1, int(cols.min()), int(cols.max()) + 1))
 
@@ -357,9 +382,18 @@ class GridPlanner:
                                 f"y {self.grid.origin_y:g}..{self.grid.origin_y + h:g} m)")
         if self._lethal[row, col]:
             kind = ("a wall or unknown space" if self._static[row, col]
+                    else f"keep-out zone {self.keep_out_at(x, y)}" if self._keep_out[row, col]
                     else "an obstacle" if self._obstacle_mask[row, col] else "an obstacle seen by the sensors")
             raise PlanningError(f"{what} ({x:g}, {y:g}) is inside {kind}")
         return row, col
+
+    def keep_out_at(self, x: float, y: float) -> str | None:
+        """The id of the keep-out zone whose cells cover (x, y), or None."""
+        row, col = self.grid.world_to_cell(x, y)
+        if not (0 <= row < self.grid.height and 0 <= col < self.grid.width and self._keep_out[row, col]):
+            return None
+        return next((zone_id for zone_id, zone in self.keep_out.items()
+                     if zone.contains(np.array(x), np.array(y), margin=self.grid.resolution)), "?")
 
     def clearance(self, x: float, y: float) -> float:
         """Distance (m) from (x, y) to the nearest lethal cell; 0 off the map."""

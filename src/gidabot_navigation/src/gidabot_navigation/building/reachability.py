@@ -32,19 +32,38 @@ from gidabot_navigation.building.planning import GridPlanner
 from gidabot_navigation.errors import PlanningError, Problem
 
 WALL_COST = 1000.0    # a wall cell on the way, in free cells: the way found crosses as few as it can
+ZONE_COST = 100.0     # a keep-out cell: drawn over free space, so the way crosses a zone before a wall
 
 
-def reachability_problems(building: Building) -> list[Problem]:
-    """Every place on a robot's floor that the robot cannot reach from its home, one problem each."""
-    planners: dict[tuple[float, float], GridPlanner] = {}
+def reachability_problems(building: Building, planners: PlannerCache | None = None) -> list[Problem]:
+    """Every place on a robot's floor that the robot cannot reach from its home, one problem each.
+
+    ``planners``: a cache of costmaps kept between calls (the building editor checks after every change; a
+    costmap is made again only for a new map, radius or keep-out zones)."""
+    cache = planners if planners is not None else PlannerCache()
     problems: list[Problem] = []
     for robot in building.robots:
         floor = building.floor(robot.floor)
-        key = (floor.id, robot.radius)
-        if key not in planners:
-            planners[key] = GridPlanner(floor.map, robot.radius)
-        problems += _robot_problems(building, floor, robot, planners[key])
+        problems += _robot_problems(building, floor, robot, cache.planner(floor, robot.radius))
     return problems
+
+
+class PlannerCache:
+    """Planners by (map, radius, keep-out zones): one costmap per floor and robot size."""
+
+    def __init__(self, size: int = 32) -> None:
+        self.size = size
+        self._planners: dict[tuple, tuple[object, GridPlanner]] = {}
+
+    def planner(self, floor: Floor, radius: float) -> GridPlanner:
+        zones = floor.keep_out_zones
+        key = (id(floor.map), radius, tuple((k, z.points) for k, z in zones.items()))
+        if key not in self._planners:
+            while len(self._planners) >= self.size:
+                self._planners.pop(next(iter(self._planners)))
+            # the map is kept with its planner: its id() stays its own while the entry lives
+            self._planners[key] = (floor.map, GridPlanner(floor.map, radius, keep_out=zones))
+        return self._planners[key][1]
 
 
 def _places(building: Building, floor: Floor) -> list[tuple[str, Pose2D]]:
@@ -60,41 +79,46 @@ def _robot_problems(building: Building, floor: Floor, robot: Robot, planner: Gri
     try:
         reachable = planner.reachable_mask(home)
     except PlanningError as err:
-        return [Problem(source, f"robot {robot.name}", f"home {err}")]
+        return [Problem(source, f"robot {robot.name}", f"home {err}", floor.id, ((home[0], home[1], "place"),))]
     problems = []
     for what, pose in _places(building, floor):
         try:
             planner.check_reachable(home, (pose.x, pose.y))
         except PlanningError as err:
-            why = _where_blocked(planner, reachable, home, (pose.x, pose.y), str(err))
+            why, marks = _where_blocked(planner, reachable, home, (pose.x, pose.y), str(err))
             problems.append(Problem(source, what, f"({pose.x:g}, {pose.y:g}) on floor {format_floor(floor.id)} "
                                                   f"is not reachable by {robot.name} (radius {robot.radius:g} m) "
-                                                  f"from its home ({robot.home.x:g}, {robot.home.y:g}): {why}"))
+                                                  f"from its home ({robot.home.x:g}, {robot.home.y:g}): {why}",
+                                    floor.id, ((pose.x, pose.y, "place"), *marks)))
     return problems
 
 
 def _where_blocked(planner: GridPlanner, reachable: np.ndarray, home: tuple[float, float],
-                   goal: tuple[float, float], error: str) -> str:
+                   goal: tuple[float, float], error: str) -> tuple[str, tuple[tuple[float, float, str], ...]]:
+    """Why the way to ``goal`` is blocked, and the points that show it (where it closes and the last point
+    reached, or the narrowest point)."""
     grid = planner.grid
     try:
         target = planner.goal_cell(*goal)
     except PlanningError as err:             # inside a wall, or against one with no room around
-        return str(err)
+        return str(err), ()
     start = grid.world_to_cell(*home)
     if not reachable[start]:                 # the home is in the inscribed zone: start from where it escapes to
         start = _closest(reachable, start)
     if start is None:
-        return error
+        return error, ()
     labels, _ = ndimage.label(~planner.lethal)
     if labels[start] != labels[target]:
-        last, wall = _closed_at(planner.lethal, reachable, start, target)
+        last, wall = _closed_at(planner.lethal, planner.keep_out_cells, reachable, start, target)
         (lx, ly), (wx, wy) = grid.cell_to_world(*last), grid.cell_to_world(*wall)
-        return (f"walled off (no free way at all): the way closes at ({wx:.2f}, {wy:.2f}) (a closed door or a "
-                f"wall without its gap?); the last point the robot reaches on it is ({lx:.2f}, {ly:.2f})")
+        zone = planner.keep_out_at(wx, wy)
+        what = f"keep-out zone {zone}" if zone is not None else "a closed door or a wall without its gap?"
+        return (f"walled off (no free way at all): the way closes at ({wx:.2f}, {wy:.2f}) ({what}); the last point "
+                f"the robot reaches on it is ({lx:.2f}, {ly:.2f})", ((wx, wy, "closed"), (lx, ly, "reached")))
     clearance, cell = _bottleneck(planner.static_distance, start, target, planner.robot_radius)
     x, y = grid.cell_to_world(*cell)
     return (f"the way is too narrow: at ({x:.2f}, {y:.2f}) the robot's centre keeps at most {clearance:.2f} m "
-            f"from the walls, it needs {planner.robot_radius:g} m (its radius)")
+            f"from the walls, it needs {planner.robot_radius:g} m (its radius)", ((x, y, "narrow"),))
 
 
 def _closest(mask: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
@@ -105,11 +129,12 @@ def _closest(mask: np.ndarray, cell: tuple[int, int]) -> tuple[int, int] | None:
     return int(rows[k]), int(cols[k])
 
 
-def _closed_at(lethal: np.ndarray, reachable: np.ndarray, start: tuple[int, int],
+def _closed_at(lethal: np.ndarray, zones: np.ndarray, reachable: np.ndarray, start: tuple[int, int],
                target: tuple[int, int]) -> tuple[tuple[int, int], tuple[int, int]]:
     """Where the way through the fewest wall cells leaves what the robot reaches: (last reachable
-    cell, first wall cell). Crossing a wall (or unknown space) cell costs as much as 1000 free ones."""
-    weights = np.where(lethal, WALL_COST, 1.0).astype(np.float32)
+    cell, first wall cell). Crossing a wall (or unknown space) cell costs as much as 1000 free ones, a keep-out
+    zone's as much as 100."""
+    weights = np.where(lethal, np.where(zones, ZONE_COST, WALL_COST), 1.0).astype(np.float32)
     path = pyastar2d.astar_path(weights, start, target, allow_diagonal=False)
     out = int(np.argmin(reachable[path[:, 0], path[:, 1]]))        # the first cell not reached
     closed = int(np.argmax(lethal[path[:, 0], path[:, 1]]))         # the first wall cell

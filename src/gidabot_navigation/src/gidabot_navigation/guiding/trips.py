@@ -99,7 +99,7 @@ class TripPlanner:
         f = self.building.floor(floor)
         if f.id not in self._planners:
             radius = max((r.radius for r in self.building.robots_on(f.id)), default=DEFAULT_RADIUS)
-            self._planners[f.id] = GridPlanner(f.map, radius)
+            self._planners[f.id] = GridPlanner(f.map, radius, keep_out=f.keep_out_zones)
         return self._planners[f.id]
 
     def warm_up(self) -> None:

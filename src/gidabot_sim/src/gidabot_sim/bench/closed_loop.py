@@ -48,12 +48,12 @@ class FloorLoop:
             raise ValueError(f"floor {self.floor.label} has no robot")
         self.robot = robot
         rng = np.random.default_rng(seed)
-        self.world = World(self.floor.map, rng=rng)
+        self.world = World.of_floor(self.floor, rng=rng)
         self.world.add_robot(RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), laser or LaserSpec()),
                              start or robot.home)
         self.amcl = AmclCore(amcl or AmclConfig(), rng)
         self.tracker = PoseTracker()
-        self.nav = MoveBaseCore.for_robot(self.floor.map, robot.radius, Limits.of_robot(robot), nav, log)
+        self.nav = MoveBaseCore.for_floor(self.floor, robot.radius, Limits.of_robot(robot), nav, log)
         self.odom_due = Periodic(odom_rate)
         self.laser_due = Periodic(laser_rate) if laser_rate > 0 else None
         self.control_due = Periodic(self.nav.config.controller_frequency)

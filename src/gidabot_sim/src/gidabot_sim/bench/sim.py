@@ -77,7 +77,7 @@ def bench_planner(building: Building) -> list[dict]:
         robot = next(iter(building.robots_on(floor.id)), None)
         radius = robot.radius if robot else 0.3
         limits = Limits.of_robot(robot) if robot else Limits(0.5, 1.0, 0.5, 1.0)
-        core = MoveBaseCore.for_robot(floor.map, radius, limits)
+        core = MoveBaseCore.for_robot(floor.map, radius, limits, keep_out=floor.keep_out_zones)
         times, lengths = [], []
         for a, b in itertools.combinations(places(building, floor.id), 2):
             start = time.perf_counter()

@@ -52,13 +52,14 @@ frequency and returns the velocity command and, when the goal ends, its outcome.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
 
-from gidabot_navigation.building.geometry import Pose2D, wrap_angle
+from gidabot_navigation.building.geometry import Polygon, Pose2D, wrap_angle
+from gidabot_navigation.building.model import Floor
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
 from gidabot_navigation.building.planning import (
     Circle,
@@ -194,14 +195,23 @@ class MoveBaseCore:
     """Plans and follows paths to one goal at a time (see the module docstring)."""
 
     @classmethod
+    def for_floor(cls, floor: Floor, radius: float, limits: Limits, config: NavConfig | None = None,
+                  log: Logger | None = None, **kwargs) -> MoveBaseCore:
+        """A core for a robot of ``radius`` on a building's ``floor``: its map, its keep-out zones lethal (what the
+        node and the benches run); ``kwargs`` as :meth:`for_robot`'s."""
+        return cls.for_robot(floor.map, radius, limits, config, log, keep_out=floor.keep_out_zones, **kwargs)
+
+    @classmethod
     def for_robot(cls, grid: OccupancyMap, radius: float, limits: Limits, config: NavConfig | None = None,
                   log: Logger | None = None, inflation_radius: float | None = None, cost_scaling: float = 3.0,
-                  goal_tolerance: float = 0.5, name: str = "") -> MoveBaseCore:
-        """A core with its planner: inscribed radius = ``radius`` + ``footprint_padding``."""
+                  goal_tolerance: float = 0.5, name: str = "",
+                  keep_out: Mapping[str, Polygon] | None = None) -> MoveBaseCore:
+        """A core with its planner: inscribed radius = ``radius`` + ``footprint_padding``; ``keep_out``: the floor's
+        keep-out zones (lethal, as the static map's walls)."""
         config = config or NavConfig()
         padded = radius + config.footprint_padding
         planner = GridPlanner(grid, padded, inflation_radius=max(inflation_radius or radius + 0.7, padded),
-                              cost_scaling=cost_scaling, goal_tolerance=goal_tolerance)
+                              cost_scaling=cost_scaling, goal_tolerance=goal_tolerance, keep_out=keep_out)
         return cls(planner, limits, radius, config, log, name=name)
 
     def __init__(self, planner: GridPlanner, limits: Limits, radius: float, config: NavConfig | None = None,
@@ -215,7 +225,7 @@ class MoveBaseCore:
         self.log = log or _Null()
         self._static_factory = static_planner or (lambda: GridPlanner(
             planner.grid, planner.robot_radius, planner.inflation_radius, planner.cost_scaling,
-            planner.inflation_cost, planner.goal_tolerance))
+            planner.inflation_cost, planner.goal_tolerance, keep_out=planner.keep_out))
         self._static: GridPlanner | None = None
         self._unmarked: GridPlanner | None = None     # walls and obstacles, not robots (who blocks the way?)
         self.state = State.IDLE

@@ -102,7 +102,7 @@ class MoveBaseNode:
             raise SimConfigError(f"~floor: {err.args[0]}") from err
         defaults = NavConfig()
         config = NavConfig(**{name: param_number(f"~{name}", value) for name, value in defaults.__dict__.items()})
-        nav = MoveBaseCore.for_robot(floor.map, robot.radius, Limits.of_robot(robot), config, RosLog(),
+        nav = MoveBaseCore.for_floor(floor, robot.radius, Limits.of_robot(robot), config, RosLog(),
                                      inflation_radius=param_number("~inflation_radius", robot.radius + 0.7),
                                      cost_scaling=param_number("~cost_scaling_factor", 3.0),
                                      goal_tolerance=param_number("~default_tolerance", 0.5), name=robot.name)

@@ -291,8 +291,8 @@ class FloorSim:
             self.floor = building.floor(robots[0].floor if c.floor is None else c.floor)
         except KeyError as err:
             raise SimConfigError(f"~floor: {err.args[0]}") from err
-        self.world = World(self.floor.map, dt=c.dt, cmd_timeout=c.cmd_timeout, rng=np.random.default_rng(c.seed),
-                           deadlock_time=c.deadlock_time)
+        self.world = World.of_floor(self.floor, dt=c.dt, cmd_timeout=c.cmd_timeout,
+                                    rng=np.random.default_rng(c.seed), deadlock_time=c.deadlock_time)
         for robot, pose in zip(robots, c.poses, strict=True):
             try:
                 self.world.add_robot(self._spec(robot), pose or robot.home)

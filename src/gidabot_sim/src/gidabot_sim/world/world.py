@@ -24,7 +24,9 @@ counts in both worlds), deadlocks with it are watched. Pairs of two mates are th
 
 Run-time obstacles (a person, a closed door) are :class:`~gidabot_navigation.building.planning.Circle`
 and :class:`~gidabot_navigation.building.planning.Rectangle` shapes rasterised into the solid
-mask: the laser sees them and robots collide with them.
+mask: the laser sees them and robots collide with them. The floor's keep-out zones (``keep_out``: the
+top of a staircase, a glass wall) are solid for the robots' bodies only: a robot cannot drive into
+one, but the laser does not see it (as a real laser does not see a drop or glass).
 
 Each robot keeps an odometry pose in its ``odom`` frame, integrated from the same
 motion (no drift), which does not jump when the robot is teleported (``initialpose``):
@@ -36,13 +38,15 @@ from __future__ import annotations
 import math
 import re
 from collections import deque
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from gidabot_navigation.building.geometry import Pose2D, wrap_angle
+from gidabot_navigation.building.geometry import Polygon, Pose2D, wrap_angle
+from gidabot_navigation.building.model import Floor
 from gidabot_navigation.building.occupancy import FREE, OccupancyMap
-from gidabot_navigation.building.planning import Circle, Rectangle, Shape, rasterize
+from gidabot_navigation.building.planning import Circle, Rectangle, Shape, keep_out_mask, rasterize
 from gidabot_sim.errors import ObstacleRejected, PoseRejected, SimConfigError
 from gidabot_sim.world.kinematics import (
     ZERO,
@@ -194,11 +198,17 @@ class World:
     ``cmd_timeout`` (s): a robot without a command for longer brakes to a stop (at its
     acceleration limits). ``rng``: random generator for sensor noise (pass a seeded one for
     repeatable runs). Time advances only by steps (:meth:`step`): it is ``start + steps * dt``,
-    without rounding drift.
+    without rounding drift. ``keep_out``: the floor's keep-out zones by id (solid for bodies, not for the laser).
     """
 
+    @classmethod
+    def of_floor(cls, floor: Floor, **kwargs) -> World:
+        """The world of a building's ``floor``: its map and its keep-out zones (the nodes and benches make it so)."""
+        return cls(floor.map, keep_out=floor.keep_out_zones, **kwargs)
+
     def __init__(self, grid: OccupancyMap, dt: float = 0.02, cmd_timeout: float = 0.2,
-                 rng: np.random.Generator | None = None, deadlock_time: float = 30.0) -> None:
+                 rng: np.random.Generator | None = None, deadlock_time: float = 30.0,
+                 keep_out: Mapping[str, Polygon] | None = None) -> None:
         for name, value in (("dt", dt), ("cmd_timeout", cmd_timeout), ("deadlock_time", deadlock_time)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise SimConfigError(f"{name}: {value!r} must be a finite number of seconds > 0")
@@ -213,9 +223,14 @@ class World:
         self.obstacles: dict[str, Shape] = {}
         self.obstacle_version = 0
         self._static = grid.cells != FREE        # occupied or unknown: solid
+        self._keep_out = keep_out_mask(grid, (keep_out or {}).values())
         self._obstacle_mask = np.zeros_like(self._static)
         self._dirty = False
-        self.caster = RayCaster(self._static, grid.resolution, (grid.origin_x, grid.origin_y, grid.origin_yaw))
+        origin = (grid.origin_x, grid.origin_y, grid.origin_yaw)
+        self.caster = RayCaster(self._static, grid.resolution, origin)       # what the laser sees
+        # what bodies run into: the same, plus the keep-out zones (its own distance field only when there are any)
+        self.bodies = RayCaster(self._static | self._keep_out, grid.resolution, origin) \
+            if self._keep_out.any() else self.caster
         self.robot_collisions = 0                  # contacts between two robots (each counted once)
         self.deadlocks = 0                         # deadlocks reported
         self.events: deque[WorldEvent] = deque(maxlen=MAX_EVENTS)
@@ -301,8 +316,9 @@ class World:
         self.robot(index).active = bool(active)
 
     def clearance(self, x: float, y: float) -> float:
-        """Distance (m) from (x, y) to the nearest edge of a wall, unknown cell or obstacle; 0 off the map."""
-        return self.caster.clearance(x, y)
+        """Distance (m) from (x, y) to the nearest edge of a wall, unknown cell, keep-out zone or obstacle (what a
+        robot's disc must keep off); 0 off the map."""
+        return self.bodies.clearance(x, y)
 
     def check_pose(self, index: int, pose: Pose2D, nudge: float = 0.5) -> Pose2D:
         """The pose robot ``index`` may be placed at for ``pose``, or :class:`PoseRejected`.
@@ -321,6 +337,8 @@ class World:
         row, col = self.grid.world_to_cell(pose.x, pose.y)
         if self._static[row, col]:
             raise PoseRejected(f"pose ({pose.x:g}, {pose.y:g}) is inside a wall or unknown space")
+        if self._keep_out[row, col]:
+            raise PoseRejected(f"pose ({pose.x:g}, {pose.y:g}) is inside a keep-out zone")
         if self._obstacle_mask[row, col]:
             raise PoseRejected(f"pose ({pose.x:g}, {pose.y:g}) is inside an obstacle")
         x, y = pose.x, pose.y
@@ -342,7 +360,7 @@ class World:
         r0, r1 = max(row - n, 0), min(row + n + 1, self.grid.height)
         c0, c1 = max(col - n, 0), min(col + n + 1, self.grid.width)
         rr, cc = np.mgrid[r0:r1, c0:c1]
-        ok = ((self.caster.dist[r0:r1, c0:c1] - 0.5) * res >= radius) & ((rr - row) ** 2 + (cc - col) ** 2 <= n * n)
+        ok = ((self.bodies.dist[r0:r1, c0:c1] - 0.5) * res >= radius) & ((rr - row) ** 2 + (cc - col) ** 2 <= n * n)
         if not ok.any():
             return None
         d2 = np.where(ok, (rr - row) ** 2 + (cc - col) ** 2, np.iinfo(np.int64).max)
@@ -414,6 +432,8 @@ class World:
                 mask[cells[0]] |= cells[1]
         self._obstacle_mask = mask
         self.caster.update(self._static | mask)
+        if self.bodies is not self.caster:
+            self.bodies.update(self._static | self._keep_out | mask)
         self.obstacle_version += 1
 
     # -- physics ---------------------------------------------------------------
