@@ -186,7 +186,7 @@
       links.length ? table([t("Robot"), t("Link"), t("Round trip")], links.map((k) => el("tr", {},
         el("td", {}, k.peer), el("td", { class: k.connected ? "ok" : "bad" }, linkState(k)),
         el("td", {}, k.rtt_ms >= 0 ? t("{ms} ms", { ms: number(k.rtt_ms, 1) }) : "")))) : el("p", {}, t("unknown")),
-      serviceBox(r));
+      serviceBox(r) || "");       // replaceChildren would show a null as the text "null" (logged out: no box)
     const input = typing && $("service-reason");
     if (input) {                   // the panel is rebuilt with every update: staff go on typing where they were
       input.focus();
