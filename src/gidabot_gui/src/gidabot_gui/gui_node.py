@@ -110,6 +110,9 @@ class Receiver:
                                                "nav event") is not None:
             self.inbox.put_event("nav_event", rec)
 
+    def staff(self, m: gidabot_msgs.StaffCommand) -> None:
+        self._event("staff", convert.staff_from_msg, m)
+
     def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
         self._event("edit_result", convert.edit_result_from_msg, m)
 
@@ -210,6 +213,7 @@ class GuiNode:
             rospy.Subscriber(Topic.NAV_EVENTS, gidabot_msgs.NavEvent, r.nav_event, queue_size=200),
             rospy.Subscriber(Topic.TOUR_CATALOG, gidabot_msgs.TourCatalog, r.catalog, queue_size=2),
             rospy.Subscriber(Topic.TOUR_EDIT_RESULT, gidabot_msgs.TourEditResult, r.edit_result, queue_size=20),
+            rospy.Subscriber(Topic.STAFF, gidabot_msgs.StaffCommand, r.staff, queue_size=20),
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)

@@ -6,7 +6,7 @@ for a Tour, the robot whose uid it carries), and an event's uid must be in that 
 namespace. A message arriving on robot R's master is attributed by its publisher (the
 ROS callerid, which the adapter passes with every message) with :meth:`Senders.attribute`:
 
-1. one of R's own nodes (:data:`OWN_NODES`: the guiding nodes, the tour store, the GUI;
+1. one of R's own nodes (:data:`OWN_NODES`: the guiding nodes, the tour store, the GUI, the dashboard;
    in simulation also the simulated visitor) may speak only for R;
 2. the relay end of R's link to robot P (``interface.relay_end_name`` of one of R's
    links in the building) may speak only for P: it publishes what P's own nodes sent;
@@ -96,6 +96,7 @@ SPEAKS_FOR: dict[str, Speech] = {
     Topic.POSES: Speech("robot", ""),
     Topic.PENDING: Speech("robot", ""),
     Topic.TOUR_INDEX: Speech("robot", ""),
+    Topic.STAFF: Speech("robot", "uid"),             # the robot whose dashboard staff used
     Topic.MAKE_WAY: Speech("robot", ""),             # the robot that asks the idle robots of its floor to make way
 }
 
@@ -128,7 +129,7 @@ def claim_of(topic: str, msg: object) -> Claim | None:
 # Who sent it
 # ---------------------------------------------------------------------------
 
-OWN_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.GUI)
+OWN_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.GUI, Node.DASHBOARD)
 SIMULATED_OWN_NODES = (*OWN_NODES, Node.VISITOR)      # the simulated visitor presses this robot's buttons
 
 OWN, RELAY, IMPOSTOR = "own", "relay", "impostor"
