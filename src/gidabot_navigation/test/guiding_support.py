@@ -34,6 +34,7 @@ from gidabot_navigation.guiding.messages import (
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.trips import TripPlanner
 from gidabot_navigation.interface import Cmd, Node, Phase, StaffCmd, global_name
+from gidabot_navigation.senders import SCOPE_STAFF, make_uid
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 
@@ -283,7 +284,7 @@ class Bus:
     def staff(self, at: str, target: str, out: bool, version: int = 1, user: str = "sara", detail: str = "") -> None:
         """A staff command at ``at``'s dashboard takes ``target`` out of service (``out``) or back; every robot
         gets it (the dashboard's own robot directly, the others through a relay)."""
-        cmd = StaffCommandData(uid=f"{at}/staff/t.{version}", robot=at, user=user,
+        cmd = StaffCommandData(uid=make_uid(at, SCOPE_STAFF, "dash"), robot=at, user=user,
                                command=StaffCmd.OUT_OF_SERVICE if out else StaffCmd.BACK_IN_SERVICE,
                                target_robot=target, version=version, detail=detail)
         for name, r in self.robots.items():

@@ -16,6 +16,7 @@ from yarl import URL
 
 from gidabot_navigation.building.model import Building
 from gidabot_navigation.errors import TourRejected
+from gidabot_navigation.interface import Node, global_name
 from gidabot_navigation.resources import resource
 from gidabot_navigation.tours.tour_store import EditResultData, TourMessage, TourStore
 from gidabot_web.dashboard.app import DashboardApp
@@ -54,7 +55,7 @@ class Bus:
     def tour_edit(self, tm: TourMessage) -> None:
         self.edits.append(tm)
         try:
-            rec = self.store.edit(tm)
+            rec = self.store.edit(tm, sender=global_name(Node.DASHBOARD))     # the dashboard node publishes it
             result = EditResultData(tm.uid, tm.file_name, tm.deleted, True, rec.version)
         except TourRejected as err:
             result = EditResultData(tm.uid, tm.file_name, tm.deleted, False, 0, err.reason, str(err))

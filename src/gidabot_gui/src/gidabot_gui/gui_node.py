@@ -111,7 +111,12 @@ class Receiver:
             self.inbox.put_event("nav_event", rec)
 
     def staff(self, m: gidabot_msgs.StaffCommand) -> None:
-        self._event("staff", convert.staff_from_msg, m)
+        """A StaffCommand, taken only from the dashboard of the robot it speaks for (this robot's dashboard, or the
+        relay end of the link from that robot), with a uid of that robot (refused and counted otherwise)."""
+        rec = self._convert("staff", lambda msg: bounded(convert.staff_from_msg(msg)), m)
+        if rec is not None and self.gate.admit(sender(m), claim_of(Topic.STAFF, rec) or Claim(""), "staff command",
+                                               Topic.STAFF) is not None:
+            self.inbox.put_event("staff", rec)
 
     def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
         self._event("edit_result", convert.edit_result_from_msg, m)

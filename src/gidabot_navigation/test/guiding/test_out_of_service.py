@@ -9,12 +9,13 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-from guiding_support import Bus, from_robot
+from guiding_support import DASHBOARD, GM, GUI, TS, Bus, from_robot
 
 from gidabot_navigation.guiding.assignment import audit_legs
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
 from gidabot_navigation.guiding.messages import StaffCommandData, Trip
 from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, Phase, StaffCmd
+from gidabot_navigation.senders import SCOPE_STAFF, make_uid
 
 
 def bus6(faculty6, **kw) -> Bus:
@@ -131,18 +132,41 @@ def test_older_replayed_and_spoofed_staff_commands_change_nothing(faculty6) -> N
     assert not gm.in_service("Lamia")
     bus.staff("MariSorgin", "Lamia", out=False, version=5)   # same version, a later robot name: in force
     assert gm.in_service("Lamia")
-    spoof = StaffCommandData(uid="Tartalo/staff/x.1", robot="Tartalo", user="eve", command=StaffCmd.OUT_OF_SERVICE,
-                             target_robot="Tartalo", version=9)
-    assert gm.on_staff(spoof, bus.now_ros, bus.now_wall, sender=from_robot(gm, "Kbot")) == [] and gm.in_service("Tartalo")
-    bad = replace(spoof, uid="Kbot/staff/x.1", robot="Kbot", command=7)
-    assert gm.on_staff(bad, bus.now_ros, bus.now_wall, sender=from_robot(gm, "Kbot")) == [] and gm.stats["rejected_command"] == 1
+    spoof = StaffCommandData(uid=make_uid("Tartalo", SCOPE_STAFF, "dash"), robot="Tartalo", user="eve",
+                             command=StaffCmd.OUT_OF_SERVICE, target_robot="Tartalo", version=9)
+    kbot = from_robot(gm, "Kbot")
+    assert gm.on_staff(spoof, bus.now_ros, bus.now_wall, sender=kbot) == [] and gm.in_service("Tartalo")
+    assert gm.gate.counts["foreign"] == 1
+    bad = replace(spoof, uid=make_uid("Kbot", SCOPE_STAFF, "dash"), robot="Kbot", command=7)
+    assert gm.on_staff(bad, bus.now_ros, bus.now_wall, sender=kbot) == [] and gm.stats["rejected_command"] == 1
+
+
+def test_a_staff_command_is_taken_only_from_the_dashboard_of_the_robot_it_speaks_for(faculty6) -> None:
+    bus = bus6(faculty6, auto_move=False)
+    gm = bus.robots["Tartalo"].gm
+    cmd = StaffCommandData(uid=make_uid("Tartalo", SCOPE_STAFF, "dash"), robot="Tartalo", user="eve",
+                           command=StaffCmd.OUT_OF_SERVICE, target_robot="Kbot", version=3)
+    for node in (GM, GUI, TS, "/rostopic_1234"):      # another node of Tartalo's, or none of its: impostors
+        assert gm.on_staff(cmd, bus.now_ros, bus.now_wall, sender=node) == [] and gm.in_service("Kbot")
+    assert gm.gate.counts["impostor"] == 4
+    wrong = replace(cmd, uid=make_uid("Kbot", SCOPE_STAFF, "dash"))       # a uid of another robot
+    assert gm.on_staff(wrong, bus.now_ros, bus.now_wall, sender=DASHBOARD) == [] and gm.in_service("Kbot")
+    assert gm.gate.counts["wrong_namespace"] == 1
+    gm.on_staff(cmd, bus.now_ros, bus.now_wall, sender=DASHBOARD)
+    assert not gm.in_service("Kbot")
+    back = replace(cmd, uid=make_uid("Kbot", SCOPE_STAFF, "dash"), robot="Kbot", command=StaffCmd.BACK_IN_SERVICE,
+                   version=4)
+    gm.on_staff(back, bus.now_ros, bus.now_wall, sender=DASHBOARD)      # Kbot's, but from Tartalo's dashboard
+    assert not gm.in_service("Kbot") and gm.gate.counts["foreign"] == 1
+    gm.on_staff(back, bus.now_ros, bus.now_wall, sender=from_robot(gm, "Kbot"))     # relayed from Kbot
+    assert gm.in_service("Kbot")
 
 
 def test_out_of_service_survives_a_restart_of_the_goal_manager(faculty6) -> None:
     bus = bus6(faculty6, auto_move=False)
     bus.staff("Kbot", "Galtxagorri", out=True)
     state = bus.robots["Tartalo"].gm.state()
-    again = GoalManagerCore(faculty6, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall, boot="u")
+    again = GoalManagerCore(faculty6, GoalManagerConfig(robot="Tartalo"), bus.log, bus.now_wall)
     again.load_state(state)
     assert not again.in_service("Galtxagorri") and again.in_service("Lamia")
 

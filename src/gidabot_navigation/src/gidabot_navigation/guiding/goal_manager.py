@@ -108,6 +108,7 @@ from gidabot_navigation.interface import (
     Node,
     Phase,
     StaffCmd,
+    Topic,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
@@ -572,8 +573,10 @@ class GoalManagerCore:
         and a visitor at its screen is refused (REJECTED, saying so); a floor whose robots are all out of service
         is a floor without robot (the goal leg goes to nobody: the visitor finds the place alone). This robot,
         taken out of service, finishes the trip it is running and hands back every other leg it holds
-        (:meth:`_hand_back`); back in service, it is proposed legs again."""
-        if self.gate.admit(sender, Claim(as_text(cmd.robot), as_text(cmd.uid)), "staff command") is None:
+        (:meth:`_hand_back`); back in service, it is proposed legs again. Only the dashboard of ``cmd.robot`` may
+        send it (``sender``: this robot's dashboard node, or the relay end of the link from that robot)."""
+        claim = Claim(as_text(cmd.robot), as_text(cmd.uid))
+        if self.gate.admit(sender, claim, "staff command", Topic.STAFF) is None:
             return []
         try:
             cmd = validate_staff(self.building, cmd)

@@ -45,7 +45,16 @@ from gidabot_navigation.interface import (
     WAYS,
     Phase,
 )
-from gidabot_navigation.senders import MAX_UID, SCOPE_CANCEL, SCOPE_EVENT, HandledUids, fingerprint, make_uid
+from gidabot_navigation.senders import (
+    MAX_UID,
+    SCOPE_CANCEL,
+    SCOPE_EVENT,
+    SCOPE_STAFF,
+    SCOPE_TOUR_EDIT,
+    HandledUids,
+    fingerprint,
+    make_uid,
+)
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
@@ -363,9 +372,10 @@ Action = SendGoal | SendCancel | SendEvent | MoveTo | StopMoving
 
 class UidMaker:
     """This robot's uids (:data:`~gidabot_navigation.senders.UID_FORMAT`): ``<robot>/event/<tag>.<token>``,
-    ``<robot>/cancel/<tag>.<token>``, and ``<robot>/<visitor>/<tag>.<token>`` for goals (the GUI knows its
-    visitor's trips by that prefix). Every token is drawn at random: a restarted node never reuses a uid, and
-    nobody can tell the next one before it is published."""
+    ``<robot>/cancel/<tag>.<token>``, ``<robot>/staff/<tag>.<token>`` (staff commands),
+    ``<robot>/tour-edit/<tag>.<token>`` (admin edits to the tour store), and ``<robot>/<visitor>/<tag>.<token>``
+    for goals (the GUI knows its visitor's trips by that prefix). Every token is drawn at random: a restarted node
+    never reuses a uid, and nobody can tell the next one before it is published."""
 
     def __init__(self, robot: str, tag: str) -> None:
         self.robot = robot
@@ -379,6 +389,12 @@ class UidMaker:
 
     def goal(self, visitor_id: str) -> str:
         return make_uid(self.robot, visitor_id, self.tag)
+
+    def staff(self) -> str:
+        return make_uid(self.robot, SCOPE_STAFF, self.tag)
+
+    def tour_edit(self) -> str:
+        return make_uid(self.robot, SCOPE_TOUR_EDIT, self.tag)
 
 
 def base36(number: int) -> str:

@@ -77,7 +77,6 @@ class DashboardApp:
         self.web = WebApp(web_config, clock)
         self.hub = LiveHub(self, self.web.counters, period=push_period, heartbeat=heartbeat, clock=clock)
         self._edits: dict[str, asyncio.Future] = {}
-        self._edit_n = 0
         blueprints = {blueprint_name(i, f.blueprint_file): f.blueprint_file
                       for i, f in enumerate(core.building.floors)}
         w = self.web
@@ -184,20 +183,16 @@ class DashboardApp:
             tour = parse_tour(text.encode("utf-8", "replace"), name, self.core.building)
         except TourError as err:
             raise Refused(400, "invalid_tour", "; ".join(str(p) for p in err.problems)) from err
-        tm = TourMessage(uid=self._edit_uid(), origin_robot=self.core.me, editor_robot=self.core.me,
+        tm = TourMessage(uid=self.core.uids.tour_edit(), origin_robot=self.core.me, editor_robot=self.core.me,
                          language=language, floor=tour.floor, tour_name=tour.name, file_name=tour.file_name,
                          tour_goals_info=tuple(tour.goal_lines()))
         return await self._edit(tm, session)
 
     async def _tour_delete(self, _request: web.Request, session: Session, body: dict) -> dict:
         name = self._file_name(body)
-        tm = TourMessage(uid=self._edit_uid(), origin_robot=self.core.me, editor_robot=self.core.me, deleted=True,
-                         language=DEFAULT_LANGUAGE, file_name=name)
+        tm = TourMessage(uid=self.core.uids.tour_edit(), origin_robot=self.core.me, editor_robot=self.core.me,
+                         deleted=True, language=DEFAULT_LANGUAGE, file_name=name)
         return await self._edit(tm, session)
-
-    def _edit_uid(self) -> str:
-        self._edit_n += 1
-        return f"{self.core.me}/dashboard/tour-edit/{self.core.uids.boot}.{self._edit_n}"
 
     async def _edit(self, tm: TourMessage, session: Session) -> dict:
         future: asyncio.Future = asyncio.get_running_loop().create_future()

@@ -291,7 +291,6 @@ class DashboardCore:
         self._history_due = 0.0
         self._history_dirty = True
         self._history_json: dict = {}
-        self._staff_n = 0
         self.now = now                                  # the latest now given: ages on the page count to it
         self._load()
 
@@ -608,9 +607,7 @@ class DashboardCore:
         wall = self.wall_at(now)
         known = self.service.get(target)
         version = max(int(wall * 1e9), known.version + 1 if known else 1)
-        self._staff_n += 1
-        cmd = StaffCommandData(uid=f"{self.me}/staff/{self.uids.tag}.{self.uids.boot}.{self._staff_n}", robot=self.me,
-                               user=user,
+        cmd = StaffCommandData(uid=self.uids.staff(), robot=self.me, user=user,
                                command=int(StaffCmd.OUT_OF_SERVICE if out else StaffCmd.BACK_IN_SERVICE),
                                target_robot=target, version=version, detail=text, stamp=wall)
         self.count("staff_commands")

@@ -45,7 +45,7 @@ from gidabot_navigation.errors import GidaBotError
 from gidabot_navigation.guiding.messages import CancelData, StaffCommandData
 from gidabot_navigation.interface import Node, Topic, global_name
 from gidabot_navigation.relay.links import own_ends
-from gidabot_navigation.ros.adapter import diagnostics, sender
+from gidabot_navigation.ros.adapter import diagnostics, sender, simulated
 from gidabot_navigation.ros.convert import (
     cancel_from_msg,
     cancel_to_msg,
@@ -67,6 +67,7 @@ from gidabot_navigation.ros.exit_guard import ExitGuard, rospy_exit_guard
 from gidabot_navigation.ros.master_watch import keep_registered, proxy
 from gidabot_navigation.ros.params import param_number, param_text
 from gidabot_navigation.ros.replay import ReplayPublisher
+from gidabot_navigation.senders import IMPOSTOR, Senders, may_publish
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_web.dashboard.app import DashboardApp
 from gidabot_web.dashboard.dashboard import DashboardConfig, DashboardCore
@@ -82,9 +83,6 @@ BIND_RETRY = 5.0         # wall s between two attempts to listen on the port
 DEFAULT_PORT = 8080
 USERS_FILE = "users.json"
 HISTORY_FILE = "history.sqlite"
-# the robot's own nodes: what they publish on this master speaks for this robot
-OWN_NODES = frozenset(global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE,
-                                               Node.GUI, Node.DASHBOARD, Node.VISITOR))
 WATCHED_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.RELAY_SUPERVISOR, Node.GUI)
 
 
@@ -157,6 +155,7 @@ class DashboardNode:
         me = self.building.robot(params.robot)
         self.host = params.host or me.ip
         self.ends = own_ends(self.building, me.name)
+        self.senders = Senders.of_building(self.building, me.name, simulated())
         params.state_dir.mkdir(parents=True, exist_ok=True)
         self.history = History(params.state_dir / HISTORY_FILE)
         now, wall = time.monotonic(), time.time()
@@ -186,13 +185,12 @@ class DashboardNode:
         self.subs = [rospy.Subscriber(topic, cls, cb, queue_size=200) for topic, cls, cb in subs]
 
     # -- who a message may speak for ------------------------------------------------------
-    def speaker(self, msg: object) -> str | None:
-        """The robot the publisher of ``msg`` may speak for: this robot for its own nodes, the peer for a relay
-        end of this robot's links, None for any other node."""
-        caller = sender(msg)
-        if caller in OWN_NODES:
-            return self.core.me
-        return self.ends.get(caller)
+    def speaker(self, msg: object, topic: str = "") -> str | None:
+        """The robot the publisher of ``msg`` (on ``topic``) may speak for (:class:`Senders`): this robot for its own
+        nodes (on a topic of ``senders.PUBLISHERS`` only those listed), the peer for a relay end of this robot's
+        links, None for any other node."""
+        who = self.senders.attribute(sender(msg))
+        return None if who.kind == IMPOSTOR or not may_publish(who, topic) else who.robot
 
     # -- callbacks: convert, hand over, return -----------------------------------------------
     def _state(self, kind: str, key: str, record: object) -> None:
@@ -221,7 +219,7 @@ class DashboardNode:
         self._state("pending", m.robot, (pending_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _links(self, m: LinkSummary) -> None:
-        self._state("links", m.robot, (links_from_msg(m), self.speaker(m), time.monotonic()))
+        self._state("links", m.robot, (links_from_msg(m), self.speaker(m, Topic.LINKS), time.monotonic()))
 
     def _goal(self, m: Goal) -> None:
         self._put("goal", (trip_from_msg(m), self.speaker(m), time.monotonic()))
@@ -233,7 +231,7 @@ class DashboardNode:
         self._put("event", (event_from_msg(m), self.speaker(m), time.monotonic()))
 
     def _staff(self, m: StaffCommand) -> None:
-        self._put("staff", (staff_from_msg(m), self.speaker(m), time.monotonic()))
+        self._put("staff", (staff_from_msg(m), self.speaker(m, Topic.STAFF), time.monotonic()))
 
     def _diagnostics(self, m: DiagnosticArray) -> None:
         found = [diagnostic_from_msg(s) for s in m.status if s.hardware_id in self.ends]

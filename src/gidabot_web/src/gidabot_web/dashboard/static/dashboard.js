@@ -186,7 +186,7 @@
       links.length ? table([t("Robot"), t("Link"), t("Round trip")], links.map((k) => el("tr", {},
         el("td", {}, k.peer), el("td", { class: k.connected ? "ok" : "bad" }, linkState(k)),
         el("td", {}, k.rtt_ms >= 0 ? t("{ms} ms", { ms: number(k.rtt_ms, 1) }) : "")))) : el("p", {}, t("unknown")),
-      serviceBox(r) || "");       // replaceChildren would show a null as the text "null" (logged out: no box)
+      serviceBox(r));
     const input = typing && $("service-reason");
     if (input) {                   // the panel is rebuilt with every update: staff go on typing where they were
       input.focus();
@@ -195,7 +195,7 @@
   }
 
   function serviceBox(r) {
-    if (!loggedIn()) return null;
+    if (!loggedIn()) return document.createDocumentFragment();   // nothing (replaceChildren would show a null as "null")
     const s = r.service;
     const who = s ? { user: s.user, robot: s.robot, time: clock(s.wall) } : null;
     const note = s ? el("p", { class: "service-note" }, s.out ? t("Taken out of service by {user} at {robot} ({time})", who)
