@@ -21,6 +21,7 @@ import pytest
 from probe import Probe, wait_connected
 
 from gidabot_navigation.interface import GUIDING_NODES, Cmd, Node, Topic, global_name
+from gidabot_navigation.senders import make_uid
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -103,7 +104,8 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
     procs, env, uri = kbot
     driver = Driver(env, "Kbot", tmp_path / "logs" / "gui.log")
     try:
-        with Probe(env, tmp_path / "logs" / "probe.log") as probe:
+        with Probe(env, tmp_path / "logs" / "probe.log") as probe, \
+                Probe(env, tmp_path / "logs" / "nav.log", name=Node.MULTIROBOT_NAVIGATION) as nav:   # Kbot's own
             probe.sub(Topic.VISITOR_COMMAND, "gidabot_msgs/VisitorCommand")
             for name, floor in (("Tartalo", 0), ("Kbot", 1), ("Galtxagorri", 2), ("MariSorgin", 3)):
                 probe.pub(Topic.STATUS, STATUS, status(name, floor, pending=1, busy=240.0), to=[GUI])
@@ -121,7 +123,7 @@ def test_a_visitor_trip_through_the_real_topics(kbot, tmp_path: Path) -> None:
             assert (cmd["goal_id"], cmd["way"], cmd["language"], cmd["visitor_id"]) == ("223", "stairs", "en",
                                                                                         "guidriver")
             uid = "Kbot/guidriver/r1.1"
-            probe.pub(Topic.NAV_EVENTS, EVENT, {"uid": "Kbot/event/1", "robot": "Kbot", "phase": 1,
+            nav.pub(Topic.NAV_EVENTS, EVENT, {"uid": make_uid("Kbot", "event", "nav"), "robot": "Kbot", "phase": 1,
                                                 "goal_uid": uid, "connector": "stairs_west",
                                                 "location_id": "stairs_west", "target_floor": 2.0,
                                                 "language": "en", "way": "stairs"}, to=[GUI])

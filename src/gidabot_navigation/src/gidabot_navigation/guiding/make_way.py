@@ -103,6 +103,7 @@ class MakeWay:
         self.asks: dict[str, WayAsk] = {}            # the asks naming this robot, by asker
         self.asked_at: dict[str, float] = {}         # when each arrived (ROS s)
         self.aside: Aside | None = None              # where it went (None: where it belongs)
+        self.place: Pose2D | None = None             # where it belongs while idle: where the first ask found it
         self.going_back = False
         self.asked = 0                               # asks this robot sent naming somebody
         self._last_ask: tuple[tuple[str, ...], tuple[float, float]] | None = None   # (robots, goal) last asked
@@ -200,6 +201,7 @@ class MakeWay:
         self.asks.clear()
         self.asked_at.clear()
         self.aside = None
+        self.place = None
         self.going_back = False
 
     def step(self, pose: Pose2D | None, idle: bool, now: float) -> Pose2D | None:
@@ -220,7 +222,9 @@ class MakeWay:
                 self.asks.clear()
                 self.asked_at.clear()
                 return None
-            self.aside = Aside(spot, pose)
+            if self.place is None:
+                self.place = pose
+            self.aside = Aside(spot, self.place)     # back to where it belongs, not where this ask found it
             self.going_back = False
             self.made_way += 1
             self.log.info(f"make way: moving aside to ({spot.x:.2f}, {spot.y:.2f}) for "

@@ -254,6 +254,7 @@ class Preview:
             state = Run.RUNNING if robots else Run.STARTING
             return PreviewState(state, message, robots, self._tour, elapsed)
         code = self._procs.get(DEMO).popen.returncode
+        message = _last_line(self._dir / "logs" / f"{DEMO}.log")     # read again: it may have ended since
         if code == 0:
             final = PreviewState(Run.FINISHED, message, robots, self._tour, elapsed)
         else:
