@@ -144,6 +144,18 @@ def test_nothing_changes_on_get(faculty, tmp_path: Path) -> None:
     run_site(faculty, tmp_path, test)
 
 
+def test_a_login_is_a_post_only(faculty, tmp_path: Path) -> None:
+    async def test(site: Site) -> None:
+        pre = (await site.session())["csrf"]
+        query = f"?user={STAFF_USER}&password={STAFF_PASSWORD}"
+        for method in ("GET", "HEAD", "PUT", "DELETE", "PATCH"):
+            r = await site.client.request(method, "/api/login" + query, headers=site.headers(csrf=pre))
+            assert r.status == 405, method
+        assert refused(site) == {"refused_method": 5}
+        assert len(site.app.web.sessions) == 0 and (await site.session())["user"] is None
+    run_site(faculty, tmp_path, test)
+
+
 def test_a_staff_user_may_not_edit_tours(faculty, tmp_path: Path) -> None:
     async def test(site: Site) -> None:
         files = site.tour_files()
