@@ -6,7 +6,8 @@ with the same ``--seed``, at the demo's default speed, one after the other: firs
 reads every update; for every robot status it gets, the delay from the dashboard's receipt of that
 ``/gidabot/status`` message (the ``rx`` it carries, wall clock) to the client is recorded. Prints per run: the
 outcome, Table 3, whether the run is degraded, the dashboard's CPU (that robot's dashboard process, % of one core
-over the tour); with clients also the messages received and the delay's p50 / p95 / max.
+over the tour); with clients also the messages received and the delay's p50 / p95 / max; and, as every benchmark,
+the time of a fixed workload on this machine at its start and end (:mod:`gidabot_sim.runner.calibration`).
 
 Targets (exit status 1 when one is missed): both runs complete the tour with Table 3 = 7, 8, 8, 6 and are not
 degraded; every client stays connected to the end; the p95 delay is at most ``--max-p95-ms`` (1000: the page is
@@ -32,6 +33,7 @@ from tempfile import mkdtemp
 import aiohttp
 
 from gidabot_navigation.resources import resource
+from gidabot_sim.runner.calibration import Calibration, as_json, describe
 
 DEMO = (sys.executable, "-m", "gidabot_sim.cli", "demo")
 TABLE3 = [7, 8, 8, 6]
@@ -223,13 +225,17 @@ def main(argv: list[str]) -> int:
     args = p.parse_args(argv)
     out = args.out or Path(mkdtemp(prefix="gidabot-bench-dashboard-"))
     out.mkdir(parents=True, exist_ok=True)
+    calibration = Calibration()
+    calibration.measure()
+    print(describe(calibration), file=sys.stderr, flush=True)
     rows = []
     for clients in (0, args.clients):
         print(f"bench dashboard: Table 2 tour with {clients} clients on {args.robot}'s dashboard "
               f"(log: {out / f'demo-{clients}.log'})", file=sys.stderr, flush=True)
         rows.append(run_one(args, out, clients, out / f"demo-{clients}.log"))
+    calibration.measure()
     missed = judge(rows, args)
-    result = {"runs": rows, "targets_missed": missed, "out": str(out)}
+    result = {"runs": rows, "targets_missed": missed, "calibration": as_json(calibration), "out": str(out)}
     if args.json:
         print(json.dumps(result))
     else:
@@ -242,5 +248,6 @@ def main(argv: list[str]) -> int:
                          f"receipt to the client p50 {row['delay_p50_ms']} ms, p95 {row['delay_p95_ms']} ms, "
                          f"max {row['delay_max_ms']} ms")
             print(line)
+        print(describe(calibration))
         print("targets: " + ("all met" if not missed else "MISSED: " + "; ".join(missed)))
     return 1 if missed else 0
