@@ -49,19 +49,24 @@ class Browser:
         return self.driver.find_elements(By.CSS_SELECTOR, selector)
 
     def text(self, selector: str) -> str:
-        """The text of every element matching ``selector``, shown or not (WebDriver's ``text`` is the shown text)."""
-        try:
-            return " ".join(e.get_attribute("textContent") or "" for e in self.all(selector))
-        except StaleElementReferenceException:
-            return ""
+        """The text of every element matching ``selector``, shown or not, read in one script turn: the page rebuilds
+        its views with every update (4 a second), so an element found by one WebDriver command is often replaced
+        before the next one reads it on a loaded machine."""
+        return self.driver.execute_script(
+            "return Array.from(document.querySelectorAll(arguments[0]), (e) => e.textContent).join(' ');", selector)
+
+    def shown_text(self, selector: str) -> str:
+        """The text of the first element matching ``selector`` if it is shown (rendered, not hidden), else ""."""
+        return self.driver.execute_script(
+            "const e = document.querySelector(arguments[0]);"
+            "return e && e.getClientRects().length > 0 ? e.textContent : '';", selector)
 
     def attr(self, selector: str, name: str) -> str | None:
-        """``name`` of the first element matching ``selector`` (None when there is none)."""
-        found = self.all(selector)
-        try:
-            return found[0].get_attribute(name) if found else None
-        except StaleElementReferenceException:
-            return None
+        """Attribute ``name`` of the first element matching ``selector`` (None when there is none), read in one
+        script turn (see :meth:`text`)."""
+        return self.driver.execute_script(
+            "const e = document.querySelector(arguments[0]); return e ? e.getAttribute(arguments[1]) : null;",
+            selector, name)
 
     def wait(self, cond: Callable[[], T], timeout: float, what: str, interval: float = 0.05) -> T:
         deadline = time.monotonic() + timeout
@@ -99,6 +104,21 @@ class Browser:
         script = ("const m = document.querySelector(arguments[0]); if (!m) return false;"
                   "m.dispatchEvent(new MouseEvent('click', {bubbles: true})); return true;")
         self.wait(lambda: self.driver.execute_script(script, selector), timeout, f"{selector} to click")
+
+    def confirm(self, selector: str, timeout: float = 10.0) -> None:
+        """Press a two-step button matching ``selector`` (the page's "Cancel trip", then "Confirm: cancel trip"), as
+        staff do: once to arm it, then the armed button the page renders in its place. Both presses happen in one
+        script turn: the page disarms a button after 5 s of its own clock, which a loaded machine can let pass
+        between two WebDriver commands, and a confirm on a disarmed button only arms it again. Done when the
+        confirm went through (the button disables itself while its action is sent); else pressed again."""
+        script = ("const sel = arguments[0];"
+                  "let b = document.querySelector(sel + '[data-step=\"2\"]');"
+                  "if (!b) { const first = document.querySelector(sel + '[data-step=\"1\"]');"
+                  "          if (!first) return false;"
+                  "          first.click(); b = document.querySelector(sel + '[data-step=\"2\"]'); }"
+                  "if (!b) return false;"
+                  "b.click(); return b.disabled;")
+        self.wait(lambda: self.driver.execute_script(script, selector), timeout, f"{selector} pressed and confirmed")
 
     def login(self, user: str, password: str) -> None:
         self.css("#login-user").clear()

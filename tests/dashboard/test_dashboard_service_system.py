@@ -60,17 +60,24 @@ def set_service(browser: Browser, robot: str, out: bool, reason: str = "") -> No
     """Open ``robot``'s panel on the page and take it out of service (or back), confirming, as staff do."""
     browser.view("building")
     browser.click_mark(f'#floors g.robot[data-robot="{robot}"]')
-    browser.wait(lambda: robot in browser.css("#robot-panel h2").text, 5, f"{robot}'s panel")
+    browser.wait(lambda: robot in browser.shown_text("#robot-panel h2"), 20, f"{robot}'s panel")
     if reason:                     # typed into the panel's field (rebuilt with every update: kept by the page)
         browser.wait(lambda: browser.driver.execute_script(
             "const i = document.getElementById('service-reason'); if (!i) return false;"
             "i.focus(); i.value = arguments[0]; i.dispatchEvent(new Event('input')); return true;", reason),
-            5, "the reason typed")
+            20, "the reason typed")
     button = f'#robot-panel button[data-action="service"][data-robot="{robot}"]'
-    browser.click(button)
-    browser.click(f'{button}[data-step="2"]')
-    browser.wait(lambda: ("out" in (browser.attr(f'#floors g.robot[data-robot="{robot}"]', "class") or "").split())
-                 == out, 15, f"{robot} {'out of' if out else 'back in'} service on the page")
+    # the panel's button toggles the state it shows: it must show the other one
+    browser.wait(lambda: browser.all(button) and shown_out(browser, robot) != out, 20,
+                 f"{robot}'s panel offering to take it {'out of' if out else 'back in'} service")
+    browser.confirm(button)
+    browser.wait(lambda: shown_out(browser, robot) == out, 30,
+                 f"{robot} {'out of' if out else 'back in'} service on the page")
+
+
+def shown_out(browser: Browser, robot: str) -> bool:
+    """Whether Kbot's page shows ``robot`` out of service (its mark on the blueprint)."""
+    return "out" in (browser.attr(f'#floors g.robot[data-robot="{robot}"]', "class") or "").split()
 
 
 def test_a_robot_taken_out_of_service_hands_its_queued_leg_to_the_other_robot_of_its_floor(
@@ -96,7 +103,8 @@ def test_a_robot_taken_out_of_service_hands_its_queued_leg_to_the_other_robot_of
     assert own in queued(stack, "Galtxagorri")
     browser.view("building")
     browser.click_mark('#floors g.robot[data-robot="Galtxagorri"]')
-    browser.wait(lambda: "out of service" in browser.text("#robot-panel"), 5, "Galtxagorri's panel says so")
+    browser.wait(lambda: "Galtxagorri" in browser.shown_text("#robot-panel h2") and
+                 "out of service" in browser.shown_text("#robot-panel"), 20, "Galtxagorri's panel says so")
     browser.shot("out-of-service")
 
 

@@ -5,8 +5,9 @@ gui:=false dashboard:=true`` on each (every robot serves its dashboard on its ow
 browser uses Kbot's page (and Galtxagorri's for the tour), as staff would:
 
 - a robot that moves in the simulator moves on the page (Tartalo guides a visitor on floor 0);
-- a cancel from the page stops the trip on every robot involved (Tartalo and MariSorgin drop it: their final
-  events, their queues) and the page says so;
+- a cancel from the page stops the trip on every robot involved (MariSorgin, driving to meet the visitor, and
+  Tartalo unless it already sent the visitor up the stairs, drop it: their final events, their queues) and the page
+  says so;
 - a tour uploaded on Kbot's page appears on Galtxagorri's page (the tour store shares it);
 - killing MariSorgin's master greys it on Kbot's page and raises an alert within 5 s;
 - the page survives its own robot's master restarting (it says so meanwhile, and goes on);
@@ -27,11 +28,13 @@ from dashboard_browser import Browser
 from sim_stack import (
     CANCELLED_ELSEWHERE,
     EVENTS,
+    GO_TO_FLOOR,
     GOAL_REACHED,
     GOING_TO_MEETING,
     SimStack,
 )
 
+from gidabot_navigation.interface import FINAL_PHASES
 from gidabot_sim.runner.procs import wait_until
 from gidabot_web.web.auth import ADMIN, STAFF, make_user, save_users
 
@@ -40,6 +43,7 @@ pytestmark = [pytest.mark.system, pytest.mark.slow]
 SPEED = 10.0
 STAFF_USER, STAFF_PASSWORD = "sara", "staff-password-1"
 ADMIN_USER, ADMIN_PASSWORD = "ada", "admin-password-1"
+FAR_FROM_THE_STAIRS = (8.0, 12.0)          # on floor 3, far from the east staircase
 TOUR = "Tour: Dashboard test\n0, 014, Computer Technicians 1\n2, 207, Seminar Room 2.3\n"
 
 
@@ -99,7 +103,7 @@ def test_a_robot_that_moves_in_the_simulator_moves_on_the_page(stack: SimStack, 
     browser.wait(lambda: (p := position(browser, "Tartalo")) and abs(p[0] - u) < 25, 30, "Tartalo at 014 on the page")
     assert moved[0] < start[0]                      # 014 is west of Tartalo's home
     browser.click_mark('#floors g.robot[data-robot="Tartalo"]')
-    browser.wait(lambda: browser.css("#robot-panel").is_displayed(), 5, "Tartalo's panel")
+    browser.wait(lambda: "Tartalo" in browser.shown_text("#robot-panel h2"), 20, "Tartalo's panel")
     browser.shot("robot-panel")
     assert not browser.errors()
 
@@ -107,25 +111,31 @@ def test_a_robot_that_moves_in_the_simulator_moves_on_the_page(stack: SimStack, 
 def test_a_cancel_from_the_page_stops_the_trip_on_every_robot_involved(stack: SimStack, browser: Browser) -> None:
     browser.open(kbot(stack), "trips")
     browser.login(STAFF_USER, STAFF_PASSWORD)
+    stack.relocate("MariSorgin", *FAR_FROM_THE_STAIRS)     # a long drive to meet the visitor: still under way
     since_m = stack.rec["MariSorgin"].count(EVENTS)
     uid, since = stack.request("Tartalo", "305", way="stairs")
     stack.wait_event("MariSorgin", GOING_TO_MEETING, uid, timeout=60, since=since_m)
     row = f'#trips-active tr[data-trip="{uid}"]'
-    browser.wait(lambda: browser.all(row), 20, "the trip in progress on Kbot's page")
-    browser.wait(lambda: "MariSorgin" in browser.text(row), 20, "both legs shown")
+    browser.wait(lambda: "MariSorgin" in browser.text(row), 30, "the trip in progress on Kbot's page, both legs")
     browser.shot("trips")
-    browser.click(f'{row} button[data-action="cancel"]')
-    browser.click(f'{row} button[data-action="cancel"][data-step="2"]')          # confirm
+    browser.confirm(f'{row} button[data-action="cancel"]')
     done = f'#trips-done tr[data-trip="{uid}"] .cancel-state[data-confirmed="true"]'
-    browser.wait(lambda: browser.all(done), 30, "the page to confirm the cancel")
-    # every robot involved dropped it: its final event, and its queue without it
-    for robot in ("Tartalo", "MariSorgin"):
-        stack.wait_event(robot, CANCELLED_ELSEWHERE, uid, timeout=10, on=robot)
-        wait_until(lambda robot=robot: uid not in {g["uid"] for g in stack.pending(robot, robot)["goals"]}, 10,
+    browser.wait(lambda: browser.all(done), 60, "the page to confirm the cancel")
+    # every robot involved dropped it (its final event, and its queue without it): MariSorgin, still driving to
+    # the meeting point, and Tartalo unless its part was over before the cancel reached it (it sent the visitor
+    # up the stairs: GO_TO_FLOOR; the page waits only for the robots whose part is not over)
+    for robot, over, first in (("Tartalo", {GO_TO_FLOOR}, since), ("MariSorgin", set(), since_m)):
+        last = stack.wait_event(robot, set(FINAL_PHASES), uid, timeout=30, on=robot, since=first)
+        assert last["phase"] in {CANCELLED_ELSEWHERE, *over}, (robot, last)
+        wait_until(lambda robot=robot: uid not in {g["uid"] for g in stack.pending(robot, robot)["goals"]}, 30,
                    f"{robot}'s queue without the trip")
     wait_until(lambda: all(g["uid"] != uid for r in stack.robots
-                           for g in (stack.pending("Kbot", r) or {"goals": []})["goals"]), 10,
+                           for g in (stack.pending("Kbot", r) or {"goals": []})["goals"]), 30,
                "every robot's queue without the trip, as Kbot hears them")
+    busy = {"Guiding a visitor", "Going to meet a visitor", "Waiting for a visitor"}
+    browser.wait(lambda: all(browser.text(f'#queues tr[data-robot="{r}"] td:nth-child(3)') not in busy
+                             for r in ("Tartalo", "MariSorgin")), 30,
+                 "Tartalo and MariSorgin no longer serving the trip on the page (their next status)")
     browser.shot("trips-cancelled")
 
 
@@ -194,8 +204,8 @@ def test_the_page_survives_its_robots_master_restarting(stack: SimStack, browser
 def test_the_history_survives_a_restart_of_the_dashboard_node(stack: SimStack, browser: Browser) -> None:
     browser.open(kbot(stack), "history")
     cell = '#history td[data-count="completed"]'
-    browser.wait(lambda: browser.all(cell) and int(browser.css(cell).text) >= 2, 30, "two completed trips")
-    before = {k: browser.css(f'#history td[data-count="{k}"]').text for k in ("completed", "cancelled")}
+    browser.wait(lambda: int(browser.text(cell) or 0) >= 2, 30, "two completed trips")
+    before = {k: browser.text(f'#history td[data-count="{k}"]') for k in ("completed", "cancelled")}
     assert before["cancelled"] == "1"
     browser.shot("history")
     [pid] = [int(r["pid"]) for r in stack.sim.cpu_usage()
@@ -204,8 +214,8 @@ def test_the_history_survives_a_restart_of_the_dashboard_node(stack: SimStack, b
     browser.wait(lambda: browser.css("#conn").get_attribute("data-state") == "reconnecting", 10, "reconnecting")
     browser.shot("reconnecting")
     browser.wait(lambda: browser.css("#conn").get_attribute("data-state") == "live", 40, "the page live again")
-    browser.wait(lambda: browser.all(cell) and {k: browser.css(f'#history td[data-count="{k}"]').text
-                                                for k in before} == before, 20, "the same history")
+    browser.wait(lambda: {k: browser.text(f'#history td[data-count="{k}"]') for k in before} == before, 20,
+                 "the same history")
     [again] = [int(r["pid"]) for r in stack.sim.cpu_usage()
                if r["owner"] == "robot_Kbot" and r["process"] == "dashboard"]
     assert again != pid
