@@ -92,6 +92,16 @@ def test_actions_without_login_are_refused(faculty, tmp_path: Path) -> None:
     run_site(faculty, tmp_path, test)
 
 
+def test_the_refused_actions_are_every_change_the_application_offers(faculty, tmp_path: Path) -> None:
+    """The tests of this file send every action of ACTIONS: a change added to the application must join it (the
+    login, checked on its own, aside)."""
+    async def test(site: Site) -> None:
+        posts = {r.resource.canonical for r in site.app.app.router.routes() if r.method == "POST"}
+        others = {r.method for r in site.app.app.router.routes()} - {"GET", "HEAD", "POST"}
+        assert posts - {"/api/login"} == set(ACTIONS) and not others
+    run_site(faculty, tmp_path, test)
+
+
 def test_a_missing_or_forged_csrf_token_is_refused(faculty, tmp_path: Path) -> None:
     async def test(site: Site) -> None:
         files = site.tour_files()
