@@ -2,7 +2,8 @@
 
 Runs ``gidabot demo --dashboard`` twice on the same tour (default: the paper's Table 2 tour, ``tours/long_tour.tour``)
 with the same ``--seed``, at the demo's default speed, one after the other: first with no client, then with
-``--clients`` WebSocket clients (default 20) on ``--robot``'s dashboard (default Kbot) for the whole run. Each client
+``--clients`` WebSocket clients (default 20) on ``--robot``'s dashboard (default Kbot) from when it serves until every
+goal of the tour is done (then the demo stops every process: a socket closed after that is not dropped). Each client
 reads every update; for every robot status it gets, the delay from the dashboard's receipt of that
 ``/gidabot/status`` message (the ``rx`` it carries, wall clock) to the client is recorded. Prints per run: the
 outcome, Table 3, whether the run is degraded, the dashboard's CPU (that robot's dashboard process, % of one core
@@ -39,11 +40,13 @@ from gidabot_sim.runner.calibration import Calibration, as_json, describe
 DEMO = (sys.executable, "-m", "gidabot_sim.cli", "demo")
 TABLE3 = [7, 8, 8, 6]
 URL_LINE = re.compile(r"^\s+(\w+)\s+(http://\S+)(?:\s+\(from this host: (http://\S+)\))?")
+TOUR_DONE = re.compile(r"\bgoal (\d+) of \1 \(.*\), \1 done \|")     # the demo's progress line once every goal is done
 
 
 @dataclass
 class Clients:
-    """The live clients of one run: what they received and when."""
+    """The live clients of one run: what they received and when. ``stop``: the tour is over (the demo then stops
+    every process, its dashboards too: a socket closed after that is no drop)."""
 
     url: str
     count: int
@@ -67,7 +70,8 @@ class Clients:
                         continue
                     now = time.time()
                     if msg.type != aiohttp.WSMsgType.TEXT:
-                        self.dropped += 1
+                        if not self.stop.is_set():
+                            self.dropped += 1
                         return
                     self.messages += 1
                     data = json.loads(msg.data)
@@ -77,7 +81,8 @@ class Clients:
                             seen[robot["name"]] = rx
                             self.delays.append(now - rx)
         except (aiohttp.ClientError, OSError) as err:
-            self.errors.append(f"client {n}: {err}")
+            if not self.stop.is_set():
+                self.errors.append(f"client {n}: {err}")
 
     async def _all(self) -> None:
         async with aiohttp.ClientSession() as session:
@@ -138,6 +143,7 @@ def run_one(args: argparse.Namespace, out: Path, clients: int, log: Path) -> dic
     proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     state: dict = {"url": None, "pid": None, "cpu0": None, "t0": None, "cpu1": None, "t1": None, "clients": None,
                    "thread": None, "watcher": None}
+    over = threading.Event()                  # the demo said every goal is done
 
     def watch(port: int) -> None:
         """Find the process listening on the dashboard's port (the demo says where it will be before it starts),
@@ -149,8 +155,8 @@ def run_one(args: argparse.Namespace, out: Path, clients: int, log: Path) -> dic
             if state["pid"] is None:
                 time.sleep(0.2)
         state["cpu0"], state["t0"] = cpu_seconds(state["pid"]), time.monotonic()
-        if clients:
-            c = Clients(state["url"], clients)
+        if clients and not over.is_set():
+            c = Clients(state["url"], clients, stop=over)
             state["clients"], state["thread"] = c, c.run()
         while state["cpu0"] is not None and proc.poll() is None:
             cpu = cpu_seconds(state["pid"])
@@ -166,6 +172,8 @@ def run_one(args: argparse.Namespace, out: Path, clients: int, log: Path) -> dic
             for line in proc.stderr:          # type: ignore[union-attr]
                 f.write(line)
                 f.flush()
+                if TOUR_DONE.search(line):
+                    over.set()
                 m = URL_LINE.match(line)
                 if m and m.group(1) == args.robot and state["url"] is None:
                     state["url"] = m.group(3) or m.group(2)
@@ -181,9 +189,9 @@ def run_one(args: argparse.Namespace, out: Path, clients: int, log: Path) -> dic
     if state["watcher"] is not None:
         state["watcher"].join(timeout=10)
     cpu1, t1 = state["cpu1"], state["t1"]
+    over.set()
     c: Clients | None = state["clients"]
     if c is not None:
-        c.stop.set()
         state["thread"].join(timeout=10)
     try:
         report = json.loads(stdout.strip().splitlines()[-1]) if stdout.strip() else {}
