@@ -117,6 +117,7 @@ class SimStack:
     """The simulated building (default: the faculty, 4 robots) for system tests; see the module docstring.
 
     ``record`` maps a robot to the topics its recorder subscribes (default :data:`DEFAULT_TOPICS`).
+    ``dashboard``: every robot serves its staff dashboard (``SimulatedBuilding.staff_url``).
     ``machines``: every robot a separate machine (its own network namespace and firewall,
     ``SimulatedBuilding(machines=True)``); the recorders run on their robot's machine.
     """
@@ -125,7 +126,8 @@ class SimStack:
 
     def __init__(self, tmp: Path, speed: float = 20.0, robot_args: dict[str, dict[str, str]] | None = None,
                  common_args: dict[str, str] | None = None, record: dict[str, tuple[str, ...]] | None = None,
-                 start_delay: float = 6.0, building: Path = FACULTY, machines: bool = False) -> None:
+                 start_delay: float = 6.0, building: Path = FACULTY, machines: bool = False,
+                 dashboard: bool = False) -> None:
         self.tmp = tmp
         self.speed = speed
         self.robots = tuple(r.name for r in load_building(building).robots)
@@ -134,7 +136,7 @@ class SimStack:
         addresses = None if machines else [robot_address(i) for i in range(len(self.robots))]
         self.sim = SimulatedBuilding(building, tmp / "run", speed=speed, gui=False, record=False, addresses=addresses,
                                      robot_args=robot_args or {}, common_args=args, start_delay=start_delay,
-                                     machines=machines)
+                                     machines=machines, dashboard=dashboard)
         self.topics = record or {}
         self.rec: dict[str, Recorder] = {}
         self.n = 0

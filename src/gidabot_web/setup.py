@@ -2,4 +2,5 @@ from catkin_pkg.python_setup import generate_distutils_setup
 from setuptools import find_packages, setup
 
 setup(**generate_distutils_setup(packages=find_packages("src"), package_dir={"": "src"},
-                                 package_data={"gidabot_web": ["editor/static/*"]}))
+                                 package_data={"gidabot_web": ["web/static/*", "dashboard/static/*",
+                                                               "editor/static/*"]}))

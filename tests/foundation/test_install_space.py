@@ -15,6 +15,7 @@ import os
 import signal
 import subprocess
 import sys
+import urllib.request
 import xmlrpc.client
 from pathlib import Path
 
@@ -36,9 +37,18 @@ pytestmark = pytest.mark.system
 
 REPO = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(sys.prefix) / "bin"
-NODES = ("/goal_manager", "/multirobot_navigation", "/tour_store", "/relay_supervisor", "/sim", "/move_base", "/amcl")
+NODES = ("/goal_manager", "/multirobot_navigation", "/tour_store", "/relay_supervisor", "/sim", "/move_base", "/amcl",
+         "/dashboard")
 BUILD_TIMEOUT = 300.0     # s; about 10 s on the 2-core test machine
 START_TIMEOUT = 90.0      # s from roslaunch to every node registered
+
+
+def http_status(url: str) -> int | None:
+    try:
+        with urllib.request.urlopen(url, timeout=2.0) as r:
+            return int(r.status)
+    except (OSError, ValueError):
+        return None
 
 
 def clean_env(home: Path) -> dict[str, str]:
@@ -112,13 +122,16 @@ def test_one_robot_runs_from_the_install_space(tmp_path: Path) -> None:
               for i, r in enumerate(base.robots) if i > 0}
     building = relocate_building(share / "maps" / "faculty", tmp_path / "building", {robot.name: uri, **others})
     tours = tmp_path / "tours"
+    dashboard = f"http://{ip}:{free_port(ip)}"
     with ProcessGroup(tmp_path / "logs") as procs:
         procs.start("master", ["rosmaster", "--core", "-p", str(port), "-w", "3"],
                     ros_env(uri, ip, base=env, log_dir=tmp_path / "ros" / "master"))
         wait_until(lambda: master_pid(uri) is not None, 15.0, f"master at {uri}")
         launch = procs.start("robot", ["roslaunch", "--skip-log-check", "gidabot_navigation", "robot.launch",
                                        f"building:={building}", f"robot:={robot.name}", "sim:=true", "gui:=false",
-                                       f"tours_dir:={tours}", f"relay_state_dir:={tmp_path / 'relay'}"],
+                                       f"tours_dir:={tours}", f"relay_state_dir:={tmp_path / 'relay'}",
+                                       f"dashboard_port:={dashboard.rsplit(':', 1)[1]}",
+                                       f"dashboard_dir:={tmp_path / 'dashboard'}"],
                              ros_env(uri, ip, base=env, log_dir=tmp_path / "ros" / "robot"), cwd=tmp_path)
         relay = f"/gidabot_relay_{robot.name}_{base.robots[1].name}"   # its side a runs on this master
         try:
@@ -136,6 +149,8 @@ def test_one_robot_runs_from_the_install_space(tmp_path: Path) -> None:
                 argv = " ".join(node_argv(uri, node))
                 assert f"{install}/lib/" in argv and str(REPO / "src") not in argv, (node, argv)
             assert "-m gidabot_navigation.relay.end_node" in " ".join(node_argv(uri, relay))
+            for page in ("/", "/static/dashboard.js", "/web/web.js", "/blueprints/floor-0.png"):   # its files too
+                wait_until(lambda page=page: http_status(dashboard + page) == 200, 30.0, f"the dashboard's {page}")
         finally:
             tree = process_tree({launch.popen.pid})      # the nodes run in sessions of their own
             procs.close()

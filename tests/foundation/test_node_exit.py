@@ -35,6 +35,7 @@ FACULTY = REPO / "maps" / "faculty"
 NAV_NODES = REPO / "src" / "gidabot_navigation" / "nodes"
 SIM_NODES = REPO / "src" / "gidabot_sim" / "nodes"
 GUI_NODE = REPO / "src" / "gidabot_gui" / "nodes" / "gui"
+DASHBOARD_NODE = REPO / "src" / "gidabot_web" / "nodes" / "dashboard"
 ROBOT = "Kbot"
 EXIT_BOUND = 2.0     # s
 ROS_NODES = {        # process name -> ROS node name (registered on the master once it runs)
@@ -43,6 +44,7 @@ ROS_NODES = {        # process name -> ROS node name (registered on the master o
     "people": global_name(Node.PEOPLE),
     "relay_end": relay_end_name(ROBOT, "Galtxagorri"), "visitor": global_name(Node.VISITOR),
     "monitor": global_name(Node.MONITOR), "gui": global_name(Node.GUI), "chaos_probe": global_name(Node.CHAOS_PROBE),
+    "dashboard": global_name(Node.DASHBOARD),
 }   # the monitor is anonymous: /monitor_<pid>_<ms>
 
 
@@ -78,6 +80,8 @@ class Robot:
             "visitor": [py, str(SIM_NODES / "visitor"), *common, "__name:=visitor"],
             "monitor": [py, str(SIM_NODES / "monitor"), f"_out:={tmp / 'monitor.jsonl'}"],
             "gui": [py, str(GUI_NODE), *common, "_speech:=false", "_fullscreen:=false"],
+            "dashboard": [py, str(DASHBOARD_NODE), *common, f"_state_dir:={tmp / 'dashboard'}",
+                          f"_port:={free_port(ip)}"],
         }
         if stand_ins:
             starts |= {"sim": [py, str(SIM_NODES / "world"), f"__name:={Node.SIM}", *common, "_speed:=20",

@@ -27,12 +27,14 @@ from gidabot_navigation.guiding.messages import (
     SendCancel,
     SendEvent,
     SendGoal,
+    StaffCommandData,
     StopMoving,
     Trip,
 )
 from gidabot_navigation.guiding.navigation import ABORTED, SUCCEEDED, NavigationConfig, NavigationCore
 from gidabot_navigation.guiding.trips import TripPlanner
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Node, Phase, global_name
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_NONE, Cmd, Node, Phase, StaffCmd, global_name
+from gidabot_navigation.senders import SCOPE_STAFF, make_uid
 from gidabot_navigation.tours.tour_file import parse_tour
 from gidabot_navigation.tours.tour_store import TourMessage
 
@@ -40,6 +42,7 @@ _PLANNERS: dict[int, tuple[Building, TripPlanner]] = {}
 # the callerids of a robot's own nodes on its master
 GM, NAV, GUI, TS, PEOPLE = (global_name(n) for n in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.GUI,
                                                      Node.TOUR_STORE, Node.PEOPLE))
+DASHBOARD = global_name(Node.DASHBOARD)
 
 
 def from_robot(core: GoalManagerCore | NavigationCore, robot: str) -> str:
@@ -278,6 +281,18 @@ class Bus:
 
     def skip(self, robot: str, tour_file: str, step: int, goal_uid: str = "") -> None:
         self.command(robot, Cmd.SKIP, tour_file=tour_file, tour_step=step, goal_uid=goal_uid)
+
+    def staff(self, at: str, target: str, out: bool, version: int = 1, user: str = "sara", detail: str = "") -> None:
+        """A staff command at ``at``'s dashboard takes ``target`` out of service (``out``) or back; every robot
+        gets it (the dashboard's own robot directly, the others through a relay)."""
+        cmd = StaffCommandData(uid=make_uid(at, SCOPE_STAFF, "dash"), robot=at, user=user,
+                               command=StaffCmd.OUT_OF_SERVICE if out else StaffCmd.BACK_IN_SERVICE,
+                               target_robot=target, version=version, detail=detail)
+        for name, r in self.robots.items():
+            by = DASHBOARD if name == at else from_robot(r.gm, at)
+            self._to(name, lambda r=r, by=by: self.run(r.name, r.gm.on_staff(cmd, self.now_ros, self.now_wall,
+                                                                            sender=by)), at, cmd)
+        self.pump()
 
     def status_all(self, robots: list[str] | None = None) -> None:
         """Every robot hears a status of each robot in ``robots`` (default: all) now (wall time)."""

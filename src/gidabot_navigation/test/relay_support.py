@@ -10,8 +10,8 @@ from gidabot_navigation.relay.end import Close, RelayEndConfig, RelayEndCore, Se
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.senders import Claim
 
-TOPICS = tuple(t for t in SHARED_TOPICS if t.name in (Topic.GOALS, Topic.CANCELS, Topic.STATUS))
-MD5 = {Topic.GOALS: "a" * 32, Topic.CANCELS: "b" * 32, Topic.STATUS: "c" * 32}
+TOPICS = tuple(t for t in SHARED_TOPICS if t.name in (Topic.GOALS, Topic.CANCELS, Topic.STATUS, Topic.STAFF))
+MD5 = {Topic.GOALS: "a" * 32, Topic.CANCELS: "b" * 32, Topic.STATUS: "c" * 32, Topic.STAFF: "d" * 32}
 TYPES = {t.name: t.type for t in TOPICS}
 SECRET = b"correct horse battery staple"
 

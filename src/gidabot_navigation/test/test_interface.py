@@ -47,6 +47,9 @@ def test_constants_match_the_messages() -> None:
     goal = constants("Goal.msg")
     assert (goal["WAY_LIFT"], goal["WAY_STAIRS"]) == (interface.WAY_LIFT, interface.WAY_STAIRS)
     assert [int(goal[k]) for k in ("LEG_NONE", "LEG_PROPOSED", "LEG_COMMITTED")] == list(interface.LEG_STATES)
+    staff = constants("StaffCommand.msg")
+    assert {k: int(v) for k, v in staff.items()} == {c.name: int(c) for c in interface.StaffCmd}
+    assert set(interface.STAFF_COMMAND_NAMES) == set(interface.StaffCmd)
 
 
 def test_the_visitor_sights_match_the_message() -> None:
@@ -57,7 +60,8 @@ def test_the_relays_whitelist_of_the_package_lists_exactly_the_shared_topics() -
     listed = load_shared_topics(SHARED_TOPICS_FILE)          # (name, type, class) of each
     assert sorted(listed, key=lambda t: t.name) == sorted(interface.SHARED_TOPICS, key=lambda t: t.name)
     assert {t.name for t in interface.SHARED_TOPICS if t.kind == interface.EVENT} == {
-        interface.Topic.GOALS, interface.Topic.CANCELS, interface.Topic.NAV_EVENTS, interface.Topic.TOURS}
+        interface.Topic.GOALS, interface.Topic.CANCELS, interface.Topic.NAV_EVENTS, interface.Topic.TOURS,
+        interface.Topic.STAFF}
     # every /gidabot/ topic is shared, and only those
     assert {t.name for t in interface.SHARED_TOPICS} == {
         v for k, v in vars(interface.Topic).items() if k.isupper() and v.startswith("/gidabot/")}

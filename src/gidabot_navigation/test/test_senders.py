@@ -16,7 +16,9 @@ from gidabot_navigation.senders import (
     IMPOSTOR,
     NEW,
     OWN,
+    PUBLISHERS,
     RELAY,
+    SCOPE_STAFF,
     SPEAKS_FOR,
     WRONG_NAMESPACE,
     Claim,
@@ -95,6 +97,20 @@ def test_a_message_speaks_only_for_its_sender_with_a_uid_of_that_robot(tartalo) 
         assert tartalo.check(sender.node, claim) == (sender, kind)
 
 
+def test_a_staff_command_or_link_summary_comes_only_from_the_dashboard_or_a_relay_end(tartalo) -> None:
+    staff = Claim("Tartalo", make_uid("Tartalo", SCOPE_STAFF, "dash"))
+    for topic, claim in ((Topic.STAFF, staff), (Topic.LINKS, Claim("Tartalo"))):
+        assert set(PUBLISHERS[topic]) == {Node.DASHBOARD}
+        assert tartalo.check(global_name(Node.DASHBOARD), claim, topic)[1] is None
+        for node in (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.GUI):
+            assert tartalo.check(global_name(node), claim, topic)[1] == IMPOSTOR
+            assert tartalo.check(global_name(node), claim)[1] is None             # on a topic without the rule
+        kbot = Claim("Kbot", make_uid("Kbot", SCOPE_STAFF, "dash") if claim.uid else None)
+        assert tartalo.check("/gidabot_relay_Tartalo_Kbot", kbot, topic)[1] is None
+        assert tartalo.check("/gidabot_relay_Tartalo_Kbot", claim, topic)[1] == FOREIGN
+    assert tartalo.check(global_name(Node.GOAL_MANAGER), Claim("Tartalo"), Topic.STATUS)[1] is None
+
+
 def test_uids_have_a_random_token_after_their_robots_namespace() -> None:
     uids = {make_uid("Kbot", "event", "gm") for _ in range(1000)}
     assert len(uids) == 1000 and all(uid_robot(u) == "Kbot" for u in uids)
@@ -120,6 +136,9 @@ def test_the_table_says_whom_every_shared_message_speaks_for() -> None:
     for topic in (Topic.STATUS, Topic.POSES, Topic.PENDING, Topic.TOUR_INDEX):
         assert claim_of(topic, SimpleNamespace(robot="Kbot")) == Claim("Kbot")
     assert claim_of(Topic.STATUS, SimpleNamespace(robot=7)) == Claim("")
+    staff = SimpleNamespace(uid=make_uid("Kbot", SCOPE_STAFF, "dash"), robot="Kbot", target_robot="Lamia")
+    assert claim_of(Topic.STAFF, staff) == Claim("Kbot", staff.uid)                 # not the robot it is about
+    assert claim_of(Topic.LINKS, SimpleNamespace(robot="Kbot", links=[])) == Claim("Kbot")
     assert claim_of(Topic.VISITOR_COMMAND, ev) is None
 
 

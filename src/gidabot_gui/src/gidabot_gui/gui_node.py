@@ -116,6 +116,14 @@ class Receiver:
                                                "nav event") is not None:
             self.inbox.put_event("nav_event", rec)
 
+    def staff(self, m: gidabot_msgs.StaffCommand) -> None:
+        """A StaffCommand, taken only from the dashboard of the robot it speaks for (this robot's dashboard, or the
+        relay end of the link from that robot), with a uid of that robot (refused and counted otherwise)."""
+        rec = self._convert("staff", lambda msg: bounded(convert.staff_from_msg(msg)), m)
+        if rec is not None and self.gate.admit(sender(m), claim_of(Topic.STAFF, rec) or Claim(""), "staff command",
+                                               Topic.STAFF) is not None:
+            self.inbox.put_event("staff", rec)
+
     def edit_result(self, m: gidabot_msgs.TourEditResult) -> None:
         self._event("edit_result", convert.edit_result_from_msg, m)
 
@@ -221,6 +229,7 @@ class GuiNode:
             rospy.Subscriber(Topic.NAV_EVENTS, gidabot_msgs.NavEvent, r.nav_event, queue_size=200),
             rospy.Subscriber(Topic.TOUR_CATALOG, gidabot_msgs.TourCatalog, r.catalog, queue_size=2),
             rospy.Subscriber(Topic.TOUR_EDIT_RESULT, gidabot_msgs.TourEditResult, r.edit_result, queue_size=20),
+            rospy.Subscriber(Topic.STAFF, gidabot_msgs.StaffCommand, r.staff, queue_size=20),
         ]
 
     # Outputs (called in the Qt thread; rospy publishers with a queue never block)

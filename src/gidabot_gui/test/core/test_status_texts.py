@@ -2,14 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import pytest
 
 from gidabot_gui.core.flow import Mode, VisitorFlow
 from gidabot_gui.core.i18n import Translator
 from gidabot_gui.core.model import Fleet
-from gidabot_gui.core.status_texts import here_line, mark_label, robot_card, trip_line
+from gidabot_gui.core.status_texts import here_line, mark_label, out_of_service_line, robot_card, trip_line
 from gidabot_gui.core.texts import Texts
-from gidabot_navigation.interface import RobotState
+from gidabot_navigation.guiding.messages import StaffCommandData
+from gidabot_navigation.interface import RobotState, StaffCmd
 
 
 @pytest.fixture
@@ -56,3 +59,23 @@ def test_robot_cards_and_labels(faculty, texts, status) -> None:
     assert mark_label(texts, "Tartalo", here=False, offline=True) == "Tartalo · offline"
     assert mark_label(texts, "Kbot", here=True, offline=False) == "Kbot · You are here"
     assert mark_label(texts, "Galtxagorri", here=False, offline=False) == "Galtxagorri"
+
+
+def test_a_robot_out_of_service_says_so(faculty, texts, status) -> None:
+    """Staff took Kbot out of service from a dashboard: its screen says so while no trip is shown; its card too;
+    a later command puts it back, an older one changes nothing, an invalid one is counted."""
+    fleet = Fleet(faculty)
+    fleet.update_status(status("Kbot", 1), 1.0)
+    assert out_of_service_line(texts, fleet) == ""
+    out = StaffCommandData(uid="Tartalo/staff/d.1", robot="Tartalo", user="sara", command=StaffCmd.OUT_OF_SERVICE,
+                           target_robot="Kbot", version=5, detail="cleaning")
+    assert fleet.update_staff(out, 2.0)
+    assert out_of_service_line(texts, fleet).startswith("This guide is out of service")
+    assert robot_card(texts, fleet, "Kbot", 2.0).state.startswith("Out of service · ")
+    texts.tr.set_language("eu")
+    assert out_of_service_line(texts, fleet).startswith("Gidari hau zerbitzutik kanpo dago")
+    texts.tr.set_language("en")
+    back = replace(out, uid="Tartalo/staff/d.2", command=StaffCmd.BACK_IN_SERVICE)
+    assert fleet.update_staff(replace(back, version=4), 3.0) and fleet.out_of_service("Kbot")     # older
+    assert fleet.update_staff(replace(back, version=6), 3.0) and out_of_service_line(texts, fleet) == ""
+    assert not fleet.update_staff(replace(out, version=0), 4.0) and fleet.rejected == 1

@@ -28,6 +28,8 @@ class Node:
     RELAY_SUPERVISOR = "relay_supervisor"
     PEOPLE = "people"                  # the people detector and tracker (the visitor behind the robot)
     GUI = "gui"
+    DASHBOARD = "dashboard"            # the staff web dashboard (gidabot_web): its staff commands and cancels speak for
+    #                                    this robot
     # the simulated floor, and the stand-ins of a robot's own navigation stack
     SIM = "sim"
     MOVE_BASE = "move_base"
@@ -83,6 +85,8 @@ class Topic:
     MAKE_WAY = "/gidabot/make_way"
     PENDING = "/gidabot/pending"
     TOUR_INDEX = "/gidabot/tour_index"
+    STAFF = "/gidabot/staff"             # staff commands from a robot's dashboard (out of service and back)
+    LINKS = "/gidabot/links"             # each robot's relay links as it sees them (its dashboard publishes them)
     # one robot's own: the visitor's buttons, the tour store
     VISITOR_COMMAND = "visitor/command"
     TOUR_EDIT = "tour_store/edit"
@@ -157,6 +161,8 @@ SHARED_TOPICS = (
     TopicSpec(Topic.MAKE_WAY, "gidabot_msgs/MakeWay", STATE),
     TopicSpec(Topic.PENDING, "gidabot_msgs/PendingRequests", STATE),
     TopicSpec(Topic.TOUR_INDEX, "gidabot_msgs/TourIndex", STATE),
+    TopicSpec(Topic.STAFF, "gidabot_msgs/StaffCommand", EVENT),
+    TopicSpec(Topic.LINKS, "gidabot_msgs/LinkSummary", STATE),
 )
 
 
@@ -243,6 +249,15 @@ class Cmd(IntEnum):
 
 COMMAND_NAMES = {Cmd.REQUEST: "request", Cmd.CONTINUE: "continue", Cmd.CANCEL: "cancel",
                  Cmd.START_TOUR: "start tour", Cmd.SKIP: "skip"}
+
+class StaffCmd(IntEnum):
+    """gidabot_msgs/StaffCommand commands (same numbers)."""
+
+    OUT_OF_SERVICE = 0
+    BACK_IN_SERVICE = 1
+
+
+STAFF_COMMAND_NAMES = {StaffCmd.OUT_OF_SERVICE: "out of service", StaffCmd.BACK_IN_SERVICE: "back in service"}
 
 # -- gidabot_msgs/Cancel reasons -------------------------------------------------------------
 REASON_VISITOR = "visitor"

@@ -6,8 +6,9 @@ for a Tour, the robot whose uid it carries), and an event's uid must be in that 
 namespace. A message arriving on robot R's master is attributed by its publisher (the
 ROS callerid, which the adapter passes with every message) with :meth:`Senders.attribute`:
 
-1. one of R's own nodes (:data:`OWN_NODES`: the guiding nodes, the tour store, the GUI;
-   in simulation also the simulated visitor) may speak only for R;
+1. one of R's own nodes (:data:`OWN_NODES`: the guiding nodes, the tour store, the GUI, the dashboard;
+   in simulation also the simulated visitor) may speak only for R; on a topic of :data:`PUBLISHERS`
+   only the own nodes listed there may (a staff command only R's dashboard);
 2. the relay end of R's link to robot P (``interface.relay_end_name`` of one of R's
    links in the building) may speak only for P: it publishes what P's own nodes sent;
 3. anything else is an *impostor*: a node of another name (``rostopic pub``, a probe,
@@ -48,17 +49,18 @@ from gidabot_navigation.logs import Logger, RateLimitedLog
 # ---------------------------------------------------------------------------
 
 UID_FORMAT = "<robot>/<scope>/<tag>.<token>"
-"""Every event uid (Goal, Cancel, NavEvent, Tour): ``robot`` is the robot that made it (its
+"""Every event uid (Goal, Cancel, NavEvent, Tour, StaffCommand): ``robot`` is the robot that made it (its
 namespace: the robot the message speaks for), ``scope`` says what it names (``event``,
-``cancel``, ``tour``; a goal's is its visitor id, which the GUI matches), ``tag`` the maker
-(``gm`` goal manager, ``nav`` multirobot_navigation, ``ts`` tour store), ``token`` at least
+``cancel``, ``tour``, ``staff``; a goal's is its visitor id, which the GUI matches), ``tag`` the maker
+(``gm`` goal manager, ``nav`` multirobot_navigation, ``ts`` tour store, ``dash`` dashboard), ``token`` at least
 16 lowercase hex digits drawn at random for each uid (64 bits: a uid cannot be guessed
 before it is published, so it cannot be taken first). At most :data:`MAX_UID` characters."""
 MAX_UID = 160
 TOKEN_BYTES = 8
 UID_RE = re.compile(r"(?P<robot>[A-Za-z0-9_.:@+-]{1,64})/(?P<scope>[A-Za-z0-9_.:@+-]{1,64})/"
                     r"(?P<tag>[a-z]{1,8})\.(?P<token>[0-9a-f]{16,64})\Z")
-SCOPE_EVENT, SCOPE_CANCEL, SCOPE_TOUR = "event", "cancel", "tour"
+SCOPE_EVENT, SCOPE_CANCEL, SCOPE_TOUR, SCOPE_STAFF = "event", "cancel", "tour", "staff"
+SCOPE_TOUR_EDIT = "tour-edit"        # an admin edit to this robot's tour store (a local topic: matches the answer)
 
 
 def make_uid(robot: str, scope: str, tag: str) -> str:
@@ -96,7 +98,9 @@ SPEAKS_FOR: dict[str, Speech] = {
     Topic.POSES: Speech("robot", ""),
     Topic.PENDING: Speech("robot", ""),
     Topic.TOUR_INDEX: Speech("robot", ""),
+    Topic.STAFF: Speech("robot", "uid"),             # the robot whose dashboard staff used
     Topic.MAKE_WAY: Speech("robot", ""),             # the robot that asks the idle robots of its floor to make way
+    Topic.LINKS: Speech("robot", ""),                # the robot whose relay links it sums up (its dashboard's view)
 }
 
 
@@ -128,8 +132,15 @@ def claim_of(topic: str, msg: object) -> Claim | None:
 # Who sent it
 # ---------------------------------------------------------------------------
 
-OWN_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.GUI)
+OWN_NODES = (Node.GOAL_MANAGER, Node.MULTIROBOT_NAVIGATION, Node.TOUR_STORE, Node.GUI, Node.DASHBOARD)
 SIMULATED_OWN_NODES = (*OWN_NODES, Node.VISITOR)      # the simulated visitor presses this robot's buttons
+
+PUBLISHERS: dict[str, tuple[str, ...]] = {
+    Topic.STAFF: (Node.DASHBOARD,),                  # staff act only at a robot's dashboard
+    Topic.LINKS: (Node.DASHBOARD,),                  # the dashboard sums up its robot's links
+}
+"""The shared topics that only some of a robot's own nodes may publish (any other own node of it is an impostor
+there); on the other shared topics any own node may."""
 
 OWN, RELAY, IMPOSTOR = "own", "relay", "impostor"
 # refusal kinds, counted by every core
@@ -187,9 +198,10 @@ class Senders:
         return self._peers[peer]
 
     @staticmethod
-    def refusal(sender: Sender, claim: Claim) -> str | None:
-        """Why a message of ``sender`` that makes ``claim`` is refused (a refusal kind), or None: it may."""
-        if sender.kind == IMPOSTOR:
+    def refusal(sender: Sender, claim: Claim, topic: str = "") -> str | None:
+        """Why a message of ``sender`` that makes ``claim`` (on shared ``topic``: :data:`PUBLISHERS`) is refused (a
+        refusal kind), or None: it may."""
+        if sender.kind == IMPOSTOR or not may_publish(sender, topic):
             return IMPOSTOR
         if claim.robot != sender.robot:
             return FOREIGN
@@ -197,15 +209,23 @@ class Senders:
             return WRONG_NAMESPACE
         return None
 
-    def check(self, callerid: object, claim: Claim) -> tuple[Sender, str | None]:
+    def check(self, callerid: object, claim: Claim, topic: str = "") -> tuple[Sender, str | None]:
         """:meth:`attribute` and :meth:`refusal` in one."""
         sender = self.attribute(callerid)
-        return sender, self.refusal(sender, claim)
+        return sender, self.refusal(sender, claim, topic)
+
+
+def may_publish(sender: Sender, topic: str) -> bool:
+    """False when ``sender`` is an own node that is not one of the publishers of ``topic`` (:data:`PUBLISHERS`)."""
+    allowed = PUBLISHERS.get(topic)
+    return sender.kind != OWN or allowed is None or sender.node in {global_name(n) for n in allowed}
 
 
 def explain(kind: str, sender: Sender, claim: Claim) -> str:
     """A log line's reason for refusal ``kind`` of a message of ``sender`` claiming ``claim``."""
     who = repr(sender.node[:80])
+    if kind == IMPOSTOR and sender.own:
+        return f"{who} is a node of this robot that may not publish this"
     if kind == IMPOSTOR:
         return f"{who} is neither a node of this robot nor one of its relay ends"
     if kind == FOREIGN:
@@ -317,17 +337,17 @@ class Gate:
         self._warn = RateLimitedLog(log, clock or time.monotonic, burst, window)
         self._logged: OrderedDict[str, None] = OrderedDict()
 
-    def check(self, callerid: object, claim: Claim, what: str) -> tuple[Sender, str | None]:
-        """The sender of a message (``what``, for the log) that makes ``claim`` and why it is refused (counted and
-        logged), or None: it may."""
-        sender, kind = self.senders.check(callerid, claim)
+    def check(self, callerid: object, claim: Claim, what: str, topic: str = "") -> tuple[Sender, str | None]:
+        """The sender of a message (``what``, for the log; on shared ``topic``: :data:`PUBLISHERS`) that makes
+        ``claim`` and why it is refused (counted and logged), or None: it may."""
+        sender, kind = self.senders.check(callerid, claim, topic)
         if kind is not None:
             self.refuse(kind, f"{what} of {claim.robot[:40]!r} at {self.senders.robot}: {explain(kind, sender, claim)}")
         return sender, kind
 
-    def admit(self, callerid: object, claim: Claim, what: str) -> Sender | None:
+    def admit(self, callerid: object, claim: Claim, what: str, topic: str = "") -> Sender | None:
         """The sender of a message that makes ``claim``, if it may; else None (refused: :meth:`check`)."""
-        sender, kind = self.check(callerid, claim, what)
+        sender, kind = self.check(callerid, claim, what, topic)
         return sender if kind is None else None
 
     def only(self, callerid: object, node: str, what: str) -> bool:

@@ -9,8 +9,16 @@ import pytest
 
 from gidabot_navigation.errors import GoalRejected
 from gidabot_navigation.guiding import messages
-from gidabot_navigation.guiding.messages import CommandData, Trip, validate_command, validate_trip
-from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd, Phase
+from gidabot_navigation.guiding.messages import (
+    MAX_STAFF_DETAIL,
+    CommandData,
+    StaffCommandData,
+    Trip,
+    validate_command,
+    validate_staff,
+    validate_trip,
+)
+from gidabot_navigation.interface import LEG_COMMITTED, LEG_GOAL, LEG_NONE, LEG_PROPOSED, Cmd, Phase, StaffCmd
 from gidabot_navigation.senders import uid_robot
 
 
@@ -60,7 +68,7 @@ HOSTILE = [
     ("unknown start id", {"start_id": "nowhere"}, "location"),
     ("start leg of a robot of another floor", {"start_robot": "Kbot"}, "assignment"),
     ("start leg without robot", {"start_robot": "", "start_state": LEG_NONE}, "assignment"),
-    ("goal leg not assigned", {"goal_robot": "", "goal_state": LEG_NONE}, "assignment"),
+    ("goal leg named but in no state", {"goal_state": LEG_NONE}, "assignment"),
     ("unknown leg state", {"goal_state": 7}, "assignment"),
     ("leg state not a number", {"goal_state": True}, "assignment"),
     ("negative attempt", {"attempt": -1}, "assignment"),
@@ -74,6 +82,12 @@ def test_hostile_trips_are_rejected_with_a_reason(faculty, what: str, change: di
         validate_trip(faculty, replace(good_trip(faculty), **change))
     assert err.value.reason == reason, (what, str(err.value))
     assert len(str(err.value)) < 400
+
+
+def test_a_goal_leg_given_to_nobody_is_valid(faculty) -> None:
+    """The goal floor's robots are all out of service: nobody serves the goal leg, the visitor goes alone."""
+    out = validate_trip(faculty, replace(good_trip(faculty), goal_robot="", goal_state=LEG_NONE))
+    assert (out.goal_robot, out.goal_state) == ("", LEG_NONE)
 
 
 def test_one_floor_trip_with_a_connector_is_rejected(faculty) -> None:
@@ -166,3 +180,25 @@ def test_seen_set_is_bounded() -> None:
     for x in "bcd":
         s.add(x)
     assert "a" not in s and len(s) == 3
+
+
+# -- staff commands ------------------------------------------------------------------------
+def good_staff() -> StaffCommandData:
+    return StaffCommandData(uid="Kbot/staff/dash.x.1", robot="Kbot", user="ana", command=int(StaffCmd.OUT_OF_SERVICE),
+                            target_robot="Tartalo", version=1_800_000_000_000_000_000, detail="a wheel squeaks",
+                            stamp=1.8e9)
+
+
+def test_staff_commands_are_checked(faculty) -> None:
+    assert validate_staff(faculty, good_staff()) == good_staff()
+    long = validate_staff(faculty, replace(good_staff(), detail="x" * 500))
+    assert long.detail == "x" * MAX_STAFF_DETAIL
+    for change, reason in (({"uid": "Tartalo/staff/1"}, "namespace"), ({"uid": "bad uid"}, "text"),
+                           ({"robot": "Nobody", "uid": "Nobody/staff/1"}, "robot"),
+                           ({"target_robot": "Nobody"}, "robot"),
+                           ({"command": 7}, "command"), ({"command": True}, "command"), ({"version": 0}, "version"),
+                           ({"version": 2 ** 64}, "version"), ({"user": "a b"}, "text"), ({"user": ""}, "empty"),
+                           ({"detail": "line\nbreak"}, "text"), ({"target_robot": 5}, "type")):
+        with pytest.raises(GoalRejected) as err:
+            validate_staff(faculty, replace(good_staff(), **change))
+        assert err.value.reason == reason, change

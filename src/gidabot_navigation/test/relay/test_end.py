@@ -13,7 +13,7 @@ from gidabot_navigation.interface import EVENT, Node, Topic, TopicSpec, global_n
 from gidabot_navigation.relay.end import Close, RelayEndConfig, Send, parse_shared_topics, read_secret
 from gidabot_navigation.relay.journal import Journal
 from gidabot_navigation.relay.protocol import FrameType, Hello, encode_frame, hello_key
-from gidabot_navigation.senders import make_uid
+from gidabot_navigation.senders import SCOPE_STAFF, make_uid
 
 G = Topic.GOALS
 S = Topic.STATUS
@@ -182,6 +182,20 @@ def test_an_own_event_that_does_not_speak_for_this_robot_is_not_forwarded(tmp_pa
     snap = w.a.snapshot()
     assert w.payloads("b") == [] and snap["rejected_foreign"] == 2 and snap["rejected_wrong_namespace"] == 2
     assert snap["queue_depth"] == 0 and w.a.refusals()["foreign"] == 2
+
+
+def test_a_staff_command_crosses_only_from_this_robots_dashboard(tmp_path) -> None:
+    """A staff command speaks for the robot whose dashboard sent it: another node of Tartalo's (its goal manager,
+    its GUI) may not publish one (senders.PUBLISHERS); it never leaves Tartalo."""
+    w, la, _, _ = pair(tmp_path)
+    w.connect()
+    cmd = f"robot=Tartalo;uid={make_uid('Tartalo', SCOPE_STAFF, 'dash')}".encode()
+    for node in (Node.GOAL_MANAGER, Node.GUI):
+        w.local("a", Topic.STAFF, cmd, callerid=global_name(node))
+    assert w.payloads("b", Topic.STAFF) == [] and w.a.snapshot()["rejected_impostor"] == 2
+    assert la.has("is a node of this robot that may not publish this")
+    w.local("a", Topic.STAFF, cmd, callerid=global_name(Node.DASHBOARD))
+    assert w.payloads("b", Topic.STAFF) == [cmd]
 
 
 def test_an_event_the_peer_sends_for_another_robot_is_acknowledged_never_published(tmp_path) -> None:

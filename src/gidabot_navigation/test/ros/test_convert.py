@@ -34,13 +34,16 @@ from gidabot_navigation.interface import (
     Phase,
     RobotState,
     Sight,
+    StaffCmd,
 )
 from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
+from gidabot_navigation.relay.links import LinkData, LinkSummaryData
 from gidabot_navigation.ros import convert
 from gidabot_navigation.tours.tour_store import CatalogData, EditResultData, IndexEntry, TourIndexData, TourMessage
 
 REPO = Path(__file__).resolve().parents[4]
 SIMULATOR_MESSAGES = {"Obstacle", "ObstacleArray", "StepDone", "VisitorBody"}     # converted in gidabot_sim
+PARTS = {"LinkState"}                                              # converted as part of LinkSummary
 ELEMENT_MESSAGES = {"Person"}                                       # converted inside PersonArray
 
 # samples: every field set to a value other than its default, numbers exact in float32
@@ -73,6 +76,12 @@ INDEX = TourIndexData(robot="Kbot", entries=(IndexEntry("a.tour", 5, "Kbot", Fal
 CATALOG = CatalogData(robot="Kbot", tours=(TOUR, replace(TOUR, file_name="b.tour", deleted=False)), stamp=104.5)
 RESULT = EditResultData(uid="Kbot/gui/tour-edit/1", file_name="open_day.tour", deleted=True, ok=True, version=7,
                         reason="in_the_way", error="a directory is in the way", stamp=105.25)
+STAFF = forms.StaffCommandData(uid="Kbot/staff/d.1", robot="Kbot", user="ana", command=StaffCmd.BACK_IN_SERVICE,
+                               target_robot="Tartalo", version=1_800_000_000_123_456_789, detail="fixed", stamp=106.5)
+LINKS = LinkSummaryData(robot="Kbot", links=(
+    LinkData(peer="Tartalo", known=True, connected=True, down_s=1.5, heard_s=0.5, rtt_ms=0.75, queued=3, resent=4,
+             dropped=5, duplicates_suppressed=6, link_losses=7, peer_master_up=True),
+    LinkData(peer="MariSorgin")), stamp=107.0)
 PERSON = Track(id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25, confidence=0.75, unseen=0.5, confirmed=True, visitor=True)
 PEOPLE = PeopleData(tracks=(PERSON, replace(PERSON, id=8, visitor=False)), stamp=106.5)
 VISITOR = VisitorTrackData(VisitorReport(sight=Sight.HIDDEN, track_id=7, x=3.5, y=-1.25, vx=0.5, vy=-0.25,
@@ -102,6 +111,8 @@ CASES = [
     Case(gidabot_msgs.TourIndex, convert.index_to_msg, convert.index_from_msg, INDEX),
     Case(gidabot_msgs.TourCatalog, convert.catalog_to_msg, convert.catalog_from_msg, CATALOG),
     Case(gidabot_msgs.TourEditResult, convert.edit_result_to_msg, convert.edit_result_from_msg, RESULT),
+    Case(gidabot_msgs.StaffCommand, convert.staff_to_msg, convert.staff_from_msg, STAFF),
+    Case(gidabot_msgs.LinkSummary, convert.links_to_msg, convert.links_from_msg, LINKS),
     Case(gidabot_msgs.PersonArray, convert.people_to_msg, convert.people_from_msg, PEOPLE),
     Case(gidabot_msgs.VisitorTrack, convert.visitor_track_to_msg, convert.visitor_track_from_msg, VISITOR),
 ]
@@ -136,7 +147,7 @@ def differences(a: object, b: object) -> list[str]:
 def test_every_message_has_its_conversion() -> None:
     messages = {name for name, cls in vars(gidabot_msgs).items()
                 if isinstance(cls, type) and issubclass(cls, genpy.Message)}
-    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES | ELEMENT_MESSAGES
+    assert messages == {c.cls.__name__ for c in CASES} | SIMULATOR_MESSAGES | ELEMENT_MESSAGES | PARTS
 
 
 @pytest.mark.parametrize("case", CASES, ids=IDS)
@@ -219,6 +230,18 @@ def test_a_pending_list_counts_at_most_255_goals() -> None:
     assert (back.num, len(back.goals), len(back.eta)) == (255, 255, 255)
 
 
+def test_a_diagnostic_status_is_read_with_its_values() -> None:
+    from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+
+    status = DiagnosticStatus(level=DiagnosticStatus.ERROR, name="relay Kbot-MariSorgin: Kbot", message="down",
+                              hardware_id="/gidabot_relay_Kbot_MariSorgin",
+                              values=[KeyValue("connected", "False"), KeyValue("rtt_ms", "")])
+    d = convert.diagnostic_from_msg(wire(status))
+    assert (d.name, d.level, d.message, d.hardware_id, dict(d.values)) == (
+        "relay Kbot-MariSorgin: Kbot", 2, "down", "/gidabot_relay_Kbot_MariSorgin",
+        {"connected": "False", "rtt_ms": ""})
+
+
 def test_a_visitor_report_without_values_goes_as_nan_and_comes_back_as_none() -> None:
     none = VisitorTrackData(VisitorReport(sight=Sight.ACQUIRING), stamp=3.0)
     msg = wire(convert.visitor_track_to_msg(none))
@@ -242,7 +265,7 @@ def test_a_tour_index_with_arrays_of_different_lengths_is_refused() -> None:
     assert convert.index_from_msg(odd).entries == (IndexEntry("a.tour", 1, "K", False),)   # a bad entry left out
 
 
-# -- one place: no other module of gidabot_navigation or gidabot_gui builds a gidabot_msgs message -----------
+# -- one place: no other module of gidabot_navigation, gidabot_gui or gidabot_web builds a gidabot_msgs message
 MESSAGE_NAMES = {name for name, cls in vars(gidabot_msgs).items()
                  if isinstance(cls, type) and issubclass(cls, genpy.Message)}
 
@@ -257,7 +280,8 @@ def messages_built(path: Path) -> list[str]:
 
 
 def test_messages_are_built_only_in_the_conversion_module() -> None:
-    files = [p for pkg in ("gidabot_navigation", "gidabot_gui") for p in (REPO / "src" / pkg / "src").rglob("*.py")
+    files = [p for pkg in ("gidabot_navigation", "gidabot_gui", "gidabot_web")
+             for p in (REPO / "src" / pkg / "src").rglob("*.py")
              if p.resolve() != Path(convert.__file__).resolve()]
     assert len(files) > 30
     found = [hit for f in sorted(files) for hit in messages_built(f)]

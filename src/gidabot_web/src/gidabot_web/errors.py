@@ -21,8 +21,8 @@ class HistoryError(WebError):
 
 
 class Refused(WebError):
-    """A request is refused: ``status`` is the HTTP status to answer, ``reason`` the counter it is counted
-    under (docs/dashboard.md, *Security*)."""
+    """A request or a staff action is refused: ``status`` is the HTTP status to answer, ``reason`` the counter it
+    is counted under (docs/dashboard.md, *Security*)."""
 
     def __init__(self, status: int, reason: str, message: str = "") -> None:
         self.status = status

@@ -19,8 +19,17 @@ from typing import Protocol, TypeVar
 
 from gidabot_navigation.building.model import Building, Robot
 from gidabot_navigation.errors import GoalRejected, TourError, TourNameError
-from gidabot_navigation.guiding.messages import CommandData, PendingData, PoseData, RobotStatusData, validate_trip
+from gidabot_navigation.guiding.messages import (
+    CommandData,
+    PendingData,
+    PoseData,
+    RobotStatusData,
+    StaffCommandData,
+    validate_staff,
+    validate_trip,
+)
 from gidabot_navigation.guiding.trips import RobotView, TripPlanner
+from gidabot_navigation.interface import StaffCmd
 from gidabot_navigation.tours.tour_file import MAX_GOALS, tour_from_lines
 from gidabot_navigation.tours.tour_file import Tour as TourFile
 from gidabot_navigation.tours.tour_store import TourMessage
@@ -156,6 +165,7 @@ class Fleet:
     building: Building
     offline_after: float = OFFLINE_AFTER
     robots: dict[str, RobotLive] = field(default_factory=dict)
+    service: dict[str, StaffCommandData] = field(default_factory=dict)   # robot -> the staff command in force
     rejected: int = 0                 # inputs ignored (unknown robot, NaN...)
     last_rejection: str = ""
     planner: TripPlanner = field(init=False, repr=False)   # path lengths for the waits (cached)
@@ -208,6 +218,22 @@ class Fleet:
         live.pending = replace(p, goals=tuple(goals))
         live.pending_at = now
         return True
+
+    def update_staff(self, cmd: StaffCommandData, now: float) -> bool:
+        """A staff command from a dashboard (/gidabot/staff): for each robot the one with the largest
+        (version, robot) is in force; an invalid one is counted."""
+        try:
+            cmd = validate_staff(self.building, cmd)
+        except GoalRejected as err:
+            return self._reject(f"staff command: {err}")
+        known = self.service.get(cmd.target_robot)
+        if known is None or cmd.key > known.key:
+            self.service[cmd.target_robot] = cmd
+        return True
+
+    def out_of_service(self, name: str) -> bool:
+        cmd = self.service.get(name)
+        return cmd is not None and cmd.command == StaffCmd.OUT_OF_SERVICE
 
     def is_offline(self, name: str, now: float) -> bool:
         """True if robot ``name`` sent no status in the last ``offline_after`` s (or never)."""

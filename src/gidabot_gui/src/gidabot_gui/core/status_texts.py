@@ -46,6 +46,13 @@ def here_line(texts: Texts, fleet: Fleet) -> str:
     return text.format(place=name) + f" · {floor}"
 
 
+def out_of_service_line(texts: Texts, fleet: Fleet) -> str:
+    """What the screen says while staff have taken this robot out of service ("" when in service)."""
+    if not fleet.out_of_service(texts.robot):
+        return ""
+    return texts.tr._("This guide is out of service: please ask another guide or the staff of the building.")
+
+
 def trip_line(texts: Texts, flow: VisitorFlow, banner: str) -> str:
     """The trip at this screen and what to do now (or what the visitor can do, when idle)."""
     t = texts.tr
@@ -104,6 +111,8 @@ def robot_card(texts: Texts, fleet: Fleet, name: str, now: float) -> RobotCard:
     else:
         code = s.state if s is not None else ""
         state = texts.state(code)
+        if fleet.out_of_service(name):
+            state = t._("Out of service") + " · " + state
         lin = s.linear if s is not None and finite(s.linear) else 0.0
         ang = s.angular if s is not None and finite(s.angular) else 0.0
         motion = t._("Speed {v} m/s · turning {w} rad/s").format(v=format_number(lin, 2, lang),

@@ -47,7 +47,7 @@ from gidabot_gui.core.flow import Mode, VisitorFlow
 from gidabot_gui.core.i18n import LANGUAGE_NAMES, Translator
 from gidabot_gui.core.inbox import Drained, Inbox
 from gidabot_gui.core.model import Fleet, Outputs, TourInfo
-from gidabot_gui.core.status_texts import here_line, mark_label, robot_card, trip_line
+from gidabot_gui.core.status_texts import here_line, mark_label, out_of_service_line, robot_card, trip_line
 from gidabot_gui.core.texts import Texts
 from gidabot_gui.qt.admin_mode import AdminController
 from gidabot_gui.qt.floor_view import RobotMark
@@ -59,7 +59,7 @@ from gidabot_gui.qt.tour_editing import TourEditController
 from gidabot_gui.qt.visitor import VisitorController
 from gidabot_gui.qt.widgets import FitLabel, WrapButton, equalize_fonts
 from gidabot_navigation.building.model import Building
-from gidabot_navigation.guiding.messages import NavEventData, PendingData, PoseData, RobotStatusData
+from gidabot_navigation.guiding.messages import NavEventData, PendingData, PoseData, RobotStatusData, StaffCommandData
 from gidabot_navigation.interface import LANGUAGES, RobotState
 from gidabot_navigation.tours.tour_store import EditResultData
 
@@ -396,6 +396,7 @@ class MainWindow(QWidget):
             "catalog": (list, lambda tours, _now: self.set_tours(tours)),
             "nav_event": (NavEventData, self.visitor.on_event),
             "edit_result": (EditResultData, lambda res, _now: self.tour_editing.on_result(res)),
+            "staff": (StaffCommandData, self.fleet.update_staff),
         }
 
     def feed(self, kind: str, record: Any) -> None:
@@ -487,7 +488,8 @@ class MainWindow(QWidget):
     def _update_bottom(self) -> None:
         flow = self.visitor.flow
         self.info_here.setText(here_line(self.texts, self.fleet))
-        self.info_trip.setText(trip_line(self.texts, flow, self.visitor.banner))
+        banner = out_of_service_line(self.texts, self.fleet) if flow.current is None else ""
+        self.info_trip.setText(trip_line(self.texts, flow, banner or self.visitor.banner))
         self.cancel_btn.setVisible(flow.can_cancel)
         popup_continue = self.overlay.showing and "continue" in self.overlay.buttons
         self.continue_btn.setVisible(flow.can_continue and not popup_continue)

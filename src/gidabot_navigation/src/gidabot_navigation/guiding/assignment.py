@@ -29,9 +29,17 @@ needs exactly one of them, whatever the network does. The protocol (``docs/guidi
    a Goal older than the newest it has, and forgets an unconfirmed proposal after
    ``proposal_ttl`` (:class:`LegBook`).
 
-Safety (never two robots on a leg) rests only on 3 and 5: one writer commits a leg once, and
-nobody acts without that commit, so late, lost, duplicated or reordered messages can delay a
-leg but never give it twice. :func:`audit_legs` checks it from what the robots published.
+6. A robot taken out of service (a staff command) hands back the committed legs it has not started:
+   a DECLINED of the committed robot for its committed leg. The requester then proposes the leg to
+   the other robots of its floor as in 4 (a new attempt; the robot that handed it back is not asked
+   again in that round). A commit that reaches the robot after it handed the leg back is handed back
+   again. A goal leg whose floor has no robot in service left (``alone``) is given to nobody
+   (``LEG_NONE``): the visitor finds the goal alone, as on a floor without robot.
+
+Safety (never two robots on a leg) rests only on 3, 5 and 6: one writer commits a leg, it moves
+only when its robot handed it back (and stopped holding it), and nobody acts without a commit,
+so late, lost, duplicated or reordered messages can delay a leg but never give it twice.
+:func:`audit_legs` checks it from what the robots published.
 """
 
 from __future__ import annotations
@@ -50,6 +58,7 @@ from gidabot_navigation.guiding.trips import Candidate, leg_floor
 from gidabot_navigation.interface import (
     FINAL_PHASES,
     LEG_COMMITTED,
+    LEG_GOAL,
     LEG_NONE,
     LEG_PROPOSED,
     LEGS,
@@ -119,6 +128,8 @@ Output = Publish | Assigned | GaveUp
 MAX_PASSED = 20           # reasons kept per leg (the detail of a trip given up)
 # (trip, leg, robots to leave out, wall s) -> the online robots that could serve the leg, best first
 Ranker = Callable[[Trip, str, Sequence[str], float], list[Candidate]]
+# (trip, leg) -> True when no robot of the leg's floor is in service: the visitor goes there alone
+Alone = Callable[[Trip, str], bool]
 
 
 @dataclass
@@ -142,10 +153,11 @@ class LegTry:
 class Assigner:
     """The requester's side: the assignment of every open trip this robot originated (their single writer)."""
 
-    def __init__(self, me: str, cfg: AssignConfig, rank: Ranker) -> None:
+    def __init__(self, me: str, cfg: AssignConfig, rank: Ranker, alone: Alone | None = None) -> None:
         self.me = me
         self.cfg = cfg
         self.rank = rank
+        self.alone: Alone = alone or (lambda trip, leg: False)
         self.trips: dict[str, Trip] = {}                 # uid -> the latest snapshot published
         self.legs: dict[str, dict[str, LegTry]] = {}     # uid -> leg -> record
 
@@ -178,6 +190,9 @@ class Assigner:
         """ACCEPTED / DECLINED of ``robot`` for ``leg``: commit, or ask the next robot. An answer to an
         older proposal, or from a robot the leg is not proposed to now, changes nothing."""
         rec = self.legs.get(goal_uid, {}).get(leg)
+        if rec is not None and rec.state == LEG_COMMITTED and rec.robot == robot and not accepted and not rec.done \
+                and attempt > rec.attempt:       # (an answer to the proposal itself, or an older one, is no hand-back)
+            return self._handed_back(goal_uid, leg, robot, detail, now_wall)
         if rec is None or rec.state != LEG_PROPOSED or rec.robot != robot or attempt < rec.attempt:
             return []
         if not accepted:
@@ -221,6 +236,13 @@ class Assigner:
         if all(r.done for r in self.legs[goal_uid].values()):
             self.close(goal_uid)
 
+    def _handed_back(self, uid: str, leg: str, robot: str, detail: str, now_wall: float) -> list[Output]:
+        """The robot a leg is committed to handed it back (out of service, before starting it): the other robots
+        of the floor are asked, as after a DECLINED."""
+        rec = self.legs[uid][leg]
+        rec.state, rec.tried, rec.declined, rec.waiting = LEG_PROPOSED, [robot], [], False
+        return self._next(uid, leg, f"{robot} handed it back" + (f" ({detail})" if detail else ""), now_wall)
+
     def close(self, goal_uid: str) -> None:
         """The trip is over (cancelled, given up, finished): nothing more to assign."""
         self.trips.pop(goal_uid, None)
@@ -232,6 +254,8 @@ class Assigner:
         del rec.passed[:-MAX_PASSED]
         trip = self.trips[uid]
         candidates = self.rank(trip, leg, tuple(rec.tried), now_wall)
+        if not candidates and leg == LEG_GOAL and self.alone(trip, leg):
+            return self._to_nobody(uid, leg)
         if not candidates and rec.declined:
             # every robot of the floor passed and one at least is there but declined (queue full): the leg waits
             # and is asked again in a new round; it is never left without a robot while one could take it
@@ -242,6 +266,14 @@ class Assigner:
             floor = format_floor(leg_floor(trip, leg))
             return [GaveUp(trip, leg, f"no robot of floor {floor} can serve it: {'; '.join(rec.passed)}")]
         return self._propose(uid, leg, candidates[0], now_wall)
+
+    def _to_nobody(self, uid: str, leg: str) -> list[Output]:
+        """No robot of the leg's floor is in service: nobody serves it (the visitor goes there alone)."""
+        trip = self._bump(uid, leg, "", LEG_NONE)
+        del self.legs[uid][leg]
+        if not self.legs[uid] or all(r.done for r in self.legs[uid].values()):
+            self.close(uid)
+        return [Publish(trip)]
 
     def _round(self, uid: str, leg: str, now_wall: float) -> list[Output]:
         """A new round for a leg that waited: every online robot of its floor again, best first."""
@@ -369,11 +401,25 @@ class LegRecord:
     served: set[str] = field(default_factory=set)       # robots that sent a serving phase for it
     accepted: set[str] = field(default_factory=set)     # robots that answered ACCEPTED
     declined: set[str] = field(default_factory=set)
+    committed_at: dict[str, int] = field(default_factory=dict)   # robot -> the first attempt committing it there
+    proposed_at: dict[str, set[int]] = field(default_factory=dict)   # robot -> the attempts proposing it there
+    declined_at: dict[str, int] = field(default_factory=dict)    # robot -> the newest attempt it declined
+
+    @property
+    def handed_back(self) -> set[str]:
+        """Robots that had the leg committed and handed it back before serving it: a DECLINED of the proposal that
+        led to the commit, or of a later attempt."""
+        out = set()
+        for robot, at in self.committed_at.items():
+            proposal = max((a for a in self.proposed_at.get(robot, ()) if a < at), default=at)
+            if self.declined_at.get(robot, -1) >= proposal:
+                out.add(robot)
+        return out - self.served
 
     @property
     def robots(self) -> set[str]:
-        """Every robot that had the leg (committed, assigned or serving): one at most."""
-        return self.committed | self.assigned | self.served
+        """Every robot that had the leg (committed, assigned or serving) and did not hand it back: one at most."""
+        return (self.committed | self.assigned | self.served) - self.handed_back
 
 
 @dataclass
@@ -412,8 +458,12 @@ def audit_legs(goals: Iterable[Trip], events: Iterable[NavEventData]) -> LegAudi
             if state == LEG_NONE:
                 continue
             rec = legs.setdefault((trip.uid, leg), LegRecord())
+            if state == LEG_PROPOSED:
+                rec.proposed_at.setdefault(trip.leg_robot(leg), set()).add(trip.attempt)
             if state == LEG_COMMITTED:
-                rec.committed.add(trip.leg_robot(leg))
+                robot = trip.leg_robot(leg)
+                rec.committed.add(robot)
+                rec.committed_at[robot] = min(rec.committed_at.get(robot, trip.attempt), trip.attempt)
     for ev in events:
         if not ev.goal_uid:
             continue
@@ -428,6 +478,7 @@ def audit_legs(goals: Iterable[Trip], events: Iterable[NavEventData]) -> LegAudi
             rec.accepted.add(ev.robot)
         elif ev.phase == Phase.DECLINED:
             rec.declined.add(ev.robot)
+            rec.declined_at[ev.robot] = max(rec.declined_at.get(ev.robot, ev.attempt), ev.attempt)
         elif ev.phase in SERVING_PHASES:
             rec.served.add(ev.robot)
     return LegAudit(legs, ended)

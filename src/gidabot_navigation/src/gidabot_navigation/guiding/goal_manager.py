@@ -55,6 +55,7 @@ from gidabot_navigation.guiding.messages import (
     SendCancel,
     SendEvent,
     SendGoal,
+    StaffCommandData,
     Trip,
     UidMaker,
     cancel_digest,
@@ -65,6 +66,7 @@ from gidabot_navigation.guiding.messages import (
     validate_cancel,
     validate_command,
     validate_event,
+    validate_staff,
     validate_trip,
 )
 from gidabot_navigation.guiding.state import (
@@ -93,6 +95,7 @@ from gidabot_navigation.interface import (
     DEFAULT_LANGUAGE,
     LANGUAGES,
     LEG_COMMITTED,
+    LEG_GOAL,
     LEG_PROPOSED,
     LEG_START,
     REASON_ADMIN,
@@ -104,6 +107,8 @@ from gidabot_navigation.interface import (
     Cmd,
     Node,
     Phase,
+    StaffCmd,
+    Topic,
 )
 from gidabot_navigation.logs import Logger, RateLimitedLog
 from gidabot_navigation.senders import INVALID, Claim, Gate, HandledUids, Senders, as_text
@@ -173,7 +178,9 @@ class GoalManagerCore:
         self._phase: dict[str, tuple[int, float]] = {}    # own navigation's progress per held goal
         self._releases: OrderedDict[str, float] = OrderedDict()
         self._now_ros = 0.0                                # ROS time of the event being handled (ranking)
-        self.assigner = Assigner(self.me, cfg.assign, self._rank)   # the trips this robot originated
+        self.service: dict[str, StaffCommandData] = {}     # robot -> the staff command in force for it
+        self._handed = SeenSet()                           # trips whose leg this robot handed back (out of service)
+        self.assigner = Assigner(self.me, cfg.assign, self._rank, self._alone)   # the trips this robot originated
         self.legs = LegBook(self.me)                       # the assignments naming this robot
         self.fleet: dict[str, RobotView] = {}              # the other robots' queues and poses
         self._started = now_wall
@@ -283,6 +290,10 @@ class GoalManagerCore:
         return actions
 
     def _command(self, cmd: CommandData, now_ros: float, now_wall: float) -> list[Action]:
+        if cmd.command in (Cmd.REQUEST, Cmd.START_TOUR) and not self.in_service(self.me):
+            self.stats.inc("refused_out_of_service")
+            return [self._event(Phase.REJECTED, None, now_ros, location_id=cmd.goal_id[:64],
+                                tour_file=cmd.tour_file, detail=f"{self.me} is {self._out_text(self.me)}")]
         if cmd.command == Cmd.REQUEST:
             if not cmd.goal_id:
                 return [self._event(Phase.REJECTED, None, now_ros, detail="request without a goal_id")]
@@ -344,6 +355,8 @@ class GoalManagerCore:
             self.version += 1
             if state == LEG_COMMITTED:
                 self.legs.settled(trip.uid)
+                if not self.in_service(self.me) and not self._started_here(held):      # (as its navigation knew it)
+                    return self._hand_back(trip, now_ros, now_wall)
             return []
         if state == LEG_PROPOSED:
             if not self.legs.first_answer(trip.uid, leg, trip.attempt):
@@ -351,13 +364,15 @@ class GoalManagerCore:
             eta = self._eta_for(trip, leg, now_ros, now_wall)
             # a long queue is no reason to decline (the visitor saw the wait and confirmed), unless the site set
             # a max_wait; a full queue is
-            if len(self.queue) >= self.cfg.max_queue or self.cfg.assign.too_long(eta):
-                why = (f"the queue of {self.me} is full ({self.cfg.max_queue} goals)" if len(self.queue)
+            if len(self.queue) >= self.cfg.max_queue or self.cfg.assign.too_long(eta) or not self.in_service(self.me):
+                why = (f"{self.me} is {self._out_text(self.me)}" if not self.in_service(self.me) else
+                       f"the queue of {self.me} is full ({self.cfg.max_queue} goals)" if len(self.queue)
                        >= self.cfg.max_queue else f"{self.me} could be there in {eta:.0f} s only "
                        f"(more than max_wait {self.cfg.assign.max_wait:g} s)")
                 self.stats.inc("declined")
                 return [self._event(Phase.DECLINED, trip, now_ros, leg=leg, detail=why)]
             self.legs.first_answer(trip.uid, leg)      # accepted (an ACCEPTED per leg for a commit seen later)
+            self._handed.discard(trip.uid)             # a new proposal accepted after a hand-back
             self.legs.holding(trip.uid, now_wall)
             return self._keep(trip, leg, eta, now_ros)
         if len(self.queue) >= self.cfg.max_queue:
@@ -370,7 +385,10 @@ class GoalManagerCore:
             self.assigner.close(trip.uid)
             phase = Phase.REJECTED if trip.origin_robot == self.me else Phase.CANCELLED_HERE
             return [SendCancel(cancel), self._event(phase, trip, now_ros, detail=f"the queue of {self.me} is full")]
-        # committed here without an answer seen here (its proposal expired, or never reached this robot)
+        # committed here without an answer seen here (its proposal expired, or never reached this robot); a commit
+        # that crossed this robot's hand-back of the proposal is handed back again
+        if not self.in_service(self.me) or trip.uid in self._handed:
+            return self._hand_back(trip, now_ros, now_wall)
         actions = self._keep(trip, leg, self._eta_for(trip, leg, now_ros, now_wall), now_ros)
         return actions if self.legs.first_answer(trip.uid, leg) else []
 
@@ -396,7 +414,8 @@ class GoalManagerCore:
         views = dict(self.fleet)
         views[self.me] = self._view(self._now_ros, now_wall)
         return rank_candidates(self.planner, self.cfg.wait, trip, leg, views,
-                               lambda r: r == self.me or self.liveness.online(r, now_wall), now_wall,
+                               lambda r: (r == self.me or self.liveness.online(r, now_wall)) and self.in_service(r),
+                               now_wall,
                                prefer=trip.origin_robot if leg == LEG_START else "",
                                prefer_gain=self.cfg.assign.helper_gain, exclude=exclude)
 
@@ -547,6 +566,83 @@ class GoalManagerCore:
                 self._pop(uid)
         return actions
 
+    # ------------------------------------------------------------------ out of service
+    def on_staff(self, cmd: StaffCommandData, now_ros: float, now_wall: float, *, sender: str) -> list[Action]:
+        """A staff command from a robot's dashboard (/gidabot/staff): for each robot, the one with the largest
+        (version, robot) is in force. A robot out of service is proposed no leg, declines the legs proposed to it,
+        and a visitor at its screen is refused (REJECTED, saying so); a floor whose robots are all out of service
+        is a floor without robot (the goal leg goes to nobody: the visitor finds the place alone). This robot,
+        taken out of service, finishes the trip it is running and hands back every other leg it holds
+        (:meth:`_hand_back`); back in service, it is proposed legs again. Only the dashboard of ``cmd.robot`` may
+        send it (``sender``: this robot's dashboard node, or the relay end of the link from that robot)."""
+        claim = Claim(as_text(cmd.robot), as_text(cmd.uid))
+        if self.gate.admit(sender, claim, "staff command", Topic.STAFF) is None:
+            return []
+        try:
+            cmd = validate_staff(self.building, cmd)
+        except GoalRejected as err:
+            self._count_rejection(err)
+            self.gate.refuse(INVALID, f"staff command {as_text(cmd.uid)[:80]!r}: {err}")
+            return []
+        known = self.service.get(cmd.target_robot)
+        if known is not None and cmd.key <= known.key:
+            return []                          # a replay, or older than the one in force
+        was_in = self.in_service(cmd.target_robot)
+        self.service[cmd.target_robot] = cmd
+        self.version += 1
+        self.log.info(f"staff {cmd.user} at {cmd.robot}'s dashboard: {cmd.target_robot} "
+                      f"{'out of service' if cmd.command == StaffCmd.OUT_OF_SERVICE else 'back in service'}"
+                      + (f" ({cmd.detail})" if cmd.detail else ""))
+        if cmd.target_robot != self.me or not was_in or self.in_service(self.me):
+            return []
+        actions: list[Action] = []
+        for trip in list(self.queue):
+            if not self._started_here(trip):
+                actions += self._hand_back(trip, now_ros, now_wall)
+        return actions
+
+    def in_service(self, robot: str) -> bool:
+        cmd = self.service.get(robot)
+        return cmd is None or cmd.command != StaffCmd.OUT_OF_SERVICE
+
+    def _out_text(self, robot: str) -> str:
+        cmd = self.service.get(robot)
+        if cmd is None:
+            return "in service"
+        return f"out of service (staff {cmd.user} at {cmd.robot}" + (f": {cmd.detail})" if cmd.detail else ")")
+
+    def _alone(self, trip: Trip, leg: str) -> bool:
+        """True when the leg's floor has robots but none in service: nobody serves the leg."""
+        floor = trip.goal_floor if leg == LEG_GOAL else trip.initial_floor
+        robots = self.building.robots_on(floor)
+        return bool(robots) and not any(self.in_service(r.name) for r in robots)
+
+    def _started_here(self, trip: Trip) -> bool:
+        """Whether this robot may have started ``trip``: its navigation reported progress, or it heads the queue
+        committed here (the navigation runs the queue in order and may have started it before saying so)."""
+        leg = trip.leg_of(self.me)
+        return trip.uid in self._phase or (bool(self.queue) and self.queue[0].uid == trip.uid and leg is not None
+                                           and trip.leg_state(leg) == LEG_COMMITTED)
+
+    def _hand_back(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
+        """This robot, out of service, hands back its leg of ``trip`` (not started): it drops the trip and says so
+        with a DECLINED for that leg; the requester asks the other robots of the floor (docs/guiding.md)."""
+        leg = trip.leg_of(self.me)
+        if leg is None:
+            return []
+        self._pop(trip.uid)
+        self._phase.pop(trip.uid, None)
+        self.legs.settled(trip.uid)
+        self._handed.add(trip.uid)
+        self.stats.inc("handed_back")
+        why = f"{self.me} is {self._out_text(self.me)}: it hands the {leg} leg back"
+        self.log.info(f"{trip.uid}: {why}")
+        event = self._event(Phase.DECLINED, trip, now_ros, leg=leg, detail=why)
+        if trip.uid not in self.assigner:
+            return [event]
+        outputs = self.assigner.on_answer(trip.uid, leg, self.me, trip.attempt, False, 0.0, why, now_wall)
+        return [event, *self._assign(outputs, now_ros, now_wall)]
+
     # ------------------------------------------------------------------ restarts
     @staticmethod
     def durable(actions: list[Action]) -> list[Action]:
@@ -567,6 +663,7 @@ class GoalManagerCore:
             "waits": [asdict(w) for w in self.waits.all()],
             "early_continues": [asdict(c) for c in self._early_continues.values()],
             "assignments": self.assigner.state(), "legs": self.legs.state(remember),
+            "service": [asdict(c) for c in self.service.values()], "handed": self._handed.recent(remember),
             "stats": dict(self.stats),
         }
 
@@ -581,7 +678,7 @@ class GoalManagerCore:
         queue = [trip_from_dict(t) for t in state.get("queue", [])]
         seen: dict[str, list] = {name: uid_records(state.get(name, []), name) for name in
                                  ("goals_seen", "cancels_seen", "events_seen")}
-        seen.update({name: str_list(state.get(name, []), name) for name in ("cancelled", "commands_seen")})
+        seen.update({name: str_list(state.get(name, []), name) for name in ("cancelled", "commands_seen", "handed")})
         phase_raw = state.get("phase", {})
         if not isinstance(phase_raw, dict):
             raise GuidingStateError("phase: expected an object")
@@ -589,11 +686,14 @@ class GoalManagerCore:
         releases = [(str(r[0]), number(r[1], "release")) for r in state.get("releases", [])]
         waits = [dataclass_from_dict(TourWait, w) for w in state.get("waits", [])]
         early = [dataclass_from_dict(CommandData, c) for c in state.get("early_continues", [])]
-        assigner = Assigner(self.me, self.cfg.assign, self._rank)
+        assigner = Assigner(self.me, self.cfg.assign, self._rank, self._alone)
         assigner.load_state(state.get("assignments", []))
+        service = [validate_staff(self.building, dataclass_from_dict(StaffCommandData, c))
+                   for c in state.get("service", [])]
         legs = LegBook(self.me)
         legs.load_state(state.get("legs", {}))
         self.assigner, self.legs = assigner, legs
+        self.service = {c.target_robot: c for c in service}
         self.queue = queue
         for name, uids in seen.items():
             getattr(self, f"_{name}").update(uids)
@@ -661,7 +761,8 @@ class GoalManagerCore:
                     start_id=START_ROBOT if start is None else start.id, goal_id=goal_id, language=language,
                     tour_file=tour_file, tour_step=tour_step, stamp=now_ros)
         self._now_ros = now_ros
-        return self._assign(self.assigner.open(trip, needed_legs(self.building, trip), now_wall), now_ros, now_wall)
+        legs = [leg for leg in needed_legs(self.building, trip) if not (leg == LEG_GOAL and self._alone(trip, leg))]
+        return self._assign(self.assigner.open(trip, legs, now_wall), now_ros, now_wall)
 
     def _tour_goes_on(self, trip: Trip, now_ros: float, now_wall: float) -> list[Action]:
         """This robot sent the visitor of a tour to a floor without robot (NO_ROBOT_ON_FLOOR): the tour goes on

@@ -15,7 +15,16 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
-from gidabot_msgs.msg import Cancel, Goal, NavEvent, PendingRequests, RobotStatus, TourCatalog, VisitorCommand
+from gidabot_msgs.msg import (
+    Cancel,
+    Goal,
+    NavEvent,
+    PendingRequests,
+    RobotStatus,
+    StaffCommand,
+    TourCatalog,
+    VisitorCommand,
+)
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.guiding.assignment import AssignConfig
 from gidabot_navigation.guiding.goal_manager import GoalManagerConfig, GoalManagerCore
@@ -35,7 +44,7 @@ from gidabot_navigation.ros.replay import DEFAULT_WINDOW, ReplayPublisher
 QUEUE_SIZE = 2000
 LOOP_PERIOD = 0.5          # wall s: the loop runs at least this often (LoopMeter's nominal rate)
 # inputs that may change the state kept across restarts
-DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog")
+DURABLE_INPUTS = ("command", "goal", "cancel", "event", "catalog", "staff")
 
 
 @dataclass(frozen=True)
@@ -162,6 +171,7 @@ class GoalManagerNode:
                              queue_size=50),
             rospy.Subscriber(Topic.GOALS, Goal, self._enqueue, callback_args="goal", queue_size=200),
             rospy.Subscriber(Topic.CANCELS, Cancel, self._enqueue, callback_args="cancel", queue_size=200),
+            rospy.Subscriber(Topic.STAFF, StaffCommand, self._enqueue, callback_args="staff", queue_size=50),
             rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, self._enqueue, callback_args="event", queue_size=500),
             rospy.Subscriber(Topic.STATUS, RobotStatus, self._enqueue, callback_args="status", queue_size=50),
             rospy.Subscriber(Topic.PENDING, PendingRequests, self._enqueue, callback_args="pending", queue_size=50),
@@ -222,6 +232,8 @@ class GoalManagerNode:
             return core.on_cancel(convert.cancel_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "event":
             return core.on_nav_event(convert.event_from_msg(msg), now_ros, now_wall, sender=by)
+        if kind == "staff":
+            return core.on_staff(convert.staff_from_msg(msg), now_ros, now_wall, sender=by)
         if kind == "status":
             status = convert.status_from_msg(msg)
             core.on_status(status.robot, now_wall, (status.x, status.y), sender=by)

@@ -42,10 +42,20 @@ from gidabot_navigation.interface import (
     REASON_VISITOR,
     REASON_VISITOR_LOST,
     REASONS,
+    STAFF_COMMAND_NAMES,
     WAYS,
     Phase,
 )
-from gidabot_navigation.senders import MAX_UID, SCOPE_CANCEL, SCOPE_EVENT, HandledUids, fingerprint, make_uid
+from gidabot_navigation.senders import (
+    MAX_UID,
+    SCOPE_CANCEL,
+    SCOPE_EVENT,
+    SCOPE_STAFF,
+    SCOPE_TOUR_EDIT,
+    HandledUids,
+    fingerprint,
+    make_uid,
+)
 from gidabot_navigation.tours.tour_file import MAX_GOALS, check_tour_file_name
 
 # the phase a robot shows its visitor when another robot drops a trip for this reason
@@ -365,9 +375,10 @@ Action = SendGoal | SendCancel | SendEvent | MoveTo | StopMoving
 
 class UidMaker:
     """This robot's uids (:data:`~gidabot_navigation.senders.UID_FORMAT`): ``<robot>/event/<tag>.<token>``,
-    ``<robot>/cancel/<tag>.<token>``, and ``<robot>/<visitor>/<tag>.<token>`` for goals (the GUI knows its
-    visitor's trips by that prefix). Every token is drawn at random: a restarted node never reuses a uid, and
-    nobody can tell the next one before it is published."""
+    ``<robot>/cancel/<tag>.<token>``, ``<robot>/staff/<tag>.<token>`` (staff commands),
+    ``<robot>/tour-edit/<tag>.<token>`` (admin edits to the tour store), and ``<robot>/<visitor>/<tag>.<token>``
+    for goals (the GUI knows its visitor's trips by that prefix). Every token is drawn at random: a restarted node
+    never reuses a uid, and nobody can tell the next one before it is published."""
 
     def __init__(self, robot: str, tag: str) -> None:
         self.robot = robot
@@ -381,6 +392,12 @@ class UidMaker:
 
     def goal(self, visitor_id: str) -> str:
         return make_uid(self.robot, visitor_id, self.tag)
+
+    def staff(self) -> str:
+        return make_uid(self.robot, SCOPE_STAFF, self.tag)
+
+    def tour_edit(self) -> str:
+        return make_uid(self.robot, SCOPE_TOUR_EDIT, self.tag)
 
 
 def base36(number: int) -> str:
@@ -585,6 +602,8 @@ def _leg(building: Building, trip: Trip, leg: str, floor: float, exists: bool) -
             raise GoalRejected("assignment", f"{leg} leg assigned to {show(robot)} ({LEG_STATE_NAMES[state]}): {why}")
         return "", LEG_NONE
     if state == LEG_NONE:
+        if leg == LEG_GOAL and not robot:
+            return "", LEG_NONE       # the goal floor's robots are all out of service: the visitor goes alone
         raise GoalRejected("assignment", f"{leg} leg on floor {format_floor(floor)} has no robot assigned "
                                          f"(robots there: {', '.join(r.name for r in building.robots_on(floor))})")
     serving = building.find_robot(robot)
@@ -677,3 +696,57 @@ def own_event_digest(building: Building, ev: NavEventData) -> str:
 
 def uids(items: Iterable[Trip]) -> list[str]:
     return [t.uid for t in items]
+
+
+# ---------------------------------------------------------------------------
+# Staff commands (gidabot_msgs/StaffCommand, /gidabot/staff)
+# ---------------------------------------------------------------------------
+
+MAX_STAFF_DETAIL = 200
+MAX_USER = 64
+_USER_RE = re.compile(r"^[A-Za-z0-9_.@-]{1,64}\Z")
+
+
+@dataclass(frozen=True)
+class StaffCommandData:
+    """A gidabot_msgs/StaffCommand: a staff action at ``robot``'s dashboard about ``target_robot``."""
+
+    uid: str
+    robot: str
+    user: str
+    command: int
+    target_robot: str
+    version: int
+    detail: str = ""
+    stamp: float = 0.0
+
+    @property
+    def key(self) -> tuple[int, str]:
+        """What orders the commands about one target: the largest key is in force."""
+        return self.version, self.robot
+
+
+def validate_staff(building: Building, cmd: StaffCommandData) -> StaffCommandData:
+    """Check a StaffCommand (uid in the sending robot's namespace, robots of the building, a known command, a
+    version in 1..2^64-1, a user name, a detail without control characters); return it with ``detail`` cut to
+    :data:`MAX_STAFF_DETAIL` characters."""
+    uid = _text(cmd.uid, "staff uid", MAX_UID, _UID_RE, empty=False)
+    robot = _text(cmd.robot, "staff robot", MAX_ID, _ID_RE, empty=False)
+    if building.find_robot(robot) is None:
+        raise GoalRejected("robot", f"staff robot {show(robot)} is not a robot of building {building.id}")
+    if not uid.startswith(f"{robot}/"):
+        raise GoalRejected("namespace", f"staff uid {show(uid)} is not in the namespace of robot {robot}")
+    target = _text(cmd.target_robot, "staff target_robot", MAX_ID, _ID_RE, empty=False)
+    if building.find_robot(target) is None:
+        raise GoalRejected("robot", f"staff target_robot {show(target)} is not a robot of building {building.id}")
+    if isinstance(cmd.command, bool) or cmd.command not in STAFF_COMMAND_NAMES:
+        raise GoalRejected("command", f"staff command {show(cmd.command)} is not one of "
+                                      f"{', '.join(f'{int(k)}={v}' for k, v in STAFF_COMMAND_NAMES.items())}")
+    if isinstance(cmd.version, bool) or not isinstance(cmd.version, int) or not 0 < cmd.version < 2 ** 64:
+        raise GoalRejected("version", f"staff version {show(cmd.version)} is not an integer in 1..2^64-1")
+    user = _text(cmd.user, "staff user", MAX_USER, _USER_RE, empty=False)
+    detail = cmd.detail if isinstance(cmd.detail, str) else ""
+    detail = _text(detail[:MAX_STAFF_DETAIL], "staff detail", MAX_STAFF_DETAIL)
+    stamp = cmd.stamp if isinstance(cmd.stamp, (int, float)) and math.isfinite(cmd.stamp) else 0.0
+    return replace(cmd, uid=uid, robot=robot, user=user, command=int(cmd.command), target_robot=target,
+                   detail=detail, stamp=float(stamp))

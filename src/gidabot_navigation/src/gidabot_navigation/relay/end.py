@@ -24,8 +24,10 @@ the :class:`Send` / :class:`Close` actions it returns and the deliveries it hand
   any other publisher is an ``impostor``), and only if they speak for this robot; a message
   the peer sends must speak for the peer. "Speaks for" is the table
   ``senders.SPEAKS_FOR`` (a goal's or cancel's ``origin_robot``, an event's, status', pose's,
-  pending list's or tour index's ``robot``, a tour's uid); an event's uid must be in that
-  robot's namespace. Else refused: ``foreign`` (another robot), ``wrong_namespace`` (uid).
+  pending list's, tour index's, staff command's or link summary's ``robot``, a tour's uid); an
+  event's uid must be in that robot's namespace; a staff command or link summary only from the
+  robot's dashboard (``senders.PUBLISHERS``). Else refused: ``foreign`` (another robot),
+  ``wrong_namespace`` (uid), ``impostor`` (another node).
 - **Security and hygiene**: HMAC-SHA256 on every frame when a secret is configured,
   size limits, whitelist of topics and types (md5); anything rejected is counted by reason
   (:data:`REJECT_REASONS`) and logged at a limited rate; a bad frame closes that connection,
@@ -320,7 +322,7 @@ class RelayEndCore:
         if claim is None:
             return True
         sender = self.senders.attribute(callerid)
-        kind = self.senders.refusal(sender, claim)
+        kind = self.senders.refusal(sender, claim, topic)
         if kind is None:
             return True
         self._reject(kind, f"{origin} {topic}: {explain(kind, sender, claim)}: a message crosses only from the robot "

@@ -22,10 +22,15 @@ Tour                :class:`~gidabot_navigation.tours.tour_store.TourMessage`
 TourIndex           :class:`~gidabot_navigation.tours.tour_store.TourIndexData`
 TourCatalog         :class:`~gidabot_navigation.tours.tour_store.CatalogData`
 TourEditResult      :class:`~gidabot_navigation.tours.tour_store.EditResultData`
+StaffCommand        :class:`~gidabot_navigation.guiding.messages.StaffCommandData`
+LinkSummary         :class:`~gidabot_navigation.relay.links.LinkSummaryData` (its LinkState: ``LinkData``)
 PersonArray         :class:`~gidabot_navigation.perception.people.PeopleData`
 Person              :class:`~gidabot_navigation.perception.people.Track` (inside a PersonArray)
 VisitorTrack        :class:`~gidabot_navigation.perception.people.VisitorTrackData`
 ==================  ============================================================
+
+``diagnostic_msgs/DiagnosticStatus`` is read as :class:`~gidabot_navigation.relay.links.DiagnosticData` here too
+(:func:`diagnostic_from_msg`).
 
 The simulator's messages (Obstacle, ObstacleArray, StepDone) are converted in ``gidabot_sim``.
 """
@@ -35,11 +40,14 @@ from __future__ import annotations
 import math
 
 import genpy
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Point, Pose, Quaternion, Vector3
 
 from gidabot_msgs.msg import (
     Cancel,
     Goal,
+    LinkState,
+    LinkSummary,
     MakeWay,
     NavEvent,
     NavPose,
@@ -47,6 +55,7 @@ from gidabot_msgs.msg import (
     Person,
     PersonArray,
     RobotStatus,
+    StaffCommand,
     Tour,
     TourCatalog,
     TourEditResult,
@@ -64,11 +73,13 @@ from gidabot_navigation.guiding.messages import (
     PendingData,
     PoseData,
     RobotStatusData,
+    StaffCommandData,
     Trip,
     WayAsk,
 )
 from gidabot_navigation.interface import Sight
 from gidabot_navigation.perception.people import LastSeen, PeopleData, Track, VisitorReport, VisitorTrackData
+from gidabot_navigation.relay.links import DiagnosticData, LinkData, LinkSummaryData
 from gidabot_navigation.tours.tour_store import (
     CatalogData,
     EditResultData,
@@ -306,6 +317,51 @@ def edit_result_to_msg(r: EditResultData) -> TourEditResult:
     m.uid, m.file_name, m.deleted, m.ok, m.version = r.uid, r.file_name, r.deleted, r.ok, r.version
     m.reason, m.error = r.reason, r.error
     return m
+
+
+# ---------------------------------------------------------------------------------- the staff dashboard's
+def staff_from_msg(m: StaffCommand) -> StaffCommandData:
+    return StaffCommandData(uid=m.uid, robot=m.robot, user=m.user, command=m.command, target_robot=m.target_robot,
+                            version=m.version, detail=m.detail, stamp=stamp_of(m))
+
+
+def staff_to_msg(c: StaffCommandData) -> StaffCommand:
+    m = StaffCommand()
+    m.header.stamp = ros_time(c.stamp)
+    m.uid, m.robot, m.user, m.command, m.target_robot = c.uid, c.robot, c.user, c.command, c.target_robot
+    m.version, m.detail = c.version, c.detail
+    return m
+
+
+def link_from_msg(m: LinkState) -> LinkData:
+    return LinkData(peer=m.peer, known=m.known, connected=m.connected, down_s=m.down_s, heard_s=m.heard_s,
+                    rtt_ms=m.rtt_ms, queued=m.queued, resent=m.resent, dropped=m.dropped,
+                    duplicates_suppressed=m.duplicates_suppressed, link_losses=m.link_losses,
+                    peer_master_up=m.peer_master_up)
+
+
+def link_to_msg(k: LinkData) -> LinkState:
+    return LinkState(peer=k.peer, known=k.known, connected=k.connected, down_s=k.down_s, heard_s=k.heard_s,
+                     rtt_ms=k.rtt_ms, queued=k.queued, resent=k.resent, dropped=k.dropped,
+                     duplicates_suppressed=k.duplicates_suppressed, link_losses=k.link_losses,
+                     peer_master_up=k.peer_master_up)
+
+
+def links_from_msg(m: LinkSummary) -> LinkSummaryData:
+    return LinkSummaryData(robot=m.robot, links=tuple(link_from_msg(k) for k in m.links), stamp=stamp_of(m))
+
+
+def links_to_msg(s: LinkSummaryData) -> LinkSummary:
+    m = LinkSummary()
+    m.header.stamp = ros_time(s.stamp)
+    m.robot, m.links = s.robot, [link_to_msg(k) for k in s.links]
+    return m
+
+
+def diagnostic_from_msg(s: DiagnosticStatus) -> DiagnosticData:
+    """One status of a ``diagnostic_msgs/DiagnosticArray`` (its values as a mapping: the last of a key given twice)."""
+    return DiagnosticData(name=s.name, level=int(s.level), message=s.message, hardware_id=s.hardware_id,
+                          values={kv.key: kv.value for kv in s.values})
 
 
 # ---------------------------------------------------------------------------------- the people the laser sees

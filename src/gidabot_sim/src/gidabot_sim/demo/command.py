@@ -12,6 +12,7 @@ bags of the partial run.
     bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
     bin/gidabot demo --goal 305 --way lift             # one target
     bin/gidabot demo --gui                             # open each robot's GUI too
+    bin/gidabot demo --dashboard                       # every robot's staff dashboard; prints their URLs
     bin/gidabot demo --visitors 20 --seed 1            # many visitors at random robots
     bin/gidabot demo --speed max --trace               # which processes use the CPU while the floors fall behind
 
@@ -100,6 +101,9 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         "trace); the sampling itself costs CPU, printed too")
     p.add_argument("--net", type=int, default=None, metavar="N",
                    help="run the masters on 127.N.0.11, .12, ... (default: the building file's addresses)")
+    p.add_argument("--dashboard", action="store_true",
+                   help="every robot serves its staff web dashboard (docs/dashboard.md), on its own address; the "
+                        "demo prints each robot's URL")
     p.add_argument("--machines", action="store_true",
                    help="every robot a separate machine: its own network namespace, address, master and firewall "
                         "(needs root; docs/deploy.md)")

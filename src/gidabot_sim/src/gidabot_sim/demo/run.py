@@ -100,7 +100,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     governor = SpeedGovernor(start=MAX_SPEED_GUESS) if args.speed is None else None     # --speed max
     sim = SimulatedBuilding(args.building, run_dir, speed=governor.start if governor else args.speed,
                             seed=args.seed, gui=args.gui, relay_secret=args.secret, seed_tours=seed,
-                            addresses=addresses, common_args=launch_args, visitor=visitor, machines=args.machines)
+                            addresses=addresses, common_args=launch_args, visitor=visitor, machines=args.machines,
+                            dashboard=args.dashboard)
     timing = RunTiming([r.name for r in building.robots], sim.peer_timeout)
     failure = ""
     tour_cpu: list[CpuSnapshot] = []   # --cpu: every process's CPU when the first goal appeared
@@ -108,6 +109,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     try:
         trace = TraceWriter(run_dir / TRACE_FILE) if args.trace else None
         sim.start(cancelled=lambda: bool(stop))
+        if args.dashboard:
+            _print_dashboards(sim, out)
         failure = _follow(sim, progress, timing, governor, args, wall_begin, out, stop,
                           tour_cpu if args.cpu else None, trace)
         if not stop and progress.finished:
@@ -164,6 +167,18 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
     if stop:
         return EXIT_INTERRUPTED
     return EXIT_OK if code == 0 and (ended if plans else progress.outcome) == "completed" else EXIT_FAILED
+
+
+def _print_dashboards(sim: SimulatedBuilding, out: TextIO) -> None:
+    """Each robot's dashboard: its address (on the robot's own address; with separate machines, reached from this
+    host through the staff machine) and how to give staff a password."""
+    assert sim.building is not None
+    print("staff dashboards:", file=out)
+    for r in sim.building.robots:
+        url, here = sim.dashboard_url(r.name), sim.staff_url(r.name)
+        print(f"  {r.name:<12} {url}" + (f"  (from this host: {here})" if here != url else ""), file=out)
+    print(f"  staff users: bin/gidabot dashboard-passwd {sim.run_dir / 'dashboard' / '<ROBOT>'} USER "
+          "[--role admin]", file=out, flush=True)
 
 
 def _trace_summary(trace: TraceWriter, timing: RunTiming) -> dict | None:

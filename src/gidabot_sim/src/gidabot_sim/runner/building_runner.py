@@ -32,6 +32,7 @@ import json
 import os
 import secrets
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -47,6 +48,7 @@ from gidabot_navigation.building.model import Building, load_building, relocate_
 from gidabot_navigation.interface import Node
 from gidabot_navigation.resources import resource
 from gidabot_sim.errors import DemoError, MachinesError, ProcessError
+from gidabot_sim.runner.forward import Forward
 from gidabot_sim.runner.machines import Machines
 from gidabot_sim.runner.proc_info import ProcInfo, process_tree, read_proc
 from gidabot_sim.runner.procs import ProcessGroup, free_port, free_port_run, master_pid, ros_env, wait_until
@@ -59,6 +61,8 @@ T = TypeVar("T")
 
 NODE_GRACE = 6.0   # wall s a node gets to obey SIGINT when the building stops
 MACHINE_MASTER_PORT = 11311   # every robot's master on a machine of its own: the standard port
+DASHBOARD_PORT = 8080         # every robot's dashboard on a machine of its own: the default port
+STAFF_MACHINE = "staff"       # with machines and dashboards: the staff's computer, the only one that reaches them
 CLOCK_HISTORY = 3000   # looks at the floors' clocks kept for sim_time_at
 # Wall-time rates of the state topics, whatever the speed. Guiding publishes them at rates in ROS (sim)
 # time (2 Hz status, 5 Hz poses by default): at 20x that would be 40 + 100 messages per wall second per
@@ -161,6 +165,7 @@ class SimulatedBuilding:
     visitor: dict[str, object] | None = None  # the simulated visitor's ~params (tour_file, goal_id, way, ...)
     monitor: bool = True                      # the progress monitor (monitor.jsonl)
     machines: bool = False                    # every robot a machine of its own (network namespaces)
+    dashboard: bool = False                   # every robot serves its staff dashboard (dashboard_url)
     clock_offsets: dict[str, float] = field(default_factory=dict)   # machines: robot -> wall clock offset (s)
     building: Building | None = None
     building_file: Path | None = None
@@ -181,6 +186,8 @@ class SimulatedBuilding:
         self.timeline: Timeline | None = None
         self.mates: Mates | None = None          # several robots on a floor: their shared poses (world/mates.py)
         self._history: list[tuple[float, float]] = []    # (wall, slowest floor's sim time), see clocks()
+        self.dashboard_ports: dict[str, int] = {}        # robot -> its dashboard's port (with ``dashboard``)
+        self._forwards: dict[str, Forward] = {}          # robot -> this host's way to its dashboard (machines)
 
     def __enter__(self) -> SimulatedBuilding:
         return self
@@ -207,7 +214,8 @@ class SimulatedBuilding:
             raise DemoError("clock offsets need separate machines (machines=True)")
         if self.machines:
             try:
-                self.net = Machines(names, clock_offsets=self.clock_offsets).create()
+                self.net = Machines(names, extra=(STAFF_MACHINE,) if self.dashboard else (),
+                                    clock_offsets=self.clock_offsets).create()
             except MachinesError as err:
                 raise DemoError(f"cannot make the robots' machines: {err}") from err
         uris: dict[str, str] = {}
@@ -219,6 +227,8 @@ class SimulatedBuilding:
                 uris[r.name] = self._start_master(r.name, ip)
                 if not self.net:       # robots on one host: ports free on their loopback addresses
                     relay_ports[r.name] = free_port_run(ip, max(i, 1))
+                if self.dashboard:
+                    self.dashboard_ports[r.name] = DASHBOARD_PORT if self.net else free_port(ip)
         except ProcessError as err:
             raise DemoError(f"cannot start the masters: {err}") from err
         self.building_file = relocate_building(self.building_dir, self.run_dir / "building", uris, relay_ports)
@@ -227,7 +237,9 @@ class SimulatedBuilding:
             self.call(r.name, set_param, r.master_uri, "/use_sim_time", True)
             if self.net:
                 try:
-                    self.net.firewall(r.name, self.building.relay_ports(r.name))
+                    self.net.firewall(r.name, self.building.relay_ports(r.name),
+                                      staff_ports=[self.dashboard_ports[r.name]] if self.dashboard else [],
+                                      staff=STAFF_MACHINE if self.dashboard else None)
                 except MachinesError as err:
                     raise DemoError(f"cannot put up the firewall of {r.name}: {err}") from err
         if self.relay_secret is None:
@@ -279,6 +291,23 @@ class SimulatedBuilding:
         if self.timeline is not None:
             self.timeline.set_ceiling(speed)
 
+    def dashboard_url(self, robot: str) -> str:
+        """The address of ``robot``'s staff dashboard (with ``dashboard``), on the robot's own address."""
+        if self.building is None or robot not in self.dashboard_ports:
+            raise DemoError(f"{robot} serves no dashboard in this run")
+        return f"http://{self.building.robot(robot).ip}:{self.dashboard_ports[robot]}/"
+
+    def staff_url(self, robot: str) -> str:
+        """Where this host reaches ``robot``'s dashboard: its own address on loopback; with separate machines, a
+        port of this host's loopback forwarded through the staff machine (:mod:`gidabot_sim.runner.forward`)."""
+        url = self.dashboard_url(robot)
+        if self.net is None:
+            return url
+        if robot not in self._forwards:
+            net, address = self.net, (self.building.robot(robot).ip, self.dashboard_ports[robot])  # type: ignore[union-attr]
+            self._forwards[robot] = Forward(lambda: net.call(STAFF_MACHINE, socket.create_connection, address, 5.0))
+        return self._forwards[robot].url
+
     def env(self, robot: str, clock: bool = False) -> dict[str, str]:
         """Environment of a process using ``robot``'s master; ``clock``: a process of the robot itself (with
         separate machines, it gets the robot's clock offset; the world's tools keep the host's clock)."""
@@ -318,8 +347,11 @@ class SimulatedBuilding:
             "seed": str(-1 if self.seed is None else self.seed + index), "sim_nice": str(self.sim_nice),
             "gui": str(self.gui).lower(), "tours_dir": str(tours_dir),
             "seed_tours": str(self.seed_tours), "relay_secret": str(self.relay_secret or ""),
-            "relay_state_dir": str(self.run_dir / "relay" / robot),
+            "relay_state_dir": str(self.run_dir / "relay" / robot), "dashboard": str(self.dashboard).lower(),
         }
+        if self.dashboard:
+            args["dashboard_port"] = str(self.dashboard_ports[robot])
+            args["dashboard_dir"] = str(self.run_dir / "dashboard" / robot)
         if self.mates is not None and len(self.building.robots_on(self.building.robot(robot).floor)) > 1:
             args["sim_mates"] = str(self.mates.path)
         args.update(self.common_args)
@@ -491,6 +523,8 @@ class SimulatedBuilding:
         if self._stopped:
             return
         self._stopped = True
+        for forward in self._forwards.values():
+            forward.close()
         self.track()
         for name in self.procs.names():
             if name.startswith("record_"):

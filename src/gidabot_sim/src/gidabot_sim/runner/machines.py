@@ -374,12 +374,17 @@ class Machines:
     def iptables(self, name: str, *args: str) -> None:
         self.run(name, [_tool("iptables"), "-w", "5", *args])
 
-    def firewall(self, name: str, open_tcp_ports: Iterable[int]) -> list[list[str]]:
+    def firewall(self, name: str, open_tcp_ports: Iterable[int], staff_ports: Iterable[int] = (),
+                 staff: str | None = None) -> list[list[str]]:
         """Machine ``name`` admits from the network only new TCP connections to ``open_tcp_ports`` (and the
-        replies to connections it opened); its loopback is untouched. Returns the INPUT rules added."""
+        replies to connections it opened), and to ``staff_ports`` from machine ``staff`` only (the staff network:
+        the dashboard); its loopback is untouched. Returns the INPUT rules added."""
         rules = [["-i", "lo", "-j", "ACCEPT"],
                  ["-m", "conntrack", "--ctstate", "ESTABLISHED,RELATED", "-j", "ACCEPT"]]
         rules += [["-p", "tcp", "--dport", str(port), "-j", "ACCEPT"] for port in sorted(set(open_tcp_ports))]
+        if staff is not None:
+            rules += [["-p", "tcp", "-s", self.address(staff), "--dport", str(port), "-j", "ACCEPT"]
+                      for port in sorted(set(staff_ports))]
         rules.append(["-j", "DROP"])
         for rule in rules:
             self.iptables(name, "-A", "INPUT", *rule)
