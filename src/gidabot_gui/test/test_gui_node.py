@@ -164,7 +164,7 @@ def test_launch_file_registers_the_documented_topics_and_stops_cleanly(kbot, tmp
         assert gui in subs.get(topic, []), topic
     published_by_gui = sorted(t for t, nodes in pubs.items() if gui in nodes)
     assert published_by_gui == sorted([global_name(Topic.INITIALPOSE), "/rosout", global_name(Topic.TOUR_EDIT),
-                                       commands])
+                                       commands, Topic.DIAGNOSTICS])
     t0 = time.monotonic()
     rc = procs.stop("gui", grace=15.0)
     assert rc == 0 and time.monotonic() - t0 < 15.0
