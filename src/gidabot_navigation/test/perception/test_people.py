@@ -332,7 +332,6 @@ def test_the_wish_for_a_visitor_locks_on_a_change_only() -> None:
     assert not w.tracker.want_visitor(False)
 
 
-
 def _walked_ahead(tracker: PeopleTracker) -> None:
     """The visitor, locked behind the robot (the cone), walks past it to 4 m in front; a bystander stands in
     the cone."""
