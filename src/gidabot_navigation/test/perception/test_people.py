@@ -330,3 +330,48 @@ def test_the_wish_for_a_visitor_locks_on_a_change_only() -> None:
     assert not w.tracker.want_visitor(True) and w.tracker.visitor.track_id == vid
     assert w.tracker.want_visitor(False) and w.tracker.visitor.sight == Sight.NONE
     assert not w.tracker.want_visitor(False)
+
+
+def _walked_ahead(tracker: PeopleTracker) -> None:
+    """The visitor, locked behind the robot (the cone), walks past it to 4 m in front; a bystander stands in
+    the cone."""
+    for k in range(10):
+        tracker.update(seen((-1.5, 1.0), (-2.0, -1.2)), ORIGIN, k / RATE)
+    assert tracker.want_visitor(True) and tracker.visitor.x == pytest.approx(-1.5, abs=0.05)
+    for k in range(10, 80):                              # 5.5 m in 7 s, beside the robot, to (4, 1)
+        x = min(-1.5 + 0.8 * (k - 10) / RATE, 4.0)
+        tracker.update(seen((x, 1.0), (-2.0, -1.2)), ORIGIN, k / RATE)
+    assert tracker.visitor.seen and tracker.visitor.x == pytest.approx(4.0, abs=0.1)
+
+
+@pytest.mark.parametrize(("relock_now", "taken_x"), [(True, 4.0), (False, -2.0)])
+def test_a_lock_asked_anew_takes_the_track_nearest_where_the_visitor_was_last_seen(relock_now: bool,
+                                                                                   taken_x: float) -> None:
+    """A visitor out of the cone (4 m in front of a robot that waits facing them) asked for anew (false then
+    true, the guiding core's relock) is taken where they were last seen, not the bystander in the cone; after a
+    scan without a visitor wanted, a lock is a new visitor's: the cone's."""
+    tracker = PeopleTracker(params=TrackerParams(visitor_lost_after=1.0))
+    _walked_ahead(tracker)
+    tracker.want_visitor(False)
+    if not relock_now:
+        tracker.update(seen((4.0, 1.0), (-2.0, -1.2)), ORIGIN, 8.0)
+    assert tracker.want_visitor(True)
+    assert tracker.visitor.x == pytest.approx(taken_x, abs=0.1)
+
+
+def test_a_visitor_lost_and_seen_again_on_a_new_track_is_taken_again_where_last_seen() -> None:
+    """The visitor stands 4 m in front; a gap in the scans loses them (LOST), then they are seen again on a new
+    track where they stood: a lock asked anew takes that track, not the bystander in the cone."""
+    tracker = PeopleTracker(params=TrackerParams(visitor_lost_after=1.0))
+    _walked_ahead(tracker)
+    vid = tracker.visitor.track_id
+    for k in range(80, 110):                                            # unseen: LOST, its track dropped
+        report = tracker.update(seen(), ORIGIN, k / RATE)
+    assert report.visitor.sight == Sight.LOST
+    for k in range(110, 120):                  # seen again where it stood (a new track), the bystander too
+        report = tracker.update(seen((3.9, 1.1), (-2.0, -1.2)), ORIGIN, k / RATE)
+    assert vid not in {tr.id for tr in report.tracks}
+    tracker.want_visitor(False)
+    assert tracker.want_visitor(True)
+    v = tracker.visitor
+    assert v.seen and (v.x, v.y) == pytest.approx((3.9, 1.1), abs=0.05)

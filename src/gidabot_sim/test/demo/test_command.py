@@ -22,6 +22,10 @@ def test_bad_arguments_are_refused_before_anything_starts(tmp_path: Path, capsys
         (["--net", "0"], "--net 0"),
         (["--clock-rate", "0"], "--clock-rate 0: expected 1..1000"),
         (["--clock-rate", "inf"], "--clock-rate inf"),
+        (["--walk", "colour=red"], "--walk: walk 'colour=red': unknown key 'colour'"),
+        (["--walk", "speed=nan"], "speed nan m/s must be in 0.5..1.4"),
+        (["--walk", "group=9"], "group 9 must be 1..4 bodies"),
+        (["--visitors", "3", "--walk", "speed=0.5"], "--walk is the one visitor's"),
     ]
     for argv, expected in cases:
         assert main([*argv, "--out", str(out)]) == EXIT_USAGE, argv

@@ -107,6 +107,17 @@ def test_a_failure_of_the_visit_ends_it_and_garbage_is_ignored(faculty) -> None:
     assert p.finished and p.outcome.startswith("unreachable (MariSorgin: no path")
 
 
+def test_a_visitor_lost_ends_the_visit(faculty) -> None:
+    p = Progress(total_goals=1, visit=Visit(faculty, "Tartalo", goal_id="101", start_floor=0.0))
+    g = goal(faculty, "Tartalo/sim-visitor/d.1", "Tartalo", "101", tour="")
+    p.feed_line(json.dumps(g))
+    p.feed_line(event("Tartalo", Phase.SEARCHING_VISITOR, g["uid"], 60, 6))
+    assert not p.finished
+    p.feed_line(event("Tartalo", Phase.VISITOR_LOST, g["uid"], 120, 12, detail="not found again"))
+    assert p.finished and p.outcome == "visitor lost (Tartalo: not found again)" and p.done == 0
+    assert p.sim_seconds() == 120
+
+
 def test_single_target_done(faculty) -> None:
     p = Progress(total_goals=1, visit=Visit(faculty, "Tartalo", goal_id="101", start_floor=0.0))
     g = goal(faculty, "Tartalo/sim-visitor/c.1", "Tartalo", "101", tour="")

@@ -15,9 +15,9 @@ from gidabot_navigation.interface import Cmd, Node, Phase, global_name, relay_en
 from gidabot_navigation.senders import make_uid
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
-from gidabot_sim.visitor.behaviour import TIDY, draw_behaviour
+from gidabot_sim.visitor.behaviour import TIDY, draw_behaviour, parse_walk
 from gidabot_sim.visitor.population import VisitorPlan
-from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config
+from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config, walk_of
 from gidabot_sim.world.people import FOLLOW, GONE, LEAVE
 
 MAPS = Path(__file__).resolve().parents[4] / "maps"
@@ -204,3 +204,24 @@ def test_a_visitor_who_wanders_off_presses_nothing_more(faculty6) -> None:
     station.on_event(event("e2", "Tartalo", Phase.WAITING_VISITOR, "g1", stamp=20.0 + wander_at + 1), 21.0)
     assert station.tick(20.0 + wander_at + 10, 1000.0) == []
     assert core.outcome == "wandered off for good" and not core.finished
+
+
+def test_the_one_visitor_walks_as_given_else_as_drawn_from_its_seed(faculty6) -> None:
+    assert walk_of("", -1) == {"behaviour_seed": -1, "behaviour": None}
+    given = walk_of("speed=0.5,pause=15:60", 7)
+    assert given["behaviour"] == parse_walk("speed=0.5,pause=15:60")
+    station = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0, goal_id="223", **given), ListLog())
+    assert station.cores["sim-visitor"].behaviour == given["behaviour"]          # the seed is not used
+    seeded = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0, goal_id="223", **walk_of("", 7)),
+                            ListLog())
+    assert seeded.cores["sim-visitor"].behaviour == draw_behaviour(7)
+    plan = VisitorPlan(visitor_id="v1", arrive_s=0.0, robot="Tartalo", way="stairs", goal_id="223",
+                       behaviour_seed=-1)
+    crowd = VisitorStation(faculty6, station_config(faculty6, "Tartalo", 0.0, **given), ListLog(), [plan])
+    assert crowd.cores["v1"].behaviour == TIDY                                   # a population draws its own
+    with pytest.raises(SimConfigError, match=r"walk 'group=9': .*group 9 must be 1\.\.4"):
+        walk_of("group=9", -1)
+    with pytest.raises(SimConfigError, match=r"~walk: 3 must be a string"):
+        walk_of(3, -1)
+    with pytest.raises(SimConfigError, match=r"~behaviour_seed: 'x' must be a whole number"):
+        walk_of("", "x")

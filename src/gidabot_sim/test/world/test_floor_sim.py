@@ -4,6 +4,7 @@ published at each stop, obstacles, relocations, the clock's rate, diagnostics, t
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from gidabot_sim.world import floor_sim as fs
 from gidabot_sim.world.lockstep import Answer
 from gidabot_sim.world.mates import Mates
 from gidabot_sim.world.timeline import Clock, Timeline
+from gidabot_sim.world.world import LaserSpec
 
 MAPS = Path(__file__).resolve().parents[4] / "maps"
 ODOM, TRUTH = "/odom", "/base_pose_ground_truth"
@@ -299,3 +301,13 @@ def test_several_robots_in_one_simulator_get_their_own_topics_and_frames(faculty
     [tf] = [o for o in f.of(fs.Transforms) if not o.static]
     assert [(x.parent, x.child) for x in tf.frames] == [("robot_0/odom", "robot_0/base_footprint"),
                                                         ("robot_1/odom", "robot_1/base_footprint")]
+
+
+def test_each_robot_s_laser_covers_what_its_building_file_declares_unless_a_field_of_view_is_given(faculty) -> None:
+    assert Floor(faculty).sim.world.robots[0].spec.laser.fov == pytest.approx(2 * math.pi)   # declared: all round
+    kbot = faculty.robot("Kbot")
+    front = replace(faculty, robots=tuple(replace(r, laser=replace(r.laser, fov=1.5 * math.pi)) if r is kbot else r
+                                          for r in faculty.robots))
+    assert Floor(front).sim.world.robots[0].spec.laser.fov == pytest.approx(1.5 * math.pi)
+    given = Floor(faculty, laser=LaserSpec(fov=math.pi), laser_fov_declared=False)          # /sim ~laser_fov
+    assert given.sim.world.robots[0].spec.laser.fov == pytest.approx(math.pi)

@@ -31,6 +31,16 @@ def test_axis_aligned_and_diagonal_ranges_are_exact() -> None:
     assert diag == pytest.approx(math.hypot(2.95, 2.95), abs=1e-6)
 
 
+def test_a_ray_along_a_cell_boundary_near_a_wall_hits_it_at_once() -> None:
+    """-pi from a point on a row boundary (y 6.0 m: row 120): the ray's tiny y component (-1.2e-16) must not make
+    it step 0 cells to the row boundary at every iteration once it is near the wall (no return, 1000x slower)."""
+    caster = RayCaster(room(200, 300), RES, (0.0, 0.0, 0.0))
+    angles = np.array([-math.pi, math.pi, -math.pi / 2, 1.5 * math.pi, 0.0])
+    ranges = caster.cast(2.0, 6.0, angles, 20.0)
+    assert ranges == pytest.approx([1.95, 1.95, 5.95, 5.95, 7.95], abs=1e-6)
+    assert caster.cast(2.0, 6.0, np.linspace(-math.pi, math.pi, 360), 20.0).max() < 20.0    # a closed room
+
+
 def test_map_origin_and_rotation_are_honoured() -> None:
     caster = RayCaster(room(), RES, (-5.0, 10.0, math.pi / 2))   # grid x axis points along map +y
     # grid-local (3, 2) is map (-5 - 2, 10 + 3); grid +x is map +y

@@ -81,6 +81,8 @@ class TrackerParams:
     lock_half_angle: float = 1.2            # rad, half-width of the lock cone
     lock_distance: float = 2.5              # m from the robot's centre, at most
     lock_window: float = 5.0                # s a lock waits for a track in the cone
+    relock_radius: float = 1.5              # m: a lock asked anew takes a track this near where the visitor was
+    #                                         last seen first, wherever it is
     visitor_lost_after: float = 3.0         # s unseen in view: the visitor is lost
     out_of_view_lost_after: float = 20.0    # s unseen in all: lost, even out of view
     ambiguity_margin: float = 4.0           # log-likelihood margin below which a visitor's assignment is ambiguous
@@ -205,13 +207,21 @@ class PeopleTracker:
         self._hidden = 0.0                           # s unseen in view since last seen
         self._confidence = 0.0
         self._last_seen: LastSeen | None = None
+        self._memory: LastSeen | None = None         # where the visitor was last seen, kept over a lock asked anew
         self._report = VisitorReport(Sight.NONE)
         self._wanted = False
 
     # -- the visitor lock ------------------------------------------------------------------------
     def lock_visitor(self) -> bool:
         """Take the track in the lock cone as the visitor (any previous visitor is released); True when one
-        was there. Else the tracker looks for one at every step for ``lock_window`` s (``ACQUIRING``)."""
+        was there. Else the tracker looks for one at every step for ``lock_window`` s (``ACQUIRING``).
+
+        A lock asked *anew* (the visitor lost, or let go and asked for again before the next scan: the guiding
+        core's relock) first takes the confirmed track nearest where the visitor was last seen, within
+        ``relock_radius``, wherever it is: a visitor standing still far behind a robot that waits facing them
+        is not in the cone (behind it, within ``lock_distance``), and their track may be a new one (a scan
+        gap, a stop the motion model did not expect)."""
+        self._memory = self._last_seen or self._memory
         self._visitor, self._last_seen, self._hidden = None, None, 0.0
         self._acquiring_since = self._t if self._t is not None else math.nan
         self._sight = Sight.ACQUIRING
@@ -222,7 +232,9 @@ class PeopleTracker:
         return False
 
     def unlock_visitor(self) -> None:
-        """No visitor any more (guiding is over): its track becomes an ordinary one."""
+        """No visitor any more (guiding is over): its track becomes an ordinary one. Where it was last seen is
+        forgotten at the next scan, unless a lock is asked again before it (a lock asked anew)."""
+        self._memory = self._last_seen or self._memory
         self._visitor, self._acquiring_since, self._last_seen = None, None, None
         self._sight, self._confidence = Sight.NONE, 0.0
         self._report = VisitorReport(Sight.NONE)
@@ -245,12 +257,19 @@ class PeopleTracker:
         return self._report
 
     def _try_lock(self) -> bool:
-        """Lock the confirmed track nearest the robot in the lock cone (its angle off the cone's axis counts
+        """Lock the confirmed track nearest where the visitor was last seen (a lock asked anew, within
+        ``relock_radius``), else the one nearest the robot in the lock cone (its angle off the cone's axis counts
         as distance: 1 rad as 1 m)."""
         p, robot = self.params, self._robot
         assert robot is not None and self._t is not None
         best: tuple[float, _Track] | None = None
-        for tr in self._tracks:
+        memory = self._memory
+        if memory is not None:
+            for tr in self._tracks:
+                away = math.hypot(tr.state[0] - memory.pose.x, tr.state[1] - memory.pose.y)
+                if tr.confirmed and away <= p.relock_radius and (best is None or away < best[0]):
+                    best = (away, tr)
+        for tr in self._tracks if best is None else ():
             if not tr.confirmed:
                 continue
             dx, dy = tr.state[0] - robot.x, tr.state[1] - robot.y
@@ -282,6 +301,8 @@ class PeopleTracker:
                 self._lose()
         dt = 0.0 if self._t is None or t < self._t else min(t - self._t, p.max_dt)
         self._t, self._robot, self._fov, self._detections = t, robot, detections.fov, detections
+        if self._sight == Sight.NONE:            # let go, and not asked for again: a new lock is a new visitor
+            self._memory = None
         if self._acquiring_since is not None and math.isnan(self._acquiring_since):
             self._acquiring_since = t
         for tr in self._tracks:

@@ -40,7 +40,9 @@ from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number, param_text
 
-QUEUE_SIZE = 50          # messages waiting for the loop (scans, poses, lock wishes); more are dropped
+# messages waiting for the loop (scans, poses, lock wishes); more are dropped. Scans, odometry and amcl come at
+# about 25 Hz of sim time: at a 10x simulation 250 a wall second, so this absorbs a 0.8 s stall of the loop
+QUEUE_SIZE = 200
 
 
 @dataclass(frozen=True)
@@ -64,6 +66,7 @@ class Params:
             lock_half_angle=param_number("~lock_half_angle", d.lock_half_angle, 0.0, math.pi),
             lock_distance=param_number("~lock_distance", d.lock_distance),
             lock_window=param_number("~lock_window", d.lock_window),
+            relock_radius=param_number("~relock_radius", d.relock_radius),
             visitor_lost_after=param_number("~visitor_lost_after", d.visitor_lost_after),
             out_of_view_lost_after=param_number("~out_of_view_lost_after", d.out_of_view_lost_after))
         return Params(param_text("~building", required=True), param_text("~robot", required=True), use_map,
@@ -110,7 +113,8 @@ class PeopleNode:
       - ``~max_range`` (m, default 8): farther returns are ignored.
       - ``~lock_bearing`` (rad, default pi: behind), ``~lock_half_angle`` (rad, default 1.2),
         ``~lock_distance`` (m, default 2.5), ``~lock_window`` (s, default 5): the lock cone and how long a
-        lock waits for someone in it.
+        lock waits for someone in it; ``~relock_radius`` (m, default 1.5): a lock asked anew (false then true)
+        first takes the track nearest where the visitor was last seen, within this.
       - ``~visitor_lost_after`` (s, default 3): unseen in view this long, the visitor is LOST;
         ``~out_of_view_lost_after`` (s, default 20): unseen this long in all, LOST too.
       - ``~diagnostics_rate`` (Hz, default 1).

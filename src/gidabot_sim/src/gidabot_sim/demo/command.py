@@ -11,6 +11,7 @@ bags of the partial run.
     bin/gidabot demo                                   # Table 4 tour, headless
     bin/gidabot demo --tour tours/long_tour.tour       # Table 2, 15 goals
     bin/gidabot demo --goal 305 --way lift             # one target
+    bin/gidabot demo --goal 012 --walk speed=0.5,pause=20:60   # a slow visitor who stops a minute
     bin/gidabot demo --gui                             # open each robot's GUI too
     bin/gidabot demo --dashboard                       # every robot's staff dashboard; prints their URLs
     bin/gidabot demo --visitors 20 --seed 1            # many visitors at random robots
@@ -39,6 +40,7 @@ from gidabot_sim.demo.trace import TRACE_FILE
 from gidabot_sim.errors import DemoError, SimConfigError
 from gidabot_sim.runner.building_runner import CLOCK_MAX_HZ, CLOCK_MIN_HZ
 from gidabot_sim.runner.command_line import RUNS, check_network, load_tour, run_command
+from gidabot_sim.visitor.behaviour import parse_walk
 from gidabot_sim.visitor.population import PATIENCE_S, VisitorPlan, make_population
 
 START_STOP_S, SIM_S_PER_GOAL = 120.0, 300.0   # the default --timeout
@@ -79,6 +81,12 @@ def parse_args(argv: list[str]) -> argparse.Namespace:
                         f"time at the speed, {CLOCK_MIN_HZ:g} to {CLOCK_MAX_HZ:g}: the CPU of the building's nodes "
                         "receiving it against the sim-time resolution of their clocks)")
     p.add_argument("--way", choices=WAYS, default=WAY_STAIRS, help="how the visitor changes floors")
+    p.add_argument("--walk", default=None, metavar="KEY=VALUE,...",
+                   help="how the visitor's body walks (default: tidy, 1.1 m/s, 1 m behind its robot, no pauses): "
+                        "speed=M/S (0.5-1.4), gap=M (0.3-5, behind its robot), pause=START:DURATION (s after the "
+                        "visit started; may repeat), group=N (1-4 bodies walking as one visitor), wander_at=S "
+                        "(walks off for good then), e.g. 'speed=0.5,pause=20:60,group=3,wander_at=40' "
+                        "(docs/simulator.md, People); not with --visitors (each draws its own)")
     p.add_argument("--visit-time", type=float, default=60.0, metavar="S",
                    help="sim seconds the visitor spends at a tour stop on a floor without robot (default 60)")
     p.add_argument("--skip", action="append", default=[], metavar="K:M",
@@ -207,6 +215,13 @@ def plan(args: argparse.Namespace) -> DemoPlan:
     """What the arguments ask the demo to run, checked (DemoError, BuildingError: one of them is wrong); a
     default ``--timeout`` (None) is set from it."""
     building = load_building(args.building)
+    if args.walk is not None:     # checked here (every bad key or value named); the visitor nodes parse it again
+        if args.visitors is not None:
+            raise DemoError("--walk is the one visitor's; with --visitors each visitor draws how it walks from --seed")
+        try:
+            parse_walk(args.walk)
+        except SimConfigError as err:
+            raise DemoError(f"--walk: {err}") from err
     plans = _population(args, building) if args.visitors is not None else ()
     if plans:
         label, total, tour_name, start_floor, alone = f"visitors{len(plans)}-seed{args.seed}", len(plans), "", \

@@ -32,8 +32,9 @@ from gidabot_navigation.interface import GUIDING_CALLERIDS, PHASE_NAMES, TRIP_DO
 from gidabot_sim.report.visits import MonitorFeed, stops_done, visit_completed
 
 # phases that end the visit. Cancels do not: a skip cancels the step being run, and a cancel that
-# gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE) first.
-FAILURES = {p: PHASE_NAMES[p] for p in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.REJECTED)}
+# gives a trip up comes with its own phase (UNREACHABLE, TIMEOUT, PARTNER_OFFLINE, VISITOR_LOST) first.
+FAILURES = {p: PHASE_NAMES[p] for p in (Phase.UNREACHABLE, Phase.TIMEOUT, Phase.PARTNER_OFFLINE, Phase.REJECTED,
+                                        Phase.VISITOR_LOST)}
 
 
 @dataclass(frozen=True)

@@ -74,7 +74,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
                    "sim_people": str(args.people), "sim_people_seed": str(1 if args.seed is None else args.seed)}
     start_delay = round(START_SETTLE_WALL_S * speed, 3)
     visitor = {"tour_file": tour_name, "goal_id": args.goal or "", "way": args.way, "skips": skips,
-               "start_floor": start_floor, "visit_time": args.visit_time, "start_delay": start_delay}
+               "start_floor": start_floor, "visit_time": args.visit_time, "start_delay": start_delay,
+               "walk": args.walk or ""}
     if plans:
         # what each visitor chose at the screen (asked, or left: a wait shown was too long) goes to the monitor's file
         visitor = {"population": [p.to_dict() for p in plans], "visit_time": args.visit_time,
@@ -86,7 +87,8 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
                f"{patience})"
     print(f"GidaBot demo: {building.name}: {len(building.robots)} robots "
           f"({', '.join(f'{r.name} {r.floor:g}' for r in building.robots)}), {len(building.relay_pairs())} relays; "
-          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}, "
+          f"{what} ({total} goals), visitor from floor {start_floor:g} by the {args.way}"
+          f"{f', walking {args.walk}' if args.walk and not plans else ''}, "
           f"speed {speed_label(args.speed)}{'' if args.seed is None else f', seed {args.seed}'}"
           f"{', GUIs' if args.gui else ', headless'}"
           f"{', one machine (network namespace) per robot' if args.machines else ''}\nrun folder: {run_dir}",
@@ -144,7 +146,7 @@ def run_demo(args: argparse.Namespace, demo: DemoPlan, out: TextIO, stop: Signal
         "governor": governor.summary() if governor else None,
         "status_rate": float(launch_args["status_rate"]), "pose_rate": float(launch_args["pose_rate"]),
         "clock_rate": clock_rate,
-        "way": args.way, "start_floor": start_floor, "skips": skips,
+        "way": args.way, "start_floor": start_floor, "skips": skips, "walk": None if plans else args.walk,
         "robots": [{"name": r.name, "floor": r.floor, "bag": f"{r.name}.bag"} for r in building.robots],
     }
     run["trace"] = _trace_summary(trace, timing) if trace is not None else None

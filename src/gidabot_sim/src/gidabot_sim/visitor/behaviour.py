@@ -4,9 +4,10 @@ A visitor's body (:mod:`gidabot_sim.world.people`) follows its guiding robot ``g
 robot's path at its own ``speed`` (0.5-1.4 m/s: a slow one falls behind a robot driving faster), stops to look
 at something now and then (``pauses``: (start, duration) in sim s after the visit started), may walk as a
 ``group`` (several bodies, one visitor) and may wander off for good (``wander_at`` s after the visit started:
-from then on it neither follows nor presses a button). The single visitor of ``make demo`` keeps :data:`TIDY`
-(a steady pace, no pauses); a population's visitors draw theirs from their ``behaviour_seed``
-(:func:`draw_behaviour`).
+from then on it neither follows nor presses a button). The single visitor of ``gidabot demo`` keeps :data:`TIDY`
+(a steady pace, no pauses) unless ``--walk`` says how it walks (:func:`parse_walk`, e.g.
+``speed=0.5,pause=20:60,group=3,wander_at=40``); a population's visitors draw theirs from their
+``behaviour_seed`` (:func:`draw_behaviour`).
 
 Bystanders (``--people N``) are nobody's visitor: each walks between places of its floor at its own speed,
 and some stop for a while in the middle of a corridor, in the way of whoever comes (:func:`draw_bystanders`).
@@ -68,6 +69,61 @@ class Behaviour:
 
 
 TIDY = Behaviour()
+
+
+WALK_KIND = "walk"              # the kind of a behaviour given by --walk
+WALK_KEYS = ("speed", "gap", "pause", "group", "wander_at")
+
+
+def parse_walk(text: str) -> Behaviour:
+    """A behaviour from ``--walk`` text: comma-separated ``key=value`` of :data:`WALK_KEYS`, each at most once but
+    ``pause`` (``START:DURATION`` s after the visit started; may repeat); the keys left out keep :data:`TIDY`'s
+    values. ``speed=0.5,pause=20:60,group=3,wander_at=40``: 0.5 m/s, stands still from 20 s to 80 s, three bodies,
+    walks off for good at 40 s. :class:`SimConfigError` lists every bad key or value, and what
+    :class:`Behaviour` itself refuses."""
+    problems: list[str] = []
+    values: dict[str, object] = {}
+    pauses: list[tuple[float, float]] = []
+    items = [item.strip() for item in text.split(",")]
+    if not text.strip():
+        problems.append("empty: expected key=value[,key=value...]")
+        items = []
+    for item in items:
+        key, sep, value = (part.strip() for part in item.partition("="))
+        if not sep or not key or not value:
+            problems.append(f"{item!r}: expected key=value")
+        elif key not in WALK_KEYS:
+            problems.append(f"unknown key {key!r} (keys: {', '.join(WALK_KEYS)})")
+        elif key in values:
+            problems.append(f"{key} given twice")
+        elif key == "pause":
+            try:
+                start, duration = value.split(":")
+                pauses.append((float(start), float(duration)))
+            except ValueError:
+                problems.append(f"pause {value!r}: expected START:DURATION (s)")
+        elif key == "group":
+            try:
+                values[key] = int(value)
+            except ValueError:
+                problems.append(f"group {value!r}: expected a whole number of bodies")
+        else:
+            try:
+                number = float(value)
+            except ValueError:
+                problems.append(f"{key} {value!r}: expected a number")
+                continue
+            if key == "wander_at" and not number >= 0:   # leaving the key out is "never"
+                problems.append(f"wander_at {value!r}: expected s >= 0 after the visit started")
+                continue
+            values[key] = number
+    try:
+        behaviour = Behaviour(**values, pauses=tuple(pauses), kind=WALK_KIND)   # type: ignore[arg-type]
+    except SimConfigError as err:
+        problems.append(str(err))
+    if problems:
+        raise SimConfigError(f"walk {text!r}: {'; '.join(problems)}")
+    return behaviour
 
 
 def draw_behaviour(seed: int) -> Behaviour:

@@ -42,6 +42,7 @@ from gidabot_navigation.senders import Claim, Gate, Senders, claim_of
 from gidabot_navigation.tours.tour_file import tour_from_lines
 from gidabot_navigation.tours.tour_store import TourMessage
 from gidabot_sim.errors import SimConfigError
+from gidabot_sim.visitor.behaviour import parse_walk
 from gidabot_sim.visitor.population import VisitorPlan
 from gidabot_sim.visitor.visitor import ButtonPress, Screen, VisitorConfig, VisitorCore
 from gidabot_sim.world.people import FOLLOW, GONE, LEAVE, Directive
@@ -55,6 +56,17 @@ def skips_of(raw: Any) -> tuple[tuple[int, int], ...]:
         return tuple((int(k), int(m)) for k, m in raw)
     except (TypeError, ValueError) as err:
         raise SimConfigError(f"~skips: {raw!r} must be a list of [k, m] step pairs") from err
+
+
+def walk_of(walk: Any, behaviour_seed: Any) -> dict[str, Any]:
+    """The ``~walk`` and ``~behaviour_seed`` parameters: the :class:`VisitorConfig` fields of how the one visitor's
+    body walks (``walk``: :func:`~gidabot_sim.visitor.behaviour.parse_walk` text, "" = drawn from the seed; seed
+    -1: :data:`~gidabot_sim.visitor.behaviour.TIDY`)."""
+    if not isinstance(walk, str):
+        raise SimConfigError(f"~walk: {walk!r} must be a string of key=value (gidabot demo --walk)")
+    if not isinstance(behaviour_seed, int) or isinstance(behaviour_seed, bool):
+        raise SimConfigError(f"~behaviour_seed: {behaviour_seed!r} must be a whole number (-1: tidy)")
+    return {"behaviour_seed": behaviour_seed, "behaviour": parse_walk(walk) if walk else None}
 
 
 def station_config(building: Building, robot: str, start_floor: float, **settings: Any) -> VisitorConfig:
@@ -86,7 +98,7 @@ class VisitorStation:
             cfg, start_floor=building.robot(p.robot).floor, start_robot=p.robot, way=p.way, goal_id=p.goal_id,
             tour_file=p.tour_file, skips=(), visitor_id=p.visitor_id, arrive_s=p.arrive_s,
             cancel_after_s=p.cancel_after_s, no_show=p.no_show, patience_s=p.patience_s,
-            behaviour_seed=p.behaviour_seed)) for p in population} \
+            behaviour_seed=p.behaviour_seed, behaviour=None)) for p in population} \
             or {cfg.visitor_id: VisitorCore(cfg)}
         self.robots = {r.name for r in building.robots}
         # whose events it takes: a robot's own nodes for that robot, a relay end for its peer (senders.py)

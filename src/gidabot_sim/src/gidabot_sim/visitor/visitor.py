@@ -30,7 +30,7 @@ navigation events every robot broadcasts (``/gidabot/nav_events``):
   person is on, or arrives at (when the ``GO_TO_FLOOR`` of that trip comes), asks.
 
 The visitor's body (:mod:`gidabot_sim.world.people`) walks as its behaviour says
-(:mod:`gidabot_sim.visitor.behaviour`, from ``behaviour_seed``; -1: the tidy default): one that wanders off
+(:mod:`gidabot_sim.visitor.behaviour`: given, else from ``behaviour_seed``; -1: the tidy default): one that wanders off
 for good does nothing more from then on (:meth:`VisitorCore.wandered`): it presses no button, turns up nowhere.
 
 One visitor of a population (``gidabot demo --visitors K``; each node then runs one core per
@@ -89,6 +89,7 @@ class VisitorConfig:
     no_show: bool = False            # never turns up at a meeting point on another floor (that robot times out)
     patience_s: float = -1.0         # >= 0: does not confirm when a wait shown before confirming is longer
     behaviour_seed: int = -1         # how its body walks (gidabot_sim.visitor.behaviour; -1: tidy)
+    behaviour: Behaviour | None = None   # how its body walks, given (gidabot demo --walk): behaviour_seed unused
 
     def walk_time(self, from_floor: float, to_floor: float) -> float:
         floors = abs(to_floor - from_floor)
@@ -144,7 +145,8 @@ class VisitorCore:
 
     def __post_init__(self) -> None:
         self.present = self.on_start_floor
-        self.behaviour = draw_behaviour(self.cfg.behaviour_seed)
+        given = self.cfg.behaviour
+        self.behaviour = given if given is not None else draw_behaviour(self.cfg.behaviour_seed)
 
     @property
     def visit_start(self) -> float | None:

@@ -25,7 +25,7 @@ from gidabot_navigation.ros.params import param_number
 from gidabot_navigation.ros.replay import ReplayPublisher
 from gidabot_sim.ros import convert
 from gidabot_sim.visitor.population import plans_from_list
-from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config
+from gidabot_sim.visitor.station import VisitorStation, skips_of, station_config, walk_of
 
 DIAG_TICKS = 5            # ticks between two diagnostics
 
@@ -64,15 +64,18 @@ class VisitorNode:
       ~retry (float, 30 s), ~retry_for (float, 1800 s): a request of this visitor refused with
                                   PARTNER_OFFLINE is asked again after ~retry, for at most ~retry_for
       ~visit_time (float, 60 s)   time spent at a tour stop on a floor without robot (sim time)
+      ~walk (str, "")             how the visitor's body walks (gidabot_sim.visitor.behaviour.parse_walk, e.g.
+                                  "speed=0.5,pause=20:60,group=3,wander_at=40"; gidabot demo --walk); "": drawn from
+      ~behaviour_seed (int, -1)   this seed (-1: tidy, 1.1 m/s, 1 m behind, no pauses)
       ~start_delay (float, 2.0 s) after every robot reported status (sim time): when the visit starts (the demo:
                                   3 s of wall time at its speed)
       ~rate (float, 1 Hz)         how often due commands are checked (sim time)
       ~population (list, [])      many visitors instead of one: their plans (gidabot_sim.visitor.population:
                                   visitor_id, arrive_s after ~start_delay (sim s), robot, way, goal_id or
                                   tour_file, cancel_after_s, no_show, patience_s); ~start_floor, ~tour_file,
-                                  ~goal_id, ~way and ~skips are then not used. A visitor with a patience sees
-                                  the waits of its trip's legs before confirming, as the GUI shows them, and
-                                  leaves instead when one is longer
+                                  ~goal_id, ~way, ~skips, ~walk and ~behaviour_seed are then not used. A
+                                  visitor with a patience sees the waits of its trip's legs before confirming,
+                                  as the GUI shows them, and leaves instead when one is longer
       ~record (str, "")           a JSON-lines file (the demo's monitor.jsonl) to append what the visitors chose at
                                   the screen: ``{"kind": "visitor", "event": "asked" | "left", "visitor", "robot",
                                   "shown": [s or null per leg], "patience_s", "sim", "wall"}``
@@ -91,7 +94,8 @@ class VisitorNode:
             tour_file=str(rospy.get_param("~tour_file", "")), goal_id=str(rospy.get_param("~goal_id", "")),
             skips=skips_of(rospy.get_param("~skips", [])),
             retry_s=param_number("~retry", 30.0, strict=False),
-            retry_for_s=param_number("~retry_for", 1800.0, strict=False))
+            retry_for_s=param_number("~retry_for", 1800.0, strict=False),
+            **walk_of(rospy.get_param("~walk", ""), rospy.get_param("~behaviour_seed", -1)))
         self.station = VisitorStation(building, cfg, RosLog(),
                                       plans_from_list(rospy.get_param("~population", []), building),
                                       param_number("~start_delay", 2.0, strict=False),

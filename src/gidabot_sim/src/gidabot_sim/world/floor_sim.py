@@ -26,7 +26,7 @@ import math
 import os
 import queue
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -119,6 +119,8 @@ class SimConfig:
     laser_rate: float = 10.0
     battery_rate: float = 1.0
     laser: LaserSpec = field(default_factory=LaserSpec)
+    laser_fov_declared: bool = True       # each robot's laser covers the fov its building file declares
+    #                                       (sensors.laser.fov, all round unless said), not laser.fov
     laser_z: float = 0.3
     battery: BatteryModel = field(default_factory=BatteryModel)
     seed: int | None = None
@@ -360,7 +362,9 @@ class FloorSim:
         return Crowd(self.world.clearance, plan, places, draw_bystanders(c.people, c.people_seed, self.floor.label))
 
     def _spec(self, robot: Robot) -> RobotSpec:
-        return RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), self.config.laser, self.config.battery)
+        laser = replace(self.config.laser, fov=robot.laser.fov) if self.config.laser_fov_declared else \
+            self.config.laser
+        return RobotSpec(robot.name, robot.radius, Limits.of_robot(robot), laser, self.config.battery)
 
     def _open_mates(self, building: Building, robots: list[Robot]) -> None:
         """The mates file, and the slots of the other robots of this floor and of this node's own robots: a slot

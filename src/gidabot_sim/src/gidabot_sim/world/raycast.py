@@ -24,6 +24,10 @@ from scipy import ndimage
 SAFETY = math.sqrt(2.0)     # cells: a sample and a solid cell are both up to half a diagonal off their centres
 BOUNDARY_EPS = 1e-6         # cells past a cell boundary
 MAX_ITERATIONS = 20000      # bound on the loop (a ray crosses at most width + height cells)
+# a direction component this small is an axis-parallel ray (the sine of pi is 1.2e-16, not 0): taken as 0, or a
+# ray lying on a cell boundary steps 0 cells to that boundary at every iteration near a wall (until the bound: no
+# return, and a thousand times the time of a scan)
+AXIS_EPS = 1e-9
 
 
 class RayCaster:
@@ -98,6 +102,7 @@ class RayCaster:
         ox, oy = self._local(x, y)
         local = angles - self.origin[2]
         dx, dy = np.cos(local), np.sin(local)
+        dx, dy = np.where(np.abs(dx) < AXIS_EPS, 0.0, dx), np.where(np.abs(dy) < AXIS_EPS, 0.0, dy)
         tmax = range_max / self.resolution           # cells
         t = np.zeros(n)
         hit_t = np.full(n, np.inf)

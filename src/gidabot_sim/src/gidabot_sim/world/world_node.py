@@ -43,8 +43,9 @@ def read_config() -> fs.SimConfig:
     """The node's parameters (ranges checked here, the rest by the core)."""
     poses = rospy.get_param("~initial_poses") if rospy.has_param("~initial_poses") else None
     robots = fs.robot_names(str(rospy.get_param("~robot", "")), rospy.get_param("~robots", None))
+    fov = param_number("~laser_fov", 0.0, 0.0, 2 * math.pi, strict=False)     # 0: the building file's
     laser = LaserSpec(beams=int(param_number("~laser_beams", LaserSpec.beams, 1, 10000, strict=False)),
-                      fov=param_number("~laser_fov", LaserSpec.fov, 0.0, 2 * math.pi),
+                      fov=fov or LaserSpec.fov,
                       range_min=param_number("~laser_range_min", LaserSpec.range_min, strict=False),
                       range_max=param_number("~laser_range_max", LaserSpec.range_max, strict=False),
                       noise=param_number("~laser_noise", LaserSpec.noise, strict=False),
@@ -72,7 +73,8 @@ def read_config() -> fs.SimConfig:
         rest_rate=param_number("~rest_rate", SIM.rest_rate, 0.0, 1000.0),
         laser_rate=param_number("~laser_rate", SIM.laser_rate, 0.0, 1000.0),
         battery_rate=param_number("~battery_rate", SIM.battery_rate, 0.0, 100.0),
-        laser=laser, laser_z=param_number("~laser_z", SIM.laser_z, -5, 5, strict=False), battery=battery,
+        laser=laser, laser_fov_declared=not fov,
+        laser_z=param_number("~laser_z", SIM.laser_z, -5, 5, strict=False), battery=battery,
         seed=None if seed < 0 else seed,
         diagnostics_period=param_number("~diagnostics_period", SIM.diagnostics_period, 0.0),
         deadlock_time=param_number("~deadlock_time", SIM.deadlock_time, 0.0),
@@ -159,7 +161,8 @@ class SimNode:
         ``~speed``); ``~cmd_timeout`` (s, 0.2), ``~clock_rate_max`` (Hz wall, 100);
       ``~odom_rate`` (Hz, 10), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 10),
         ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per step);
-      ``~laser_beams`` (360), ``~laser_fov`` (rad, 3 pi/2), ``~laser_range_min``/``~laser_range_max``
+      ``~laser_beams`` (360), ``~laser_fov`` (rad, 0: what the building file declares for the robot,
+        ``sensors.laser.fov``, all round unless said), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
       ``~battery_start`` (0..1, 1), ``~battery_idle_per_hour`` (fraction/h, 0.05), ``~battery_per_km``
         (fraction/km, 0.25); ``~seed`` (int, -1 = random); ``~diagnostics_period`` (wall s, 1);
