@@ -19,7 +19,7 @@ from pathlib import Path
 from probe import Probe, close_all
 
 from gidabot_navigation.interface import Node, Topic, is_relay_end, relay_end_name
-from gidabot_navigation.senders import SPEAKS_FOR, uid_robot
+from gidabot_navigation.senders import PUBLISHERS, SPEAKS_FOR, uid_robot
 from gidabot_sim.runner.procs import wait_until
 
 REPO = Path(__file__).resolve().parents[1]
@@ -44,6 +44,7 @@ class RelayMesh:
             self.secret_file = str(path)
         self.state_dir = tmp_path / "relay_state"
         self.probes: dict[str, Probe] = {}
+        self.as_node: dict[tuple[str, str], Probe] = {}   # (robot, node): a probe named like that node of robot
         self.labels: dict[str, str] = {}        # uid made by legit_uid -> the test's label
         self.subscribed: dict[str, set[str]] = {r: set() for r in self.robots}
 
@@ -78,7 +79,7 @@ class RelayMesh:
             self.sim.procs.signal(name, signal.SIGINT)
         for name in names:
             self.sim.procs.stop(name)
-        close_all(self.probes.values())
+        close_all([*self.probes.values(), *self.as_node.values()])
 
     def __enter__(self) -> RelayMesh:
         return self
@@ -176,7 +177,19 @@ class RelayMesh:
             msg.setdefault(speech.robot, robot)
         if speech is not None and speech.uid and "uid" in msg and uid_robot(msg["uid"]) is None:
             msg["uid"] = self.legit_uid(robot, str(msg["uid"]))
-        self.probes[robot].pub(topic, type_, msg, to=self.ends(robot))
+        self._publisher(robot, topic).pub(topic, type_, msg, to=self.ends(robot))
+
+    def _publisher(self, robot: str, topic: str) -> Probe:
+        """The probe that publishes ``topic`` as ``robot``'s own node: its goal manager's, or on a topic only some
+        own nodes may publish (senders.PUBLISHERS: a staff command) a probe named like the first of them."""
+        nodes = PUBLISHERS.get(topic)
+        if not nodes or Node.GOAL_MANAGER in nodes:
+            return self.probes[robot]
+        key = (robot, nodes[0])
+        if key not in self.as_node:
+            self.as_node[key] = Probe(self.sim.env(robot), self.sim.log_dir / f"probe_{robot}_{nodes[0]}.log",
+                                      timeout=30, command=lambda argv: self.sim.command(robot, argv), name=nodes[0])
+        return self.as_node[key]
 
     def legit_uid(self, robot: str, label: str) -> str:
         """A uid of ``robot`` (senders.UID_FORMAT) standing for the test's ``label``."""
