@@ -60,6 +60,12 @@ class Conn(Transport):
     def fileno(self) -> None:
         return None
 
+    def close(self) -> None:
+        """Once, as rospy's TCPROS transports close: a topic's cleanup closes the connection it removes again, and
+        a double closing every time recursed until the interpreter aborted (when a topic was collected)."""
+        if not self.done:
+            super().close()
+
 
 def publisher() -> tuple[types.SimpleNamespace, list]:
     """A rospy publisher implementation (as ``rospy.Publisher(...).impl``) whose listener keeps every
