@@ -85,16 +85,17 @@ def test_an_event_goes_out_within_the_period_and_ticks_keep_a_quiet_page_alive()
     async def test(hub, source, counters, client) -> None:
         ws = await client.ws_connect("/live")
         await ws.receive_json(timeout=2.0)
-        await asyncio.sleep(0.3)
+        await asyncio.sleep(0.3)                  # past the first period: nothing else is due
         source.set("alerts", 7)
         t0 = time.monotonic()
         hub.notify()
-        msg = await ws.receive_json(timeout=2.0)
-        assert msg["sections"] == {"alerts": 7} and time.monotonic() - t0 < 0.35
-        tick = await ws.receive_json(timeout=2.0)
+        msg = await ws.receive_json(timeout=5.0)
+        # pushed within its period, not with the next tick (4 s): the bound leaves room for a loaded machine
+        assert msg["sections"] == {"alerts": 7} and time.monotonic() - t0 < 2.0
+        tick = await ws.receive_json(timeout=10.0)
         assert tick["type"] == "tick" and abs(tick["now"] - time.time()) < 5
         await ws.close()
-    run(test, period=0.25, tick_period=0.5)
+    run(test, period=0.25, tick_period=4.0)
 
 
 def test_a_dead_client_is_dropped_within_one_and_a_half_heartbeats() -> None:
@@ -102,17 +103,17 @@ def test_a_dead_client_is_dropped_within_one_and_a_half_heartbeats() -> None:
         ws = await client.ws_connect("/live", autoping=False)     # never reads: never answers a ping
         await until(lambda: len(hub.clients) == 1, 2.0)
         t0 = time.monotonic()
-        await until(lambda: not hub.clients, 3.0)
-        assert time.monotonic() - t0 < 0.6 * 1.5 + 0.5
+        await until(lambda: not hub.clients, 6.0)
+        assert time.monotonic() - t0 < 1.0 * 1.5 + 1.0                # 1.5 heartbeats, and room for a loaded machine
         await ws.close()
         live = await client.ws_connect("/live")                   # a live client stays
         await live.receive_json(timeout=2.0)
         reader = asyncio.create_task(live.receive())
-        await asyncio.sleep(1.5)
+        await asyncio.sleep(3.0)                  # three heartbeats answered: still there
         assert len(hub.clients) == 1
         reader.cancel()
         await live.close()
-    run(test, heartbeat=0.6)
+    run(test, heartbeat=1.0)
 
 
 def test_clients_are_bounded_per_address_and_may_not_talk() -> None:
