@@ -16,6 +16,7 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from demo_logs import log_tails, run_folder_of
 
 import gidabot_sim.runner.procs as procs_mod
 
@@ -48,7 +49,8 @@ def test_the_guide_passes_the_robot_parked_in_the_corridor_every_time_both_ways(
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=120)
         pytest.fail(f"demo still running after 540 s; stopped it\n{err[-3000:]}")
-    assert proc.returncode == 0, err[-4000:]
+    folder = run_folder_of(err)
+    assert proc.returncode == 0, err[-4000:] + "\n" + (log_tails(folder) if folder else "")
     report = json.loads(out)
     assert report["tour"]["goals"] == 4 and report["tour"]["completed"] == 4, report["tour"]
     assert report["contacts"]["collisions"] == 0 and report["contacts"]["deadlocks"] == 0, report["contacts"]

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
+from demo_logs import log_tails
 from rosbags.highlevel import AnyReader
 
 import gidabot_sim.runner.procs as procs_mod
@@ -99,7 +100,7 @@ def recorded(bag: Path, phase: int, goal_uid: str) -> dict[str, float]:
 
 
 def completed(r: Run) -> None:
-    assert r.returncode == EXIT_OK, f"{r.run['outcome']}\n{r.stderr[-4000:]}"
+    assert r.returncode == EXIT_OK, f"{r.run['outcome']}\n{r.stderr[-4000:]}\n{log_tails(r.folder)}"
     assert r.report["tour"]["goals"] == 1 and r.report["tour"]["completed"] == 1, r.report["tour"]
     assert r.pace["lost"] == 0 and r.pace["searches"] == 0, r.pace
 

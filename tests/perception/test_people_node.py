@@ -1,7 +1,9 @@
-"""System test of the people node on a simulated floor (one master on loopback): a person standing behind the
-robot (a run-time disc obstacle of the simulator) is tracked and locked as the visitor, lost once it is gone,
-and the node stops on SIGINT; the simulated visitor's body (put on the floor as the visitor node
-does, ``/sim/visitor_body``) follows the robot driving along the corridor and stays locked and SEEN behind it."""
+"""System test of the people node on a simulated floor (one master on loopback): it reads no laser until this
+robot's guiding core (a probe named as it) wants people watched, and refuses that wish from anyone else; a
+person standing behind the robot (a run-time disc obstacle of the simulator) is tracked and locked as the
+visitor, lost once it is gone; with no wish left it lets the laser go; the node stops on SIGINT; the simulated
+visitor's body (put on the floor as the visitor node does, ``/sim/visitor_body``) follows the robot driving along
+the corridor and stays locked and SEEN behind it."""
 
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ import yaml
 from probe import Probe
 
 from gidabot_navigation.building.model import load_building, relocate_building
-from gidabot_navigation.interface import Sight, Topic
+from gidabot_navigation.interface import Node, Sight, Topic
 from gidabot_sim.runner.procs import ProcessGroup, robot_address, ros_env, start_master, wait_until
 
 pytestmark = pytest.mark.system
@@ -29,6 +31,7 @@ ROBOT_AT = (20.0, 12.0)                # facing +x, in the corridor of floor 1
 # behind and to the left, inside the view of the simulated laser (270 degrees: it does not see straight behind)
 PERSON_AT = (19.65, 12.95)
 EXIT_BOUND = 10.0                      # s: it stops on SIGINT (here with the simulator running on a loaded machine)
+NAVIGATION = Node.MULTIROBOT_NAVIGATION    # the one node whose wishes the people node hears
 
 
 @pytest.fixture
@@ -54,6 +57,12 @@ def _floor(procs: ProcessGroup, tmp_path: Path, fov: float = 1.5 * math.pi, *arg
     return building, env
 
 
+def _people_status(m: dict) -> dict[str, str] | None:
+    """The people node's diagnostics values in a /diagnostics message, None if not its."""
+    return next(({kv["key"]: kv["value"] for kv in s["values"]} for s in m["status"]
+                 if s["name"] == f"people: {ROBOT}"), None)
+
+
 def _obstacle(action: int, x: float = 0.0, y: float = 0.0) -> dict:
     return {"header": {"frame_id": "map"}, "id": "visitor", "action": action, "shape": 0, "x": x, "y": y,
             "radius": 0.22}
@@ -65,11 +74,18 @@ def test_a_person_behind_the_robot_is_locked_as_the_visitor_and_lost_when_gone(p
     building, env = _floor(procs, tmp_path)
     procs.start("people", [sys.executable, str(PEOPLE), f"_building:={building}", f"_robot:={ROBOT}",
                            "_visitor_lost_after:=1.0", "_lock_half_angle:=1.4"], env)
-    with Probe(env, tmp_path / "probe.log", timeout=60) as probe:
+    with Probe(env, tmp_path / "probe.log", timeout=60, name=NAVIGATION) as probe:
         probe.sub(Topic.PEOPLE_TRACKS, "gidabot_msgs/PersonArray")
         probe.sub(Topic.PEOPLE_VISITOR, "gidabot_msgs/VisitorTrack")
         probe.sub(Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray")
         probe.pub(Topic.SIM_OBSTACLE, "gidabot_msgs/Obstacle", _obstacle(0, *PERSON_AT), to=["/sim"])
+        with Probe(env, tmp_path / "forger.log", timeout=60) as forger:       # anyone else's wishes are refused
+            forger.pub(Topic.PEOPLE_WATCH, "std_msgs/Bool", {"data": True}, to=["/people"], latch=True)
+            refused = probe.wait(Topic.DIAGNOSTICS, lambda m: (_people_status(m) or {}).get("refused_impostor", "0")
+                                 != "0", 30, "the forged wish refused")
+        assert _people_status(refused)["laser"] == "False"
+        assert not probe.msgs(Topic.PEOPLE_TRACKS), "tracks while nobody wanted people watched"
+        probe.pub(Topic.PEOPLE_WATCH, "std_msgs/Bool", {"data": True}, to=["/people"], latch=True)
         probe.wait(Topic.PEOPLE_TRACKS, lambda m: any(math.dist((p["position"]["x"], p["position"]["y"]), PERSON_AT)
                                                       < 0.15 for p in m["people"]), 90, "the person tracked")
         assert all(not any(math.dist((p["position"]["x"], p["position"]["y"]), PERSON_AT) > 0.5 for p in m["people"])
@@ -89,6 +105,11 @@ def test_a_person_behind_the_robot_is_locked_as_the_visitor_and_lost_when_gone(p
         assert lost["id"] == seen["id"] and lost["last_seen"]["position"]["x"] == pytest.approx(PERSON_AT[0], abs=0.1)
         sights = [m["sight"] for m in probe.msgs(Topic.PEOPLE_VISITOR, since)]
         assert Sight.HIDDEN in sights[:sights.index(Sight.LOST)]
+        probe.pub(Topic.PEOPLE_VISITOR_LOCK, "std_msgs/Bool", {"data": False}, to=["/people"], latch=True)
+        since = len(probe.msgs(Topic.DIAGNOSTICS))
+        probe.pub(Topic.PEOPLE_WATCH, "std_msgs/Bool", {"data": False}, to=["/people"], latch=True)
+        probe.wait(Topic.DIAGNOSTICS, lambda m: (_people_status(m) or {}).get("laser") == "False", 30,
+                   "the laser let go", since)
     procs.signal("people", signal.SIGINT)      # its 2 s bound with a frozen master: tests/foundation/test_node_exit.py
     wait_until(lambda: not procs.alive("people"), EXIT_BOUND, "the people node's exit", interval=0.05)
 
@@ -101,7 +122,7 @@ def test_the_people_tracker_tracks_the_simulated_visitor_s_body_behind_the_guidi
                                                                                         tmp_path: Path) -> None:
     building, env = _floor(procs, tmp_path, 2 * math.pi, "speed:=2")    # a laser that sees right behind
     procs.start("people", [sys.executable, str(PEOPLE), f"_building:={building}", f"_robot:={ROBOT}"], env)
-    with Probe(env, tmp_path / "probe.log", timeout=60) as probe:
+    with Probe(env, tmp_path / "probe.log", timeout=60, name=NAVIGATION) as probe:
         probe.sub(Topic.PEOPLE_VISITOR, "gidabot_msgs/VisitorTrack")
         probe.sub(Topic.BASE_POSE_GROUND_TRUTH, "nav_msgs/Odometry")
         probe.sub(Topic.DIAGNOSTICS, "diagnostic_msgs/DiagnosticArray")

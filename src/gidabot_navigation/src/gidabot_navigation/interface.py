@@ -96,6 +96,7 @@ class Topic:
     PEOPLE_TRACKS = "people/tracks"
     PEOPLE_VISITOR = "people/visitor"
     PEOPLE_VISITOR_LOCK = "people/visitor_lock"
+    PEOPLE_WATCH = "people/watch"                         # the guiding core's wish to have people watched (a trip)
     # the robot's navigation stack and base (standard names)
     MOVE_BASE = "move_base"                               # the move_base action's namespace
     MOVE_BASE_GOAL = "move_base/goal"

@@ -193,10 +193,12 @@ def test_the_visitor_s_pace_in_and_out(ros: FakeRos, node: NavigationNode, pendi
     """Guiding locks the visitor's track; a visitor falling behind caps the speed, one far behind stops the robot
     (a goal on the spot facing them, WAITING_FOR_YOU); the end of the leg unlocks and says how it went."""
     assert [m.data for m in ros.sent(Topic.PEOPLE_VISITOR_LOCK)] == [False]
+    assert [m.data for m in ros.sent(Topic.PEOPLE_WATCH)] == [False]
     assert [m.data for m in ros.sent(Topic.MOVE_BASE_SPEED_LIMIT)] == [0.0]
     ros.feed(Topic.PENDING, convert.pending_to_msg(pending), GOAL_MANAGER)
     spin(node)
     assert [m.data for m in ros.sent(Topic.PEOPLE_VISITOR_LOCK)] == [False, True]
+    assert [m.data for m in ros.sent(Topic.PEOPLE_WATCH)] == [False, True]
     home = load_building(FACULTY).robot("Kbot").home
 
     def visitor(dist: float, t: float) -> None:
@@ -219,6 +221,7 @@ def test_the_visitor_s_pace_in_and_out(ros: FakeRos, node: NavigationNode, pendi
     spin(node)
     assert phases(ros)[-1] == Phase.GOAL_REACHED
     assert ros.sent(Topic.PEOPLE_VISITOR_LOCK)[-1].data is False
+    assert ros.sent(Topic.PEOPLE_WATCH)[-1].data is False            # the trip is over: the laser may rest
     pace = [s for m in ros.sent(Topic.DIAGNOSTICS) for s in m.status if s.name == "guiding: pace Kbot"]
     values = {kv.key: kv.value for kv in pace[-1].values}
     assert (values["goal_uid"], values["waits"], values["slowdowns"]) == (pending.goals[0].uid, "1", "1")

@@ -24,9 +24,10 @@ def behind(n, dist: float, t: float, speed: float = 0.6, sight: Sight = Sight.SE
 
 def guiding(faculty, **pacing):
     n = nav(faculty, "Kbot", pacing=PacingConfig(**pacing))
+    assert not n.wants_people                     # idle: nobody needs the laser read
     t = trip(faculty, "Kbot", "104", "Kbot/v/1")
     [move] = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))
-    assert n.wants_visitor and n.speed_cap is None
+    assert n.wants_visitor and n.wants_people and n.speed_cap is None
     return n, t, move
 
 
@@ -38,7 +39,7 @@ def test_a_visitor_never_seen_leaves_the_guiding_as_it_was(faculty) -> None:
         assert n.tick(2.5 + k, 0.0) == []
     assert n.speed_cap is None
     acts = n.on_move_base_result(move.token, SUCCEEDED, "", 300.0, 0.0)
-    assert phases(acts) == [Phase.GOAL_REACHED] and not n.wants_visitor
+    assert phases(acts) == [Phase.GOAL_REACHED] and not n.wants_visitor and not n.wants_people
     assert n.pace_done[-1][0] == t.uid and n.pace_done[-1][2]["samples"] == 0
 
 
@@ -46,6 +47,7 @@ def test_pacing_off_by_configuration(faculty) -> None:
     n = nav(faculty, "Kbot", pacing=None)
     n.on_pending([trip(faculty, "Kbot", "104", "Kbot/v/1")], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
     assert not n.wants_visitor and n.on_visitor(behind(n, 6.0, 2.0), 2.0, 0.0, sender=PEOPLE) == []
+    assert n.wants_people                         # a trip: the people around are watched all the same
 
 
 def test_slow_wait_facing_the_visitor_then_go_on(faculty) -> None:

@@ -334,7 +334,8 @@ def test_the_wish_for_a_visitor_locks_on_a_change_only() -> None:
 
 def _walked_ahead(tracker: PeopleTracker) -> None:
     """The visitor, locked behind the robot (the cone), walks past it to 4 m in front; a bystander stands in
-    the cone."""
+    the cone. People are watched all along (a trip), so a lock let go and asked anew keeps the tracks."""
+    tracker.want_people(True)
     for k in range(10):
         tracker.update(seen((-1.5, 1.0), (-2.0, -1.2)), ORIGIN, k / RATE)
     assert tracker.want_visitor(True) and tracker.visitor.x == pytest.approx(-1.5, abs=0.05)
@@ -375,3 +376,25 @@ def test_a_visitor_lost_and_seen_again_on_a_new_track_is_taken_again_where_last_
     assert tracker.want_visitor(True)
     v = tracker.visitor
     assert v.seen and (v.x, v.y) == pytest.approx((3.9, 1.1), abs=0.05)
+
+
+def test_the_laser_is_needed_only_while_people_or_the_visitor_are_wanted() -> None:
+    """Watched during a trip, the visitor wanted while guiding: the laser is needed while either is. When neither
+    is, the tracker pauses (tracks and time dropped); a lock asked while paused waits its window from the first
+    scan after, however long the pause (the time gap is no lock window spent)."""
+    tracker = PeopleTracker(params=TrackerParams(lock_window=2.0))
+    assert not tracker.needs_scans
+    assert tracker.want_people(True) and tracker.needs_scans
+    for k in range(10):
+        report = tracker.update(seen((-1.5, 0.0)), ORIGIN, k / RATE)
+    assert len(report.tracks) == 1
+    assert not tracker.want_visitor(False) and tracker.needs_scans          # the same wish: nothing changes
+    assert tracker.want_people(False) and not tracker.needs_scans
+    assert not tracker.want_people(False)
+    assert tracker.want_visitor(True) and tracker.needs_scans and tracker.visitor.sight == Sight.ACQUIRING
+    report = tracker.update(seen((-1.5, 0.0)), ORIGIN, 500.0)             # 500 s later: tracks start afresh
+    assert report.visitor.sight == Sight.ACQUIRING and all(not t.confirmed for t in tracker._tracks)
+    for k in range(1, 10):
+        report = tracker.update(seen((-1.5, 0.0)), ORIGIN, 500.0 + k / RATE)
+    assert report.visitor.sight == Sight.SEEN
+    assert tracker.want_visitor(False) and not tracker.needs_scans and not tracker._tracks

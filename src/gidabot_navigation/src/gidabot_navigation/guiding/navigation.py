@@ -502,6 +502,12 @@ class NavigationCore:
         return leg.pacer.cfg.slow_speed
 
     @property
+    def wants_people(self) -> bool:
+        """Whether the people around the robot should be watched now (a trip is on: the tracks are warm when
+        guiding starts, someone arriving at a meeting point is seen); idle, the laser need not be read."""
+        return self.leg is not None
+
+    @property
     def wants_visitor(self) -> bool:
         """Whether the visitor's track should be locked now (guiding with pacing)."""
         leg = self.leg

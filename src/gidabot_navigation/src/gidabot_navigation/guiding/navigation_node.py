@@ -172,6 +172,8 @@ class NavigationNode:
         waiting for them, slow-downs, waits, searches, lost, found again.
       - ``people/visitor_lock`` (std_msgs/Bool, latched): lock the visitor's track while guiding (false then
         true: look for the visitor anew, when searching).
+      - ``people/watch`` (std_msgs/Bool, latched): have the people around the robot watched, during a trip (the
+        people node reads the laser only while this or the lock is true).
       - ``move_base/speed_limit`` (std_msgs/Float32, latched): m/s, the most the robot may drive now (0: its own
         limits). The simulator's move_base honours it; on a robot, a bridge sets the local planner's
         ``max_vel_x`` through dynamic_reconfigure.
@@ -228,10 +230,13 @@ class NavigationNode:
         self.make_way_pub = rospy.Publisher(Topic.MAKE_WAY, MakeWay, queue_size=10, latch=True)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=20)
         self.lock_pub = rospy.Publisher(Topic.PEOPLE_VISITOR_LOCK, Bool, queue_size=2, latch=True)
+        self.watch_pub = rospy.Publisher(Topic.PEOPLE_WATCH, Bool, queue_size=2, latch=True)
         self.speed_pub = rospy.Publisher(Topic.MOVE_BASE_SPEED_LIMIT, Float32, queue_size=2, latch=True)
         self._lock: tuple[bool, int] = (False, 0)       # published visitor lock, relocks
         self._speed_cap: float | None = None
+        self._watch = False                             # published people watch
         self.lock_pub.publish(Bool(data=False))
+        self.watch_pub.publish(Bool(data=False))
         self.speed_pub.publish(Float32(data=0.0))
         self.subs = [
             rospy.Subscriber(Topic.PENDING, PendingRequests, self._on_pending, queue_size=20),
@@ -437,8 +442,11 @@ class NavigationNode:
 
     # -- outputs --------------------------------------------------------------------------
     def _publish_pace(self, now_ros: float) -> None:
-        """What the core's pacing wants of the people node and of move_base, on a change; each ended guided
-        leg's summary."""
+        """What the core wants of the people node (people watched, the visitor locked) and of move_base (a speed
+        cap), on a change; each ended guided leg's summary."""
+        if self.core.wants_people != self._watch:
+            self._watch = self.core.wants_people
+            self.watch_pub.publish(Bool(data=self._watch))
         want = (self.core.wants_visitor, self.core.relocks)
         if want != self._lock:
             if want[0] and self._lock[0] and want[1] != self._lock[1]:

@@ -10,6 +10,10 @@
   becomes THE visitor; if none is there yet the tracker keeps looking (``ACQUIRING``) for
   ``lock_window`` s. ``unlock_visitor()`` lets it go; ``want_visitor(bool)`` does either on a change of
   the guiding core's wish (the people node's latched lock topic).
+- ``want_people(bool)``: the guiding core's wish to have people watched at all (during a trip). The laser
+  is worth reading only while :attr:`~PeopleTracker.needs_scans` (people or the visitor wanted); when it
+  stops being needed the tracker pauses: its tracks and time are dropped, so the first scan after starts
+  afresh (a lock asked meanwhile waits its ``lock_window`` from that scan).
 
 **Tracks.** Each person is a constant-velocity Kalman filter in the map frame (state x, y, vx, vy; white
 acceleration noise ``accel_sigma``; a detection's position has a standard deviation of ``meas_sigma``
@@ -210,6 +214,7 @@ class PeopleTracker:
         self._memory: LastSeen | None = None         # where the visitor was last seen, kept over a lock asked anew
         self._report = VisitorReport(Sight.NONE)
         self._wanted = False
+        self._watched = False
 
     # -- the visitor lock ------------------------------------------------------------------------
     def lock_visitor(self) -> bool:
@@ -250,7 +255,30 @@ class PeopleTracker:
             self.lock_visitor()
         else:
             self.unlock_visitor()
+            self._pause_unless_needed()
         return True
+
+    def want_people(self, wanted: bool) -> bool:
+        """The guiding core's wish to have the people around the robot watched (a latched topic: during a trip,
+        so that the tracks are warm when guiding starts and someone arriving at a meeting point is seen).
+        True when :attr:`needs_scans` changed."""
+        before = self.needs_scans
+        self._watched = wanted
+        self._pause_unless_needed()
+        return self.needs_scans != before
+
+    @property
+    def needs_scans(self) -> bool:
+        """Whether the laser is worth reading: people are watched or the visitor is wanted."""
+        return self._watched or self._wanted
+
+    def _pause_unless_needed(self) -> None:
+        """Nobody needs people now: drop the tracks and forget the time (the laser stops being read; the scan that
+        comes when it is read again starts afresh, as after a gap)."""
+        if self.needs_scans:
+            return
+        self._tracks.clear()
+        self._t, self._detections = None, None
 
     @property
     def visitor(self) -> VisitorReport:

@@ -36,9 +36,12 @@ from gidabot_navigation.perception.people import (
 )
 from gidabot_navigation.perception.robot_pose import RobotPose
 from gidabot_navigation.ros import convert
+from gidabot_navigation.ros.adapter import refusal_values, sender, simulated
 from gidabot_navigation.ros.exit_guard import ExitGuard
+from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_node
 from gidabot_navigation.ros.params import param_number, param_text
+from gidabot_navigation.senders import Gate, Senders
 
 # messages waiting for the loop (scans, poses, lock wishes); more are dropped. Scans, odometry and amcl come at
 # about 25 Hz of sim time: at a 10x simulation 250 a wall second, so this absorbs a 0.8 s stall of the loop
@@ -85,9 +88,12 @@ def pose_of(pose: Pose) -> Pose2D | None:
 class PeopleNode:
     """Tracks the people this robot's laser sees and the visitor it guides.
 
+    The laser is read only while the guiding core wants people watched or the visitor locked (a trip is on):
+    a robot standing idle costs its simulator no scans and this node no tracking.
+
     Subscribed topics:
-      - ``base_scan`` (sensor_msgs/LaserScan: angles rad in the laser's frame, ranges m): every scan is
-        detected and tracked, at the time of its stamp; a malformed one is dropped and counted.
+      - ``base_scan`` (sensor_msgs/LaserScan: angles rad in the laser's frame, ranges m), only while needed:
+        every scan is detected and tracked, at the time of its stamp; a malformed one is dropped and counted.
       - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped, map frame: m, unit quaternion): the robot's
         pose; scans before the first one are dropped.
       - ``odom`` (nav_msgs/Odometry): carries the latest ``amcl_pose`` to each scan's time (optional).
@@ -95,6 +101,10 @@ class PeopleNode:
         the visitor (the confirmed track in the lock cone, behind the robot by default; the node keeps
         looking for ``~lock_window`` s), false lets it go; the same value again changes nothing (publish
         false, then true, to lock anew).
+      - ``people/watch`` (std_msgs/Bool; latch it): the guiding core's wish to have people watched at all
+        (during a trip); false, with no visitor wanted, stops reading the laser and drops the tracks.
+      The two wishes are heard only from this robot's ``/multirobot_navigation``; from anyone else they are
+      refused and counted.
 
     Published topics (this robot's own: never in the relays' shared list):
       - ``people/tracks`` (gidabot_msgs/PersonArray, map frame: m, m/s) after each scan: the confirmed tracks.
@@ -103,7 +113,8 @@ class PeopleNode:
         the robot (m), bearing (rad), time unseen (s), where and when last seen, confidence (0..1).
       - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``people: <robot>`` at ``~diagnostics_rate``:
         scans tracked and dropped (malformed, no pose yet, queue full), the mean and largest time a scan
-        took (ms), people tracked, the visitor's sight, and a warning when the scans' field of view differs
+        took (ms), people tracked, the visitor's sight, whether the laser is read, refused wishes
+        (``refused_<kind>``), and a warning when the scans' field of view differs
         from the building file's ``sensors.laser.fov``.
 
     Parameters:
@@ -139,10 +150,12 @@ class PeopleNode:
         self.tracks_pub = rospy.Publisher(Topic.PEOPLE_TRACKS, PersonArray, queue_size=5)
         self.visitor_pub = rospy.Publisher(Topic.PEOPLE_VISITOR, VisitorTrack, queue_size=5)
         self.diag_pub = rospy.Publisher(Topic.DIAGNOSTICS, DiagnosticArray, queue_size=2)
-        self.subs = [rospy.Subscriber(Topic.BASE_SCAN, LaserScan, self._enqueue, "scan", queue_size=5),
-                     rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._enqueue, "amcl", queue_size=5),
+        self.gate = Gate(Senders.of_building(building, robot.name, simulated()), RosLog())
+        self.scan_sub: rospy.Subscriber | None = None       # while the tracker needs scans
+        self.subs = [rospy.Subscriber(Topic.AMCL_POSE, PoseWithCovarianceStamped, self._enqueue, "amcl", queue_size=5),
                      rospy.Subscriber(Topic.ODOM, Odometry, self._enqueue, "odom", queue_size=20),
-                     rospy.Subscriber(Topic.PEOPLE_VISITOR_LOCK, Bool, self._enqueue, "lock", queue_size=5)]
+                     rospy.Subscriber(Topic.PEOPLE_VISITOR_LOCK, Bool, self._enqueue, "lock", queue_size=5),
+                     rospy.Subscriber(Topic.PEOPLE_WATCH, Bool, self._enqueue, "watch", queue_size=5)]
 
     # -- callbacks: enqueue, return --------------------------------------------------------------
     def _enqueue(self, msg: object, kind: str) -> None:
@@ -175,7 +188,8 @@ class PeopleNode:
 
     def handle(self, kind: str, msg: object) -> None:
         if kind == "scan":
-            self._scan(msg)  # type: ignore[arg-type]
+            if self.tracker.needs_scans:      # a scan queued before the laser stopped being read is dropped
+                self._scan(msg)  # type: ignore[arg-type]
         elif kind in ("amcl", "odom"):
             pose = pose_of(msg.pose.pose)  # type: ignore[attr-defined]
             stamp = msg.header.stamp.to_sec()  # type: ignore[attr-defined]
@@ -185,11 +199,27 @@ class PeopleNode:
                 self.poses.localised(stamp, pose)
             else:
                 self.poses.odometry(stamp, pose)
-        elif kind == "lock" and self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
-            rospy.loginfo(f"people: visitor {'lock' if msg.data else 'unlock'}: "  # type: ignore[attr-defined]
-                          f"{SIGHT_NAMES[self.tracker.visitor.sight]}")
-            self.visitor_pub.publish(convert.visitor_track_to_msg(VisitorTrackData(self.tracker.visitor,
-                                                                                   rospy.get_time())))
+        elif kind == "lock" and self.gate.only(sender(msg), Node.MULTIROBOT_NAVIGATION, "visitor lock"):
+            if self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
+                rospy.loginfo(f"people: visitor {'lock' if msg.data else 'unlock'}: "  # type: ignore[attr-defined]
+                              f"{SIGHT_NAMES[self.tracker.visitor.sight]}")
+                self.visitor_pub.publish(convert.visitor_track_to_msg(VisitorTrackData(self.tracker.visitor,
+                                                                                       rospy.get_time())))
+            self._read_laser(self.tracker.needs_scans)
+        elif kind == "watch" and self.gate.only(sender(msg), Node.MULTIROBOT_NAVIGATION, "people watch"):
+            self.tracker.want_people(bool(msg.data))  # type: ignore[attr-defined]
+            self._read_laser(self.tracker.needs_scans)
+
+    def _read_laser(self, read: bool) -> None:
+        """Subscribe to the laser, or let it go (the simulator then stops casting its rays)."""
+        if read and self.scan_sub is None:
+            self.scan_sub = rospy.Subscriber(Topic.BASE_SCAN, LaserScan, self._enqueue, "scan", queue_size=5)
+            rospy.loginfo("people: reading the laser")
+        elif not read and self.scan_sub is not None:
+            self.scan_sub.unregister()
+            self.scan_sub = None
+            self.last = None
+            rospy.loginfo("people: not reading the laser (nobody needs people now)")
 
     def _scan(self, msg: LaserScan) -> None:
         t = msg.header.stamp.to_sec()
@@ -223,7 +253,8 @@ class PeopleNode:
         people = len(self.last.tracks) if self.last is not None else 0
         status.level = DiagnosticStatus.WARN if self.fov_problem or self.last_error else DiagnosticStatus.OK
         status.message = f"{people} people, visitor {sight}" + (f"; {self.fov_problem}" if self.fov_problem else "")
-        values = {**self.counts, "people": people, "visitor": sight}
+        values = {**self.counts, "people": people, "visitor": sight, "laser": self.scan_sub is not None,
+                  **refusal_values(self.gate.counts)}
         if self.step_ms:
             values |= {"step_ms_mean": f"{sum(self.step_ms) / len(self.step_ms):.3f}",
                        "step_ms_max": f"{max(self.step_ms):.3f}"}
