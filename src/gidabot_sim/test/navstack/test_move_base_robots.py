@@ -238,3 +238,35 @@ def test_a_robot_parked_in_a_narrow_corridor_that_makes_way_is_passed() -> None:
     result, took, log, world = _pass_a_parked_robot(40.0)     # it waited ~20 s beside it: longer than 15 s
     assert result is not None and result.outcome == SUCCEEDED, log.lines[-5:]
     assert took < 90.0 and world.robot_collisions == 0
+
+
+def test_a_blocker_that_keeps_moving_but_never_opens_the_way_is_given_up_on_after_the_wait_budget() -> None:
+    """In a 1.6 m corridor a robot stands across the way and every 20 s moves 0.6 m across it and back, never
+    leaving room to pass: each move starts the wait anew (robot_patience is never reached), the goal's wait
+    budget (180 s blocked in all) ends the livelock, naming the last blocker."""
+    grid = floor_map(32.0, 10.0, [(1.0, 2.0, 6.0, 8.0), (26.0, 2.0, 31.0, 8.0), (6.0, 4.2, 26.0, 5.8)])
+    limits = Limits(0.7, 1.2, 0.6, 2.0, "differential")
+    world = World(grid, dt=0.02, deadlock_time=1000.0, rng=np.random.default_rng(1))
+    world.add_robot(RobotSpec("Guide", 0.35, limits, LaserSpec(noise=0.0)), Pose2D(3.0, 5.0, 0.0))
+    world.add_robot(RobotSpec("Parker", 0.33, limits, LaserSpec(noise=0.0)), Pose2D(16.0, 4.7, 0.0))
+    log = ListLog()
+    nav = MoveBaseCore.for_robot(grid, 0.35, limits, log=log, name="Guide")
+    due = Periodic(10.0)
+    nav.set_goal(Pose2D(29.0, 5.0, 0.0), 0.0)
+    result, moves = StepResult(None), 0
+    while result.outcome is None and world.time < 400.0:
+        world.step()
+        if world.time >= 20.0 * (moves + 1):
+            moves += 1
+            world.teleport(1, Pose2D(16.0, 4.7 + 0.6 * (moves % 2), 0.0))
+        if not due.due(world.time):
+            continue
+        nav.set_robots([SensedRobot(r.spec.name, r.pose.x, r.pose.y, r.spec.radius)
+                        for r in (world.robots[j] for j in world.seen_robots(0))])
+        nav.set_pose(world.robots[0].pose, world.robots[0].vel, world.time)
+        result = nav.step(world.time)
+        if result.cmd is not None:
+            world.set_command(0, result.cmd.vx, result.cmd.vy, result.cmd.wz)
+    assert result.outcome == ABORTED, log.lines[-5:]
+    assert result.text.startswith("Blocked by robots or people for 180 s in all (last by robot Parker)"), result.text
+    assert 180.0 < world.time < 180.0 + 40.0 and world.robot_collisions == 0

@@ -38,7 +38,9 @@ robot whose name sorts later *yields* (drives to the nearest reachable spot wher
 room to pass, then waits there facing it); the other waits for the way to open, and yields itself
 when the blocker has not moved for ``yield_timeout`` (it may have no room to yield). Every cycle
 re-tries the real goal, so either robot also re-routes when another way opens. Blocked by a robot
-without progress for ``robot_patience`` -> ABORTED, naming the robot (a deadlock). A goal where
+without progress for ``robot_patience`` -> ABORTED, naming the robot (a deadlock); blocked by robots or
+people for ``wait_budget`` in all during one goal (blockers that keep moving, each wait starting anew, but
+never open the way: a livelock) -> ABORTED too. A goal where
 another robot stands (parked at a meeting point, or at its screen where the visitor asked): the
 plan ends at the nearest free spot next to it, within that robot's disc + this robot's footprint
 (navfn's ``default_tolerance``, sized for it), and the goal is reached there (as base_local_planner
@@ -125,6 +127,8 @@ class NavConfig:
     yield_timeout: float = 10.0          # s the first name waits for a blocker that does not move before yielding
     robot_patience: float = 60.0         # s blocked by a robot (waiting or yielding) before aborting: deadlock
     blocker_distance: float = 0.6        # m between discs: a robot or person this close explains no safe velocity
+    wait_budget: float = 180.0           # s blocked by robots or people in all during one goal (each wait starts
+    #                                      anew when the blocker moves) before aborting: a livelock
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -258,6 +262,8 @@ class MoveBaseCore:
         self._turning = False
         self._wait = None
         self._close_wait: _RobotWait | None = None
+        self._waited = 0.0                    # s blocked in all during this goal (:meth:`_waiting`)
+        self._waited_at: float | None = None  # the last control cycle counted
 
     def set_goal(self, goal: Pose2D, now: float) -> None:
         """Start driving to ``goal`` (map frame), replacing any current goal.
@@ -436,7 +442,7 @@ class MoveBaseCore:
         if self._wait is not None:
             self.log.info(f"move_base: the way past robot {self._wait.blocker} is open after "
                           f"{now - self._wait.since:.1f} s, going on")
-            self._wait = None
+            self._wait, self._waited_at = None, None
             self.state = State.FOLLOWING
         self.path = FollowedPath(path, self.planner.grid.resolution)
         self._need_plan = False
@@ -478,6 +484,9 @@ class MoveBaseCore:
         wait; abort after ``robot_patience`` (see the module docstring)."""
         cfg = self.config
         assert self.pose is not None
+        if self._waiting(now):
+            return self._abort(f"Blocked by robots or people for {self._waited:.0f} s in all (last by robot "
+                               f"{blocker.name}): they keep moving but the way never opens")
         wait = self._wait
         here = ((blocker.x, blocker.y), (self.pose.x, self.pose.y))
         if wait is None or wait.blocker != blocker.name:
@@ -666,7 +675,7 @@ class MoveBaseCore:
         if self._close_wait is not None and now - self._close_wait.since >= 1.0:
             self.log.info(f"move_base: passing {self._close_wait.blocker} after "
                           f"{now - self._close_wait.since:.1f} s")
-        self._close_wait = None
+        self._close_wait, self._waited_at = None, None
         return self._command(safe)
 
     def _blocker_near(self, pose: Pose2D) -> tuple[str, float, float] | None:
@@ -687,11 +696,24 @@ class MoveBaseCore:
         _, name, x, y = min(near)
         return name, x, y
 
+    def _waiting(self, now: float) -> bool:
+        """Count a control cycle spent blocked (consecutive cycles only: the time since the previous one, at most
+        a second); True once the goal's ``wait_budget`` is spent. A blocker that moves starts its wait anew, so
+        one that keeps moving without ever opening the way (a person stepping aside and back, robots yielding
+        to each other in turn) would otherwise hold the robot for ever."""
+        if self._waited_at is not None:
+            self._waited += min(max(0.0, now - self._waited_at), 1.0)
+        self._waited_at = now
+        return self._waited >= self.config.wait_budget
+
     def _wait_for_blocker(self, blocker: tuple[str, float, float], now: float) -> StepResult | None:
         """A robot or person in the way, close: wait for them to pass or make way (re-planning meanwhile), not
         counted as stuck; ABORTED when they have not moved ``oscillation_distance`` for ``robot_patience``."""
         cfg = self.config
         name, x, y = blocker
+        if self._waiting(now):
+            return self._abort(f"Blocked by robots or people for {self._waited:.0f} s in all (last by {name}): "
+                               "they keep moving but the way never opens")
         wait = self._close_wait
         if wait is None or wait.blocker != name:
             wait = self._close_wait = _RobotWait(name, now, ((x, y), (x, y)))

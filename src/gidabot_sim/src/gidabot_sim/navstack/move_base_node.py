@@ -86,7 +86,8 @@ class MoveBaseNode:
       ``~plan_point_spacing`` (m, the map resolution), ``~make_plan_while_active`` (bool, false),
       ``~robot_mark_step`` (m, 0.1), ``~laser_fov`` (rad, 3 pi/2), ``~yield_timeout`` (s, 10),
       ``~robot_patience`` (s, 60), ``~blocker_distance`` (m, 0.6: a robot or person this close explains no safe
-      velocity: waited for, not stuck).
+      velocity: waited for, not stuck), ``~wait_budget`` (s, 180: blocked in all during one goal, by blockers
+      that keep moving without opening the way, before aborting).
       All times are sim time.
     Lockstep (docs/simulator.md): ROS time is the stamp of the latest odometry (no ``/clock``). While a goal
       runs, the simulator sends the odometry of every step, a control cycle runs on it (at most
