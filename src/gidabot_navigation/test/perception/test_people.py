@@ -316,7 +316,7 @@ def test_bad_input_is_refused() -> None:
 def test_the_people_topics_stay_on_the_robot() -> None:
     """The visitor's track is this robot's own: the people topics are relative names, never /gidabot/ ones
     (which the relays share)."""
-    for name in (Topic.PEOPLE_TRACKS, Topic.PEOPLE_VISITOR, Topic.PEOPLE_VISITOR_LOCK):
+    for name in (Topic.PEOPLE_TRACKS, Topic.PEOPLE_VISITOR, Topic.PEOPLE_VISITOR_LOCK, Topic.PEOPLE_WATCH):
         assert not name.startswith("/")
 
 
