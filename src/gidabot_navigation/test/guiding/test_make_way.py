@@ -128,8 +128,9 @@ def test_check_warns_of_a_home_that_leaves_the_corridor_too_narrow(narrow, facul
 
 def test_the_navigation_cores_ask_make_way_and_go_back(narrow) -> None:
     """Two navigation cores of the narrow building: Guide's leg past Parker sends an ask (for itself), Parker
-    idle steps aside with a move_base goal of its own, Guide's arrival ends the ask and Parker goes back; a
-    local ask naming another robot is refused."""
+    idle steps aside with a move_base goal of its own; the ask stands while Guide drives on, though Parker, aside,
+    is no longer in its way (released, Parker would go back into it before Guide passed); Guide's arrival ends
+    the ask and Parker goes back; a local ask naming another robot is refused."""
     cores = {}
     for name in ("Guide", "Parker"):
         core = NavigationCore(narrow, NavigationConfig(robot=name), ListLog(), now_wall=0.0)
@@ -160,6 +161,10 @@ def test_the_navigation_cores_ask_make_way_and_go_back(narrow) -> None:
     assert math.hypot(aside.x - 16.0, aside.y - 5.0) > 0.5 and parker.status(2.0).state == RobotState.IDLE
     assert parker.on_move_base_result(aside.token, SUCCEEDED, "", 8.0, 0.0) == []
     parker.on_pose(aside.x, aside.y, 0.0)
+    statuses(8.5)                                                  # Guide sees Parker aside, out of its way
+    guide.on_pose(10.0, 5.0, 0.0)
+    for now in (9.0, 11.5, 14.0):                                  # Guide's looks at who is in its way
+        assert not [a for a in guide.tick(now, 0.0) if isinstance(a, SendAsk)]     # the ask stands
     guide.on_move_base_result(leg_move.token, SUCCEEDED, "", 40.0, 0.0)
     [end] = [a.ask for a in guide.tick(40.5, 0.0) if isinstance(a, SendAsk)]
     assert end.robots == ()

@@ -255,7 +255,7 @@ class NavigationCore:
         self._eta_at = 0.0
         self.way = MakeWay(building, robot.name, log)
         self.mates: dict[str, Mate] = {}        # the other robots of this floor, as their statuses show them
-        self._asked_token: int | None = None    # the leg move whose ask was sent (None: none)
+        self._asked_way: tuple | None = None    # the leg's way (trip, stage, target) whose ask was sent (None: none)
         self._asking = False                    # the last ask sent named robots
         self._asked_at = 0.0                    # ROS s of the last look at who is in the way
         self._asked_robots: tuple[str, ...] = ()
@@ -546,28 +546,34 @@ class NavigationCore:
         return actions + self._make_way(now_ros)
 
     def _make_way(self, now_ros: float) -> list[Action]:
-        """Asking for the way as a leg's move starts, and again when the robots in its way change (one that made way
-        for another came back; looked at every :data:`ASK_PERIOD` s); ending the ask when the move ends; making way
-        when idle."""
+        """Asking for the way as a leg starts driving to its target, and again when more robots stand in it (one
+        that made way for another came back; looked at every :data:`ASK_PERIOD` s while it drives); ending the ask
+        when the leg has another target or ends; making way when idle.
+
+        A robot asked stays asked until then (or until it sees this robot pass it), whether or not it is still in
+        the way: released once it stood aside, or while this robot waits for its visitor or turns to look for
+        them, it would go back into the way before this robot passed, be asked again, and so on for ever."""
         actions: list[Action] = []
         leg = self.leg
-        if leg is not None and leg.moving and self.pose is not None \
-                and (leg.token != self._asked_token or now_ros - self._asked_at >= ASK_PERIOD):
-            first = leg.token != self._asked_token
-            self._asked_token, self._asked_at = leg.token, now_ros
+        way = (leg.trip.uid, leg.stage, leg.target) if leg is not None else None
+        if way is not None and leg is not None and leg.moving and not leg.detour and self.pose is not None \
+                and (way != self._asked_way or now_ros - self._asked_at >= ASK_PERIOD):
+            first = way != self._asked_way
+            self._asked_way, self._asked_at = way, now_ros
             ask = self.way.asks_for((self.pose.x, self.pose.y), (leg.target.x, leg.target.y),
                                     list(self.mates.values()), now_ros)
-            robots = ask.robots if ask is not None else ()
+            kept = () if first else self._asked_robots
+            robots = tuple(dict.fromkeys((*kept, *(ask.robots if ask is not None else ()))))
             if ask is not None and (first or robots != self._asked_robots):
                 self._asking = True
-                actions.append(SendAsk(ask))
-            elif ask is None and self._asking:
+                actions.append(SendAsk(replace(ask, robots=robots)))
+            elif first and ask is None and self._asking:
                 self._asking = False
                 actions.append(SendAsk(self.way.end_ask(now_ros)))
             self._asked_robots = robots
-        elif self._asking and (leg is None or not leg.moving):
+        elif self._asking and way != self._asked_way:
             self._asking = False
-            self._asked_token = None
+            self._asked_way, self._asked_robots = None, ()
             actions.append(SendAsk(self.way.end_ask(now_ros)))
         if leg is not None:
             if self._way_token is not None or self.way.aside is not None:
