@@ -398,3 +398,19 @@ def test_the_laser_is_needed_only_while_people_or_the_visitor_are_wanted() -> No
         report = tracker.update(seen((-1.5, 0.0)), ORIGIN, 500.0 + k / RATE)
     assert report.visitor.sight == Sight.SEEN
     assert tracker.want_visitor(False) and not tracker.needs_scans and not tracker._tracks
+
+
+def test_scans_are_tracked_at_most_at_the_track_rate() -> None:
+    """A 10 Hz laser and a 5 Hz tracker: every other scan is tracked; a scan from before the last one (a restarted
+    simulation) always is."""
+    tracker = PeopleTracker(params=TrackerParams(track_rate=5.0))
+    tracked = []
+    for k in range(10):
+        t = k / 10.0
+        if tracker.wants_scan(t):
+            tracker.update(seen((-1.5, 0.0)), ORIGIN, t)
+            tracked.append(k)
+    assert tracked == [0, 2, 4, 6, 8]
+    assert tracker.wants_scan(0.1)
+    with pytest.raises(PerceptionError, match="track_rate"):
+        TrackerParams(track_rate=0.0)

@@ -90,6 +90,8 @@ class TrackerParams:
     visitor_lost_after: float = 3.0         # s unseen in view: the visitor is lost
     out_of_view_lost_after: float = 20.0    # s unseen in all: lost, even out of view
     ambiguity_margin: float = 4.0           # log-likelihood margin below which a visitor's assignment is ambiguous
+    track_rate: float = 5.0                 # Hz: scans tracked at most (:meth:`PeopleTracker.wants_scan`); people
+    #                                         walk 0.3 m at most between two, well inside the gate
 
     def __post_init__(self) -> None:
         problems = []
@@ -266,6 +268,13 @@ class PeopleTracker:
         self._watched = wanted
         self._pause_unless_needed()
         return self.needs_scans != before
+
+    def wants_scan(self, t: float) -> bool:
+        """Whether a scan taken at ``t`` s is worth tracking: at most ``track_rate`` scans a second are (a laser
+        faster than that costs the tracker, and whoever reads its reports, for nothing a walking person needs);
+        the first scan, and one from before the last (a restarted simulation), always are."""
+        last = self._t
+        return last is None or t < last or t - last >= 1.0 / self.params.track_rate - 1e-6
 
     @property
     def needs_scans(self) -> bool:

@@ -71,7 +71,8 @@ class Params:
             lock_window=param_number("~lock_window", d.lock_window),
             relock_radius=param_number("~relock_radius", d.relock_radius),
             visitor_lost_after=param_number("~visitor_lost_after", d.visitor_lost_after),
-            out_of_view_lost_after=param_number("~out_of_view_lost_after", d.out_of_view_lost_after))
+            out_of_view_lost_after=param_number("~out_of_view_lost_after", d.out_of_view_lost_after),
+            track_rate=param_number("~track_rate", d.track_rate))
         return Params(param_text("~building", required=True), param_text("~robot", required=True), use_map,
                       param_number("~map_margin", 0.1, strict=False), param_number("~max_range", 8.0), tracker,
                       param_number("~diagnostics_rate", 1.0))
@@ -93,7 +94,8 @@ class PeopleNode:
 
     Subscribed topics:
       - ``base_scan`` (sensor_msgs/LaserScan: angles rad in the laser's frame, ranges m), only while needed:
-        every scan is detected and tracked, at the time of its stamp; a malformed one is dropped and counted.
+        its scans are detected and tracked, at the time of their stamps, at most ``~track_rate`` a second (the
+        others are skipped and counted); a malformed one is dropped and counted.
       - ``amcl_pose`` (geometry_msgs/PoseWithCovarianceStamped, map frame: m, unit quaternion): the robot's
         pose; scans before the first one are dropped.
       - ``odom`` (nav_msgs/Odometry): carries the latest ``amcl_pose`` to each scan's time (optional).
@@ -128,6 +130,7 @@ class PeopleNode:
         first takes the track nearest where the visitor was last seen, within this.
       - ``~visitor_lost_after`` (s, default 3): unseen in view this long, the visitor is LOST;
         ``~out_of_view_lost_after`` (s, default 20): unseen this long in all, LOST too.
+      - ``~track_rate`` (Hz, default 5): scans tracked at most.
       - ``~diagnostics_rate`` (Hz, default 1).
     """
 
@@ -142,7 +145,7 @@ class PeopleNode:
         self.tracker = PeopleTracker(detector, params.tracker)
         self.poses = RobotPose()
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
-        self.counts = {"scans": 0, "malformed": 0, "no_pose": 0, "dropped": 0, "bad_pose": 0}
+        self.counts = {"scans": 0, "skipped": 0, "malformed": 0, "no_pose": 0, "dropped": 0, "bad_pose": 0}
         self.step_ms: list[float] = []
         self.last_error = ""
         self.fov_problem = ""
@@ -223,6 +226,9 @@ class PeopleNode:
 
     def _scan(self, msg: LaserScan) -> None:
         t = msg.header.stamp.to_sec()
+        if not self.tracker.wants_scan(t):
+            self.counts["skipped"] += 1
+            return
         try:
             scan = Scan.checked(msg.angle_min, msg.angle_increment, msg.ranges, msg.range_min, msg.range_max)
         except ScanError as err:
