@@ -6,6 +6,7 @@ one is reported as a deadlock by the world and aborted by both robots naming the
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -193,24 +194,25 @@ def test_a_goal_where_another_robot_stands_is_reached_next_to_it() -> None:
     assert floor.results[0].outcome == SUCCEEDED and math.hypot(a.x - 9.0, a.y - 3.0) <= 0.25
 
 
-def _pass_a_parked_robot(step_aside_at: float | None) -> tuple[StepResult | None, float, ListLog, World]:
-    """A 0.35 m robot drives down a 2.6 m corridor where an idle 0.33 m robot stands in the middle (too close
-    to squeeze past: no safe velocity beside it); the idle one steps into a doorway at ``step_aside_at``."""
-    grid = floor_map(32.0, 10.0, [(1.0, 2.0, 6.0, 8.0), (26.0, 2.0, 31.0, 8.0), (6.0, 3.7, 26.0, 6.3),
-                                  (18.0, 2.7, 19.5, 3.7)])
+def _guide_past_parker(corridor: tuple[float, float, float, float], parker_y: float,
+                       move_parker: Callable[[World], None], until: float) -> tuple[StepResult | None, float, ListLog,
+                                                                                    World]:
+    """Guide (0.35 m) drives from the west room along ``corridor`` (x0, y0, x1, y1; a doorway niche below it at
+    x 18..19.5) to the east room, where Parker (0.33 m, idle) stands at (16, ``parker_y``); ``move_parker`` is
+    called after every world step (it may teleport Parker). The result, when it came, and the time."""
+    grid = floor_map(32.0, 10.0, [(1.0, 2.0, 6.0, 8.0), (26.0, 2.0, 31.0, 8.0), corridor,
+                                  (18.0, 2.7, 19.5, corridor[1])])
     limits = Limits(0.7, 1.2, 0.6, 2.0, "differential")
     world = World(grid, dt=0.02, deadlock_time=30.0, rng=np.random.default_rng(1))
     world.add_robot(RobotSpec("Guide", 0.35, limits, LaserSpec(noise=0.0)), Pose2D(3.0, 5.0, 0.0))
-    world.add_robot(RobotSpec("Parker", 0.33, limits, LaserSpec(noise=0.0)), Pose2D(16.0, 5.0, 0.0))
+    world.add_robot(RobotSpec("Parker", 0.33, limits, LaserSpec(noise=0.0)), Pose2D(16.0, parker_y, 0.0))
     log = ListLog()
     nav = MoveBaseCore.for_robot(grid, 0.35, limits, log=log, name="Guide")
     due = Periodic(10.0)
     nav.set_goal(Pose2D(29.0, 5.0, 0.0), 0.0)
-    while world.time < 200.0:
+    while world.time < until:
         world.step()
-        if step_aside_at is not None and world.time >= step_aside_at:
-            world.teleport(1, Pose2D(18.75, 3.2, 0.0))
-            step_aside_at = None
+        move_parker(world)
         if not due.due(world.time):
             continue
         nav.set_robots([SensedRobot(r.spec.name, r.pose.x, r.pose.y, r.spec.radius)
@@ -222,6 +224,19 @@ def _pass_a_parked_robot(step_aside_at: float | None) -> tuple[StepResult | None
         if result.outcome is not None:
             return result, world.time, log, world
     return None, world.time, log, world
+
+
+def _pass_a_parked_robot(step_aside_at: float | None) -> tuple[StepResult | None, float, ListLog, World]:
+    """A 0.35 m robot drives down a 2.6 m corridor where an idle 0.33 m robot stands in the middle (too close
+    to squeeze past: no safe velocity beside it); the idle one steps into a doorway at ``step_aside_at``."""
+    stepped = []
+
+    def step_aside(world: World) -> None:
+        if step_aside_at is not None and world.time >= step_aside_at and not stepped:
+            world.teleport(1, Pose2D(18.75, 3.2, 0.0))
+            stepped.append(world.time)
+
+    return _guide_past_parker((6.0, 3.7, 26.0, 6.3), 5.0, step_aside, 200.0)
 
 
 def test_a_robot_parked_in_a_narrow_corridor_is_waited_for_not_given_up_on_as_stuck() -> None:
@@ -244,29 +259,14 @@ def test_a_blocker_that_keeps_moving_but_never_opens_the_way_is_given_up_on_afte
     """In a 1.6 m corridor a robot stands across the way and every 20 s moves 0.6 m across it and back, never
     leaving room to pass: each move starts the wait anew (robot_patience is never reached), the goal's wait
     budget (180 s blocked in all) ends the livelock, naming the last blocker."""
-    grid = floor_map(32.0, 10.0, [(1.0, 2.0, 6.0, 8.0), (26.0, 2.0, 31.0, 8.0), (6.0, 4.2, 26.0, 5.8)])
-    limits = Limits(0.7, 1.2, 0.6, 2.0, "differential")
-    world = World(grid, dt=0.02, deadlock_time=1000.0, rng=np.random.default_rng(1))
-    world.add_robot(RobotSpec("Guide", 0.35, limits, LaserSpec(noise=0.0)), Pose2D(3.0, 5.0, 0.0))
-    world.add_robot(RobotSpec("Parker", 0.33, limits, LaserSpec(noise=0.0)), Pose2D(16.0, 4.7, 0.0))
-    log = ListLog()
-    nav = MoveBaseCore.for_robot(grid, 0.35, limits, log=log, name="Guide")
-    due = Periodic(10.0)
-    nav.set_goal(Pose2D(29.0, 5.0, 0.0), 0.0)
-    result, moves = StepResult(None), 0
-    while result.outcome is None and world.time < 400.0:
-        world.step()
-        if world.time >= 20.0 * (moves + 1):
-            moves += 1
-            world.teleport(1, Pose2D(16.0, 4.7 + 0.6 * (moves % 2), 0.0))
-        if not due.due(world.time):
-            continue
-        nav.set_robots([SensedRobot(r.spec.name, r.pose.x, r.pose.y, r.spec.radius)
-                        for r in (world.robots[j] for j in world.seen_robots(0))])
-        nav.set_pose(world.robots[0].pose, world.robots[0].vel, world.time)
-        result = nav.step(world.time)
-        if result.cmd is not None:
-            world.set_command(0, result.cmd.vx, result.cmd.vy, result.cmd.wz)
-    assert result.outcome == ABORTED, log.lines[-5:]
+    moves = [0]
+
+    def shuffle(world: World) -> None:
+        if world.time >= 20.0 * (moves[0] + 1):
+            moves[0] += 1
+            world.teleport(1, Pose2D(16.0, 4.7 + 0.6 * (moves[0] % 2), 0.0))
+
+    result, took, log, world = _guide_past_parker((6.0, 4.2, 26.0, 5.8), 4.7, shuffle, 400.0)
+    assert result is not None and result.outcome == ABORTED, log.lines[-5:]
     assert result.text.startswith("Blocked by robots or people for 180 s in all (last by robot Parker)"), result.text
-    assert 180.0 < world.time < 180.0 + 40.0 and world.robot_collisions == 0
+    assert 180.0 < took < 180.0 + 40.0 and world.robot_collisions == 0
