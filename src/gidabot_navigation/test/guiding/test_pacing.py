@@ -163,3 +163,16 @@ def test_start_resets_the_leg():
     p.on_visitor(seen(5.0, 0.0), 0.0)
     p.start(10.0)
     assert p.pace is Pace.OFF and p.stats.samples == 0
+
+
+def test_a_none_report_the_unlock_of_a_relock_says_nothing_of_the_visitor() -> None:
+    """A relock is an unlock then a lock: the people node reports NONE in between. Taken for "unseen", it made the
+    robot stop and turn (WAIT) and the next report go on (FOLLOW) in the same instant, and asked for another
+    relock, so again and again. It is ignored, while walking and while waiting."""
+    p = pacer()
+    p.on_visitor(seen(1.2, 0.0), 0.0)
+    assert p.on_visitor(VisitorReport(Sight.NONE), 1.0) is None and p.pace is Pace.NORMAL
+    assert p.on_visitor(seen(1.2, 1.0), 1.0) is None and p.stats.waits == 0
+    assert p.on_visitor(lost(4.0), 4.0).pace is Pace.WAIT
+    assert p.on_visitor(VisitorReport(Sight.NONE), 4.5) is None and p.pace is Pace.WAIT
+    assert p.on_visitor(seen(1.0, 5.0), 5.0).say is Say.FOLLOW and p.stats.waits == 1

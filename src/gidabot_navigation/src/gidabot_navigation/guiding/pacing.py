@@ -21,6 +21,11 @@ decides, in order (every bound a :class:`PacingConfig` parameter):
   again -> ``please follow me``, the leg goes on (*found again*);
 * **lost** — not found within ``search_for`` s of the search's start: the trip ends (``VISITOR_LOST``).
 
+A NONE report (the tracker was not asked for the visitor when it made it: the unlock of a relock, which the
+pacer itself asks for, or a restarted people node before the latched wish reached it) says nothing of the
+visitor and is ignored: taken for "unseen", each relock made the robot stop and turn, and the report after
+it made it go on, in the same instant.
+
 A leg whose visitor the laser never saw (no lock ever reached SEEN: the tracker is not running, the visitor
 has no body in a simulated world, or never stood in the lock cone) is guided as without pacing: the robot
 cannot tell a visitor it never saw from one who is not there. Pacing starts at the first SEEN report and
@@ -178,8 +183,10 @@ class Pacer:
         self._robot = pose
 
     def on_visitor(self, report: VisitorReport, t: float) -> Decision | None:
-        """A report of the tracker (after a scan)."""
+        """A report of the tracker (after a scan); a NONE report is ignored (see the module's docstring)."""
         self._account(t)
+        if report.sight == Sight.NONE:
+            return None
         self._report = report
         if report.last_seen is not None:
             self._last_seen = report.last_seen.pose
@@ -230,7 +237,7 @@ class Pacer:
             return self._searching(r, t)
         if r is None:
             return None
-        if r.sight in (Sight.LOST, Sight.NONE, Sight.ACQUIRING):
+        if r.sight in (Sight.LOST, Sight.ACQUIRING):
             return self._unseen(t)
         dist = r.distance if r.distance is not None and math.isfinite(r.distance) else math.inf
         speed = math.hypot(r.vx or 0.0, r.vy or 0.0)
@@ -314,7 +321,7 @@ class Pacer:
             return self._go_on(t, found=True)
         if t - search.since >= self.cfg.search_for:
             return self._lose()
-        if r is not None and r.sight in (Sight.LOST, Sight.NONE) and t - search.relocked >= self.cfg.relock_every:
+        if r is not None and r.sight == Sight.LOST and t - search.relocked >= self.cfg.relock_every:
             search.relocked = t
             return Decision(Pace.SEARCH, drive=False, relock=True)
         return None
