@@ -15,9 +15,17 @@ from sim_support import ListLog
 from gidabot_navigation.building.geometry import Pose2D
 from gidabot_navigation.building.occupancy import FREE, OCCUPIED, OccupancyMap
 from gidabot_navigation.building.planning import Rectangle
-from gidabot_sim.navstack.move_base import ABORTED, SUCCEEDED, MoveBaseCore, SensedRobot, State, StepResult
+from gidabot_sim.navstack.move_base import (
+    ABORTED,
+    SUCCEEDED,
+    MoveBaseCore,
+    NavConfig,
+    SensedRobot,
+    State,
+    StepResult,
+)
 from gidabot_sim.world.clock import Periodic
-from gidabot_sim.world.kinematics import Limits
+from gidabot_sim.world.kinematics import ZERO, Limits
 from gidabot_sim.world.world import LaserSpec, RobotSpec, World
 
 RES = 0.05
@@ -270,3 +278,38 @@ def test_a_blocker_that_keeps_moving_but_never_opens_the_way_is_given_up_on_afte
     assert result is not None and result.outcome == ABORTED, log.lines[-5:]
     assert result.text.startswith("Blocked by robots or people for 180 s in all (last by robot Parker)"), result.text
     assert 180.0 < took < 180.0 + 40.0 and world.robot_collisions == 0
+
+
+def _stand_still_with_a_goal(config: NavConfig, timeout: float) -> tuple[StepResult | None, float, ListLog]:
+    """A robot in a hall whose commands the world never carries out (held by a body move_base does not know),
+    while a door across the hall's far end opens and closes every 10 s (each change re-plans the goal)."""
+    hall = floor_map(12.0, 6.0, [(0.5, 0.5, 11.5, 5.5)])
+    log = ListLog()
+    nav = MoveBaseCore.for_robot(hall, RADIUS, LIMITS, config, log=log, name="A")
+    pose, t = Pose2D(2.0, 3.0, 0.0), 0.0
+    nav.set_goal(Pose2D(8.0, 3.0, 0.0), t)
+    while t < timeout:
+        t = round(t + 0.1, 6)
+        if t % 10.0 < 1e-6:
+            nav.set_obstacles({} if int(t / 10.0) % 2 else {"door": Rectangle(11.0, 3.0, 0.2, 5.0)})
+        nav.set_pose(pose, ZERO, t)
+        result = nav.step(t)
+        if result.outcome is not None:
+            return result, t, log
+    return None, t, log
+
+
+def test_a_robot_that_does_not_move_with_a_goal_recovers_then_aborts_whatever_re_plans_it() -> None:
+    """Each re-plan restarts the progress watchdog, so a robot that never moves while the costmap keeps changing
+    held its goal for ever, silently; the stall watchdog clears the costmap and re-plans at 60 s (logged with the
+    state it was in), and aborts at 120 s."""
+    result, took, log = _stand_still_with_a_goal(NavConfig(), 400.0)
+    assert result is not None and result.outcome == ABORTED, log.lines[-5:]
+    assert result.text.startswith("Robot stalled: the robot has not moved for 60 s at (2.00, 3.00) (following"), \
+        result.text
+    assert 120.0 <= took < 121.0
+    recovered = [line for line in log.lines if ": clearing the costmap" in line]
+    assert len(recovered) == 1 and "has not moved for 60 s" in recovered[0]
+    result, _, log = _stand_still_with_a_goal(NavConfig(stall_timeout=1e6), 400.0)
+    assert result is None, result                 # without it: no abort, no word in the log
+    assert not any("aborting" in line for line in log.lines)

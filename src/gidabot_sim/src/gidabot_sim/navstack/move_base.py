@@ -13,6 +13,11 @@ Semantics follow move_base (what guiding relies on):
   wall, unreachable on the bare map) aborts at once;
 * the robot stuck for ``controller_patience`` (no safe velocity) or making no progress
   for ``oscillation_timeout`` -> ABORTED;
+* the robot not moving at all (``stall_distance`` or ``stall_turn``) for ``stall_timeout`` while it holds a
+  goal and waits for nobody -> the costmap cleared and the goal re-planned (move_base's recovery), logged with
+  the state it was in; as long again -> ABORTED. This bound holds whatever else the cycle does: re-plans
+  (a person walking anywhere on the floor changes the costmap) restart the progress watchdog above, and a
+  move the costmap allows may still be refused by the world (a body it does not know exactly);
 * SUCCEEDED once the estimated position is within ``xy_goal_tolerance`` of the goal
   (latched, as base_local_planner's ``latch_xy_goal_tolerance``) and the heading within
   ``yaw_goal_tolerance``.
@@ -129,6 +134,9 @@ class NavConfig:
     blocker_distance: float = 0.6        # m between discs: a robot or person this close explains no safe velocity
     wait_budget: float = 180.0           # s blocked by robots or people in all during one goal (each wait starts
     #                                      anew when the blocker moves) before aborting: a livelock
+    stall_timeout: float = 60.0          # s with a goal, waiting for nobody, without moving -> recover, then abort
+    stall_distance: float = 0.1          # m: moved (the stall watchdog)
+    stall_turn: float = 0.2              # rad: turned (the stall watchdog)
 
     def __post_init__(self) -> None:
         for name, value in self.__dict__.items():
@@ -264,6 +272,9 @@ class MoveBaseCore:
         self._close_wait: _RobotWait | None = None
         self._waited = 0.0                    # s blocked in all during this goal (:meth:`_waiting`)
         self._waited_at: float | None = None  # the last control cycle counted
+        self._still_at: Pose2D | None = None  # the stall watchdog: where the robot last moved, and when
+        self._still_since = now
+        self._stall_recovered = False
 
     def set_goal(self, goal: Pose2D, now: float) -> None:
         """Start driving to ``goal`` (map frame), replacing any current goal.
@@ -580,6 +591,9 @@ class MoveBaseCore:
                 return self._abort("No robot pose (odom / amcl_pose) for "
                                    f"{self.config.pose_timeout:g} s")
             return StepResult(ZERO)
+        stalled = self._stalled(now)
+        if stalled is not None:
+            return stalled
         if self._need_plan:
             failed = self._plan(now)
             if failed is not None:
@@ -593,6 +607,36 @@ class MoveBaseCore:
         if self.state is State.ROTATING:
             return self._rotate_to_goal(now)
         return self._follow(now, pose, dist_goal)
+
+    def _stalled(self, now: float) -> StepResult | None:
+        """The stall watchdog (see the module docstring): None while the robot moves, waits for somebody or has
+        not stood ``stall_timeout`` yet; a recovery first (logged, the cycle goes on), then ABORTED."""
+        cfg, pose = self.config, self.pose
+        assert pose is not None
+        anchor = self._still_at
+        waiting = self._close_wait is not None or self._wait is not None
+        if waiting or anchor is None or math.hypot(pose.x - anchor.x, pose.y - anchor.y) >= cfg.stall_distance \
+                or abs(wrap_angle(pose.yaw - anchor.yaw)) >= cfg.stall_turn:
+            self._still_at, self._still_since = pose, now
+            if not waiting and anchor is not None:
+                self._stall_recovered = False
+            return None
+        if now - self._still_since < cfg.stall_timeout:
+            return None
+        what = (f"the robot has not moved for {now - self._still_since:.0f} s at ({pose.x:.2f}, {pose.y:.2f}) "
+                f"({self.state.value}, last command {self.last_cmd.vx:.2f} m/s {self.last_cmd.wz:.2f} rad/s, "
+                f"{self.replans} re-plans)")
+        if not self._stall_recovered:
+            self._stall_recovered, self._still_since = True, now
+            self.log.warning(f"move_base: {what}: clearing the costmap (robots and people marked too) and "
+                             "re-planning")
+            self.clear_costmaps()
+            self._robots = {}                  # marked again as the laser sees them (a mark behind may be stale)
+            grid = self.planner.grid
+            self.planner.set_sensor_marks(np.zeros((grid.height, grid.width), dtype=bool))
+            self._need_plan = True
+            return None
+        return self._abort(f"Robot stalled: {what}, also after clearing the costmap and re-planning")
 
     def _rotate_to_goal(self, now: float) -> StepResult:
         assert self.goal is not None and self.pose is not None

@@ -87,7 +87,9 @@ class MoveBaseNode:
       ``~robot_mark_step`` (m, 0.1), ``~laser_fov`` (rad, 3 pi/2), ``~yield_timeout`` (s, 10),
       ``~robot_patience`` (s, 60), ``~blocker_distance`` (m, 0.6: a robot or person this close explains no safe
       velocity: waited for, not stuck), ``~wait_budget`` (s, 180: blocked in all during one goal, by blockers
-      that keep moving without opening the way, before aborting).
+      that keep moving without opening the way, before aborting), ``~stall_timeout`` (s, 60: with a goal, waiting for
+      nobody, not moved ``~stall_distance`` (m, 0.1) nor turned ``~stall_turn`` (rad, 0.2): the costmap cleared and
+      the goal re-planned; as long again: aborted).
       All times are sim time.
     Lockstep (docs/simulator.md): ROS time is the stamp of the latest odometry (no ``/clock``). While a goal
       runs, the simulator sends the odometry of every step, a control cycle runs on it (at most
