@@ -194,6 +194,46 @@ def test_out_of_the_view_of_a_front_laser_is_not_lost() -> None:
     assert math.hypot(v.x + 1.2, v.y - 0.2) < 0.2 and v.behind == pytest.approx(-1.2, abs=0.2)
 
 
+def test_the_visitor_is_kept_through_gaps_between_scans() -> None:
+    """A node that shares its CPU tracks scans irregularly: the visitor following at 0.6 m/s, with gaps of up to
+    2.5 s between two tracked scans, stays SEEN with one track id, and its track does not lag behind."""
+    w = walk()
+    vid = locked(w)
+    gaps = {15: 2.0, 30: 2.5, 45: 1.2, 60: 2.2}        # after the k-th scan from here, this many seconds unseen
+    reports = []
+    for k, (t, report) in enumerate(w.steps(20.0)):
+        reports.append((t, report))
+        if k in gaps:
+            w.k += round(gaps[k] * RATE)                 # the scans of the gap are never tracked
+    assert all(r.visitor.track_id == vid and r.visitor.sight == Sight.SEEN for _, r in reports), \
+        [(t, r.visitor.sight) for t, r in reports if r.visitor.sight != Sight.SEEN][:3]
+    t, last = reports[-1]
+    assert math.hypot(last.visitor.x - follower(t)[0], last.visitor.y - follower(t)[1]) < 0.2
+
+
+def test_a_laser_that_does_not_see_the_lock_cone_locks_the_nearest_person_it_sees() -> None:
+    """The default cone is behind the robot; a 270 degree front laser never sees there, so its lock takes the
+    nearest person it sees within lock_distance (the visitor at its screen, not the one 2 m further), and finds
+    nobody when the only person is beyond it."""
+    def facing(t: float) -> Pose2D:
+        return Pose2D(0.0, 0.0, math.pi)
+    w = walk(people={"visitor": lambda t: (-1.2, 0.2), "further": lambda t: (-3.2, -0.4)}, laser=FRONT,
+             robot=facing)
+    w.run(0.8)
+    assert w.tracker.lock_visitor(), w.tracker.visitor
+    v = w.tracker.visitor
+    assert v.sight == Sight.SEEN and math.hypot(v.x + 1.2, v.y - 0.2) < 0.2
+    far = walk(people={"further": lambda t: (-3.2, -0.4)}, laser=FRONT, robot=facing)
+    far.run(0.8)
+    assert not far.tracker.lock_visitor() and far.tracker.visitor.sight == Sight.ACQUIRING
+    behind = walk(people={"visitor": follower})              # an all-round laser keeps the cone behind
+    behind.run(1.0)
+    assert behind.tracker.lock_visitor()
+    ahead = walk(people={"ahead": lambda t: (SPEED * t + 1.0, 0.0)})
+    ahead.run(1.0)
+    assert not ahead.tracker.lock_visitor()
+
+
 def test_out_of_view_for_too_long_is_lost() -> None:
     params = TrackerParams(lock_bearing=0.0, out_of_view_lost_after=3.0)
     w = walk(people={"visitor": lambda t: (-1.2, 0.2)}, params=params, laser=FRONT,

@@ -7,7 +7,8 @@
   a :class:`PeopleReport` (every track and the visitor's :class:`VisitorReport`).
 - ``lock_visitor()``: at the moment guiding starts, the track in the *lock cone* (``lock_bearing`` +-
   ``lock_half_angle`` in the robot's frame, within ``lock_distance``; behind the robot by default)
-  becomes THE visitor; if none is there yet the tracker keeps looking (``ACQUIRING``) for
+  becomes THE visitor (a laser that does not see the cone's axis, a front laser: the nearest person it sees
+  within ``lock_distance``); if none is there yet the tracker keeps looking (``ACQUIRING``) for
   ``lock_window`` s. ``unlock_visitor()`` lets it go; ``want_visitor(bool)`` does either on a change of
   the guiding core's wish (the people node's latched lock topic).
 - ``want_people(bool)``: the guiding core's wish to have people watched at all (during a trip). The laser
@@ -20,7 +21,9 @@ acceleration noise ``accel_sigma``; a detection's position has a standard deviat
 divided by its confidence: a partly hidden body pulls little). Every scan, the tracks are predicted to its
 time and the detections assigned to them by the Hungarian method (``scipy.optimize.linear_sum_assignment``)
 on the negative log-likelihood of the innovation, gated by the Mahalanobis distance (``gate_chi2``) and a
-distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. A detection nobody
+distance (``gate_max``, or ``gap_speed`` times the time since the last scan when that is more: scans come
+irregularly to a node that shares its CPU, and a person walks on meanwhile): confirmed tracks first, then
+tentative ones with what is left. A detection nobody
 takes starts a tentative track unless it lies within ``birth_exclusion`` of a track (one person, one
 track), which is confirmed after ``confirm_hits`` updates; a track unseen for ``track_lost_after`` s
 (tentative: ``tentative_lost_after``) is dropped. A track unseen for more than ``coast_time`` s loses its
@@ -37,7 +40,8 @@ detections afterwards). The visitor's track is never dropped as other tracks are
 
 - ``SEEN``: updated by this scan;
 - ``HIDDEN``: not seen, predicted inside the laser's field of view (occluded, missed, beyond its range);
-  ``LOST`` once it has been hidden this way for ``visitor_lost_after`` s since it was last seen;
+  ``LOST`` once it has been hidden this way for ``visitor_lost_after`` s since it was last seen (a gap between
+  two scans counts at most ``max_unseen_step``: the laser did not look meanwhile);
 - ``OUT_OF_VIEW``: predicted at a bearing the laser does not cover (behind a front laser: the guiding core
   may turn to look; farther than the laser reaches is ``HIDDEN``); this time does not count against
   ``visitor_lost_after``, but ``out_of_view_lost_after`` s unseen in all is ``LOST`` too;
@@ -70,7 +74,11 @@ class TrackerParams:
     meas_sigma: float = 0.08                # m, standard deviation of a detection's position
     init_speed_sigma: float = 1.0           # m/s, of a new track's velocity (it starts at 0)
     max_speed: float = 2.5                  # m/s: a track's speed is clamped to this
-    max_dt: float = 0.5                     # s: a longer gap between scans is predicted as this long
+    max_dt: float = 5.0                     # s: a longer gap between scans is predicted as this long
+    gap_speed: float = 1.5                  # m/s: after a gap between scans the distance gate is at least this
+    #                                         times the gap (a person walked on meanwhile)
+    max_unseen_step: float = 0.5            # s: at most this much of a gap counts as the visitor not seen in view
+    #                                         (a gap is no look: a starved node must not lose who it never looked for)
     gate_chi2: float = 9.21                 # squared Mahalanobis distance of the gate (99 % with 2 dof)
     gate_max: float = 1.0                   # m: and at most this far from the prediction
     confirm_hits: int = 3                   # updates that confirm a track
@@ -207,6 +215,7 @@ class PeopleTracker:
         self._robot: Pose2D | None = None
         self._fov: FieldOfView | None = None
         self._detections: Detections | None = None
+        self._gate = self.params.gate_max           # m: the distance gate of this scan (wider after a gap)
         self._visitor: int | None = None             # id of the visitor's track
         self._acquiring_since: float | None = None   # a lock was asked (at this time; nan: before any step)
         self._sight = Sight.NONE
@@ -306,12 +315,15 @@ class PeopleTracker:
                 away = math.hypot(tr.state[0] - memory.pose.x, tr.state[1] - memory.pose.y)
                 if tr.confirmed and away <= p.relock_radius and (best is None or away < best[0]):
                     best = (away, tr)
+        blind = self._cone_unseen()
         for tr in self._tracks if best is None else ():
             if not tr.confirmed:
                 continue
             dx, dy = tr.state[0] - robot.x, tr.state[1] - robot.y
             dist = math.hypot(dx, dy)
             off = abs(wrap_angle(math.atan2(dy, dx) - robot.yaw - p.lock_bearing))
+            if blind:               # a laser that does not see the cone: the nearest person it sees
+                off = 0.0 if tr.seen == self._t else math.inf
             if dist <= p.lock_distance and off <= p.lock_half_angle and (best is None or dist + off < best[0]):
                 best = (dist + off, tr)
         if best is None:
@@ -321,6 +333,17 @@ class PeopleTracker:
         self._sight, self._hidden, self._confidence = Sight.SEEN if tr.seen == self._t else Sight.HIDDEN, 0.0, 1.0
         self._last_seen = LastSeen(self._pose_of(tr), tr.seen)
         return True
+
+    def _cone_unseen(self) -> bool:
+        """Whether the laser does not see the lock cone's axis (a front laser and the cone behind, as the building
+        file's ``sensors.laser.fov`` says): the lock then takes the nearest person the laser sees within
+        ``lock_distance``, wherever they stand (at the start of a leg the visitor stands at the robot, at its
+        screen or where it waited; afterwards, behind it out of view, the guiding core turns to look)."""
+        fov, robot = self._fov, self._robot
+        if fov is None or robot is None or fov.full_circle:
+            return False
+        axis = robot.yaw + self.params.lock_bearing
+        return not fov.covers(robot, robot.x + 2.0 * math.cos(axis), robot.y + 2.0 * math.sin(axis))
 
     # -- one scan ------------------------------------------------------------------------------------
     def step(self, scan: Scan, robot: Pose2D, t: float) -> PeopleReport:
@@ -337,6 +360,7 @@ class PeopleTracker:
             if self._visitor is not None:
                 self._lose()
         dt = 0.0 if self._t is None or t < self._t else min(t - self._t, p.max_dt)
+        self._gate = max(p.gate_max, p.gap_speed * dt)
         self._t, self._robot, self._fov, self._detections = t, robot, detections.fov, detections
         if self._sight == Sight.NONE:            # let go, and not asked for again: a new lock is a new visitor
             self._memory = None
@@ -371,7 +395,7 @@ class PeopleTracker:
         self._tracks = [tr for tr in self._tracks if tr.id == self._visitor or
                         t - tr.seen <= (p.track_lost_after if tr.confirmed else p.tentative_lost_after)]
 
-        self._follow_visitor(dt, bool(rivals))
+        self._follow_visitor(min(dt, p.max_unseen_step), bool(rivals))
         tracks = tuple(self._public(tr) for tr in self._tracks if tr.confirmed)
         return PeopleReport(t, tracks, self._report, detections, bool(rivals))
 
@@ -509,7 +533,7 @@ class PeopleTracker:
         nu = z[None, :, :] - pos[:, None, :]                                            # (T, D, 2)
         d2 = (s[:, None, 1, 1] * nu[..., 0] ** 2 - 2 * s[:, None, 0, 1] * nu[..., 0] * nu[..., 1]
               + s[:, None, 0, 0] * nu[..., 1] ** 2) / det[:, None]
-        gated = (d2 <= p.gate_chi2) & (np.hypot(nu[..., 0], nu[..., 1]) <= p.gate_max)
+        gated = (d2 <= p.gate_chi2) & (np.hypot(nu[..., 0], nu[..., 1]) <= self._gate)
         cost[gated] = (d2 + np.log(det)[:, None])[gated]
         return cost
 
