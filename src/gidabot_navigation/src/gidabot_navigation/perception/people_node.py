@@ -115,9 +115,10 @@ class PeopleNode:
         the robot (m), bearing (rad), time unseen (s), where and when last seen, confidence (0..1).
       - ``/diagnostics`` (diagnostic_msgs/DiagnosticArray): ``people: <robot>`` at ``~diagnostics_rate``:
         scans tracked and dropped (malformed, no pose yet, queue full), the mean and largest time a scan
-        took (ms), people tracked, the visitor's sight, whether the laser is read, refused wishes
-        (``refused_<kind>``), and a warning when the scans' field of view differs
-        from the building file's ``sensors.laser.fov``.
+        took (ms), the largest gap between two tracked scans and how far behind ROS time a scan was tracked,
+        both in sim s over the period (``scan_gap_max_s``, ``scan_lag_max_s``: a node short of CPU), people
+        tracked, the visitor's sight, whether the laser is read, refused wishes (``refused_<kind>``), and a
+        warning when the scans' field of view differs from the building file's ``sensors.laser.fov``.
 
     Parameters:
       - ``~building`` (str, required): building.yaml or its directory; ``~robot`` (str, required).
@@ -147,6 +148,8 @@ class PeopleNode:
         self.inbox: queue.Queue[tuple[str, object]] = queue.Queue(QUEUE_SIZE)
         self.counts = {"scans": 0, "skipped": 0, "malformed": 0, "no_pose": 0, "dropped": 0, "bad_pose": 0}
         self.step_ms: list[float] = []
+        self.tracked_t: float | None = None       # sim s of the latest scan tracked (None: the laser not read)
+        self.gap_max = self.lag_max = 0.0         # sim s, over the diagnostics period
         self.last_error = ""
         self.fov_problem = ""
         self.last: PeopleReport | None = None
@@ -221,7 +224,7 @@ class PeopleNode:
         elif not read and self.scan_sub is not None:
             self.scan_sub.unregister()
             self.scan_sub = None
-            self.last = None
+            self.last = self.tracked_t = None
             rospy.loginfo("people: not reading the laser (nobody needs people now)")
 
     def _scan(self, msg: LaserScan) -> None:
@@ -246,6 +249,10 @@ class PeopleNode:
         start = time.thread_time()
         report = self.tracker.step(scan, robot, t)
         self.step_ms.append((time.thread_time() - start) * 1e3)
+        if self.tracked_t is not None and t > self.tracked_t:
+            self.gap_max = max(self.gap_max, t - self.tracked_t)
+        self.tracked_t = t
+        self.lag_max = max(self.lag_max, rospy.get_time() - t)
         self.counts["scans"] += 1
         self.last = report
         stamp = msg.header.stamp.to_sec()
@@ -263,8 +270,10 @@ class PeopleNode:
                   **refusal_values(self.gate.counts)}
         if self.step_ms:
             values |= {"step_ms_mean": f"{sum(self.step_ms) / len(self.step_ms):.3f}",
-                       "step_ms_max": f"{max(self.step_ms):.3f}"}
+                       "step_ms_max": f"{max(self.step_ms):.3f}",
+                       "scan_gap_max_s": f"{self.gap_max:.2f}", "scan_lag_max_s": f"{self.lag_max:.2f}"}
             self.step_ms.clear()
+            self.gap_max = self.lag_max = 0.0
         if self.last_error:
             values["last_error"] = self.last_error
             self.last_error = ""          # warned once
