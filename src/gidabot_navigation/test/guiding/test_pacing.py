@@ -83,6 +83,7 @@ def test_stopped_visitor_is_waited_for_facing_them_then_followed():
     assert p.on_visitor(seen(2.6, 4.0, speed=0.0), 4.0) is None      # still for 3 s: not yet
     d = p.on_visitor(seen(2.6, 5.0, speed=0.0), 5.0)
     assert d.pace is Pace.WAIT and not d.drive and d.say is Say.WAITING
+    assert d.why == "the visitor has stood still 2.6 m away for 4 s"
     assert d.face == pytest.approx((ROBOT.x - 2.6, 0.0))
     for t in range(6, 60):                                           # a minute reading a sign
         assert p.on_visitor(seen(2.6, float(t), speed=0.0), float(t)) is None
@@ -94,7 +95,8 @@ def test_stopped_visitor_is_waited_for_facing_them_then_followed():
 def test_far_visitor_is_waited_for_at_once():
     p = pacer()
     p.on_visitor(seen(1.5, 0.0), 0.0)
-    assert p.on_visitor(seen(4.5, 1.0), 1.0).pace is Pace.WAIT
+    d = p.on_visitor(seen(4.5, 1.0), 1.0)
+    assert d.pace is Pace.WAIT and d.why == "the visitor is 4.5 m away, farther than 4 m"
 
 
 def test_front_laser_out_of_view_turns_to_look_after_a_bound():
@@ -104,6 +106,7 @@ def test_front_laser_out_of_view_turns_to_look_after_a_bound():
         assert p.on_visitor(seen(1.5, float(t), sight=Sight.OUT_OF_VIEW), float(t)) is None
     d = p.on_visitor(seen(1.5, 9.0, sight=Sight.OUT_OF_VIEW), 9.0)
     assert d.pace is Pace.WAIT and d.face is not None
+    assert d.why == "the visitor has been out of the laser's view for 8 s"
     assert p.on_visitor(seen(1.4, 10.0), 10.0).say is Say.FOLLOW
 
 
@@ -143,6 +146,7 @@ def test_tracker_lost_is_waited_for_then_searched_and_found_again() -> None:
     p.on_visitor(seen(1.5, 0.0), 0.0)
     d = p.on_visitor(lost(4.0, at=6.0), 4.0)
     assert d.pace is Pace.WAIT and d.relock and d.say is Say.WAITING and d.face == pytest.approx((6.0, 0.0))
+    assert d.why == "the laser lost the visitor"
     assert p.on_visitor(VisitorReport(Sight.ACQUIRING), 5.0) is None
     assert p.on_visitor(VisitorReport(Sight.LOST), 10.0).relock        # asked anew every 6 s
     assert p.step(23.0).pace is Pace.WAIT                               # waited 19 s

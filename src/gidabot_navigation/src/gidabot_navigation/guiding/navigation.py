@@ -912,7 +912,7 @@ class NavigationCore:
             actions.append(MoveTo(leg.token, goal.x, goal.y, goal.yaw))
         if d.say is Say.WAITING:
             actions.append(self._event(Phase.WAITING_FOR_YOU, leg.trip, now_ros, location_id=self._where(leg),
-                                       detail="the visitor fell behind or stopped: waiting for them"))
+                                       detail=f"waiting for the visitor: {d.why or 'they fell behind or stopped'}"))
         elif d.say is Say.SEARCHING and d.search_at is not None:
             actions.append(self._event(Phase.SEARCHING_VISITOR, leg.trip, now_ros, location_id=self._where(leg),
                                        detail="going back to where the visitor was last seen",

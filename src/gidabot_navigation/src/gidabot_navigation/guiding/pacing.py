@@ -120,6 +120,7 @@ class Decision:
     relock: bool = False
     say: Say = Say.NOTHING
     found_again: bool = False
+    why: str = ""             # why the robot waits (said with WAITING)
 
 
 @dataclass
@@ -265,7 +266,13 @@ class Pacer:
         if must_wait:
             self.pace, self._wait_since = Pace.WAIT, t
             self.stats.waits += 1
-            return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), say=Say.WAITING)
+            if dist > cfg.far and not out_of_view:
+                why = f"the visitor is {dist:.1f} m away, farther than {cfg.far:g} m"
+            elif self._still_since is not None and t - self._still_since >= cfg.still_for:
+                why = f"the visitor has stood still {dist:.1f} m away for {t - self._still_since:.0f} s"
+            else:
+                why = f"the visitor has been out of the laser's view for {t - (self._unseen_view_since or t):.0f} s"
+            return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), say=Say.WAITING, why=why)
         if dist > cfg.near and not out_of_view:
             if self.pace is not Pace.SLOW:
                 self.pace = Pace.SLOW
@@ -286,7 +293,10 @@ class Pacer:
         if self.pace is not Pace.WAIT:
             self.pace, self._wait_since, self._relocked = Pace.WAIT, t, t
             self.stats.waits += 1
-            return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), relock=True, say=Say.WAITING)
+            r = self._report
+            unseen = f" (unseen {r.unseen:.1f} s)" if r is not None and r.unseen is not None else ""
+            return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), relock=True, say=Say.WAITING,
+                            why=f"the laser lost the visitor{unseen}")
         assert self._wait_since is not None
         unseen_since = max(self._wait_since, self._seen_at if self._seen_at is not None else -math.inf)
         if t - unseen_since >= cfg.lost_after or t - self._wait_since >= cfg.wait_for:
