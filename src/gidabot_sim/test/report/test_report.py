@@ -141,6 +141,20 @@ def test_guiding_starts_when_move_base_took_the_legs_goal() -> None:
     assert guiding_intervals(ev) == [(10, 40), (50, 80), (90, 95)]      # bags without current_goal
 
 
+def test_guiding_leaves_out_the_waits_and_searches_for_the_visitor() -> None:
+    """Table 5 is the guiding with the visitor behind the robot: from a WAITING_FOR_YOU or a SEARCHING_VISITOR to
+    the FOLLOW_ME is left out (a search after a wait too), and its distance with it."""
+    ev = [EventSample(10, "R", "a", Phase.ON_THE_WAY), EventSample(20, "R", "a", Phase.WAITING_FOR_YOU),
+          EventSample(25, "R", "a", Phase.FOLLOW_ME), EventSample(30, "R", "a", Phase.WAITING_FOR_YOU),
+          EventSample(50, "R", "a", Phase.SEARCHING_VISITOR), EventSample(70, "R", "a", Phase.FOLLOW_ME),
+          EventSample(80, "R", "a", Phase.GOAL_REACHED),
+          EventSample(90, "R", "b", Phase.ON_THE_WAY), EventSample(95, "R", "b", Phase.WAITING_FOR_YOU),
+          EventSample(99, "R", "b", Phase.VISITOR_LOST)]
+    assert guiding_intervals(ev, [11.0]) == [(11.0, 20), (25, 30), (70, 80), (90, 95)]
+    poses = [PoseSample(t, float(t), 0.0) for t in range(100)]
+    assert path_length(poses, guiding_intervals(ev)) == pytest.approx(10 + 5 + 10 + 5)
+
+
 def test_missing_run_folder(tmp_path: Path, capsys) -> None:
     assert main([str(tmp_path)]) == 1
     assert "run.json: cannot read" in capsys.readouterr().err

@@ -6,8 +6,9 @@ JSON-able dict (docs/demo.md, *The report*):
 * per robot, goal messages received (the goals it validated and kept) and processed (its goal manager accepted
   them and its navigation worked on them): paper Table 3;
 * per robot, time, distance and mean velocity while guiding the visitor (paper Table 5): from the robot's
-  ``ON_THE_WAY`` event (or, if later, from when its move_base took that leg's goal) to the end of that leg, the
-  distance integrated over the robot's own localisation; and the tour total;
+  ``ON_THE_WAY`` event (or, if later, from when its move_base took that leg's goal) to the end of that leg, but
+  for the time it waited for or searched for its visitor, the distance integrated over the robot's own
+  localisation; and the tour total;
 * who served each leg (:func:`leg_audit`), robot-robot contacts (:func:`robot_contacts`) and the run's timing
   (:func:`gidabot_sim.report.rates.timing_report`).
 """
@@ -55,19 +56,36 @@ def guiding_intervals(events: Iterable[EventSample], goal_starts: Sequence[float
     when its move_base took the goal of that leg (``goal_starts``: the stamps of ``move_base/current_goal``,
     time-ordered) if that was later, within :data:`MAX_GOAL_START_LAG` of it, to the end of the leg. The guiding
     node decides and move_base starts a little later in wall time; at 50x and more, those milliseconds are
-    tenths of simulated seconds per leg, which no robot ever spent guiding."""
+    tenths of simulated seconds per leg, which no robot ever spent guiding. The time the robot waited for its
+    visitor or searched for them (from a WAITING_FOR_YOU or SEARCHING_VISITOR to the FOLLOW_ME) is left out: the
+    paper's Table 5 is the guiding with the visitor behind the robot."""
     intervals: list[tuple[float, float]] = []
     start: float | None = None
+    in_leg = first = False
     for ev in sorted(events, key=lambda e: e.t):
-        if ev.phase == Phase.ON_THE_WAY and start is None:
-            start = ev.t
-        elif ev.phase in LEG_ENDS and start is not None:
-            k = bisect.bisect_left(goal_starts, start)
-            if k < len(goal_starts) and goal_starts[k] <= min(ev.t, start + MAX_GOAL_START_LAG):
-                start = goal_starts[k]
-            intervals.append((start, ev.t))
+        if ev.phase == Phase.ON_THE_WAY and not in_leg:
+            start, in_leg, first = ev.t, True, True
+        elif ev.phase in (Phase.WAITING_FOR_YOU, Phase.SEARCHING_VISITOR) and start is not None:
+            intervals.append((_leg_start(start, first, goal_starts, ev.t), ev.t))
             start = None
+        elif ev.phase == Phase.FOLLOW_ME and in_leg and start is None:
+            start, first = ev.t, False
+        elif ev.phase in LEG_ENDS and in_leg:
+            if start is not None:
+                intervals.append((_leg_start(start, first, goal_starts, ev.t), ev.t))
+            start, in_leg = None, False
     return intervals
+
+
+def _leg_start(start: float, first: bool, goal_starts: Sequence[float], end: float) -> float:
+    """When the leg's guiding began: the first part of a leg from when move_base took its goal, if that was later
+    than ``start`` (its ON_THE_WAY) by at most :data:`MAX_GOAL_START_LAG`, and before ``end``."""
+    if not first:
+        return start
+    k = bisect.bisect_left(goal_starts, start)
+    if k < len(goal_starts) and goal_starts[k] <= min(end, start + MAX_GOAL_START_LAG):
+        return goal_starts[k]
+    return start
 
 
 def path_length(poses: list[PoseSample], intervals: list[tuple[float, float]] | None = None) -> float:
