@@ -63,7 +63,7 @@ def test_a_lock_that_found_nobody_is_asked_for_anew_until_the_visitor_is_seen():
 
 
 def test_close_visitor_normal_then_slow_then_normal_again():
-    p = pacer()
+    p = pacer(near=2.0)
     assert p.on_visitor(seen(1.2, 1.0), 1.0) is None and p.pace is Pace.NORMAL
     d = p.on_visitor(seen(2.8, 2.0), 2.0)
     assert d.pace is Pace.SLOW and d.speed_cap == pytest.approx(0.3) and d.drive
@@ -77,7 +77,7 @@ def test_close_visitor_normal_then_slow_then_normal_again():
 
 
 def test_stopped_visitor_is_waited_for_facing_them_then_followed():
-    p = pacer(still_for=4.0)
+    p = pacer(near=2.0, still_for=4.0)
     p.on_visitor(seen(1.5, 0.0), 0.0)
     assert p.on_visitor(seen(2.5, 1.0, speed=0.0), 1.0).pace is Pace.SLOW
     assert p.on_visitor(seen(2.6, 4.0, speed=0.0), 4.0) is None      # still for 3 s: not yet

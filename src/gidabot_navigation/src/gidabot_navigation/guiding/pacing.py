@@ -63,7 +63,7 @@ class Pace(enum.Enum):
 class PacingConfig:
     """Distances in m, speeds in m/s, times in s (the robot's clock), angles in rad."""
 
-    near: float = 2.0
+    near: float = 2.5
     hysteresis: float = 0.4
     far: float = 4.0
     resume: float = 3.0
