@@ -48,3 +48,17 @@ def test_a_time_beyond_the_odometry_falls_back_to_the_localisation() -> None:
     poses.odometry(0.05, Pose2D(9.0, 9.0, 0.0))          # time went back: the history starts again
     again = poses.at(0.05)                               # with the correction of the latest localisation
     assert (again.x, again.y, again.yaw) == pytest.approx((9.95, 10.0, 0.0))
+
+
+def test_a_robot_at_rest_keeps_its_latest_odometry_however_old() -> None:
+    """The robot turned 0.08 rad after its latest localisation (too little for a new one) and rests; its odometry
+    comes at 1 Hz: a scan 0.7 s after the latest still gets the exact pose, not the localisation of before the
+    turn. Moving, a time that far beyond the odometry falls back to the localisation as before."""
+    poses = RobotPose()
+    poses.odometry(0.0, Pose2D(0.0, 0.0, 0.0))
+    poses.localised(0.0, Pose2D(5.0, 5.0, 0.0))
+    poses.odometry(1.0, Pose2D(0.0, 0.0, 0.08), moving=False)
+    at = poses.at(1.7)
+    assert (at.x, at.y, at.yaw) == pytest.approx((5.0, 5.0, 0.08))
+    poses.odometry(2.0, Pose2D(0.0, 0.0, 0.08), moving=True)
+    assert poses.at(2.7) == Pose2D(5.0, 5.0, 0.0)

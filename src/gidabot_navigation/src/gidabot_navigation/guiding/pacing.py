@@ -30,8 +30,8 @@ A leg whose visitor the laser never saw (no lock ever reached SEEN: the tracker 
 has no body in a simulated world, or never stood in the lock cone) is guided as without pacing: the robot
 cannot tell a visitor it never saw from one who is not there. Meanwhile, a lock whose window ended with nobody
 in the cone (LOST) is asked for anew at once, so the tracker keeps looking (the visitor who stood at the robot's
-screen, in front of it, comes behind it once it drives off). Pacing starts at the first SEEN report and stays on for the
-rest of the leg.
+screen, in front of it, comes behind it once it drives off). Pacing starts at the first SEEN report and stays
+on for the rest of the leg.
 
 Inputs are explicit: :meth:`Pacer.start`, :meth:`Pacer.on_visitor`, :meth:`Pacer.on_search_arrived`,
 :meth:`Pacer.step` (each with the time, s); each returns a :class:`Decision` only when something changes.

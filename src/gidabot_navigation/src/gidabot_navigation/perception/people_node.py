@@ -204,7 +204,8 @@ class PeopleNode:
             elif kind == "amcl":
                 self.poses.localised(stamp, pose)
             else:
-                self.poses.odometry(stamp, pose)
+                twist = msg.twist.twist  # type: ignore[attr-defined]
+                self.poses.odometry(stamp, pose, moving=bool(twist.linear.x or twist.linear.y or twist.angular.z))
         elif kind == "lock" and self.gate.only(sender(msg), Node.MULTIROBOT_NAVIGATION, "visitor lock"):
             if self.tracker.want_visitor(bool(msg.data)):  # type: ignore[attr-defined]
                 rospy.loginfo(f"people: visitor {'lock' if msg.data else 'unlock'}: "  # type: ignore[attr-defined]

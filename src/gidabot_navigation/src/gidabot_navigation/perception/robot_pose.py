@@ -5,7 +5,9 @@ Localisation (``amcl_pose``) comes only after the robot has moved some distance 
 robot moves; a person 2 m away would be placed 0.2-1 m off. Odometry comes at the scan's rate and drifts
 only slowly: :class:`RobotPose` keeps the map-from-odometry correction of the latest localisation
 (``map pose`` composed with the inverse of the odometry pose of that time) and applies it to the
-odometry pose of the scan's time, interpolated. Without odometry, it is the latest localised pose.
+odometry pose of the scan's time, interpolated. Without odometry, it is the latest localised pose. A robot at rest
+may publish its odometry less often (the simulator: 1 Hz): a scan after the latest odometry of a robot at rest
+gets that odometry however old it is (it has not moved since), not the localisation of some time before.
 """
 
 from __future__ import annotations
@@ -38,9 +40,12 @@ class RobotPose:
         self._odom: list[Pose2D] = []
         self._correction: np.ndarray | None = None   # map <- odom, 3 x 3
         self._localised: Pose2D | None = None
+        self._resting = False                         # the latest odometry said the robot stood still
 
-    def odometry(self, t: float, pose: Pose2D) -> None:
-        """The odometry pose (odom frame) at ``t`` s. Older than the latest: history restarts (time went back)."""
+    def odometry(self, t: float, pose: Pose2D, moving: bool = True) -> None:
+        """The odometry pose (odom frame) at ``t`` s, and whether the robot was moving then (its twist). Older than
+        the latest: history restarts (time went back)."""
+        self._resting = not moving
         if self._odom_t and t < self._odom_t[-1]:
             self._odom_t.clear()
             self._odom.clear()
@@ -67,8 +72,10 @@ class RobotPose:
 
     def _odom_at(self, t: float) -> Pose2D | None:
         times = self._odom_t
-        if not times or t < times[0] - MAX_EXTRAPOLATION or t > times[-1] + MAX_EXTRAPOLATION:
+        if not times or t < times[0] - MAX_EXTRAPOLATION:
             return None
+        if t > times[-1] + MAX_EXTRAPOLATION:
+            return self._odom[-1] if self._resting else None
         k = bisect.bisect_left(times, t)
         if k == 0:
             return self._odom[0]
