@@ -45,21 +45,8 @@ def test_never_seen_visitor_leaves_the_robot_at_its_own_pace():
     for t in range(120):
         assert p.on_visitor(VisitorReport(Sight.ACQUIRING), float(t)) is None
         assert p.step(t + 0.5) is None
+    assert p.on_visitor(VisitorReport(Sight.LOST), 121.0) is None
     assert p.pace is Pace.OFF and p.stats.waits == 0 and p.stats.searches == 0
-
-
-def test_a_lock_that_found_nobody_is_asked_for_anew_until_the_visitor_is_seen():
-    """The visitor stood at the robot's screen, in front of it, out of the lock cone behind it: the lock's window
-    ends (LOST) while the pacer has never seen them; it asks for the lock anew at once, each time, driving on at its
-    own pace, until the visitor, now behind the robot, is seen."""
-    p = pacer()
-    assert p.on_visitor(VisitorReport(Sight.ACQUIRING), 1.0) is None
-    d = p.on_visitor(VisitorReport(Sight.LOST), 5.0)
-    assert d is not None and d.relock and d.drive and d.pace is Pace.OFF and d.say is Say.NOTHING
-    assert p.on_visitor(VisitorReport(Sight.ACQUIRING), 5.1) is None
-    assert p.on_visitor(VisitorReport(Sight.LOST), 10.1).relock
-    d = p.on_visitor(seen(1.2, 13.0), 13.0)
-    assert p.pace is Pace.NORMAL and p.stats.waits == 0 and (d is None or d.drive)
 
 
 def test_close_visitor_normal_then_slow_then_normal_again():

@@ -70,23 +70,6 @@ def test_a_body_appears_next_to_its_robot_and_follows_it_at_its_gap() -> None:
     assert max(behind[50:]) < 1.8
 
 
-def test_a_body_at_its_robot_s_screen_stands_in_front_of_it() -> None:
-    """Called to a robot whose heading is known (at its screen): the body appears in front of it, or as near that
-    as fits (a wall 0.8 m ahead: beside it, on the screen's side)."""
-    world = World(hall(), rng=np.random.default_rng(1))
-    crowd = Crowd(world.clearance)
-    for yaw, spot in ((0.0, (4.0, 2.5)), (math.pi / 2, (3.0, 3.5)), (math.pi, (2.0, 2.5))):
-        at_screen = Directive(f"v{yaw}", FOLLOW, "R", math.nan, math.nan, TIDY, 1.0)
-        crowd.direct(at_screen, [RobotDisc("R", 3.0, 2.5, 0.3, yaw)])
-        body = crowd.followers[f"v{yaw}"][0].body
-        assert (body.x, body.y) == pytest.approx(spot, abs=1e-6)
-        crowd.direct(Directive(f"v{yaw}", GONE), [])
-    near_wall = RobotDisc("R", 3.0, 3.8, 0.3, math.pi / 2)
-    crowd.direct(Directive("w", FOLLOW, "R", math.nan, math.nan, TIDY, 1.0), [near_wall])
-    body = crowd.followers["w"][0].body
-    assert world.clearance(body.x, body.y) >= PERSON_RADIUS and body.y > 3.3     # not through the wall
-
-
 def test_a_slow_body_falls_behind_and_a_pause_stands_still() -> None:
     crowd, world = setup(Behaviour(speed=0.5, gap=1.0, pauses=((3.0, 4.0),)))
     xs = []

@@ -28,10 +28,8 @@ it made it go on, in the same instant.
 
 A leg whose visitor the laser never saw (no lock ever reached SEEN: the tracker is not running, the visitor
 has no body in a simulated world, or never stood in the lock cone) is guided as without pacing: the robot
-cannot tell a visitor it never saw from one who is not there. Meanwhile, a lock whose window ended with nobody
-in the cone (LOST) is asked for anew at once, so the tracker keeps looking (the visitor who stood at the robot's
-screen, in front of it, comes behind it once it drives off). Pacing starts at the first SEEN report and stays
-on for the rest of the leg.
+cannot tell a visitor it never saw from one who is not there. Pacing starts at the first SEEN report and
+stays on for the rest of the leg.
 
 Inputs are explicit: :meth:`Pacer.start`, :meth:`Pacer.on_visitor`, :meth:`Pacer.on_search_arrived`,
 :meth:`Pacer.step` (each with the time, s); each returns a :class:`Decision` only when something changes.
@@ -201,8 +199,6 @@ class Pacer:
             self.stats.behind_sum += behind
             self.stats.worst_behind = max(self.stats.worst_behind, behind)
         if self.pace is Pace.OFF:
-            if report.sight == Sight.LOST:      # the lock's window ended with nobody in the cone: look on
-                return Decision(Pace.OFF, relock=True)
             if report.sight != Sight.SEEN:
                 return None
             self.pace = Pace.NORMAL      # engaged: the visitor was seen

@@ -21,9 +21,9 @@ acceleration noise ``accel_sigma``; a detection's position has a standard deviat
 divided by its confidence: a partly hidden body pulls little). Every scan, the tracks are predicted to its
 time and the detections assigned to them by the Hungarian method (``scipy.optimize.linear_sum_assignment``)
 on the negative log-likelihood of the innovation, gated by the Mahalanobis distance (``gate_chi2``) and a
-distance (``gate_max``, or ``gap_speed`` times the time since the last scan when that is more: scans come
-irregularly to a node that shares its CPU, and a person walks on meanwhile): confirmed tracks first, then
-tentative ones with what is left. A detection nobody
+distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. Scans come irregularly to a
+node that shares its CPU: a gap between two is predicted as it was, up to ``max_dt``, so a person walking on is
+where their track expects them. A detection nobody
 takes starts a tentative track unless it lies within ``birth_exclusion`` of a track (one person, one
 track), which is confirmed after ``confirm_hits`` updates; a track unseen for ``track_lost_after`` s
 (tentative: ``tentative_lost_after``) is dropped. A track unseen for more than ``coast_time`` s loses its
@@ -75,8 +75,6 @@ class TrackerParams:
     init_speed_sigma: float = 1.0           # m/s, of a new track's velocity (it starts at 0)
     max_speed: float = 2.5                  # m/s: a track's speed is clamped to this
     max_dt: float = 5.0                     # s: a longer gap between scans is predicted as this long
-    gap_speed: float = 1.5                  # m/s: after a gap between scans the distance gate is at least this
-    #                                         times the gap (a person walked on meanwhile)
     max_unseen_step: float = 0.5            # s: at most this much of a gap counts as the visitor not seen in view
     #                                         (a gap is no look: a starved node must not lose who it never looked for)
     gate_chi2: float = 9.21                 # squared Mahalanobis distance of the gate (99 % with 2 dof)
@@ -215,7 +213,6 @@ class PeopleTracker:
         self._robot: Pose2D | None = None
         self._fov: FieldOfView | None = None
         self._detections: Detections | None = None
-        self._gate = self.params.gate_max           # m: the distance gate of this scan (wider after a gap)
         self._visitor: int | None = None             # id of the visitor's track
         self._acquiring_since: float | None = None   # a lock was asked (at this time; nan: before any step)
         self._sight = Sight.NONE
@@ -360,7 +357,6 @@ class PeopleTracker:
             if self._visitor is not None:
                 self._lose()
         dt = 0.0 if self._t is None or t < self._t else min(t - self._t, p.max_dt)
-        self._gate = max(p.gate_max, p.gap_speed * dt)
         self._t, self._robot, self._fov, self._detections = t, robot, detections.fov, detections
         if self._sight == Sight.NONE:            # let go, and not asked for again: a new lock is a new visitor
             self._memory = None
@@ -533,7 +529,7 @@ class PeopleTracker:
         nu = z[None, :, :] - pos[:, None, :]                                            # (T, D, 2)
         d2 = (s[:, None, 1, 1] * nu[..., 0] ** 2 - 2 * s[:, None, 0, 1] * nu[..., 0] * nu[..., 1]
               + s[:, None, 0, 0] * nu[..., 1] ** 2) / det[:, None]
-        gated = (d2 <= p.gate_chi2) & (np.hypot(nu[..., 0], nu[..., 1]) <= self._gate)
+        gated = (d2 <= p.gate_chi2) & (np.hypot(nu[..., 0], nu[..., 1]) <= p.gate_max)
         cost[gated] = (d2 + np.log(det)[:, None])[gated]
         return cost
 

@@ -9,8 +9,8 @@ robot's laser sees in its ``robots_seen`` (its move_base's obstacle layer), ids 
 **A visitor's body** does what the visitor node of the floor's robot says (:class:`Directive`, sim-only topic
 ``/sim/visitor_body``):
 
-* ``FOLLOW`` robot R: it appears (when not on this floor yet) next to ``(x, y)`` (at the meeting point where R waits
-  for it, come from the stairs or the lift), or in front of R when that is not a number (at R's screen), and
+* ``FOLLOW`` robot R: it appears (when not on this floor yet) next to ``(x, y)``, or next to R when that is not a
+  number (at R's screen, or at the meeting point where R waits for it, come from the stairs or the lift) and
   walks at its behaviour's speed along R's path (the points R drove through, recorded here: free of walls),
   until it is its ``gap`` behind R; it stands while a pause of its behaviour lasts, and when its behaviour
   wanders off it walks back along R's path and leaves the floor (for good); a group is several bodies, each
@@ -170,16 +170,16 @@ class Crowd:
                 f.directive, f.leave_until = d, min(f.leave_until, self.time + LEAVE_S)
             return
         if bodies is None:       # it arrives on this floor: next to (x, y) or its robot, away from the robots
-            ax, ay, facing = d.x, d.y, math.nan
+            ax, ay = d.x, d.y
             if not (math.isfinite(ax) and math.isfinite(ay)):
                 robot = next((r for r in robots if r.name == d.robot), None)
                 if robot is None:
                     return       # a robot of another floor: not here
-                ax, ay, facing = robot.x, robot.y, robot.yaw      # at its screen: in front of it
+                ax, ay = robot.x, robot.y
             bodies = []
             trail = self.trails.setdefault(d.robot, _Trail())
             for k in range(d.behaviour.group):
-                x, y = self._free_spot(ax, ay, robots, [(f.body.x, f.body.y) for f in bodies], facing)
+                x, y = self._free_spot(ax, ay, robots, [(f.body.x, f.body.y) for f in bodies])
                 suffix = f"/{k}" if k else ""
                 bodies.append(_Follower(Body(PERSON_ID_PREFIX + d.visitor_id + suffix, x, y), d, k, trail.end))
             self.followers[d.visitor_id] = bodies
@@ -190,16 +190,12 @@ class Crowd:
             f.directive, f.leave_until = d, math.inf
 
     def _free_spot(self, x: float, y: float, robots: Sequence[RobotDisc],
-                   taken: Sequence[tuple[float, float]], facing: float = math.nan) -> tuple[float, float]:
+                   taken: Sequence[tuple[float, float]]) -> tuple[float, float]:
         """A spot near (x, y) on rings of 1.0..2.4 m (then 0.8 m) where a body fits clear of walls, robots and
-        ``taken`` (a robot usually stands at (x, y): a metre leaves its costmap a way out); (x, y) when none does.
-        ``facing`` (rad): the robot at (x, y) has its screen that way, where its visitor stands: the spots nearest
-        that direction first; not a number: from the west round."""
-        order = (0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6, -6, 7, -7, 8) if math.isfinite(facing) else range(16)
-        start = facing if math.isfinite(facing) else math.pi
+        ``taken`` (a robot usually stands at (x, y): a metre leaves its costmap a way out); (x, y) when none does."""
         for ring in (1.0, 1.3, 1.6, 2.0, 2.4, 0.8):
-            for k in order:
-                a = start + k * math.pi / 8.0
+            for k in range(16):
+                a = math.pi + k * math.pi / 8.0
                 px, py = x + ring * math.cos(a), y + ring * math.sin(a)
                 if self._fits(px, py, robots) and all(math.hypot(px - tx, py - ty) >= 2 * PERSON_RADIUS
                                                       for tx, ty in taken):
