@@ -256,18 +256,15 @@ class Pacer:
             if t - unseen_since >= cfg.lost_after or t - self._wait_since >= cfg.wait_for:
                 return self._start_search(t)
             return None
-        must_wait = (dist > cfg.far and not out_of_view) \
-            or (self._still_since is not None and t - self._still_since >= cfg.still_for) \
-            or (self._unseen_view_since is not None and t - self._unseen_view_since >= cfg.look_after)
-        if must_wait:
+        stood = t - self._still_since if self._still_since is not None else 0.0
+        unviewed = t - self._unseen_view_since if self._unseen_view_since is not None else 0.0
+        why = (f"the visitor is {dist:.1f} m away, farther than {cfg.far:g} m" if dist > cfg.far and not out_of_view
+               else f"the visitor has stood still {dist:.1f} m away for {stood:.0f} s" if stood >= cfg.still_for
+               else f"the visitor has been out of the laser's view for {unviewed:.0f} s" if unviewed >= cfg.look_after
+               else "")
+        if why:
             self.pace, self._wait_since = Pace.WAIT, t
             self.stats.waits += 1
-            if dist > cfg.far and not out_of_view:
-                why = f"the visitor is {dist:.1f} m away, farther than {cfg.far:g} m"
-            elif self._still_since is not None and t - self._still_since >= cfg.still_for:
-                why = f"the visitor has stood still {dist:.1f} m away for {t - self._still_since:.0f} s"
-            else:
-                why = f"the visitor has been out of the laser's view for {t - (self._unseen_view_since or t):.0f} s"
             return Decision(Pace.WAIT, drive=False, face=self._visitor_point(), say=Say.WAITING, why=why)
         if dist > cfg.near and not out_of_view:
             if self.pace is not Pace.SLOW:

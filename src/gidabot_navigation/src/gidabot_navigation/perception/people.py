@@ -21,13 +21,13 @@ acceleration noise ``accel_sigma``; a detection's position has a standard deviat
 divided by its confidence: a partly hidden body pulls little). Every scan, the tracks are predicted to its
 time and the detections assigned to them by the Hungarian method (``scipy.optimize.linear_sum_assignment``)
 on the negative log-likelihood of the innovation, gated by the Mahalanobis distance (``gate_chi2``) and a
-distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. Scans come irregularly to a
-node that shares its CPU: a gap between two is predicted as it was, up to ``max_dt``, so a person walking on is
-where their track expects them. A detection nobody
-takes starts a tentative track unless it lies within ``birth_exclusion`` of a track (one person, one
-track), which is confirmed after ``confirm_hits`` updates; a track unseen for ``track_lost_after`` s
-(tentative: ``tentative_lost_after``) is dropped. A track unseen for more than ``coast_time`` s loses its
-velocity with time constant ``unseen_velocity_tau`` (people stop; a prediction does not run off).
+distance (``gate_max``): confirmed tracks first, then tentative ones with what is left. Scans come irregularly
+to a node that shares its CPU: a gap between two is predicted as it was, up to ``max_dt``, so a person walking
+on is where their track expects them. A detection nobody takes starts a tentative track unless it lies within
+``birth_exclusion`` of a track (one person, one track), which is confirmed after ``confirm_hits`` updates; a
+track unseen for ``track_lost_after`` s (tentative: ``tentative_lost_after``) is dropped. A track unseen for more
+than ``coast_time`` s loses its velocity with time constant ``unseen_velocity_tau`` (people stop; a prediction
+does not run off).
 
 **The visitor is not swapped.** The visitor's track is associated like the others, with its predicted
 position and velocity, so a bystander crossing close by keeps its own track. When the assignment is
