@@ -20,3 +20,5 @@ unset PYTHONDONTWRITEBYTECODE
 export PYTHONPYCACHEPREFIX="$GIDABOT_ROOT/.pycache"
 export ROSCONSOLE_STDOUT_LINE_BUFFERED=1
 export ROS_HOME="${ROS_HOME:-$GIDABOT_ROOT/.ros}"
+# numpy's OpenBLAS: one thread per process (its idle threads spin after each LAPACK call); launch files set it too
+export OPENBLAS_NUM_THREADS="${OPENBLAS_NUM_THREADS:-1}" OMP_NUM_THREADS="${OMP_NUM_THREADS:-1}"

@@ -31,3 +31,14 @@ def test_the_check_sees_a_broken_file(tmp_path: Path) -> None:
     bad.write_text("<launch>\n  <!-- chaos --machines -->\n</launch>\n")
     with pytest.raises(ExpatError):
         minidom.parse(str(bad))
+
+
+@pytest.mark.parametrize("path", sorted(REPO.glob("launch/*.launch")), ids=lambda p: p.name)
+def test_every_node_runs_numpy_with_one_blas_thread(path: Path) -> None:
+    """Each robot launch file sets one OpenBLAS thread for all its nodes (at launch scope, so includes and a file
+    started on its own alike): more threads spin on after each LAPACK call and took a core from the building."""
+    doc = minidom.parse(str(path)).documentElement
+    envs = {e.getAttribute("name"): e.getAttribute("value") for e in doc.childNodes
+            if e.nodeType == e.ELEMENT_NODE and e.tagName == "env"}
+    assert envs.get("OPENBLAS_NUM_THREADS") == "1", f"{path.name}: no <env name=\"OPENBLAS_NUM_THREADS\" value=\"1\"/>"
+    assert envs.get("OMP_NUM_THREADS") == "1", f"{path.name}: no <env name=\"OMP_NUM_THREADS\" value=\"1\"/>"

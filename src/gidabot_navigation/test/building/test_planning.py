@@ -187,6 +187,31 @@ def test_sensor_marks() -> None:
         planner.set_sensor_marks(np.zeros((3, 3), dtype=bool))
 
 
+def test_sensor_marks_by_cells_give_the_costmap_of_the_whole_mask() -> None:
+    """People walking past, marked by their cells in the window of the old and new marks, leave the costmap
+    exactly as marking the whole map would, also when they leave it (no marks) and when nothing changed."""
+    windowed, whole = GridPlanner(box_map(), robot_radius=0.3), GridPlanner(box_map(), robot_radius=0.3)
+    grid = windowed.grid
+    steps = [[(1.0, 0.0), (4.0, 1.0)], [(1.2, 0.1), (4.0, 1.0)], [(1.2, 0.1)], [], [(5.0, -1.0), (2.0, 2.0)],
+             [(5.0, -1.0), (2.0, 2.0)]]
+    for k, people in enumerate(steps):
+        cells = [c for c in (rasterize(Circle(x, y, 0.35), grid) for x, y in people) if c is not None]
+        mask = np.zeros(whole.lethal.shape, dtype=bool)
+        for box, m in cells:
+            mask[box] |= m
+        before = windowed.lethal
+        changed = windowed.set_sensor_mark_cells(cells)
+        assert changed == whole.set_sensor_marks(mask), k
+        assert changed == (k != 5), k                    # the last step repeats the one before
+        np.testing.assert_array_equal(windowed.lethal, whole.lethal)
+        np.testing.assert_array_equal(windowed.weights, whole.weights)
+        if changed:
+            assert before is not windowed.lethal          # a mask handed out is not changed under its holder
+    assert windowed.set_sensor_mark_cells([])            # everybody gone: their marks cleared
+    np.testing.assert_array_equal(windowed.lethal, GridPlanner(box_map(), robot_radius=0.3).lethal)
+    assert not windowed.set_sensor_mark_cells([])        # no marks before nor now: nothing to do
+
+
 def test_thin_obstacles_still_block() -> None:
     planner = GridPlanner(box_map(), robot_radius=0.2)
     planner.add_obstacle("sheet", Rectangle(3.0, 1.0, 0.01, 7.0))   # 1 cm, thinner than a cell

@@ -162,3 +162,30 @@ def test_meeting_point_asks_who_arrives_and_asks_again(faculty) -> None:
     assert phases(acts) == [Phase.ON_THE_WAY]
     assert n.on_people([person(2, move.x + 1.0, move.y)], 80.0, sender=PEOPLE) == []
 
+
+
+def test_driving_alone_to_the_meeting_point_the_laser_is_read_only_near_it(faculty) -> None:
+    """The goal-floor robot drives alone to the meeting point: nobody to watch on the way (a simulated laser not
+    read costs no rays); from ``watch_within`` m of it on, for the rest of the leg, and waiting there, it watches."""
+    t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
+    n = nav(faculty, t.goal_robot, watch_within=8.0)
+    [move] = moves(n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM))
+    home = faculty.robot(t.goal_robot).home
+    assert math.hypot(move.x - home.x, move.y - home.y) > 8.0          # a meeting point far from home
+    assert not n.wants_people and not n.wants_visitor
+    n.on_pose(move.x - 9.0, move.y, 0.0)
+    assert not n.wants_people
+    n.on_pose(move.x - 7.0, move.y, 0.0)
+    assert n.wants_people
+    n.on_pose(move.x - 9.0, move.y, 0.0)                                # the path winds away: still read
+    assert n.wants_people
+    n.on_pose(move.x, move.y, move.yaw)
+    acts = n.on_move_base_result(move.token, SUCCEEDED, "", 60.0, 0.0)
+    assert phases(acts) == [Phase.WAITING_VISITOR] and n.wants_people and not n.wants_visitor
+
+
+def test_a_leg_that_starts_near_its_target_is_watched_at_once(faculty) -> None:
+    t = trip(faculty, "Tartalo", "301", "Tartalo/v/1")
+    n = nav(faculty, t.goal_robot, watch_within=1e6)
+    n.on_pending([t], 0.0, 1.0, 0.0, robot=n.me, sender=GM)
+    assert n.wants_people

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_navigation.perception.robot_pose import RobotPose
+from gidabot_navigation.perception.robot_pose import RobotPose, _inverse, _matrix
 
 
 def test_no_pose_before_the_first_localisation() -> None:
@@ -62,3 +63,10 @@ def test_a_robot_at_rest_keeps_its_latest_odometry_however_old() -> None:
     assert (at.x, at.y, at.yaw) == pytest.approx((5.0, 5.0, 0.08))
     poses.odometry(2.0, Pose2D(0.0, 0.0, 0.08), moving=True)
     assert poses.at(2.7) == Pose2D(5.0, 5.0, 0.0)
+
+
+def test_the_closed_form_inverse_undoes_the_pose() -> None:
+    for pose in (Pose2D(0.0, 0.0, 0.0), Pose2D(3.2, -1.5, 2.9), Pose2D(-7.0, 4.0, -math.pi), Pose2D(1e3, 2e3, 0.3)):
+        product = _matrix(pose) @ _inverse(pose)
+        assert np.allclose(product, np.eye(3), atol=1e-9)
+        assert np.allclose(_inverse(pose), np.linalg.inv(_matrix(pose)), atol=1e-9)

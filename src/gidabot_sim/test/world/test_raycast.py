@@ -122,3 +122,29 @@ def test_occupied_cells_of_a_map_block_and_beam_angles() -> None:
     assert beam_angles(-1.0, 1.0, 3).tolist() == [-1.0, 0.0, 1.0]
     with pytest.raises(ValueError, match="beams"):
         beam_angles(0, 1, 0)
+
+
+def test_a_cast_from_the_same_pose_reuses_the_walls_but_not_the_discs_nor_an_old_mask() -> None:
+    """A robot at rest casts the same rays scan after scan: the walls' ranges are kept, the discs (people walking
+    past it) intersected anew, and a new mask (an obstacle put down) is cast again."""
+    solid = room()
+    caster = RayCaster(solid, RES, (0.0, 0.0, 0.0))
+    angles = beam_angles(-math.pi, math.pi, 360)
+    first = caster.cast(3.0, 2.0, angles, 20.0)
+    again = caster.cast(3.0, 2.0, angles, 20.0, discs=[(5.0, 2.0, 0.25)])
+    assert (caster.casts, caster.cached) == (2, 1)
+    ahead = int(np.argmin(np.abs(angles)))
+    assert again[ahead] == pytest.approx(1.75, abs=0.01) and first[ahead] == pytest.approx(6.95, abs=0.01)
+    assert caster.cast(3.0, 2.0, angles, 20.0).tolist() == first.tolist()      # the disc is not kept
+    caster.cast(3.0, 2.0, angles, 20.0)[:] = 0.0                                 # a caller's copy, not the kept one
+    assert caster.cast(3.0, 2.0, angles, 20.0).tolist() == first.tolist()
+    moved = caster.cast(3.0 + 1e-9, 2.0, angles, 20.0)                           # another pose: cast
+    assert caster.cached == 4 and moved[ahead] == pytest.approx(first[ahead], abs=1e-6)
+    blocked = solid.copy()
+    blocked[:, 120] = True                                                       # a wall at x 6.0-6.05 m
+    caster.update(blocked)
+    assert caster.cast(3.0, 2.0, angles, 20.0)[ahead] == pytest.approx(3.0, abs=0.01)
+    assert caster.cached == 4
+    for k in range(12):                                                          # at most CACHE_SIZE kept
+        caster.cast(1.0 + 0.1 * k, 2.0, angles, 20.0)
+    assert len(caster._walls) <= 8

@@ -240,6 +240,7 @@ class GridPlanner:
         self._obstacles: dict[str, Shape] = {}
         self._obstacle_mask = np.zeros_like(self._static)
         self._marks = np.zeros_like(self._static)
+        self._marks_box: tuple[int, int, int, int] | None = None    # (r0, r1, c0, c1) holding every mark
         self._lethal = self._fixed.copy()
         self._dist = np.zeros(self._static.shape, dtype=np.float32)   # m to the nearest lethal cell
         self._weights = np.zeros(self._static.shape, dtype=np.float32)
@@ -316,7 +317,40 @@ class GridPlanner:
         if not changed.any():
             return False
         self._marks = marks.copy()
+        rows, cols = np.nonzero(marks)
+        self._marks_box = (int(rows.min()), int(rows.max()) + 1, int(cols.min()), int(cols.max()) + 1) \
+            if rows.size else None
         self._apply_lethal(changed)
+        return True
+
+    def set_sensor_mark_cells(self, cells: Iterable[tuple[tuple[slice, slice], np.ndarray]]) -> bool:
+        """Replace the sensor-marked lethal cells by the union of ``cells`` (each as :func:`rasterize` returns it),
+        as :meth:`set_sensor_marks` does, touching only the window that holds the old and the new marks: a person
+        walking past costs the costmap a few square metres, not the whole map. True when anything changed."""
+        cells = list(cells)
+        boxes = [(rs.start, rs.stop, cs.start, cs.stop) for (rs, cs), _mask in cells]
+        new_box = (min(b[0] for b in boxes), max(b[1] for b in boxes), min(b[2] for b in boxes),
+                   max(b[3] for b in boxes)) if boxes else None
+        if self._marks_box is not None:
+            boxes.append(self._marks_box)
+        if not boxes:
+            return False
+        r0, r1 = min(b[0] for b in boxes), max(b[1] for b in boxes)
+        c0, c1 = min(b[2] for b in boxes), max(b[3] for b in boxes)
+        window = np.zeros((r1 - r0, c1 - c0), dtype=bool)
+        for (rs, cs), mask in cells:
+            window[rs.start - r0:rs.stop - r0, cs.start - c0:cs.stop - c0] |= mask
+        marks = self._marks[r0:r1, c0:c1]
+        changed = window != marks
+        if not changed.any():
+            return False
+        marks[...] = window                          # this planner's own array: changed in place
+        self._marks_box = new_box
+        self._lethal = self._lethal.copy()           # a mask handed out (lethal) is never changed under its holder
+        self._lethal[r0:r1, c0:c1] = self._fixed[r0:r1, c0:c1] | self._obstacle_mask[r0:r1, c0:c1] | window
+        rows, cols = np.nonzero(changed)
+        self._update_region((r0 + int(rows.min()), r0 + int(rows.max()) + 1,
+                             c0 + int(cols.min()), c0 + int(cols.max()) + 1))
         return True
 
     def _rebuild_obstacles(self) -> None:

@@ -167,7 +167,9 @@ class NavigationConfig:
     is published when it moved ``pose_min_move`` m or turned ``pose_min_turn`` rad since the last one published,
     else at every ``pose_keepalive``-th tick of the pose timer (a robot at rest costs its peers little).
     ``pacing``: the visitor's pace (None: the robot drives at its own pace whatever its laser sees); ``arrival``:
-    asking who arrives at the meeting point to press Continue."""
+    asking who arrives at the meeting point to press Continue. ``watch_within`` (m): driving alone to meet its
+    visitor (to the request point, to the meeting point), the robot has the people around it watched from this
+    far from that place on (:attr:`NavigationCore.wants_people`)."""
 
     robot: str
     continue_timeout: float = 300.0
@@ -181,10 +183,11 @@ class NavigationConfig:
     pose_keepalive: int = 5
     pacing: PacingConfig | None = field(default_factory=PacingConfig)
     arrival: ArrivalConfig = field(default_factory=ArrivalConfig)
+    watch_within: float = 8.0
 
     def __post_init__(self) -> None:
         for name in ("continue_timeout", "partner_timeout", "offline_after", "pickup_distance", "nav_lost_timeout",
-                     "pose_min_move", "pose_min_turn"):
+                     "pose_min_move", "pose_min_turn", "watch_within"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise GuidingError(f"{name}: {value!r} must be a positive number")
@@ -211,6 +214,7 @@ class Leg:
     pacer: Pacer | None = None          # guiding: the visitor's pace
     detour: bool = False                # the move_base goal is pacing's (turn to the visitor, search), not target
     arrivals: ArrivalWatch | None = None   # waiting at the meeting point: who arrives
+    near: bool = False                  # driving alone to the visitor: came within watch_within of the target
 
 
 class NavigationCore:
@@ -267,6 +271,13 @@ class NavigationCore:
     def on_pose(self, x: float, y: float, yaw: float) -> None:
         if all(isinstance(v, (int, float)) and math.isfinite(v) for v in (x, y, yaw)):
             self.pose = Pose2D(float(x), float(y), float(yaw))
+            if self.leg is not None:
+                self._near(self.leg)
+
+    def _near(self, leg: Leg) -> None:
+        """Mark ``leg`` near once the robot is within ``watch_within`` m of its target (:attr:`wants_people`)."""
+        if not leg.near and self.pose is not None and self.pose.distance_to(leg.target) <= self.cfg.watch_within:
+            leg.near = True
 
     def pose_to_publish(self) -> Pose2D | None:
         """At a tick of the pose timer: the pose to publish on ``/gidabot/poses``, or None (not localised yet, or
@@ -503,9 +514,15 @@ class NavigationCore:
 
     @property
     def wants_people(self) -> bool:
-        """Whether the people around the robot should be watched now (a trip is on: the tracks are warm when
-        guiding starts, someone arriving at a meeting point is seen); idle, the laser need not be read."""
-        return self.leg is not None
+        """Whether the people around the robot should be watched now: while it guides or waits with a leg (someone
+        arriving at a meeting point is seen), and driving alone to meet its visitor once it came within
+        ``watch_within`` m of that place (the tracks are warm when guiding starts; from then on for the whole leg,
+        a path that winds away again does not stop and start the laser). Idle, or driving alone farther away,
+        the laser need not be read (a simulated laser not read costs its simulator no rays)."""
+        leg = self.leg
+        if leg is None:
+            return False
+        return leg.near or leg.stage not in (Stage.PICKUP, Stage.TO_MEETING) or self.pose is None
 
     @property
     def wants_visitor(self) -> bool:
@@ -852,6 +869,7 @@ class NavigationCore:
                  now_ros: float) -> Leg:
         self._token += 1
         self.leg = Leg(trip, r, stage, self._token, target, partner=partner, started=now_ros)
+        self._near(self.leg)
         self._pace(self.leg, now_ros)
         return self.leg
 

@@ -95,7 +95,8 @@ class Params:
                                offline_after=param_number("~offline_after", 5.0),
                                pickup_distance=param_number("~pickup_distance", 1.5),
                                nav_lost_timeout=param_number("~nav_lost_timeout", 30.0), simulated=simulated(),
-                               pacing=pacing_params(), arrival=arrival_params())
+                               pacing=pacing_params(), arrival=arrival_params(),
+                               watch_within=param_number("~watch_within", 8.0))
         return Params(building, cfg, param_number("~status_rate", 2.0),
                       param_number("~pose_rate", 5.0), param_text("~move_base", Topic.MOVE_BASE, required=True),
                       param_text("~frame_id", "map", required=True),
@@ -172,8 +173,8 @@ class NavigationNode:
         waiting for them, slow-downs, waits, searches, lost, found again.
       - ``people/visitor_lock`` (std_msgs/Bool, latched): lock the visitor's track while guiding (false then
         true: look for the visitor anew, when searching).
-      - ``people/watch`` (std_msgs/Bool, latched): have the people around the robot watched, during a trip (the
-        people node reads the laser only while this or the lock is true).
+      - ``people/watch`` (std_msgs/Bool, latched): have the people around the robot watched, during a trip once
+        near the visitor (``~watch_within``; the people node reads the laser only while this or the lock is true).
       - ``move_base/speed_limit`` (std_msgs/Float32, latched): m/s, the most the robot may drive now (0: its own
         limits). The simulator's move_base honours it; on a robot, a bridge sets the local planner's
         ``max_vel_x`` through dynamic_reconfigure.
@@ -185,6 +186,8 @@ class NavigationNode:
       - ``~partner_timeout`` (wall s, 120): a goal-floor robot whose start robot stays offline gives up.
       - ``~offline_after`` (wall s, 5): a robot without status this long is offline.
       - ``~pickup_distance`` (m, 1.5): farther from the request point, the robot first picks the visitor up.
+      - ``~watch_within`` (m, 8): driving alone to the request point or the meeting point, the robot has the
+        people around it watched (``people/watch``) from this far from it on; guiding and waiting, always.
       - ``~nav_lost_timeout`` (ROS s, 30): move_base gone this long during a leg -> UNREACHABLE.
       - ``~pace`` (bool, true): guide at the visitor's pace; ``~pace_<bound>``: the bounds of
         ``guiding.pacing.PacingConfig`` (``near``, ``hysteresis``, ``far``, ``resume``, ``slow_speed``,

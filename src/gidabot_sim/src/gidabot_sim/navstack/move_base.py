@@ -337,12 +337,9 @@ class MoveBaseCore:
             return False
         self._robots = marks
         grid = self.planner.grid
-        mask = np.zeros((grid.height, grid.width), dtype=bool)
-        for robot in marks.values():
-            cells = rasterize(Circle(robot.x, robot.y, robot.radius + self.config.robot_mark_step), grid)
-            if cells is not None:
-                mask[cells[0]] |= cells[1]
-        if not self.planner.set_sensor_marks(mask):
+        cells = [rasterize(Circle(robot.x, robot.y, robot.radius + self.config.robot_mark_step), grid)
+                 for robot in marks.values()]
+        if not self.planner.set_sensor_mark_cells(c for c in cells if c is not None):
             return False
         if self.state in (State.FOLLOWING, State.ROTATING) and self.path is not None \
                 and self.planner.path_blocked(self.path.remaining(), skip=0.0):

@@ -664,6 +664,8 @@ class FloorSim:
             "wait_ceiling_s": f"{s.waited['ceiling']:.3f}", "steps": str(s.steps), "max_lead_s": f"{s.max_lead:.2f}",
             "obstacles": str(len(world.obstacles)), "stalls": str(sum(r.stalls for r in own)),
             "laser_scans": str(self.scans),
+            # rays cast, and how many of those casts found the walls' ranges kept (a robot that had not moved)
+            "laser_casts": str(world.caster.casts), "laser_casts_kept": str(world.caster.cached),
         }
         for node, stats in self.lockstep.stats().items():
             values[f"participant {node}"] = json.dumps(stats, separators=(",", ":"))

@@ -11,6 +11,10 @@ range is exact to the map's geometry.
 
 Other robots (discs) are intersected analytically. A ray that leaves the grid
 or reaches ``range_max`` has no return: its range is ``inf`` (REP 117).
+
+The walls' ranges of the latest few casts are kept, keyed on the exact origin, angles and ``range_max``: a
+robot at rest (waiting for its visitor, at a meeting point) casts the same rays scan after scan, and only the
+discs, which move, are intersected again. A new mask (:meth:`RayCaster.update`) forgets them.
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ MAX_ITERATIONS = 20000      # bound on the loop (a ray crosses at most width + h
 # ray lying on a cell boundary steps 0 cells to that boundary at every iteration near a wall (until the bound: no
 # return, and a thousand times the time of a scan)
 AXIS_EPS = 1e-9
+CACHE_SIZE = 8              # casts whose walls' ranges are kept (a floor's simulator casts for its own robots)
 
 
 class RayCaster:
@@ -41,6 +46,8 @@ class RayCaster:
         self.resolution = float(resolution)
         self.origin = (float(origin[0]), float(origin[1]), float(origin[2]))
         self._cos, self._sin = math.cos(self.origin[2]), math.sin(self.origin[2])
+        self._walls: dict[tuple[float, float, float, bytes], np.ndarray] = {}   # oldest first
+        self.casts = self.cached = 0          # casts made, and how many of them found their walls' ranges kept
         self.update(solid)
 
     def update(self, solid: np.ndarray) -> None:
@@ -54,6 +61,7 @@ class RayCaster:
         # the field with an extra row and column of -1: a ray off the grid reads -1 (no return); indices
         # are clamped as unsigned numbers, so negative ones land on the extra row/column too
         self._padded = np.pad(self.dist, ((0, 1), (0, 1)), constant_values=-1.0)
+        self._walls = {}
 
     def clearance(self, x: float, y: float) -> float:
         """Distance (m) from map point (x, y) to the nearest solid cell's edge; 0 off the grid or inside.
@@ -95,10 +103,27 @@ class RayCaster:
         ``discs``: other bodies (x, y, radius) in metres, intersected exactly. No return -> ``inf``.
         """
         angles = np.asarray(angles, dtype=np.float64)
+        if angles.size == 0:
+            return np.full(0, np.inf)
+        self.casts += 1
+        key = (float(x), float(y), float(range_max), angles.tobytes())
+        walls = self._walls.pop(key, None)
+        if walls is None:
+            walls = self._cast_walls(x, y, angles, range_max)
+            if len(self._walls) >= CACHE_SIZE:
+                del self._walls[next(iter(self._walls))]
+        else:
+            self.cached += 1
+        self._walls[key] = walls                     # the newest last
+        ranges = walls.copy()
+        for cx, cy, radius in discs:
+            ranges = np.minimum(ranges, disc_hits(x, y, angles, cx, cy, radius))
+        ranges[ranges > range_max] = np.inf
+        return ranges
+
+    def _cast_walls(self, x: float, y: float, angles: np.ndarray, range_max: float) -> np.ndarray:
+        """The ranges (m) of the rays to the solid cells alone; ``inf`` beyond ``range_max``."""
         n = angles.size
-        ranges = np.full(n, np.inf)
-        if n == 0:
-            return ranges
         ox, oy = self._local(x, y)
         local = angles - self.origin[2]
         dx, dy = np.cos(local), np.sin(local)
@@ -135,9 +160,6 @@ class RayCaster:
                 idx, t, dx, dy = idx[keep], t[keep], dx[keep], dy[keep]
                 inv_x, inv_y, next_x, next_y = inv_x[keep], inv_y[keep], next_x[keep], next_y[keep]
         ranges = hit_t * self.resolution
-        ranges[ranges > range_max] = np.inf
-        for cx, cy, radius in discs:
-            ranges = np.minimum(ranges, disc_hits(x, y, angles, cx, cy, radius))
         ranges[ranges > range_max] = np.inf
         return ranges
 
