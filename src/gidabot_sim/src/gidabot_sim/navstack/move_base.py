@@ -629,8 +629,7 @@ class MoveBaseCore:
                              "re-planning")
             self.clear_costmaps()
             self._robots = {}                  # marked again as the laser sees them (a mark behind may be stale)
-            grid = self.planner.grid
-            self.planner.set_sensor_marks(np.zeros((grid.height, grid.width), dtype=bool))
+            self.planner.set_sensor_mark_cells(())
             self._need_plan = True
             return None
         return self._abort(f"Robot stalled: {what}, also after clearing the costmap and re-planning")
