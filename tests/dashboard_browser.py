@@ -33,14 +33,14 @@ class Browser:
                     f"--window-size={width},{height}", "--lang=en-GB", "--force-device-scale-factor=1"):
             opts.add_argument(arg)
         self.driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=opts)
-        self.driver.set_page_load_timeout(30)
+        self.driver.set_page_load_timeout(120)
 
     def close(self) -> None:
         self.driver.quit()
 
     def open(self, url: str, view: str = "building") -> None:
         self.driver.get(url.rstrip("/") + "/#" + view)
-        self.wait(lambda: self.css("#conn").get_attribute("data-state") == "live", 30, "the page live")
+        self.wait(lambda: self.css("#conn").get_attribute("data-state") == "live", 60, "the page live")
 
     def css(self, selector: str) -> WebElement:
         return self.driver.find_element(By.CSS_SELECTOR, selector)

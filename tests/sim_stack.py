@@ -24,7 +24,7 @@ from pathlib import Path
 from probe import Probe, ProbeError, close_all
 
 from gidabot_navigation.building.model import Building, load_building
-from gidabot_navigation.interface import GUIDING_NODES, Node, Topic, global_name
+from gidabot_navigation.interface import GUIDING_NODES, Node, Phase, Topic, global_name
 from gidabot_sim.runner.building_runner import SimulatedBuilding
 from gidabot_sim.runner.procs import robot_address, wait_until
 
@@ -248,7 +248,19 @@ class SimStack:
             if m["phase"] in FAILURES and m["phase"] not in phases:
                 raise AssertionError(f"{robot} failed: {m}")
             return m["phase"] in phases
-        return rec.wait(EVENTS, match, timeout, f"phase {sorted(phases)} of {robot} for {goal_uid}", since=since)
+        try:
+            return rec.wait(EVENTS, match, timeout, f"phase {sorted(phases)} of {robot} for {goal_uid}", since=since)
+        except ProbeError as e:
+            raise ProbeError(f"{e}; {self.seen(goal_uid)}") from None
+
+    def seen(self, goal_uid: str | None) -> str:
+        """What each master saw of ``goal_uid``: (robot, phase, leg, detail) of its NavEvents, for a failure's
+        message (a system test's run folder is gone when CI prints it)."""
+        if goal_uid is None:
+            return "no goal uid"
+        return "; ".join(f"seen on {on}: " + (", ".join(
+            f"{m['robot']} {Phase(m['phase']).name} {m.get('leg', '')} {m.get('detail', '')!r}".strip()
+            for m in self.events(on, goal_uid)) or "nothing") for on in self.robots)
 
     def pose(self, robot: str) -> tuple[float, float]:
         """The robot's latest amcl_pose (x, y)."""

@@ -91,7 +91,7 @@ def test_a_robot_taken_out_of_service_hands_its_queued_leg_to_the_other_robot_of
     own, _ = stack.request("Galtxagorri", "231")
     since_g = stack.rec["Galtxagorri"].count(EVENTS)
     uid, _ = stack.request("Tartalo", "223")
-    stack.wait_event("Galtxagorri", Phase.ACCEPTED, uid, timeout=30, since=since_g)
+    stack.wait_event("Galtxagorri", Phase.ACCEPTED, uid, timeout=60, since=since_g)
     wait_until(lambda: uid in queued(stack, "Galtxagorri"), 20, "the goal leg queued at Galtxagorri")
     set_service(browser, "Lamia", out=False)
     since_l = stack.rec["Lamia"].count(EVENTS)
