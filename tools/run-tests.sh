@@ -26,7 +26,7 @@ unit() {
 pytest_suite() { local rc=0; pytest "$@" || rc=$?; [ "$rc" -eq 5 ] && rc=0; return "$rc"; }
 
 system() {
-  run system pytest_suite -q -p no:cacheprovider -m "system" tests src "$@"
+  run system pytest_suite -q -p no:cacheprovider --durations=30 -m "system" tests src "$@"
   local t
   for t in src/*/test/*.test; do
     [ -e "$t" ] || continue

@@ -115,6 +115,34 @@ def test_a_body_its_robot_turns_back_towards_steps_aside_off_the_robot_s_line() 
     assert crowd.bodies[0].x < x0
 
 
+def test_a_standing_body_makes_way_for_another_robot_facing_it_and_a_walking_one_walks_on() -> None:
+    crowd, world = setup(Behaviour(speed=1.0, gap=1.0, pauses=((3.0, 60.0),)))
+    t = drive(crowd, world, 1.0, 8.0, 0.6, lambda t: None)        # its robot R drives on; the body pauses
+    (body,) = crowd.bodies
+    bx, by = body.x, body.y
+    robot = world.robots[0].pose
+    r = RobotDisc("R", robot.x, robot.y, 0.3, 0.0)
+    for _ in range(20):                           # Q, behind the body and facing away, or beyond 1.5 m: no change
+        t += 0.1
+        crowd.step(t, [r, RobotDisc("Q", bx - 1.0, by, 0.3, math.pi), RobotDisc("Q2", bx + 2.5, by, 0.3, math.pi)])
+    assert (crowd.bodies[0].x, crowd.bodies[0].y) == (bx, by)
+    for _ in range(20):                           # Q comes along the corridor, facing it: the body makes room
+        t += 0.1
+        crowd.step(t, [r, RobotDisc("Q", bx + 1.5, by, 0.3, math.pi)])
+    body = crowd.bodies[0]
+    assert abs(body.y - by) >= 0.3 + PERSON_RADIUS + 0.3 - 1e-6 and abs(body.x - bx) < 1e-9
+    assert world.clearance(body.x, body.y) >= PERSON_RADIUS * 0.8
+    # a bystander walking across the front of a robot standing there walks on
+    plan = lambda a, b: [(a[0] + (b[0] - a[0]) * k / 20, a[1] + (b[1] - a[1]) * k / 20) for k in range(21)]  # noqa
+    crowd = Crowd(world.clearance, plan, [(2.0, 2.5), (18.0, 2.5)], [Bystander("b1", speed=1.0, route=3)])
+    crowd.step(0.1, [])
+    start = crowd.bodies[0].x
+    ahead = 2.0 if start < 10.0 else -2.0                       # Q stands 1.5 m off its way, 2 m on, facing it
+    for k in range(2, 40):
+        crowd.step(k * 0.1, [RobotDisc("Q", start + ahead, 1.0, 0.3, math.pi / 2)])
+    assert abs(crowd.bodies[0].x - start) > 3.0 and abs(crowd.bodies[0].y - 2.5) < 1e-9
+
+
 def test_leave_and_gone() -> None:
     crowd, world = setup()
     crowd.direct(Directive("v1", LEAVE, "R", math.nan, math.nan), [])
@@ -206,6 +234,9 @@ def test_the_floor_takes_directives_lists_the_people_seen_and_counts_collisions(
     diag = [o for o in floor.out if isinstance(o, fs.Diagnostics)]
     values = dict(diag[-1].values)
     assert values["people_collisions"] == "0" and values["people"] == "1"
+    pid, x, y = values["people_at"].split()
+    (_, bx, by, _r), = floor.sim.world.people
+    assert pid == "person/v1" and math.hypot(float(x) - bx, float(y) - by) < 2.0       # where it was a step ago
     floor.sim.post(fs.VISITOR_BODY, -1, lambda: Behaviour(speed=9.0))   # a bad one (converted) is rejected, counted
     floor.run(wall + 4.0, 2)
     assert floor.sim.rejected.counts.get(fs.VISITOR_BODY) == 1

@@ -680,6 +680,9 @@ class FloorSim:
         values["robot_deadlocks"] = str(world.deadlocks)
         values["people_collisions"] = str(world.people_collisions)     # a robot of this node stopped by a person
         values["people"] = str(len(world.people))
+        # where each body truly is (m, map frame): what a report or a person reading the bag checks the robots'
+        # view of their visitors against
+        values["people_at"] = "; ".join(f"{pid} {x:.2f} {y:.2f}" for pid, x, y, _r in world.people)
         values["deadlocked"] = ", ".join(f"{a}+{b}" for a, b in deadlocked)
         values["floor_robots"] = ",".join(r.spec.name for r in world.robots)
         absent = sorted(p.node for p in self.lockstep.participants.values() if p.absent)

@@ -26,6 +26,11 @@ A body never walks into a wall or a robot: a step that would is not taken (it wa
 (:func:`~gidabot_sim.visitor.behaviour.draw_bystanders`) walk between the floor's places along planned paths,
 some standing a while at the narrowest point of their walk; they too wait for a robot in their way.
 
+**Anybody makes way for a robot**: a body that stood still this step (pausing, waiting behind its robot, a
+bystander standing, or one a robot blocks) and that another robot faces from within :data:`MAKE_WAY_RANGE`
+steps off that robot's line as a body does for its own robot (:meth:`Crowd._make_way`); one that is walking
+walks on. Else a person standing in a corridor would stop every robot but its own for as long as it stands.
+
 Time is passed in; nothing here reads a clock.
 """
 
@@ -49,6 +54,7 @@ GROUP_SPACING = 0.7           # m between the bodies of a group, along the path
 ROBOT_MARGIN = 0.05           # m a body keeps from a robot's disc
 ASIDE_MARGIN = 0.3            # m a body stepping aside leaves between its disc and the robot's line of travel
 FACING = math.radians(60.0)   # a body is in front of a robot within this angle of its heading
+MAKE_WAY_RANGE = 1.5          # m between the discs within which a standing body makes way for a robot facing it
 REJOIN_POINTS = 80            # trail points looked back over when a body rejoins its robot's way
 FOLLOW, LEAVE, GONE = 0, 1, 2  # a directive's modes (gidabot_msgs/VisitorBody)
 MODES = (FOLLOW, LEAVE, GONE)
@@ -217,13 +223,23 @@ class Crowd:
                 self.trails[r.name].add(r.x, r.y)
         before = [(b, b.x, b.y) for b in self.bodies]
         for visitor_id in list(self.followers):
-            keep = [f for f in self.followers[visitor_id] if self._step_follower(f, t, dt, robots)]
+            keep = []
+            for f in self.followers[visitor_id]:
+                x, y = f.body.x, f.body.y
+                if not self._step_follower(f, t, dt, robots):
+                    continue
+                keep.append(f)
+                if (f.body.x, f.body.y) == (x, y) and not f.stood_aside:
+                    self._make_way(f.body, f.directive.behaviour.speed * dt, robots, f.directive.robot)
             if keep:
                 self.followers[visitor_id] = keep
             else:
                 del self.followers[visitor_id]
         for w in self.walkers:
+            x, y = w.body.x, w.body.y
             self._step_walker(w, t, dt, robots)
+            if math.isfinite(x) and (w.body.x, w.body.y) == (x, y):
+                self._make_way(w.body, w.spec.speed * dt, robots, "")
         for b, x, y in before:           # the velocity of the step just made (the laser's and the mates' view)
             moved = dt > 0 and math.isfinite(x) and math.isfinite(b.x)
             b.vx, b.vy = ((b.x - x) / dt, (b.y - y) / dt) if moved else (0.0, 0.0)
@@ -292,6 +308,23 @@ class Crowd:
             if p is not None and math.hypot(p[0] - b.x, p[1] - b.y) <= 1.5:
                 return seq
         return trail.end
+
+    def _make_way(self, b: Body, budget: float, robots: Sequence[RobotDisc], own: str) -> None:
+        """A body that stood still this step steps off the line of the nearest robot but ``own`` (its own robot
+        has its rule: :meth:`_step_follower`) that faces it from within :data:`MAKE_WAY_RANGE`."""
+        near = None
+        for r in robots:
+            if r.name == own or not math.isfinite(r.yaw):
+                continue
+            gap = math.hypot(r.x - b.x, r.y - b.y) - r.radius - b.radius
+            hx, hy = math.cos(r.yaw), math.sin(r.yaw)
+            ahead = (b.x - r.x) * hx + (b.y - r.y) * hy
+            side = (b.x - r.x) * -hy + (b.y - r.y) * hx
+            if gap <= MAKE_WAY_RANGE and ahead > 0.0 and math.atan2(abs(side), ahead) <= FACING and \
+                    (near is None or gap < near[0]):
+                near = (gap, r)
+        if near is not None and budget > 0.0:
+            self._step_aside(b, near[1], budget, robots, False)
 
     def _step_aside(self, b: Body, robot: RobotDisc, budget: float, robots: Sequence[RobotDisc],
                     aside: bool) -> bool:
