@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from gidabot_navigation.interface import Phase
-from gidabot_sim.report.pace import merge, pace_from_diagnostics, pace_from_events, totals
+from gidabot_sim.report.pace import merge, pace_from_diagnostics, pace_from_events, people_at, totals, where_lost
 
 
 def test_waits_searches_lost_and_found_again_from_the_events() -> None:
@@ -38,3 +38,19 @@ def test_the_robots_own_counts_win_and_are_summed() -> None:
     t = totals(rows)
     assert t == {"legs": 2, "mean_behind_m": 1.4, "worst_behind_m": 3.2, "waiting_s": 30.0, "slowdowns": 2,
                  "waits": 1, "searches": 1, "lost": 0, "found_again": 1}
+
+
+def test_where_a_lost_visitor_truly_was() -> None:
+    """The simulator's people_at (bad parts skipped) and the robot's track at the loss: the body 6 m away; a body
+    gone from the floor; nothing recorded near the time."""
+    assert people_at("person/v1 1.00 2.00; person/v2 x 3; person/b1 4 5 6; ; person/v3 nan 1") == \
+        {"person/v1": (1.0, 2.0)}
+    tracks = {"Kbot": [(90.0, 0.0, 0.0), (101.0, 10.0, 0.0), (500.0, 1.0, 1.0)]}
+    bodies = {"Kbot": [(95.0, {"person/v1": (4.0, 0.0)}), (105.0, {"person/v1": (4.0, 0.0), "person/v1/1": (4.0, 1.0)}),
+                       (300.0, {"person/bystander0": (1.0, 1.0)})]}
+    rows = where_lost([(300.0, "Kbot", "Kbot/v1/gm.2"), (100.0, "Kbot", "Kbot/v1/gm.1"),
+                       (900.0, "Kbot", "Kbot/v1/gm.3")], tracks, bodies)
+    assert rows[0] == {"t": 100.0, "robot": "Kbot", "goal_uid": "Kbot/v1/gm.1", "robot_at": [10.0, 0.0],
+                       "body_at": [4.0, 0.0], "on_floor": True, "distance_m": 6.0}
+    assert (rows[1]["body_at"], rows[1]["on_floor"], rows[1]["robot_at"]) == (None, False, None)
+    assert (rows[2]["body_at"], rows[2]["on_floor"], rows[2]["distance_m"]) == (None, None, None)

@@ -32,7 +32,8 @@ from gidabot_navigation.interface import (
 )
 from gidabot_sim.errors import ReportError
 
-TIMING_STATUSES = ("sim: floor ", "guiding: ")      # the /diagnostics statuses the timing report reads
+SIM_STATUS = "sim: floor "                         # a floor simulator's /diagnostics status (its name's start)
+TIMING_STATUSES = (SIM_STATUS, "guiding: ")          # the /diagnostics statuses the timing report reads
 
 
 @dataclass(frozen=True)

@@ -11,17 +11,67 @@ Two sources, each a robot's own:
   slow-downs, waits, searches, lost, found again, as the robot counted them.
 
 :func:`merge` puts both together (the diagnostics' numbers where there are some) and :func:`totals` sums them.
+:func:`where_lost` says, for each visitor a robot declared lost, where the robot was and where the visitor's body
+truly was then (the simulator's ``people_at``): a person reading the report tells a visitor who walked off from
+one the robot did not see.
 """
 
 from __future__ import annotations
 
 import math
+from bisect import bisect_left
 from collections.abc import Iterable, Sequence
 
-from gidabot_navigation.interface import FINAL_PHASES, PACE_PHASES, Phase
+from gidabot_navigation.interface import FINAL_PHASES, PACE_PHASES, PERSON_ID_PREFIX, Phase
 
 PACE_STATUS = "guiding: pace "
 COUNTS = ("slowdowns", "waits", "searches", "lost", "found_again")
+LOOK_S = 30.0         # s: a position sampled further than this from a loss is not where it was then
+
+
+def people_at(value: str) -> dict[str, tuple[float, float]]:
+    """The simulator's ``people_at`` diagnostics value (``<id> <x> <y>; ...``) -> id -> (x, y); a part that does
+    not read is skipped."""
+    out: dict[str, tuple[float, float]] = {}
+    for part in value.split(";"):
+        words = part.split()
+        if len(words) != 3:
+            continue
+        try:
+            x, y = float(words[1]), float(words[2])
+        except ValueError:
+            continue
+        if math.isfinite(x) and math.isfinite(y):
+            out[words[0]] = (x, y)
+    return out
+
+
+def _nearest(samples: Sequence[tuple[float, object]], t: float) -> object | None:
+    """The value of the time-ordered ``samples`` (t, value) nearest ``t``, within :data:`LOOK_S`."""
+    k = bisect_left([s[0] for s in samples], t)
+    best = min((samples[j] for j in (k - 1, k) if 0 <= j < len(samples)), key=lambda s: abs(s[0] - t), default=None)
+    return best[1] if best is not None and abs(best[0] - t) <= LOOK_S else None
+
+
+def where_lost(losses: Iterable[tuple[float, str, str]], tracks: dict[str, Sequence[tuple[float, float, float]]],
+               bodies: dict[str, Sequence[tuple[float, dict[str, tuple[float, float]]]]]) -> list[dict]:
+    """(time s, robot, goal uid) of each VISITOR_LOST; each robot's track (t, x, y) and its floor's bodies (t,
+    id -> (x, y)), both time-ordered -> a row per loss: where the robot was, where the visitor's body was (the
+    visitor id is the goal uid's second part, ``<robot>/<visitor>/...``; a group's first body), and the distance
+    between them (None where not recorded; no body: it had left the floor)."""
+    rows = []
+    for t, robot, goal_uid in sorted(losses):
+        parts = goal_uid.split("/")
+        person = PERSON_ID_PREFIX + parts[1] if len(parts) >= 3 else ""
+        pose = _nearest([(p[0], (p[1], p[2])) for p in tracks.get(robot, ())], t)
+        seen = _nearest(bodies.get(robot, ()), t)
+        body = seen.get(person) if isinstance(seen, dict) else None
+        rows.append({"t": round(t, 1), "robot": robot, "goal_uid": goal_uid,
+                     "robot_at": None if pose is None else [round(v, 2) for v in pose],
+                     "body_at": None if body is None else [round(v, 2) for v in body],
+                     "on_floor": None if seen is None else body is not None,
+                     "distance_m": None if pose is None or body is None else round(math.dist(pose, body), 2)})
+    return rows
 
 
 def _row(goal_uid: str, robot: str) -> dict:

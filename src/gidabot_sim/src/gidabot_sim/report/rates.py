@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import math
 
-from gidabot_sim.report.bags import DiagSample, RobotRecord
+from gidabot_sim.report.bags import SIM_STATUS, DiagSample, RobotRecord
 
 MAX_BEHIND_PCT = 1.0          # a floor behind its ceiling for more of the tour's wall time: degraded
 MIN_RATE_PCT = 80.0           # a controller or guiding loop below this share of its nominal rate: degraded
@@ -32,7 +32,7 @@ def _bracket(samples: list[DiagSample], start: float, end: float) -> tuple[DiagS
 def controller_rates(samples: list[DiagSample], start: float, end: float) -> dict[str, dict]:
     """Each lockstep participant of the floor's simulator over [start, end]: the steps it owed and answered in time
     (its achieved rate against its nominal one), the times the world stopped waiting for it."""
-    pair = _bracket([d for d in samples if d.name.startswith("sim: floor ")], start, end)
+    pair = _bracket([d for d in samples if d.name.startswith(SIM_STATUS)], start, end)
     if pair is None:
         return {}
     out = {}

@@ -31,8 +31,8 @@ from gidabot_navigation.interface import (
     TRIP_DONE_PHASES,
     Phase,
 )
-from gidabot_sim.report.bags import DiagSample, EventSample, PoseSample, RobotRecord
-from gidabot_sim.report.pace import merge, pace_from_diagnostics, pace_from_events, totals
+from gidabot_sim.report.bags import SIM_STATUS, DiagSample, EventSample, PoseSample, RobotRecord
+from gidabot_sim.report.pace import merge, pace_from_diagnostics, pace_from_events, people_at, totals, where_lost
 from gidabot_sim.report.rates import timing_report
 from gidabot_sim.report.visits import stops_done
 
@@ -137,8 +137,14 @@ def analyse(records: list[RobotRecord], run: dict) -> dict:
     timing = timing_report(records, run)
     pace = merge(pace_from_events((e.t, e.robot, e.goal_uid, e.phase) for r in records for e in r.events),
                  pace_from_diagnostics((d.name, dict(d.values)) for r in records for d in r.diagnostics))
+    lost = where_lost(((e.t, e.robot, e.goal_uid) for r in records for e in r.events
+                       if e.phase == Phase.VISITOR_LOST and e.robot == r.name),
+                      {r.name: [(p.t, p.x, p.y) for p in r.track] for r in records},
+                      {r.name: [(d.t, people_at(d.get("people_at"))) for d in r.diagnostics
+                                if d.name.startswith(SIM_STATUS) and "people_at" in dict(d.values)] for r in records})
     return {"robots": [asdict(r) for r in rows], "tour": tour, "unreadable_messages": unreadable,
-            "pace": {"legs": pace, "totals": totals(pace)}, "rejected_goals": rejected, "legs": leg_audit(records),
+            "pace": {"legs": pace, "totals": totals(pace), "lost": lost}, "rejected_goals": rejected,
+            "legs": leg_audit(records),
             "timing": timing, "degraded": timing["degraded"],
             "contacts": robot_contacts(records)}
 
@@ -148,7 +154,7 @@ def _counter(samples: list[DiagSample], key: str) -> int | None:
     each drop (the simulator restarted and counted from 0 again). None: never published."""
     total, last, seen = 0, 0, False
     for d in samples:
-        if not d.name.startswith("sim: floor "):
+        if not d.name.startswith(SIM_STATUS):
             continue
         value = d.number(key)
         if not math.isfinite(value):

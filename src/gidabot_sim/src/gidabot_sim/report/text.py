@@ -29,6 +29,8 @@ def format_crowd(report: dict) -> list[str]:
         lines.append(f"The visitor's pace ({pace['legs']} guided legs): behind the robot mean {behind}, worst {worst}; "
                      f"waited {pace['waiting_s']:.0f} s; {pace['slowdowns']} slow-downs, {pace['waits']} waits, "
                      f"{pace['searches']} searches, {pace['lost']} lost, {pace['found_again']} found again")
+    for lost in (report.get("pace") or {}).get("lost") or ():
+        lines.append(f"  visitor lost by {lost['robot']} at {lost['t']:.0f} s ({lost['goal_uid']}): " + _where(lost))
     wait = "-" if report["wait_mean_s"] is None else f"{report['wait_mean_s']:.1f} s"
     p95 = "-" if report["wait_p95_s"] is None else f"{report['wait_p95_s']:.1f} s"
     lines.append(f"Wait before the first robot moved: mean {wait}, 95th percentile {p95}")
@@ -156,3 +158,12 @@ def format_markdown(report: dict, run: dict, folder: Path) -> str:
                 lines.append(f"| {kind} | {sec:.1f} | {1000.0 * sec / sim_s:.2f} | {sec / cpu['wall_s']:.3f} |")
     return "\n".join(lines)
 
+
+def _where(lost: dict) -> str:
+    """Where the robot and the lost visitor's body were (a row of ``where_lost``)."""
+    robot = "robot at -" if lost["robot_at"] is None else "robot at ({:.1f}, {:.1f})".format(*lost["robot_at"])
+    if lost["body_at"] is not None:
+        body = "visitor at ({:.1f}, {:.1f}), {:.1f} m away".format(*lost["body_at"], lost["distance_m"] or 0.0)
+    else:
+        body = {None: "visitor's position not recorded", False: "visitor no longer on the floor"}[lost["on_floor"]]
+    return f"{robot}, {body}"
