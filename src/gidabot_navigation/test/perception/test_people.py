@@ -454,3 +454,22 @@ def test_scans_are_tracked_at_most_at_the_track_rate() -> None:
     assert tracker.wants_scan(0.1)
     with pytest.raises(PerceptionError, match="track_rate"):
         TrackerParams(track_rate=0.0)
+
+
+@pytest.mark.parametrize(("relock_speed", "taken"), [(0.5, (2.5, 2.3)), (0.001, (-2.0, -1.2))])
+def test_a_lock_asked_anew_reaches_further_the_longer_the_visitor_was_unseen(relock_speed: float,
+                                                                              taken: tuple[float, float]) -> None:
+    """The visitor, last seen 4 m in front, is lost from view and seen again 2 m from there 4 s later (it walked
+    on while the robot passed it): a lock asked anew takes them, ``relock_radius`` (1.5 m) having grown by
+    ``relock_speed`` for every second unseen (up to ``relock_max``); with a radius that does not grow, the
+    bystander in the cone."""
+    tracker = PeopleTracker(params=TrackerParams(visitor_lost_after=1.0, relock_speed=relock_speed))
+    _walked_ahead(tracker)
+    for k in range(80, 110):                                            # unseen: LOST, its track dropped
+        report = tracker.update(seen((-2.0, -1.2)), ORIGIN, k / RATE)
+    assert report.visitor.sight == Sight.LOST
+    for k in range(110, 120):                                           # seen again 2 m away, a new track
+        tracker.update(seen((2.5, 2.3), (-2.0, -1.2)), ORIGIN, k / RATE)
+    tracker.want_visitor(False)
+    assert tracker.want_visitor(True)
+    assert (tracker.visitor.x, tracker.visitor.y) == pytest.approx(taken, abs=0.05)

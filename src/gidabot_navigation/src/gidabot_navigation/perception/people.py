@@ -92,7 +92,9 @@ class TrackerParams:
     lock_distance: float = 2.5              # m from the robot's centre, at most
     lock_window: float = 5.0                # s a lock waits for a track in the cone
     relock_radius: float = 1.5              # m: a lock asked anew takes a track this near where the visitor was
-    #                                         last seen first, wherever it is
+    #                                         last seen first, wherever it is ...
+    relock_speed: float = 0.5               # m/s: ... growing by this for every second since (a visitor who walked
+    relock_max: float = 3.0                 # m    on unseen, behind the robot that passed them), up to this
     visitor_lost_after: float = 3.0         # s unseen in view: the visitor is lost
     out_of_view_lost_after: float = 20.0    # s unseen in all: lost, even out of view
     ambiguity_margin: float = 4.0           # log-likelihood margin below which a visitor's assignment is ambiguous
@@ -231,9 +233,11 @@ class PeopleTracker:
 
         A lock asked *anew* (the visitor lost, or let go and asked for again before the next scan: the guiding
         core's relock) first takes the confirmed track nearest where the visitor was last seen, within
-        ``relock_radius``, wherever it is: a visitor standing still far behind a robot that waits facing them
-        is not in the cone (behind it, within ``lock_distance``), and their track may be a new one (a scan
-        gap, a stop the motion model did not expect)."""
+        ``relock_radius`` growing by ``relock_speed`` for every second since, up to ``relock_max``, wherever it
+        is: a visitor standing still far behind a robot that waits facing them is not in the cone (behind it,
+        within ``lock_distance``), their track may be a new one (a scan gap, a stop the motion model did not
+        expect), and one who stood aside for the robot and walked on unseen behind it as it passed is no
+        longer where it was last seen."""
         self._memory = self._last_seen or self._memory
         self._visitor, self._last_seen, self._hidden = None, None, 0.0
         self._acquiring_since = self._t if self._t is not None else math.nan
@@ -301,16 +305,17 @@ class PeopleTracker:
 
     def _try_lock(self) -> bool:
         """Lock the confirmed track nearest where the visitor was last seen (a lock asked anew, within
-        ``relock_radius``), else the one nearest the robot in the lock cone (its angle off the cone's axis counts
-        as distance: 1 rad as 1 m)."""
+        ``relock_radius`` and what it grew since), else the one nearest the robot in the lock cone (its angle off
+        the cone's axis counts as distance: 1 rad as 1 m)."""
         p, robot = self.params, self._robot
         assert robot is not None and self._t is not None
         best: tuple[float, _Track] | None = None
         memory = self._memory
         if memory is not None:
+            reach = max(p.relock_radius, min(p.relock_max, p.relock_radius + p.relock_speed * (self._t - memory.t)))
             for tr in self._tracks:
                 away = math.hypot(tr.state[0] - memory.pose.x, tr.state[1] - memory.pose.y)
-                if tr.confirmed and away <= p.relock_radius and (best is None or away < best[0]):
+                if tr.confirmed and away <= reach and (best is None or away < best[0]):
                     best = (away, tr)
         blind = self._cone_unseen()
         for tr in self._tracks if best is None else ():

@@ -70,6 +70,8 @@ class Params:
             lock_distance=param_number("~lock_distance", d.lock_distance),
             lock_window=param_number("~lock_window", d.lock_window),
             relock_radius=param_number("~relock_radius", d.relock_radius),
+            relock_speed=param_number("~relock_speed", d.relock_speed),
+            relock_max=param_number("~relock_max", d.relock_max),
             visitor_lost_after=param_number("~visitor_lost_after", d.visitor_lost_after),
             out_of_view_lost_after=param_number("~out_of_view_lost_after", d.out_of_view_lost_after),
             track_rate=param_number("~track_rate", d.track_rate))
@@ -128,7 +130,8 @@ class PeopleNode:
       - ``~lock_bearing`` (rad, default pi: behind), ``~lock_half_angle`` (rad, default 1.2),
         ``~lock_distance`` (m, default 2.5), ``~lock_window`` (s, default 5): the lock cone and how long a
         lock waits for someone in it; ``~relock_radius`` (m, default 1.5): a lock asked anew (false then true)
-        first takes the track nearest where the visitor was last seen, within this.
+        first takes the track nearest where the visitor was last seen, within this, growing by
+        ``~relock_speed`` (m/s, default 0.5) for every second since, up to ``~relock_max`` (m, default 3).
       - ``~visitor_lost_after`` (s, default 3): unseen in view this long, the visitor is LOST;
         ``~out_of_view_lost_after`` (s, default 20): unseen this long in all, LOST too.
       - ``~track_rate`` (Hz, default 5): scans tracked at most.
