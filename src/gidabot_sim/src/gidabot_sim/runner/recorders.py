@@ -20,10 +20,11 @@ from gidabot_navigation.interface import SHARED_TOPICS, Topic, global_name
 
 RECORDER_OVERLAP = 5.0   # wall s the old recorder of a restarted master goes on after a newer one records
 # what every robot's bag holds: the shared topics (docs/interfaces.md) and the visitor's commands, the robot's
-# localisation, when its move_base took each goal (Table 5's legs start then) and the floor's /diagnostics
-# (its simulator's timing, its controllers' and guiding loops' rates)
+# localisation, when its move_base took each goal (Table 5's legs start then), the floor's /diagnostics
+# (its simulator's timing and its people's true positions, its controllers' and guiding loops' rates) and what
+# its tracker reported of the visitor (to read against those positions when a robot waited or searched)
 RECORDED_TOPICS = (*(t.name for t in SHARED_TOPICS), global_name(Topic.VISITOR_COMMAND), global_name(Topic.AMCL_POSE),
-                   global_name(Topic.MOVE_BASE_CURRENT_GOAL), Topic.DIAGNOSTICS)
+                   global_name(Topic.MOVE_BASE_CURRENT_GOAL), Topic.DIAGNOSTICS, global_name(Topic.PEOPLE_VISITOR))
 
 
 def recorder_name(robot: str, part: int) -> str:
