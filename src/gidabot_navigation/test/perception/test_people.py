@@ -456,13 +456,14 @@ def test_scans_are_tracked_at_most_at_the_track_rate() -> None:
         TrackerParams(track_rate=0.0)
 
 
-@pytest.mark.parametrize(("relock_speed", "taken"), [(0.5, (2.5, 2.3)), (0.001, (-2.0, -1.2))])
-def test_a_lock_asked_anew_reaches_further_the_longer_the_visitor_was_unseen(relock_speed: float,
-                                                                              taken: tuple[float, float]) -> None:
+@pytest.mark.parametrize(("relock_speed", "taken"), [(0.5, (2.5, 2.3)), (0.001, None)])
+def test_a_lock_asked_anew_reaches_further_the_longer_the_visitor_was_unseen(
+        relock_speed: float, taken: tuple[float, float] | None) -> None:
     """The visitor, last seen 4 m in front, is lost from view and seen again 2 m from there 4 s later (it walked
     on while the robot passed it): a lock asked anew takes them, ``relock_radius`` (1.5 m) having grown by
-    ``relock_speed`` for every second unseen (up to ``relock_max``); with a radius that does not grow, the
-    bystander in the cone."""
+    ``relock_speed`` for every second unseen (up to ``relock_max``); with a radius that does not grow, nobody:
+    its cone looks towards where the visitor was (they stand beyond ``lock_distance``), not at the bystander
+    behind the robot."""
     tracker = PeopleTracker(params=TrackerParams(visitor_lost_after=1.0, relock_speed=relock_speed))
     _walked_ahead(tracker)
     for k in range(80, 110):                                            # unseen: LOST, its track dropped
@@ -472,4 +473,22 @@ def test_a_lock_asked_anew_reaches_further_the_longer_the_visitor_was_unseen(rel
         tracker.update(seen((2.5, 2.3), (-2.0, -1.2)), ORIGIN, k / RATE)
     tracker.want_visitor(False)
     assert tracker.want_visitor(True)
-    assert (tracker.visitor.x, tracker.visitor.y) == pytest.approx(taken, abs=0.05)
+    if taken is None:
+        assert tracker.visitor.sight == Sight.ACQUIRING
+    else:
+        assert (tracker.visitor.x, tracker.visitor.y) == pytest.approx(taken, abs=0.05)
+
+
+def test_a_lock_asked_anew_looks_towards_where_the_visitor_was_last_seen() -> None:
+    """The visitor, last seen 4 m in front, lost; the robot waits facing there. Someone stands 1.6 m in front of it
+    (3 m from where the visitor was: beyond the relock radius), a bystander in the cone behind it: a lock asked
+    anew at once takes the one in front (its cone turned towards where the visitor was), not the bystander."""
+    tracker = PeopleTracker(params=TrackerParams(visitor_lost_after=1.0, relock_speed=0.001))
+    _walked_ahead(tracker)
+    for k in range(80, 110):
+        tracker.update(seen((-2.0, -1.2)), ORIGIN, k / RATE)
+    for k in range(110, 115):
+        tracker.update(seen((1.6, -0.4), (-2.0, -1.2)), ORIGIN, k / RATE)
+    tracker.want_visitor(False)
+    assert tracker.want_visitor(True)
+    assert (tracker.visitor.x, tracker.visitor.y) == pytest.approx((1.6, -0.4), abs=0.05)

@@ -306,7 +306,8 @@ class PeopleTracker:
     def _try_lock(self) -> bool:
         """Lock the confirmed track nearest where the visitor was last seen (a lock asked anew, within
         ``relock_radius`` and what it grew since), else the one nearest the robot in the lock cone (its angle off
-        the cone's axis counts as distance: 1 rad as 1 m)."""
+        the cone's axis counts as distance: 1 rad as 1 m), a lock asked anew's cone turned towards where the
+        visitor was last seen."""
         p, robot = self.params, self._robot
         assert robot is not None and self._t is not None
         best: tuple[float, _Track] | None = None
@@ -318,12 +319,16 @@ class PeopleTracker:
                 if tr.confirmed and away <= reach and (best is None or away < best[0]):
                     best = (away, tr)
         blind = self._cone_unseen()
+        # a lock asked anew looks towards where the visitor was last seen (the robot waits facing there; behind
+        # it is where nobody it guided can be), else behind the robot (lock_bearing)
+        axis = robot.yaw + p.lock_bearing if memory is None else \
+            math.atan2(memory.pose.y - robot.y, memory.pose.x - robot.x)
         for tr in self._tracks if best is None else ():
             if not tr.confirmed:
                 continue
             dx, dy = tr.state[0] - robot.x, tr.state[1] - robot.y
             dist = math.hypot(dx, dy)
-            off = abs(wrap_angle(math.atan2(dy, dx) - robot.yaw - p.lock_bearing))
+            off = abs(wrap_angle(math.atan2(dy, dx) - axis))
             if blind:               # a laser that does not see the cone: the nearest person it sees
                 off = 0.0 if tr.seen == self._t else math.inf
             if dist <= p.lock_distance and off <= p.lock_half_angle and (best is None or dist + off < best[0]):
