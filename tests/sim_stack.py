@@ -259,7 +259,7 @@ class SimStack:
         if goal_uid is None:
             return "no goal uid"
         return "; ".join(f"seen on {on}: " + (", ".join(
-            f"{m['robot']} {Phase(m['phase']).name} {m.get('leg', '')} {m.get('detail', '')!r}".strip()
+            f"{m['robot']} {phase_name(m['phase'])} {m.get('leg', '')} {m.get('detail', '')!r}".strip()
             for m in self.events(on, goal_uid)) or "nothing") for on in self.robots)
 
     def pose(self, robot: str) -> tuple[float, float]:
@@ -282,3 +282,11 @@ class SimStack:
     def location(self, loc_id: str) -> tuple[float, float]:
         p = self.building.location(loc_id).pose
         return p.x, p.y
+
+
+def phase_name(phase: object) -> str:
+    """A NavEvent phase's name; a number no Phase has (a forged event) as it came."""
+    try:
+        return Phase(phase).name
+    except ValueError:
+        return repr(phase)

@@ -49,6 +49,11 @@ def drive(crowd: Crowd, world: World, t0: float, seconds: float, speed: float, o
     return t
 
 
+def straight(a: tuple[float, float], b: tuple[float, float]) -> list[tuple[float, float]]:
+    """A bystander's way from a to b in the hall: a straight line, 21 points."""
+    return [(a[0] + (b[0] - a[0]) * k / 20, a[1] + (b[1] - a[1]) * k / 20) for k in range(21)]
+
+
 def setup(behaviour: Behaviour = TIDY) -> tuple[Crowd, World]:
     world = World(hall(), rng=np.random.default_rng(1))
     world.add_robot(RobotSpec("R", 0.3, LIMITS, LaserSpec(noise=0.0, fov=2 * math.pi)), Pose2D(3.0, 2.5, 0.0))
@@ -133,8 +138,7 @@ def test_a_standing_body_makes_way_for_another_robot_facing_it_and_a_walking_one
     assert abs(body.y - by) >= 0.3 + PERSON_RADIUS + 0.3 - 1e-6 and abs(body.x - bx) < 1e-9
     assert world.clearance(body.x, body.y) >= PERSON_RADIUS * 0.8
     # a bystander walking across the front of a robot standing there walks on
-    plan = lambda a, b: [(a[0] + (b[0] - a[0]) * k / 20, a[1] + (b[1] - a[1]) * k / 20) for k in range(21)]  # noqa
-    crowd = Crowd(world.clearance, plan, [(2.0, 2.5), (18.0, 2.5)], [Bystander("b1", speed=1.0, route=3)])
+    crowd = Crowd(world.clearance, straight, [(2.0, 2.5), (18.0, 2.5)], [Bystander("b1", speed=1.0, route=3)])
     crowd.step(0.1, [])
     start = crowd.bodies[0].x
     ahead = 2.0 if start < 10.0 else -2.0                       # Q stands 1.5 m off its way, 2 m on, facing it
@@ -274,8 +278,7 @@ def test_bystanders_walk_between_places_on_the_first_robot_s_floor(faculty) -> N
 
 def test_a_standing_bystander_stops_at_the_narrowest_point_of_its_walk() -> None:
     world = World(hall(), rng=np.random.default_rng(1))
-    plan = lambda a, b: [(a[0] + (b[0] - a[0]) * k / 20, a[1] + (b[1] - a[1]) * k / 20) for k in range(21)]  # noqa
-    crowd = Crowd(world.clearance, plan, [(2.0, 2.5), (18.0, 2.5)],
+    crowd = Crowd(world.clearance, straight, [(2.0, 2.5), (18.0, 2.5)],
                   [Bystander("b1", speed=1.0, route=3, stand_s=10.0)])
     xs = []
     for k in range(1, 300):
