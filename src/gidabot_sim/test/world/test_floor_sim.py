@@ -213,7 +213,9 @@ def test_sensors_nobody_listens_to_are_not_computed(faculty) -> None:
     for _ in range(20):
         f.tick(100.0)
         scans += f.of(fs.Scan)
-    assert len(scans) == 20 and f.sim.scans == 20 and scans[0].scan_time == pytest.approx(0.1)
+    per_2s = round(2.0 * fs.SimConfig.laser_rate)            # 20 stops of 0.1 s
+    assert len(scans) == per_2s and f.sim.scans == per_2s
+    assert scans[0].scan_time == pytest.approx(1.0 / fs.SimConfig.laser_rate)
     assert len(scans[0].ranges) == 360
 
 

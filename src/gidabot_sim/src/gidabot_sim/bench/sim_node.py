@@ -13,7 +13,7 @@ import sys
 import time
 
 from gidabot_navigation.building.geometry import Pose2D
-from gidabot_navigation.interface import Topic
+from gidabot_navigation.interface import Node, Topic
 from gidabot_sim.bench.sim import PHASES
 from gidabot_sim.navstack.move_base import SUCCEEDED
 from gidabot_sim.report.bags import DiagSample
@@ -31,7 +31,8 @@ def stack_driver(spec: dict) -> int:
     from gidabot_msgs.msg import NavEvent, VisitorCommand
 
     robot, goals = spec["robot"], spec["goals"]
-    rospy.init_node("bench_visitor", disable_signals=True)
+    # the simulated visitor's screen is the one node besides the GUI whose visitor commands a robot takes
+    rospy.init_node(Node.VISITOR, disable_signals=True)
     events: list[tuple[float, NavEvent]] = []       # (wall s received, event)
     diags: list[DiagSample] = []
     rospy.Subscriber(Topic.NAV_EVENTS, NavEvent, lambda m: events.append((time.monotonic(), m)), queue_size=100)
