@@ -136,6 +136,41 @@ def test_another_origin_is_refused(faculty, tmp_path: Path) -> None:
     run_site(faculty, tmp_path, test)
 
 
+def test_a_name_the_robot_is_not_known_by_is_refused(faculty, tmp_path: Path) -> None:
+    """DNS rebinding: a page of evil.example whose name now resolves to the robot is same-origin with itself (Host
+    and Origin both evil.example): every request for that name is refused, reads included; names staff were
+    given (~hosts, an origin's) and addresses are answered."""
+    async def test(site: Site) -> None:
+        files = site.tour_files()
+        port = site.origin.rsplit(":", 1)[1]
+        evil = {"Host": f"evil.example:{port}", "Origin": f"http://evil.example:{port}"}
+        for path in ("/", "/api/session", "/api/state"):
+            assert (await site.client.get(path, headers={**site.headers(origin=None), **evil})).status == 403, path
+        r = await site.client.post("/api/login", json={"user": STAFF_USER, "password": STAFF_PASSWORD},
+                                   headers={**site.headers(), **evil})
+        assert r.status == 403 and (await r.json())["error"] == "host"
+        csrf = await site.login(ADMIN_USER, ADMIN_PASSWORD)
+        n = 0
+        for path, body in ACTIONS.items():
+            r = await site.client.post(path, json=body, headers={**site.headers(csrf=csrf), **evil})
+            assert r.status == 403, path
+            n += 1
+        r = await site.client.get("/live", headers={**site.headers(origin=None), **evil, "Connection": "Upgrade",
+                                                    "Upgrade": "websocket", "Sec-WebSocket-Version": "13",
+                                                    "Sec-WebSocket-Key": "x" * 24})
+        assert r.status == 403
+        for host in (f"127.0.0.1.evil.example:{port}", "", f"kbot.staff.lan.evil.example:{port}"):
+            assert (await site.client.get("/api/session", headers={**site.headers(), "Host": host})).status == 403
+        assert refused(site) == {"refused_host": n + 8} == shown(site)
+        unchanged(site, files)
+        for host in (f"kbot.staff.lan:{port}", f"KBOT.staff.lan:{port}", "kbot.example.org", f"localhost:{port}",
+                     f"[::1]:{port}", f"10.0.0.12:{port}"):
+            r = await site.client.get("/api/session", headers={**site.headers(origin=None), "Host": host})
+            assert r.status == 200, host
+    run_site(faculty, tmp_path, test, hosts=frozenset({"kbot.staff.lan"}),
+             origins=frozenset({"https://kbot.example.org"}))
+
+
 def test_nothing_changes_on_get(faculty, tmp_path: Path) -> None:
     async def test(site: Site) -> None:
         files = site.tour_files()

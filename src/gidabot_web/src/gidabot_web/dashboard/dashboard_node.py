@@ -106,6 +106,7 @@ class Params:
     secure_cookies: bool
     trusted_proxies: frozenset[str]
     origins: frozenset[str]
+    hosts: frozenset[str]
 
     @staticmethod
     def read() -> Params:
@@ -122,7 +123,7 @@ class Params:
         return Params(building, robot, param_text("~host", ""), port,
                       Path(param_text("~state_dir", "") or default_dashboard_dir(robot)),
                       param_number("~offline_after", 5.0), param_number("~push_period", 0.25), secure,
-                      words("~trusted_proxies"), words("~origins"))
+                      words("~trusted_proxies"), words("~origins"), words("~hosts"))
 
 
 class DashboardNode:
@@ -146,7 +147,9 @@ class DashboardNode:
     ``$ROS_HOME/gidabot/<robot>/dashboard``: ``users.json`` (``gidabot dashboard-passwd``) and
     ``history.sqlite``); ``~offline_after`` (wall s, 5); ``~push_period`` (wall s between two updates to one
     client, 0.25); ``~secure_cookies`` (false; true behind an HTTPS proxy); ``~trusted_proxies`` (addresses
-    whose X-Forwarded-For is believed); ``~origins`` (more origins the page is served from, e.g. the proxy's).
+    whose X-Forwarded-For is believed); ``~origins`` (more origins the page is served from, e.g. the proxy's);
+    ``~hosts`` (names, without port, staff reach the robot by besides its address: a request for any other
+    name is refused, DNS rebinding).
     """
 
     def __init__(self, params: Params) -> None:
@@ -162,7 +165,7 @@ class DashboardNode:
         self.core = DashboardCore(self.building, DashboardConfig(me.name, offline_after=params.offline_after),
                                   self.history, now, wall)
         config = WebConfig(users_file=params.state_dir / USERS_FILE, secure_cookies=params.secure_cookies,
-                           trusted_proxies=params.trusted_proxies, origins=params.origins)
+                           trusted_proxies=params.trusted_proxies, origins=params.origins, hosts=params.hosts)
         self.app = DashboardApp(self.core, config, self, catalogs(), push_period=params.push_period)
         self.inbox = Inbox(max_events=5000)
         self.loop: asyncio.AbstractEventLoop | None = None

@@ -2,7 +2,10 @@
 
 :class:`WebApp` owns an ``aiohttp.web.Application`` and adds to the routes an application registers:
 
-- **every request**: a rate limit per address (``429``), a body size limit (``client_max_size``: ``413``),
+- **every request**: a ``Host`` this server answers to (an address, ``localhost``, a name in
+  :attr:`WebConfig.hosts` or of :attr:`WebConfig.origins`; else ``403``: a page of another site whose name was
+  made to resolve to the robot, DNS rebinding, would otherwise be same-origin with itself and read the
+  building), a rate limit per address (``429``), a body size limit (``client_max_size``: ``413``),
   security headers on every answer, errors included (a Content-Security-Policy without inline script or
   style, ``X-Frame-Options: DENY``, ``nosniff``, no referrer, ``Cache-Control: no-store`` for the API);
 - **reads** (:meth:`WebApp.page`, :meth:`WebApp.read`): GET only, they change nothing;
@@ -24,6 +27,7 @@ the TCP peer; ``X-Forwarded-For`` counts only from the ``trusted_proxies`` (a re
 from __future__ import annotations
 
 import hmac
+import ipaddress
 import json
 import secrets
 import time
@@ -31,6 +35,7 @@ from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from aiohttp import web
 
@@ -76,6 +81,7 @@ class WebConfig:
     secure_cookies: bool = False              # Secure cookies (the page is served over HTTPS by a proxy)
     trusted_proxies: frozenset[str] = field(default_factory=frozenset)
     origins: frozenset[str] = field(default_factory=frozenset)   # more origins the page may be served from
+    hosts: frozenset[str] = field(default_factory=frozenset)     # names (no port) staff reach this server by
 
 
 class WebApp:
@@ -146,6 +152,21 @@ class WebApp:
                 return forwarded.split(",")[-1].strip()[:64] or peer
         return peer
 
+    def host_allowed(self, host: str) -> bool:
+        """Whether a request's ``Host`` (name or address, and port) is one this server answers to: an IP address,
+        ``localhost``, a name in :attr:`WebConfig.hosts`, or the name of one of :attr:`WebConfig.origins`. A name
+        not listed is refused: DNS rebinding needs one."""
+        name = urlsplit("//" + host).hostname if host else None
+        if not name:
+            return False
+        try:
+            ipaddress.ip_address(name)
+            return True
+        except ValueError:
+            pass
+        named = {h.lower() for h in self.config.hosts} | {urlsplit(o).hostname or "" for o in self.config.origins}
+        return name == "localhost" or name in named
+
     def origins(self, request: web.Request) -> set[str]:
         host = request.host
         return {f"http://{host}", f"https://{host}", *self.config.origins}
@@ -186,6 +207,9 @@ class WebApp:
         try:
             if not self._per_address.take(self.address(request), self.clock()):
                 raise Refused(429, "rate_limited", "too many requests; slow down")
+            if not self.host_allowed(request.host):
+                raise Refused(403, "host", f"host {request.host[:80]!r} is not a name of this server "
+                                           "(the dashboard's ~hosts lists the names staff use)")
             return await handler(request)
         except Refused as err:
             self.counters.inc(f"refused_{err.reason}")
