@@ -18,6 +18,8 @@ from typing import Any
 import pytest
 from gui_fakes import RecordingOutputs
 
+from gidabot_navigation.passwords import hash_record
+
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
 os.environ.setdefault("XDG_RUNTIME_DIR", f"/tmp/gidabot-gui-xdg-{os.getuid()}")
 Path(os.environ["XDG_RUNTIME_DIR"]).mkdir(mode=0o700, exist_ok=True)
@@ -150,7 +152,7 @@ class Gui:
 
 @pytest.fixture
 def make_gui(qapp: Any, faculty: Any, locale_dir: Path) -> Iterator[Callable[..., Gui]]:
-    from gidabot_gui.core.admin import PasswordCheck, sha256_hex
+    from gidabot_gui.core.admin import PasswordCheck
     from gidabot_gui.core.i18n import Translator
     from gidabot_gui.qt.speech import NullSpeaker
     from gidabot_gui.qt.window import GuiConfig, MainWindow
@@ -164,7 +166,7 @@ def make_gui(qapp: Any, faculty: Any, locale_dir: Path) -> Iterator[Callable[...
         out = RecordingOutputs()
         speaker = NullSpeaker()
         tr = Translator(language, locale_dir)
-        admin = PasswordCheck(sha256_hex(admin_password)) if admin_password is not None else None
+        admin = PasswordCheck(hash_record(admin_password)) if admin_password is not None else None
         cfg = GuiConfig(robot, admin=admin, visitor_id="gui-test", **config)
         w = MainWindow(b, cfg, tr, out, speaker, clock=clock)
         w.drain_timer.stop()

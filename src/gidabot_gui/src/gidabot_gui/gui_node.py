@@ -23,7 +23,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 import gidabot_msgs.msg as gidabot_msgs
-from gidabot_gui.core.admin import PasswordCheck
+from gidabot_gui.core.admin import LEGACY_SHA256, PasswordCheck
 from gidabot_gui.core.i18n import Translator, check_language, package_locale_dir
 from gidabot_gui.core.inbox import Inbox
 from gidabot_gui.core.model import InitialPose, TourEdit, TourInfo, bounded, tour_info
@@ -140,7 +140,7 @@ class Params:
     robot: str
     language: str
     admin: bool
-    admin_password_sha256: str
+    admin_password_hash: str
     speech: bool
     speech_sink: str
     speech_rate: int
@@ -159,7 +159,7 @@ class Params:
         if sink not in ("auto", "device", "null"):
             raise ConfigError(f"~speech_sink {sink!r} must be auto, device or null")
         return Params(building, robot, language, bool(rospy.get_param("~admin", False)),
-                      str(rospy.get_param("~admin_password_sha256", "")), bool(rospy.get_param("~speech", True)),
+                      str(rospy.get_param("~admin_password_hash", "")), bool(rospy.get_param("~speech", True)),
                       sink, int(param_number("~speech_rate", 150, 80, 400, strict=False)),
                       bool(rospy.get_param("~fullscreen", True)),
                       int(param_number("~width", 1280, 320, 8192, strict=False)),
@@ -198,8 +198,9 @@ class GuiNode:
     Parameters:
       - ``~building`` (str, required), ``~robot`` (str, required).
       - ``~language`` (eu | en | es, default en): start language.
-      - ``~admin`` (bool, default false) and ``~admin_password_sha256`` (hex SHA-256 of the password):
-        admin mode exists only with both; a malformed hash is logged and admin mode stays off.
+      - ``~admin`` (bool, default false) and ``~admin_password_hash`` (the password's salted hash record,
+        ``scrypt:...``, from ``gidabot admin-passwd``): admin mode exists only with both; a malformed record, or
+        only an unsalted ``~admin_password_sha256`` (no longer taken), is logged and admin mode stays off.
       - ``~speech`` (bool, default true): espeak-ng speech. ``~speech_sink`` (auto | device | null,
         default auto = null when there is no display), ``~speech_rate`` (words per minute, 150).
       - ``~fullscreen`` (bool, default true); ``~width``, ``~height`` (px, 1280x800) when not full screen.
@@ -294,9 +295,10 @@ def main(argv: list[str] | None = None) -> int:
     admin = None
     if params.admin:
         try:
-            admin = PasswordCheck(params.admin_password_sha256)
+            admin = PasswordCheck(params.admin_password_hash)
         except ConfigError as err:
-            rospy.logerr(f"gui: admin mode is off: {err}")
+            old = rospy.has_param("~admin_password_sha256") and not params.admin_password_hash
+            rospy.logerr("gui: admin mode is off: " + (LEGACY_SHA256 if old else str(err)))
     inbox = Inbox()
     node = GuiNode(params, inbox, building)
     if params.speech:

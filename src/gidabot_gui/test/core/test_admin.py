@@ -2,18 +2,27 @@
 
 from __future__ import annotations
 
+import io
 import math
+import sys
 
 import pytest
 
-from gidabot_gui.core.admin import PasswordCheck, TourDraft, pose_from_drag, sha256_hex, slug_file_name
+from gidabot_gui.admin_passwd import main as admin_passwd
+from gidabot_gui.core.admin import PasswordCheck, TourDraft, pose_from_drag, slug_file_name
 from gidabot_gui.errors import ConfigError, TourEditError
+from gidabot_navigation.passwords import hash_record, parse_record
 
 
 def test_password_check() -> None:
-    with pytest.raises(ConfigError, match="SHA-256"):
-        PasswordCheck("secret")
-    check = PasswordCheck(sha256_hex("open sesame"))
+    record = hash_record("open sesame")
+    assert record.startswith("scrypt:16384:8:1:") and "open" not in record
+    assert hash_record("open sesame") != record                       # salted: every record differs
+    for bad in ("secret", "9e0d8b5c7a1e4f2b" * 4, "scrypt:16384:8:1:00:" + "0" * 64, record[:-2],
+                record.replace(":16384:", ":16383:"), record.replace(":8:1:", ":8:99999999:"), None, 42):
+        with pytest.raises(ConfigError, match="admin_password_hash .*salted hash|out of range"):
+            PasswordCheck(bad)   # type: ignore[arg-type]
+    check = PasswordCheck(record)
     assert not check.check("open sesam", 0.0)
     assert check.check("open sesame", 0.0)
     for i in range(5):
@@ -22,6 +31,16 @@ def test_password_check() -> None:
     assert not check.check("open sesame", 5.0)            # locked out, even with the right password
     assert check.check("open sesame", 40.0)
     assert not check.check("x" * 10000, 41.0)
+
+
+def test_gidabot_admin_passwd_prints_a_record_of_the_password_it_read(monkeypatch, capsys) -> None:
+    monkeypatch.setattr(sys, "stdin", io.StringIO("open sesame 1\n"))
+    assert admin_passwd(["--password-stdin"]) == 0
+    record = capsys.readouterr().out.strip()
+    assert parse_record(record).matches("open sesame 1") and record != hash_record("open sesame 1")
+    monkeypatch.setattr(sys, "stdin", io.StringIO("short\n"))
+    assert admin_passwd(["--password-stdin"]) == 1
+    assert "8 to 256 characters" in capsys.readouterr().err
 
 
 def test_pose_from_drag_inverts_the_blueprint_transform(faculty) -> None:

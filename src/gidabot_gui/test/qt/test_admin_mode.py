@@ -7,9 +7,10 @@ import math
 import pytest
 from gui_fakes import FakeScreen
 
-from gidabot_gui.core.admin import LOCKOUT, MAX_FAILURES, PasswordCheck, sha256_hex
+from gidabot_gui.core.admin import LOCKOUT, MAX_FAILURES, PasswordCheck
 from gidabot_gui.core.i18n import Translator
 from gidabot_gui.qt.admin_mode import AdminController, AdminScreen
+from gidabot_navigation.passwords import hash_record
 
 
 @pytest.fixture
@@ -18,7 +19,7 @@ def admin_of(qapp, faculty, locale_dir):
     def make(password: str | None = "robot42") -> tuple[FakeScreen, AdminController]:
         screen = FakeScreen(faculty, "Kbot", Translator("en", locale_dir))
         screen.feed_all_status()
-        check = PasswordCheck(sha256_hex(password)) if password is not None else None
+        check = PasswordCheck(hash_record(password)) if password is not None else None
         return screen, AdminController(screen, check, "Kbot", faculty.floor(1))
 
     return make

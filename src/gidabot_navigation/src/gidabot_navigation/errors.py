@@ -155,3 +155,7 @@ class ExitGuardError(GidaBotError):
 class ResourceError(GidaBotError):
     """A file the packages ship (launch file, map, tour, config) is not found: the workspace is not built
     or not sourced (:mod:`gidabot_navigation.resources`)."""
+
+
+class PasswordHashError(GidaBotError):
+    """A salted password hash record that is malformed or out of range (:mod:`gidabot_navigation.passwords`)."""

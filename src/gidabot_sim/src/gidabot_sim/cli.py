@@ -13,6 +13,8 @@ import sys
 
 # subcommand -> (module, one-line help). Keep sorted.
 COMMANDS: dict[str, tuple[str, str]] = {
+    "admin-passwd": ("gidabot_gui.admin_passwd", "the touch screen's admin password as a salted hash "
+                                                 "(admin_password_hash:=...)"),
     "bench": ("gidabot_sim.cli", "benchmarks: 'bench dashboard', 'bench demo', 'bench idle', 'bench relay', "
                                  "'bench sim' (--json)"),
     "chaos": ("gidabot_sim.chaos.command",

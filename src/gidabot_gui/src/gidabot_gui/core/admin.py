@@ -1,15 +1,14 @@
 """Administrator tools (ROS-free): password check, Set location, tour drafts.
 
 Admin mode exists only when the node is started with ``~admin: true`` and a
-SHA-256 of the password in ``~admin_password_sha256``; it is never on by
-default. A wrong password is refused, and after ``MAX_FAILURES`` wrong ones in a
-row the prompt is locked for ``LOCKOUT`` seconds (wall time, passed in).
+salted hash of the password in ``~admin_password_hash`` (``gidabot admin-passwd``
+makes it: :mod:`gidabot_navigation.passwords`); it is never on by default. A wrong
+password is refused, and after ``MAX_FAILURES`` wrong ones in a row the prompt is
+locked for ``LOCKOUT`` seconds (wall time, passed in).
 """
 
 from __future__ import annotations
 
-import hashlib
-import hmac
 import math
 import re
 import unicodedata
@@ -19,29 +18,26 @@ from gidabot_gui.core.model import InitialPose, TourEdit
 from gidabot_gui.errors import ConfigError, TourEditError
 from gidabot_navigation.building.geometry import BlueprintTransform
 from gidabot_navigation.building.model import Building, format_floor
-from gidabot_navigation.errors import TourError, TourNameError
+from gidabot_navigation.errors import PasswordHashError, TourError, TourNameError
+from gidabot_navigation.passwords import parse_record
 from gidabot_navigation.tours.tour_file import MAX_FILE_NAME, TOUR_SUFFIX, TourGoal, tour_from_lines
 
 MAX_FAILURES = 5
 LOCKOUT = 30.0          # s
 MAX_PASSWORD = 256      # characters; longer input is refused without hashing
-_SHA256_RE = re.compile(r"^[0-9a-f]{64}\Z")
-
-
-def sha256_hex(password: str) -> str:
-    return hashlib.sha256(password.encode("utf-8")).hexdigest()
+LEGACY_SHA256 = ("~admin_password_sha256 (an unsalted SHA-256) is no longer taken: make a salted hash with "
+                 "'gidabot admin-passwd' and pass it as admin_password_hash")
 
 
 class PasswordCheck:
-    """Checks the administrator password against a configured SHA-256 (hex)."""
+    """Checks the administrator password against a configured salted hash record
+    (``scrypt:<n>:<r>:<p>:<salt hex>:<hash hex>``)."""
 
-    def __init__(self, sha256: str) -> None:
-        digest = sha256.strip().lower() if isinstance(sha256, str) else ""
-        if not _SHA256_RE.match(digest):
-            shown = repr(sha256)[:80]
-            raise ConfigError(f"admin_password_sha256 {shown} is not a SHA-256 in hex (64 hex digits); "
-                              "make one with: printf %s 'password' | sha256sum")
-        self._digest = digest
+    def __init__(self, record: str) -> None:
+        try:
+            self._hash = parse_record(record, "admin_password_hash")
+        except PasswordHashError as err:
+            raise ConfigError(str(err)) from err
         self.failures = 0
         self.locked_until = 0.0
 
@@ -53,8 +49,7 @@ class PasswordCheck:
         """True if ``password`` is right (and the prompt is not locked)."""
         if self.locked_for(now) > 0:
             return False
-        ok = (isinstance(password, str) and len(password) <= MAX_PASSWORD
-              and hmac.compare_digest(sha256_hex(password), self._digest))
+        ok = isinstance(password, str) and len(password) <= MAX_PASSWORD and self._hash.matches(password)
         if ok:
             self.failures = 0
             return True

@@ -161,7 +161,8 @@ class SimNode:
         (this floor's slot): the other floors' clocks, the drift bound and the ceiling (which then replaces
         ``~speed``); ``~cmd_timeout`` (s, 0.2), ``~clock_rate_max`` (Hz wall, 100);
       ``~odom_rate`` (Hz, 10), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 5: the
-        people tracker's rate), ``~seen_rate`` (Hz, 10), ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per step);
+        people tracker's rate), ``~seen_rate`` (Hz, 10), ``~battery_rate`` (Hz, 1), all in sim time (at most
+        one message per topic per step);
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 0: what the building file declares for the robot,
         ``sensors.laser.fov``, all round unless said), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);

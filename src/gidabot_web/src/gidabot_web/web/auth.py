@@ -2,8 +2,8 @@
 
 - **Passwords** live in one JSON file (:class:`PasswordFile`), written only by the command
   ``gidabot dashboard-passwd`` (:mod:`gidabot_web.dashboard.passwd`), replaced atomically, mode 0600. Each user
-  has a role (:data:`ROLES`: ``staff``, or ``admin``, which may do everything staff may) and a salted hash:
-  ``hashlib.scrypt`` (n 2^14, r 8, p 1, 32 bytes) with a random 16-byte salt per user. Verification compares
+  has a role (:data:`ROLES`: ``staff``, or ``admin``, which may do everything staff may) and a salted hash
+  (:mod:`gidabot_navigation.passwords`: scrypt, a random 16-byte salt per user). Verification compares
   in constant time, and an unknown user costs the same scrypt as a known one.
 - **Sessions** (:class:`Sessions`) are kept in memory: a random 256-bit id (the cookie) and a random CSRF
   token per session, an idle timeout and a bound on their number. A session is made only by a successful
@@ -29,6 +29,7 @@ from collections import OrderedDict, deque
 from dataclasses import dataclass
 from pathlib import Path
 
+from gidabot_navigation.passwords import HASH_BYTES, MAX_PASSWORD, SALT_BYTES, SCRYPT, scrypt
 from gidabot_web.errors import PasswordFileError
 
 STAFF, ADMIN = "staff", "admin"
@@ -36,10 +37,6 @@ ROLES = (STAFF, ADMIN)
 FORMAT = "gidabot-web-users/1"
 USER_RE = re.compile(r"^[A-Za-z0-9_.@-]{1,64}\Z")
 MIN_PASSWORD = 10              # characters
-MAX_PASSWORD = 1024            # characters: longer ones are refused before hashing
-SCRYPT = {"n": 2 ** 14, "r": 8, "p": 1}
-HASH_BYTES = 32
-SALT_BYTES = 16
 MAX_FILE_BYTES = 1024 * 1024
 
 
@@ -52,11 +49,6 @@ def check_user_name(user: object) -> str:
     if not isinstance(user, str) or not USER_RE.match(user):
         raise PasswordFileError(f"user name {user!r}: expected 1-64 ASCII letters, digits, '_', '.', '@' or '-'")
     return user
-
-
-def _scrypt(password: str, salt: bytes, n: int, r: int, p: int) -> bytes:
-    return hashlib.scrypt(password.encode("utf-8"), salt=salt, n=n, r=r, p=p, maxmem=64 * 1024 * 1024,
-                          dklen=HASH_BYTES)
 
 
 @dataclass(frozen=True)
@@ -82,7 +74,7 @@ def make_user(name: str, password: str, role: str) -> User:
     if not isinstance(password, str) or not MIN_PASSWORD <= len(password) <= MAX_PASSWORD:
         raise PasswordFileError(f"the password must have {MIN_PASSWORD} to {MAX_PASSWORD} characters")
     salt = secrets.token_bytes(SALT_BYTES)
-    return User(name, role, salt, _scrypt(password, salt, **SCRYPT))
+    return User(name, role, salt, scrypt(password, salt, **SCRYPT))
 
 
 class PasswordFile:
@@ -116,7 +108,7 @@ class PasswordFile:
         user = users.get(name) if isinstance(name, str) else None
         candidate = user or self._dummy
         text = password if isinstance(password, str) and len(password) <= MAX_PASSWORD else ""
-        digest = _scrypt(text, candidate.salt, candidate.n, candidate.r, candidate.p)
+        digest = scrypt(text, candidate.salt, candidate.n, candidate.r, candidate.p)
         ok = hmac.compare_digest(digest, candidate.hash)
         return user if ok and user is not None and text else None
 
