@@ -116,8 +116,8 @@ class SimConfig:
     odom_rate: float = 10.0               # Hz of sim time, all of them
     truth_rate: float = 5.0
     rest_rate: float = 1.0
-    laser_rate: float = 5.0               # base_scan: the people tracker reads 5 scans a sim s (track_rate)
-    seen_rate: float = 10.0               # robots_seen: move_base's obstacle layer
+    laser_rate: float = 5.0               # base_scan and robots_seen: the people tracker reads 5 scans a sim s
+    #                                       (its track_rate), a costmap's obstacle layer is updated at 5 Hz
     battery_rate: float = 1.0
     laser: LaserSpec = field(default_factory=LaserSpec)
     laser_fov_declared: bool = True       # each robot's laser covers the fov its building file declares
@@ -323,8 +323,8 @@ class FloorSim:
             self._open_mates(building, robots)
         self.odom_due, self.truth_due, self.rest_due = (Periodic(c.odom_rate), Periodic(c.truth_rate),
                                                         Periodic(c.rest_rate))
-        self.laser_due, self.seen_due = Periodic(c.laser_rate), Periodic(c.seen_rate)
-        self.battery_due, self.tf_due = Periodic(c.battery_rate), Periodic(c.odom_rate)
+        self.laser_due, self.battery_due, self.tf_due = (Periodic(c.laser_rate), Periodic(c.battery_rate),
+                                                         Periodic(c.odom_rate))
         self.timeline = Timeline.open(c.timeline) if c.timeline else None
         resume = self.timeline.read(c.timeline_slot).sim if self.timeline is not None else _resume_value(resume_at)
         self.start_wall = wall if resume > 0.0 or c.start_wall == 0.0 else c.start_wall
@@ -565,8 +565,7 @@ class FloorSim:
     def _sensors(self) -> None:
         t, world, wanted, emit = self.world.time, self.world, self.wanted, self.emit
         odom_due, truth_due, rest_due = self.odom_due.due(t), self.truth_due.due(t), self.rest_due.due(t)
-        laser_due, seen_due = self.laser_due.due(t), self.seen_due.due(t)
-        battery_due, tf_due = self.battery_due.due(t), self.tf_due.due(t)
+        laser_due, battery_due, tf_due = self.laser_due.due(t), self.battery_due.due(t), self.tf_due.due(t)
         inputs = self.lockstep.inputs_due()           # a driving participant's odometry: at every stop
         frames = []
         tf = tf_due and wanted(Topic.TF, -1)
@@ -585,7 +584,7 @@ class FloorSim:
                 emit(Scan(i, robot.spec.laser, world.scan(i, exact=exact), t, 1.0 / self.config.laser_rate))
                 self.scans += 1
             people = bool(world.people) or self._people_seen
-            if seen_due and (self.sees_robots or people) and wanted(Topic.ROBOTS_SEEN, i):
+            if laser_due and (self.sees_robots or people) and wanted(Topic.ROBOTS_SEEN, i):
                 seen = world.robots
                 bodies = tuple((world.people[k][0], Circle(*world.people[k][1:]))
                                for k in world.seen_people(i, exact[0] if exact else None))

@@ -72,7 +72,6 @@ def read_config() -> fs.SimConfig:
         truth_rate=param_number("~truth_rate", SIM.truth_rate, 0.0, 1000.0),
         rest_rate=param_number("~rest_rate", SIM.rest_rate, 0.0, 1000.0),
         laser_rate=param_number("~laser_rate", SIM.laser_rate, 0.0, 1000.0),
-        seen_rate=param_number("~seen_rate", SIM.seen_rate, 0.0, 1000.0),
         battery_rate=param_number("~battery_rate", SIM.battery_rate, 0.0, 100.0),
         laser=laser, laser_fov_declared=not fov,
         laser_z=param_number("~laser_z", SIM.laser_z, -5, 5, strict=False), battery=battery,
@@ -126,7 +125,7 @@ class SimNode:
         ``battery`` (sensor_msgs/BatteryState, ``percentage`` 0..1) at ``~battery_rate``.
         ``robots_seen`` (gidabot_msgs/ObstacleArray, frame ``map``; several robots, or people on the floor): the
           other robots its laser sees now (id = robot name, a CIRCLE of its radius) and the people (id
-          ``person/<visitor or bystander>``, a CIRCLE of a person) at ``~seen_rate``, while somebody subscribes:
+          ``person/<visitor or bystander>``, a CIRCLE of a person) at ``~laser_rate``, while somebody subscribes:
           its move_base's obstacle layer.
       tf: ``odom -> base_footprint`` (while /tf has subscribers); static ``base_footprint -> base_link``
         and ``base_link -> base_laser_link``.
@@ -161,8 +160,8 @@ class SimNode:
         (this floor's slot): the other floors' clocks, the drift bound and the ceiling (which then replaces
         ``~speed``); ``~cmd_timeout`` (s, 0.2), ``~clock_rate_max`` (Hz wall, 100);
       ``~odom_rate`` (Hz, 10), ``~truth_rate`` (Hz, 5), ``~rest_rate`` (Hz, 1), ``~laser_rate`` (Hz, 5: the
-        people tracker's rate), ``~seen_rate`` (Hz, 10), ``~battery_rate`` (Hz, 1), all in sim time (at most
-        one message per topic per step);
+        people tracker's rate), ``~battery_rate`` (Hz, 1), all in sim time (at most one message per topic per
+        step);
       ``~laser_beams`` (360), ``~laser_fov`` (rad, 0: what the building file declares for the robot,
         ``sensors.laser.fov``, all round unless said), ``~laser_range_min``/``~laser_range_max``
         (m, 0.05/20), ``~laser_noise`` (m, 0.01), ``~laser_x``/``~laser_y``/``~laser_z`` (m, mount);
