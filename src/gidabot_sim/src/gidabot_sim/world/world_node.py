@@ -26,6 +26,7 @@ from tf2_msgs.msg import TFMessage
 from gidabot_msgs.msg import Obstacle, ObstacleArray, StepDone, VisitorBody
 from gidabot_navigation.building.model import load_building
 from gidabot_navigation.interface import Node, Service, Topic
+from gidabot_navigation.ros.adapter import sender
 from gidabot_navigation.ros.exit_guard import ExitGuard
 from gidabot_navigation.ros.log import RosLog
 from gidabot_navigation.ros.node_main import run_node
@@ -205,7 +206,7 @@ class SimNode:
 
     # -- callbacks: convert and post ---------------------------------------------------------------------
     def on_cmd_vel(self, msg: Twist, index: int) -> None:
-        self.sim.post(fs.CMD_VEL, index, lambda: convert.twist_of(msg), msg._connection_header.get("callerid", ""))
+        self.sim.post(fs.CMD_VEL, index, lambda: convert.twist_of(msg), sender(msg))
         self.wake.set()
 
     def on_initialpose(self, msg: PoseWithCovarianceStamped, index: int) -> None:
