@@ -62,6 +62,15 @@ def hash_record(password: str) -> str:
     return salted_hash(password).record()
 
 
+def check_cost(n: object, r: object, p: object, what: str = "password hash") -> None:
+    """PasswordHashError unless (n, r, p) are scrypt parameters a check can afford: positive integers up to
+    :data:`MAX_COST`, n a power of two, at most :data:`MAX_MEMORY` of memory."""
+    if not all(isinstance(v, int) and not isinstance(v, bool) and 0 < v <= MAX_COST for v in (n, r, p)) \
+            or n & (n - 1) or 128 * r * (n + p + 2) > MAX_MEMORY:  # type: ignore[operator]
+        raise PasswordHashError(f"{what}: scrypt parameters n={n!r} r={r!r} p={p!r} out of range "
+                                "(n a power of two; at most 64 MiB of memory)")
+
+
 def parse_record(record: object, what: str = "password hash") -> SaltedHash:
     """The salted hash of a record; PasswordHashError naming ``what`` and saying how to make a good one."""
     text = record.strip().lower() if isinstance(record, str) else ""
@@ -70,7 +79,5 @@ def parse_record(record: object, what: str = "password hash") -> SaltedHash:
         raise PasswordHashError(f"{what} {str(record)[:40]!r}...: expected a salted hash "
                                 "'scrypt:<n>:<r>:<p>:<salt hex>:<hash hex>' (make one with: gidabot admin-passwd)")
     n, r, p = (int(m.group(k)) for k in (1, 2, 3))
-    if not all(0 < v <= MAX_COST for v in (n, r, p)) or n & (n - 1) or 128 * r * (n + p + 2) > MAX_MEMORY:
-        raise PasswordHashError(f"{what}: scrypt parameters n={n} r={r} p={p} out of range "
-                                "(n a power of two; at most 64 MiB of memory)")
+    check_cost(n, r, p, what)
     return SaltedHash(bytes.fromhex(m.group(4)), bytes.fromhex(m.group(5)), n, r, p)

@@ -54,6 +54,10 @@ def test_a_password_set_while_the_server_runs_counts_at_the_next_login(tmp_path:
     json.dumps({"format": "gidabot-web-users/1", "users": {"ana": {"kdf": "md5", "role": "staff"}}}),
     json.dumps({"format": "gidabot-web-users/1", "users": {"ana": {"kdf": "scrypt", "role": "root"}}}),
     json.dumps({"format": "gidabot-web-users/1", "users": {"ana": {"kdf": "scrypt", "role": "staff", "n": 2 ** 40,
+                                                                    "r": 8, "p": 1, "salt": "00", "hash": "00"}}}),
+    json.dumps({"format": "gidabot-web-users/1", "users": {"ana": {"kdf": "scrypt", "role": "staff", "n": 1000,
+                                                                    "r": 8, "p": 1, "salt": "00", "hash": "00"}}}),
+    json.dumps({"format": "gidabot-web-users/1", "users": {"ana": {"kdf": "scrypt", "role": "staff", "n": 2 ** 20,
                                                                     "r": 8, "p": 1, "salt": "00", "hash": "00"}}})])
 def test_a_damaged_password_file_is_an_error_naming_it(tmp_path: Path, bad: str) -> None:
     path = tmp_path / "users.json"

@@ -159,9 +159,10 @@ def test_a_name_the_robot_is_not_known_by_is_refused(faculty, tmp_path: Path) ->
                                                     "Upgrade": "websocket", "Sec-WebSocket-Version": "13",
                                                     "Sec-WebSocket-Key": "x" * 24})
         assert r.status == 403
-        for host in (f"127.0.0.1.evil.example:{port}", "", f"kbot.staff.lan.evil.example:{port}"):
+        for host in (f"127.0.0.1.evil.example:{port}", "", f"kbot.staff.lan.evil.example:{port}", f"[::1:{port}",
+                     f"127.0.0.1@evil.example:{port}"):
             assert (await site.client.get("/api/session", headers={**site.headers(), "Host": host})).status == 403
-        assert refused(site) == {"refused_host": n + 8} == shown(site)
+        assert refused(site) == {"refused_host": n + 10} == shown(site)
         unchanged(site, files)
         for host in (f"kbot.staff.lan:{port}", f"KBOT.staff.lan:{port}", "kbot.example.org", f"localhost:{port}",
                      f"[::1]:{port}", f"10.0.0.12:{port}"):

@@ -156,7 +156,10 @@ class WebApp:
         """Whether a request's ``Host`` (name or address, and port) is one this server answers to: an IP address,
         ``localhost``, a name in :attr:`WebConfig.hosts`, or the name of one of :attr:`WebConfig.origins`. A name
         not listed is refused: DNS rebinding needs one."""
-        name = urlsplit("//" + host).hostname if host else None
+        try:
+            name = urlsplit("//" + host).hostname if host else None
+        except ValueError:                      # "[::1" and the like
+            return False
         if not name:
             return False
         try:

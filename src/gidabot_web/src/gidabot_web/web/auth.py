@@ -29,7 +29,8 @@ from collections import OrderedDict, deque
 from dataclasses import dataclass
 from pathlib import Path
 
-from gidabot_navigation.passwords import HASH_BYTES, MAX_PASSWORD, SALT_BYTES, SCRYPT, scrypt
+from gidabot_navigation.errors import PasswordHashError
+from gidabot_navigation.passwords import HASH_BYTES, MAX_PASSWORD, SALT_BYTES, SCRYPT, check_cost, scrypt
 from gidabot_web.errors import PasswordFileError
 
 STAFF, ADMIN = "staff", "admin"
@@ -134,8 +135,10 @@ def load_users(path: Path) -> dict[str, User]:
             if not isinstance(entry, dict) or entry.get("kdf") != "scrypt" or entry.get("role") not in ROLES:
                 raise PasswordFileError(f"user {name!r}: expected kdf scrypt and a role in {ROLES}")
             params = {k: entry[k] for k in ("n", "r", "p")}
-            if not all(isinstance(v, int) and 0 < v <= 2 ** 20 for v in params.values()):
-                raise PasswordFileError(f"user {name!r}: scrypt parameters {params} out of range")
+            try:
+                check_cost(params["n"], params["r"], params["p"], f"user {name!r}")
+            except PasswordHashError as err:
+                raise PasswordFileError(str(err)) from err
             users[name] = User(name, entry["role"], bytes.fromhex(entry["salt"]), bytes.fromhex(entry["hash"]),
                                **params)
         except (KeyError, TypeError, ValueError) as err:
