@@ -20,6 +20,7 @@ import xmlrpc.client
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from probe import wait_connected
 from relay_system import RelayMesh
 from sim_building import SimBuilding
 from tour_system import FACULTY, TOUR, start_store
@@ -165,6 +166,11 @@ class TourMesh:
         self.n += 1
         msg = {**msg, "uid": f"systest/edit/{self.n}"}
         since = len(self.probe(robot).msgs(RESULT))
+        # the store answers once, unlatched: the probe must hear its result topic before the edit is sent (it
+        # subscribed before the store started; that connection can come later than the catalog's)
+        assert self.masters is not None
+        wait_connected(self.masters.building.robot(robot).master_uri, global_name(Node.TOUR_STORE),
+                       f"/{RESULT}", [self.probe(robot).name])
         self.probe(robot).pub(Topic.TOUR_EDIT, TOUR, msg, to=[global_name(Node.TOUR_STORE)])
         if not wait:
             return None
